@@ -1,0 +1,35 @@
+"""soc — scenes, cameras and visibility (occlusion culling) on a headless OpenGL context.
+
+Importing ``soc`` does not touch OpenGL: the EGL context is created by the first
+:class:`Culler` or :func:`exact_visibility` call.
+"""
+
+from soc import paths, scenes
+from soc.camera import Camera
+from soc.culler import Culler, method_names
+from soc.errors import GLError, GLUnavailableError, SceneError, SceneFormatError
+from soc.frustum import aabbs_in_frustum
+from soc.methods import CullConfig
+from soc.metrics import CullResult, FrameStats
+from soc.oracle import Oracle, exact_visibility
+from soc.scene import MeshView, Scene
+
+__all__ = [
+    "Camera",
+    "CullConfig",
+    "CullResult",
+    "Culler",
+    "FrameStats",
+    "GLError",
+    "GLUnavailableError",
+    "MeshView",
+    "Oracle",
+    "Scene",
+    "SceneError",
+    "SceneFormatError",
+    "aabbs_in_frustum",
+    "exact_visibility",
+    "method_names",
+    "paths",
+    "scenes",
+]

@@ -1,0 +1,114 @@
+"""``soc.Culler``: one culling method bound to a scene and a depth resolution, frame by frame.
+
+    with soc.Culler(scene, method="queries", resolution=(1920, 1080)) as culler:
+        result = culler.cull(camera)            # CullResult(visible (N,) bool, stats)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from soc.camera import Camera, _resolution
+from soc.metrics import CullResult, frame_stats
+from soc.methods import METHODS, CullConfig
+from soc.methods.base import MethodOutput
+
+
+def method_names() -> list[str]:
+    """Names accepted by :class:`Culler`'s ``method``."""
+    return sorted(METHODS)
+
+
+class Culler:
+    """Cull frames of ``scene`` with one method at one depth-buffer resolution.
+
+    Parameters
+    ----------
+    scene : Scene
+    method : str
+        One of :func:`method_names` (``"none"``, ``"frustum"``, ``"queries"``, …).
+    resolution : (width, height)
+        Resolution of the method's depth buffer, pixels. The camera's projection is used
+        unchanged, so a resolution whose aspect differs from the camera's only changes the
+        sampling density.
+    config : CullConfig, optional
+        Stage switches (frustum, depth test, llvmpipe threads).
+    glctx : GLContext, optional
+        Default: the process's context.
+
+    Notes
+    -----
+    Conservative methods keep every object the oracle (:func:`soc.exact_visibility`) sees at
+    the same resolution; see each method's ``conservative`` flag.
+    """
+
+    def __init__(
+        self,
+        scene,
+        method: str = "queries",
+        resolution: tuple[int, int] = (1920, 1080),
+        config: CullConfig | None = None,
+        glctx=None,
+    ):
+        if method not in METHODS:
+            raise ValueError(f"unknown culling method {method!r}; available: {method_names()}")
+        self.resolution = _resolution(*resolution)
+        self.config = config or CullConfig()
+        from soc.gl.context import default_context
+
+        self.glctx = glctx or default_context(self.config.threads)
+        self.scene = scene
+        self.geometry = self.glctx.geometry(scene)
+        self.method = METHODS[method](self.geometry, self.resolution, self.config)
+        self._renderer = None
+
+    @property
+    def conservative(self) -> bool:
+        return self.method.conservative
+
+    def close(self) -> None:
+        """Release the method's and the renderer's GL resources (the scene upload stays cached)."""
+        self.method.release()
+        if self._renderer is not None:
+            self._renderer.release()
+            self._renderer = None
+
+    def __enter__(self) -> Culler:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def renderer(self, resolution: tuple[int, int]):
+        """The renderer used by ``cull(draw=True)`` (display resolution)."""
+        from soc.renderer import Renderer
+
+        if self._renderer is None or self._renderer.resolution != tuple(resolution):
+            if self._renderer is not None:
+                self._renderer.release()
+            self._renderer = Renderer(self.geometry, resolution)
+        return self._renderer
+
+    def cull(self, camera: Camera, *, truth: np.ndarray | None = None, draw: bool = False
+             ) -> CullResult:
+        """Cull one frame.
+
+        Parameters
+        ----------
+        camera : Camera
+        truth : (N,) bool, optional
+            The oracle's visible set; fills ``stats.false_culls`` / ``false_keeps``.
+        draw : bool
+            Also draw the kept set at the camera's resolution and time it (``"draw"`` stage).
+        """
+        if not isinstance(camera, Camera):
+            raise TypeError(f"camera must be a soc.Camera, got {type(camera).__name__}")
+        out: MethodOutput = self.method.cull(camera)
+        visible = np.asarray(out.visible, bool)
+        timings = dict(out.timings_ms)
+        if draw:
+            timings["draw"] = self.renderer(camera.resolution).draw(camera, np.flatnonzero(visible))
+        self.glctx.check(f"culling with {self.method.name!r}")
+        stats = frame_stats(self.scene, visible, frustum_culled=out.frustum_culled,
+                            queries=out.queries, timings_ms=timings, truth=truth)
+        return CullResult(visible, stats)

@@ -1,0 +1,18 @@
+"""Errors vislod raises. Each subclasses ``ValueError`` or ``RuntimeError`` so callers can catch
+broadly, and each message says what was wrong and how to fix it."""
+
+
+class SceneError(ValueError):
+    """A scene's geometry or layout is invalid (empty, non-finite, bad indices, bad shapes)."""
+
+
+class SceneFormatError(SceneError):
+    """A scene file is missing or does not follow its format."""
+
+
+class GLUnavailableError(RuntimeError):
+    """No headless OpenGL 4.5 context could be created (EGL or Mesa missing)."""
+
+
+class GLError(RuntimeError):
+    """OpenGL reported an error."""

@@ -1,0 +1,156 @@
+"""A scene uploaded to OpenGL once: vertex and index buffers, per-object draw commands and boxes.
+
+After the upload only small buffers move: a draw list is a buffer of indirect commands
+``(count, instanceCount, firstIndex, baseVertex, baseInstance)`` in which ``baseInstance`` is
+the object id. The id reaches shaders through a per-instance attribute (divisor 1) holding
+``0..N-1``, the classic way to get ``gl_DrawID``-like ids without ARB_shader_draw_parameters.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from soc.constants import AABB_GROW_ABSOLUTE, AABB_GROW_RELATIVE
+
+# Corner numbers (bit 0: x, bit 1: y, bit 2: z; 0 = min, 1 = max) of a box's 12 triangles
+# and 12 edges.
+BOX_TRIANGLES = np.array(
+    [0, 1, 3, 0, 3, 2,  4, 6, 7, 4, 7, 5,  0, 4, 5, 0, 5, 1,
+     2, 3, 7, 2, 7, 6,  0, 2, 6, 0, 6, 4,  1, 5, 7, 1, 7, 3],
+    dtype=np.uint32,
+)  # fmt: skip
+BOX_EDGES = np.array(
+    [0, 1, 2, 3, 4, 5, 6, 7, 0, 2, 1, 3, 4, 6, 5, 7, 0, 4, 1, 5, 2, 6, 3, 7], dtype=np.uint32
+)
+
+OCCLUDER_COLOR = (0.62, 0.60, 0.56)
+
+
+def object_colors(n: int, occluder: np.ndarray) -> np.ndarray:
+    """(n, 3) float32 pleasant, deterministic colours; occluders in stone grey."""
+    golden = (np.arange(n) * 0.6180339887) % 1.0
+    hue = golden * 2 * np.pi
+    rgb = 0.55 + 0.25 * np.cos(hue[:, None] + np.array([0.0, 2.1, 4.2]))
+    rgb[occluder] = OCCLUDER_COLOR
+    return rgb.astype(np.float32)
+
+
+def grown_aabbs(aabbs: np.ndarray, diagonal: float) -> np.ndarray:
+    """(N, 2, 3) float32 boxes grown by the conservative margin of :mod:`soc.constants`."""
+    grow = np.float32(AABB_GROW_RELATIVE * diagonal + AABB_GROW_ABSOLUTE)
+    out = np.array(aabbs, dtype=np.float32)
+    out[:, 0] -= grow + np.abs(out[:, 0]) * np.float32(AABB_GROW_RELATIVE)
+    out[:, 1] += grow + np.abs(out[:, 1]) * np.float32(AABB_GROW_RELATIVE)
+    return out
+
+
+class SceneGeometry:
+    """GPU copy of a :class:`~soc.scene.Scene`, owned by a :class:`~soc.gl.context.GLContext`.
+
+    Attributes
+    ----------
+    commands : (N, 5) uint32
+        One indirect draw command per object (``baseInstance`` = object id).
+    query_boxes : (N, 2, 3) float32
+        The AABBs grown by the conservative margin, as drawn by occlusion tests.
+    """
+
+    def __init__(self, glctx, scene):
+        ctx = glctx.ctx
+        self.glctx = glctx
+        self.scene = scene
+        n = len(scene)
+        first_index = (3 * scene.face_offsets[:-1]).astype(np.uint32)
+        self.commands = np.stack(
+            [
+                (3 * scene.triangle_counts).astype(np.uint32),
+                np.ones(n, np.uint32),
+                first_index,
+                scene.vertex_offsets[:-1].astype(np.uint32),
+                np.arange(n, dtype=np.uint32),
+            ],
+            axis=1,
+        )
+        diagonal = float(np.linalg.norm(np.subtract(*scene.bounds[::-1])))
+        self.query_boxes = grown_aabbs(scene.aabbs, diagonal)
+
+        self.vbo = ctx.buffer(scene.vertices)
+        self.ibo = ctx.buffer(scene.faces.astype(np.uint32))
+        self.ids = ctx.buffer(np.arange(n, dtype=np.uint32))
+        self.colors = ctx.buffer(object_colors(n, scene.occluder))
+        self.boxes = ctx.buffer(self.query_boxes.reshape(n, 6))
+        self.box_ibo = ctx.buffer(BOX_TRIANGLES)
+        self.box_edges = ctx.buffer(BOX_EDGES)
+        self.indirect = ctx.buffer(reserve=max(n, 1) * 20, dynamic=True)
+        self._vaos: dict[tuple, object] = {}
+
+    def release(self) -> None:
+        for vao in self._vaos.values():
+            vao.release()
+        self._vaos.clear()
+        for b in (self.vbo, self.ibo, self.ids, self.colors, self.boxes, self.box_ibo,
+                  self.box_edges, self.indirect):
+            b.release()
+
+    # -- vertex arrays, one per (program, kind) ---------------------------------------------
+
+    def mesh_vao(self, program):
+        """Vertex array drawing object meshes with ``program`` (mesh.vert inputs)."""
+        key = ("mesh", program.glo)
+        if key not in self._vaos:
+            # Attributes a program does not use are skipped (optimized out by the compiler).
+            attrs = [
+                (self.vbo, "3f", "in_position"),
+                (self.ids, "u/i", "in_object"),
+                (self.colors, "3f/i", "in_color"),
+            ]
+            attrs = [a for a in attrs if a[2] in program]
+            self._vaos[key] = self.glctx.ctx.vertex_array(
+                program, attrs, index_buffer=self.ibo, index_element_size=4
+            )
+        return self._vaos[key]
+
+    def box_vao(self, program, edges: bool = False):
+        """Vertex array drawing one AABB per instance with ``program`` (box.vert inputs)."""
+        key = ("edges" if edges else "box", program.glo)
+        if key not in self._vaos:
+            self._vaos[key] = self.glctx.ctx.vertex_array(
+                program,
+                [(self.boxes, "3f 3f/i", "in_lo", "in_hi")],
+                index_buffer=self.box_edges if edges else self.box_ibo,
+                index_element_size=4,
+            )
+        return self._vaos[key]
+
+    # -- drawing ----------------------------------------------------------------------------
+
+    def draw_objects(self, program, ids: np.ndarray) -> int:
+        """Draw the meshes of objects ``ids`` (K,) with one multi-draw-indirect call.
+
+        Returns the number of draw commands issued (K).
+        """
+        ids = np.asarray(ids, dtype=np.int64)
+        if len(ids) == 0:
+            return 0
+        cmds = np.ascontiguousarray(self.commands[ids])
+        if cmds.nbytes > self.indirect.size:
+            self.indirect.orphan(cmds.nbytes)
+        self.indirect.write(cmds)
+        self.mesh_vao(program).render_indirect(self.indirect, count=len(ids))
+        return len(ids)
+
+    def draw_boxes(self, program, ids: np.ndarray, edges: bool = False) -> None:
+        """Draw the (grown) AABBs of objects ``ids`` as instanced boxes (no queries)."""
+        ids = np.asarray(ids, dtype=np.int64)
+        if len(ids) == 0:
+            return
+        vao = self.box_vao(program, edges)
+        mode = self.glctx.ctx.LINES if edges else self.glctx.ctx.TRIANGLES
+        cmd = np.zeros((len(ids), 5), np.uint32)
+        cmd[:, 0] = 24 if edges else 36
+        cmd[:, 1] = 1
+        cmd[:, 4] = ids
+        if cmd.nbytes > self.indirect.size:
+            self.indirect.orphan(cmd.nbytes)
+        self.indirect.write(cmd)
+        vao.render_indirect(self.indirect, mode=mode, count=len(ids))

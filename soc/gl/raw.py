@@ -1,0 +1,83 @@
+"""The few OpenGL entry points moderngl does not expose, called through ctypes.
+
+Per-object occlusion queries need ``glBeginQuery``/``glEndQuery`` around single draws with a
+base instance, and coherent methods poll ``GL_QUERY_RESULT_AVAILABLE`` without blocking.
+Pointers come from ``eglGetProcAddress`` of the current EGL context (the one moderngl made).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+
+from soc.errors import GLUnavailableError
+
+GL_ANY_SAMPLES_PASSED = 0x8C2F
+GL_SAMPLES_PASSED = 0x8914
+GL_QUERY_RESULT = 0x8866
+GL_QUERY_RESULT_AVAILABLE = 0x8867
+GL_QUERY_RESULT_NO_WAIT = 0x9194
+GL_QUERY_BUFFER = 0x9192
+GL_TRIANGLES = 0x0004
+GL_UNSIGNED_INT = 0x1405
+GL_COLOR = 0x1800
+GL_DEPTH = 0x1801
+
+_u = ctypes.c_uint
+_i = ctypes.c_int
+_sz = ctypes.c_ssize_t
+_p = ctypes.c_void_p
+
+_SIGNATURES = {
+    "glGenQueries": (None, [_i, ctypes.POINTER(_u)]),
+    "glDeleteQueries": (None, [_i, ctypes.POINTER(_u)]),
+    "glBeginQuery": (None, [_u, _u]),
+    "glEndQuery": (None, [_u]),
+    "glGetQueryObjectuiv": (None, [_u, _u, _p]),
+    "glBindBuffer": (None, [_u, _u]),
+    "glUseProgram": (None, [_u]),
+    "glBindVertexArray": (None, [_u]),
+    "glDrawArraysInstancedBaseInstance": (None, [_u, _i, _i, _i, _u]),
+    "glDrawElementsInstancedBaseVertexBaseInstance": (None, [_u, _i, _u, _p, _i, _i, _u]),
+    "glClearBufferuiv": (None, [_u, _i, ctypes.POINTER(_u)]),
+    "glClearBufferfv": (None, [_u, _i, ctypes.POINTER(ctypes.c_float)]),
+    "glFlush": (None, []),
+    "glGetError": (_u, []),
+}
+
+
+class RawGL:
+    """ctypes bindings of :data:`_SIGNATURES`, resolved lazily against the current context."""
+
+    def __init__(self):
+        name = ctypes.util.find_library("EGL") or "libEGL.so.1"
+        try:
+            egl = ctypes.CDLL(name)
+        except OSError as e:  # pragma: no cover - depends on the machine
+            raise GLUnavailableError(
+                f"cannot load {name}: {e}. Install Mesa's EGL: "
+                "apt-get install libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri"
+            ) from e
+        self._get_proc = egl.eglGetProcAddress
+        self._get_proc.restype = _p
+        self._get_proc.argtypes = [ctypes.c_char_p]
+
+    def clear_uint_color(self, value: int, draw_buffer: int = 0) -> None:
+        """Clear an integer colour attachment of the bound framebuffer to ``value`` (moderngl
+        would clear it with the bit pattern of a float)."""
+        self.glClearBufferuiv(GL_COLOR, draw_buffer, (_u * 4)(value, 0, 0, 0))
+
+    def clear_depth(self, value: float = 1.0) -> None:
+        """Clear the bound framebuffer's depth attachment."""
+        self.glClearBufferfv(GL_DEPTH, 0, (ctypes.c_float * 1)(value))
+
+    def __getattr__(self, name: str):
+        if name not in _SIGNATURES:
+            raise AttributeError(name)
+        restype, argtypes = _SIGNATURES[name]
+        addr = self._get_proc(name.encode())
+        if not addr:
+            raise GLUnavailableError(f"OpenGL function {name} is not available in this context")
+        fn = ctypes.CFUNCTYPE(restype, *argtypes)(addr)
+        setattr(self, name, fn)  # later lookups skip __getattr__
+        return fn

@@ -1,0 +1,97 @@
+"""The interface every culling method implements, its configuration and the name registry."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class CullConfig:
+    """Switches of one culling run (seed 000's Abb. 9 and shared tunables).
+
+    Attributes
+    ----------
+    frustum : bool
+        Frustum-cull AABBs before anything else.
+    depth_test : bool
+        Run the method's occlusion test (off: only the frustum test, or nothing, remains).
+    threads : int or None
+        llvmpipe rasterizer threads ("MT"); None = Mesa's default (one per core). Fixed per
+        process by the first GL context.
+    """
+
+    frustum: bool = True
+    depth_test: bool = True
+    threads: int | None = None
+
+
+@dataclass
+class MethodOutput:
+    """What a method returns for one frame; :class:`soc.Culler` turns it into a CullResult."""
+
+    visible: np.ndarray
+    frustum_culled: int = 0
+    queries: int = 0
+    timings_ms: dict[str, float] = field(default_factory=dict)
+
+
+class CullMethod:
+    """Base class: a culling method bound to one scene, GL context and depth resolution.
+
+    Subclasses set ``name`` and ``conservative`` and implement :meth:`cull`. A conservative
+    method never culls an object that the oracle sees at the same resolution.
+    """
+
+    name: str = ""
+    conservative: bool = True
+
+    def __init__(self, geometry, resolution: tuple[int, int], config: CullConfig):
+        self.geometry = geometry
+        self.glctx = geometry.glctx
+        self.scene = geometry.scene
+        self.resolution = resolution
+        self.config = config
+
+    def cull(self, camera) -> MethodOutput:
+        raise NotImplementedError
+
+    def release(self) -> None:
+        """Free GL resources this method allocated."""
+
+
+METHODS: dict[str, type[CullMethod]] = {}
+
+
+def register(cls: type[CullMethod]) -> type[CullMethod]:
+    """Class decorator adding a method to :data:`METHODS` under ``cls.name``."""
+    if not cls.name or cls.name in METHODS:
+        raise ValueError(f"culling method name {cls.name!r} is empty or taken")
+    METHODS[cls.name] = cls
+    return cls
+
+
+@contextmanager
+def stage(timings: dict[str, float], name: str, finish: Callable[[], None] | None = None
+          ) -> Iterator[None]:
+    """Time a block into ``timings[name]`` (ms); ``finish`` (e.g. ``ctx.finish``) runs before
+    the clock stops so GL work is counted where it was issued."""
+    t0 = time.perf_counter()
+    yield
+    if finish is not None:
+        finish()
+    timings[name] = timings.get(name, 0.0) + 1e3 * (time.perf_counter() - t0)
+
+
+def frustum_stage(method: CullMethod, camera, timings: dict[str, float]) -> np.ndarray:
+    """(N,) bool after the optional frustum test (all True when the switch is off)."""
+    from soc.frustum import aabbs_in_frustum
+
+    with stage(timings, "frustum"):
+        if method.config.frustum:
+            return aabbs_in_frustum(method.scene.aabbs, camera.planes)
+        return np.ones(len(method.scene), bool)

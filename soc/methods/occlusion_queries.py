@@ -1,0 +1,50 @@
+"""``queries``: seed 000's method — frustum test, occluder depth prepass, one GL occlusion query
+per surviving occludee AABB, results read after all queries are issued. Conservative at the
+depth resolution it runs at (a coarser depth buffer than the display is not: see SPEC)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from soc.depth_prepass import DepthTarget, render_occluders
+from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
+from soc.queries import OcclusionQueries, near_plane_straddlers
+
+
+@register
+class QueryCulling(CullMethod):
+    """Frustum + occluder depth prepass + per-object ``GL_ANY_SAMPLES_PASSED`` queries."""
+
+    name = "queries"
+    conservative = True
+
+    def __init__(self, geometry, resolution, config):
+        super().__init__(geometry, resolution, config)
+        self.target = DepthTarget(self.glctx, resolution)
+        self.queries = OcclusionQueries(geometry)
+
+    def release(self) -> None:
+        self.queries.release()
+        self.target.release()
+
+    def cull(self, camera) -> MethodOutput:
+        timings: dict[str, float] = {}
+        in_frustum = frustum_stage(self, camera, timings)
+        frustum_culled = int((~in_frustum).sum())
+        if not self.config.depth_test:
+            return MethodOutput(in_frustum, frustum_culled, 0, timings)
+
+        finish = self.glctx.finish
+        with stage(timings, "prepass", finish):
+            occluders = np.flatnonzero(in_frustum & self.scene.occluder)
+            render_occluders(self.geometry, self.target, camera, occluders)
+        with stage(timings, "queries", finish):
+            candidates = np.flatnonzero(in_frustum)
+            boxes = self.geometry.query_boxes[candidates]
+            at_near = near_plane_straddlers(boxes, camera)
+            queried = candidates[~at_near]
+            passed = self.queries.test(self.target, camera, queried)
+        visible = np.zeros(len(self.scene), bool)
+        visible[candidates[at_near]] = True
+        visible[queried[passed]] = True
+        return MethodOutput(visible, frustum_culled, len(queried), timings)

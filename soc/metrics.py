@@ -1,0 +1,122 @@
+"""What one culled frame reports: :class:`FrameStats` and the :class:`CullResult` that carries it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class FrameStats:
+    """Counters and timings of one frame (seed 000's Abb. 8/9 quantities and more).
+
+    Attributes
+    ----------
+    models_visible, models_culled : int
+        Objects kept (to be drawn) and culled.
+    triangles_visible, triangles_culled : int
+    triangles_culled_pct : float
+        Percentage of the scene's triangles culled, 0–100.
+    draw_calls : int
+        Draw calls to render the kept set as the source engine would (one per mesh record).
+    frustum_culled, occlusion_culled : int
+        Objects removed by each stage.
+    queries : int
+        Occlusion tests issued (GL queries, or boxes tested by a compute pass).
+    timings_ms : Mapping[str, float]
+        Wall time per stage, ms, measured with ``ctx.finish()`` around GL work.
+    false_culls, false_keeps : int or None
+        Against the oracle when it was given: visible objects culled (must be 0 for a
+        conservative method) and hidden objects kept.
+    """
+
+    models_visible: int
+    models_culled: int
+    triangles_visible: int
+    triangles_culled: int
+    triangles_culled_pct: float
+    draw_calls: int
+    frustum_culled: int
+    occlusion_culled: int
+    queries: int
+    timings_ms: Mapping[str, float] = field(default_factory=dict)
+    false_culls: int | None = None
+    false_keeps: int | None = None
+
+    @property
+    def cull_ms(self) -> float:
+        """Everything except drawing the kept set, ms."""
+        return float(sum(v for k, v in self.timings_ms.items() if k != "draw"))
+
+    @property
+    def total_ms(self) -> float:
+        """Culling plus drawing, ms."""
+        return float(sum(self.timings_ms.values()))
+
+    def as_row(self) -> dict:
+        """Flat dict for CSV writing (timings as ``ms_<stage>`` columns)."""
+        row = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "timings_ms"}
+        row.update({f"ms_{k}": v for k, v in self.timings_ms.items()})
+        row["ms_cull"] = self.cull_ms
+        row["ms_total"] = self.total_ms
+        return row
+
+
+def frame_stats(
+    scene,
+    visible: np.ndarray,
+    *,
+    frustum_culled: int,
+    queries: int,
+    timings_ms: Mapping[str, float],
+    truth: np.ndarray | None = None,
+) -> FrameStats:
+    """Count a frame's result (``visible`` (N,) bool) into a :class:`FrameStats`."""
+    tri = scene.triangle_counts
+    tri_vis = int(tri[visible].sum())
+    tri_all = int(tri.sum())
+    n_vis = int(visible.sum())
+    false_culls = false_keeps = None
+    if truth is not None:
+        truth = np.asarray(truth, bool)
+        if truth.shape != visible.shape:
+            raise ValueError(f"truth must have shape {visible.shape}, got {truth.shape}")
+        false_culls = int((truth & ~visible).sum())
+        false_keeps = int((visible & ~truth).sum())
+    return FrameStats(
+        models_visible=n_vis,
+        models_culled=len(visible) - n_vis,
+        triangles_visible=tri_vis,
+        triangles_culled=tri_all - tri_vis,
+        triangles_culled_pct=100.0 * (tri_all - tri_vis) / max(tri_all, 1),
+        draw_calls=int(scene.mesh_counts[visible].sum()),
+        frustum_culled=int(frustum_culled),
+        occlusion_culled=len(visible) - n_vis - int(frustum_culled),
+        queries=int(queries),
+        timings_ms=MappingProxyType(dict(timings_ms)),
+        false_culls=false_culls,
+        false_keeps=false_keeps,
+    )
+
+
+@dataclass(frozen=True)
+class CullResult:
+    """The outcome of culling one frame.
+
+    Attributes
+    ----------
+    visible : (N,) bool
+        True = must be drawn. For a conservative method, a superset of the oracle's visible set.
+    stats : FrameStats
+    """
+
+    visible: np.ndarray
+    stats: FrameStats
+
+    @property
+    def visible_ids(self) -> np.ndarray:
+        """(K,) int64 ids of the kept objects."""
+        return np.flatnonzero(self.visible)

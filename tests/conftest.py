@@ -1,0 +1,48 @@
+"""Shared fixtures: the GL-error check after every test, data paths, small generated scenes."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import soc
+
+
+@pytest.fixture(autouse=True)
+def no_gl_errors():
+    """Fail any test after which OpenGL holds an error (and clear it for the next test)."""
+    yield
+    from soc.gl import context
+
+    ctx = context._default
+    if ctx is not None:
+        err = ctx.ctx.error
+        assert err == "GL_NO_ERROR", f"OpenGL error left behind: {err}"
+
+
+@pytest.fixture(scope="session")
+def data_dir() -> Path | None:
+    """``VISLOD_DATA`` when it holds the castle, else None."""
+    root = os.environ.get("VISLOD_DATA")
+    if root and (Path(root) / "intel_castle" / "Asset").is_dir():
+        return Path(root)
+    return None
+
+
+@pytest.fixture(scope="session")
+def clutter_scenes() -> list[soc.Scene]:
+    return [soc.scenes.clutter(seed) for seed in range(4)]
+
+
+@pytest.fixture(scope="session")
+def small_market() -> soc.Scene:
+    return soc.scenes.market(seed=0, occludees=1500)
+
+
+def assert_conservative(result_visible: np.ndarray, truth: np.ndarray, what: str) -> None:
+    """Every object the oracle sees must be kept; name the ones that were not."""
+    missed = np.flatnonzero(truth & ~result_visible)
+    assert len(missed) == 0, f"{what}: culled visible objects {missed[:20].tolist()}"
