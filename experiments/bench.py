@@ -67,10 +67,16 @@ def bench_foundation(scene, frames: int) -> tuple[str, dict]:
     med = {k: float(np.median(v)) for k, v in draw.items()}
     frame = {
         "everything": med["everything"],
-        "frustum": float(np.median([s["cull"] + d for s, d in
-                                    zip(stages["frustum"], draw["frustum"], strict=True)])),
-        "queries": float(np.median([s["cull"] + d for s, d in
-                                    zip(stages["queries"], draw["queries"], strict=True)])),
+        "frustum": float(
+            np.median(
+                [s["cull"] + d for s, d in zip(stages["frustum"], draw["frustum"], strict=True)]
+            )
+        ),
+        "queries": float(
+            np.median(
+                [s["cull"] + d for s, d in zip(stages["queries"], draw["queries"], strict=True)]
+            )
+        ),
         "ideal": med["ideal"],
     }
     lines = [
@@ -84,10 +90,14 @@ def bench_foundation(scene, frames: int) -> tuple[str, dict]:
         "|---|---|---|---|---|---|",
     ]
     for m, rows in stages.items():
-        col = {k: float(np.median([r.get(k, 0.0) for r in rows]))
-               for k in ("frustum", "prepass", "queries", "cull")}
-        lines.append(f"| {m} | {col['frustum']:.2f} | {col['prepass']:.2f} | "
-                     f"{col['queries']:.2f} | {col['cull']:.2f} | {np.median(kept[m]):.0f} |")
+        col = {
+            k: float(np.median([r.get(k, 0.0) for r in rows]))
+            for k in ("frustum", "prepass", "queries", "cull")
+        }
+        lines.append(
+            f"| {m} | {col['frustum']:.2f} | {col['prepass']:.2f} | "
+            f"{col['queries']:.2f} | {col['cull']:.2f} | {np.median(kept[m]):.0f} |"
+        )
     lines += [
         f"| oracle (exact id render, for reference) | | | | {np.median(oracle_ms):.2f} | "
         f"{np.median(kept['ideal']):.0f} |",
@@ -98,8 +108,10 @@ def bench_foundation(scene, frames: int) -> tuple[str, dict]:
         "|---|---|---|---|---|",
     ]
     for k in ("everything", "frustum", "queries", "ideal"):
-        lines.append(f"| {k} | {med[k]:.1f} | {frame[k]:.1f} | "
-                     f"{frame[k] / frame['everything']:.2f} | {frame[k] / frame['ideal']:.2f} |")
+        lines.append(
+            f"| {k} | {med[k]:.1f} | {frame[k]:.1f} | "
+            f"{frame[k] / frame['everything']:.2f} | {frame[k] / frame['ideal']:.2f} |"
+        )
     lines += ["", "'ideal' draws exactly the oracle's visible set with no culling cost."]
     return "\n".join(lines), {"frame_ms": frame, "draw_ms": med}
 
@@ -117,22 +129,24 @@ def main(argv: list[str] | None = None) -> int:
     load_s = time.perf_counter() - t0
     body, _ = bench_foundation(scene, args.frames)
     rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    text = "\n".join([
-        "# Benchmarks",
-        "",
-        f"Written by `make bench` (`python -m experiments.bench --scene {args.scene} "
-        f"--frames {args.frames}`) on {platform.node() or 'this machine'}, "
-        f"{time.strftime('%Y-%m-%d')}: Python {platform.python_version()}, "
-        f"{soc.gl.context.default_context().ctx.info['GL_RENDERER']}.",
-        "",
-        "## Foundation: seed-000 pipeline (frustum, per-object GL queries)",
-        "",
-        body,
-        "",
-        f"Scene load/generation: {load_s:.1f} s. Peak RSS of this benchmark process: "
-        f"{rss_mb:.0f} MiB.",
-        "",
-    ])
+    text = "\n".join(
+        [
+            "# Benchmarks",
+            "",
+            f"Written by `make bench` (`python -m experiments.bench --scene {args.scene} "
+            f"--frames {args.frames}`) on {platform.node() or 'this machine'}, "
+            f"{time.strftime('%Y-%m-%d')}: Python {platform.python_version()}, "
+            f"{soc.gl.context.default_context().ctx.info['GL_RENDERER']}.",
+            "",
+            "## Foundation: seed-000 pipeline (frustum, per-object GL queries)",
+            "",
+            body,
+            "",
+            f"Scene load/generation: {load_s:.1f} s. Peak RSS of this benchmark process: "
+            f"{rss_mb:.0f} MiB.",
+            "",
+        ]
+    )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     tmp = out / "BENCHMARKS.md.tmp"

@@ -147,8 +147,9 @@ class Camera:
         order left, right, bottom, top, near, far (Gribb–Hartmann extraction).
         """
         m = self.view_proj
-        planes = np.stack([m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1],
-                           m[3] + m[2], m[3] - m[2]])
+        planes = np.stack(
+            [m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] + m[2], m[3] - m[2]]
+        )
         return planes / np.linalg.norm(planes[:, :3], axis=1, keepdims=True)
 
     def gl_bytes(self, matrix: np.ndarray) -> bytes:

@@ -1,7 +1,7 @@
 """``soc.Culler``: one culling method bound to a scene and a depth resolution, frame by frame.
 
-    with soc.Culler(scene, method="queries", resolution=(1920, 1080)) as culler:
-        result = culler.cull(camera)            # CullResult(visible (N,) bool, stats)
+with soc.Culler(scene, method="queries", resolution=(1920, 1080)) as culler:
+    result = culler.cull(camera)            # CullResult(visible (N,) bool, stats)
 """
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 
 from soc.camera import Camera, _resolution
-from soc.metrics import CullResult, frame_stats
 from soc.methods import METHODS, CullConfig
 from soc.methods.base import MethodOutput
+from soc.metrics import CullResult, frame_stats
 
 
 def method_names() -> list[str]:
@@ -89,8 +89,9 @@ class Culler:
             self._renderer = Renderer(self.geometry, resolution)
         return self._renderer
 
-    def cull(self, camera: Camera, *, truth: np.ndarray | None = None, draw: bool = False
-             ) -> CullResult:
+    def cull(
+        self, camera: Camera, *, truth: np.ndarray | None = None, draw: bool = False
+    ) -> CullResult:
         """Cull one frame.
 
         Parameters
@@ -109,6 +110,12 @@ class Culler:
         if draw:
             timings["draw"] = self.renderer(camera.resolution).draw(camera, np.flatnonzero(visible))
         self.glctx.check(f"culling with {self.method.name!r}")
-        stats = frame_stats(self.scene, visible, frustum_culled=out.frustum_culled,
-                            queries=out.queries, timings_ms=timings, truth=truth)
+        stats = frame_stats(
+            self.scene,
+            visible,
+            frustum_culled=out.frustum_culled,
+            queries=out.queries,
+            timings_ms=timings,
+            truth=truth,
+        )
         return CullResult(visible, stats)

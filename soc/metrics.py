@@ -1,10 +1,10 @@
-"""What one culled frame reports: :class:`FrameStats` and the :class:`CullResult` that carries it."""
+"""What one culled frame reports: :class:`FrameStats`, inside the :class:`CullResult`."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Mapping
 
 import numpy as np
 

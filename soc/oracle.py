@@ -88,7 +88,9 @@ class Oracle:
         return np.bincount(ids, minlength=len(self.scene)) > 0
 
 
-def exact_visibility(scene, camera: Camera, resolution: tuple[int, int] | None = None) -> np.ndarray:
+def exact_visibility(
+    scene, camera: Camera, resolution: tuple[int, int] | None = None
+) -> np.ndarray:
     """Exact per-object visibility of ``scene`` from ``camera``.
 
     Parameters

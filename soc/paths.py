@@ -110,10 +110,14 @@ def random_cameras(
             eye = rng.uniform(lo - 0.5 * size, hi + 0.5 * size)
             eye[1] = rng.uniform(lo[1], hi[1] + 0.5 * size[1])
         target = rng.uniform(lo, hi)
-        if np.linalg.norm(target - eye) < 1e-3 or np.linalg.norm(np.cross(target - eye, (0, 1, 0))) < 1e-6:
+        if (
+            np.linalg.norm(target - eye) < 1e-3
+            or np.linalg.norm(np.cross(target - eye, (0, 1, 0))) < 1e-6
+        ):
             target = eye + np.array([1.0, 0.0, 0.3])
         near = float(rng.choice([0.05, 0.1, 0.3, 1.0]))
         far = float(3.0 * np.linalg.norm(size) + np.linalg.norm(eye - lo))
-        cams.append(Camera.look_at(eye, target, fov_y=fov_y, width=width, height=height,
-                                   near=near, far=far))
+        cams.append(
+            Camera.look_at(eye, target, fov_y=fov_y, width=width, height=height, near=near, far=far)
+        )
     return cams

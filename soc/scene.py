@@ -188,7 +188,7 @@ class Scene:
             raise SceneError("empty scene: from_meshes got no meshes")
         vs, fs = [], []
         for i, m in enumerate(meshes):
-            v, f = (m if isinstance(m, tuple) else (m.vertices, m.faces))
+            v, f = m if isinstance(m, tuple) else (m.vertices, m.faces)
             v = np.asarray(v, dtype=np.float32).reshape(-1, 3) if np.size(v) else np.zeros((0, 3))
             f = np.asarray(f).reshape(-1, 3) if np.size(f) else np.zeros((0, 3), np.int64)
             if len(f) == 0:

@@ -45,8 +45,9 @@ def test_bad_camera_is_rejected(kwargs, message):
 
 def _cam(yaw: float, pitch: float) -> soc.Camera:
     d = np.array([np.cos(pitch) * np.cos(yaw), np.sin(pitch), np.cos(pitch) * np.sin(yaw)])
-    return soc.Camera.look_at((1, 2, 3), np.add((1, 2, 3), d), width=800, height=600,
-                              fov_y=50, near=0.3, far=40)
+    return soc.Camera.look_at(
+        (1, 2, 3), np.add((1, 2, 3), d), width=800, height=600, fov_y=50, near=0.3, far=40
+    )
 
 
 angles = st.floats(-3.1, 3.1)
@@ -54,8 +55,13 @@ pitches = st.floats(-1.4, 1.4)
 
 
 @settings(max_examples=300, deadline=None)
-@given(yaw=angles, pitch=pitches, u=st.tuples(*[st.floats(0.01, 0.99)] * 3),
-       size=st.tuples(*[st.floats(0.0, 5.0)] * 3), corner=st.integers(0, 7))
+@given(
+    yaw=angles,
+    pitch=pitches,
+    u=st.tuples(*[st.floats(0.01, 0.99)] * 3),
+    size=st.tuples(*[st.floats(0.0, 5.0)] * 3),
+    corner=st.integers(0, 7),
+)
 def test_box_with_a_corner_inside_the_frustum_is_kept(yaw, pitch, u, size, corner):
     cam = _cam(yaw, pitch)
     # A point strictly inside the frustum: pick NDC coordinates and unproject.
@@ -69,8 +75,14 @@ def test_box_with_a_corner_inside_the_frustum_is_kept(yaw, pitch, u, size, corne
 
 
 @settings(max_examples=300, deadline=None)
-@given(yaw=angles, pitch=pitches, plane=st.integers(0, 5), gap=st.floats(1e-3, 10.0),
-       size=st.tuples(*[st.floats(0.0, 5.0)] * 3), shift=st.tuples(*[st.floats(-20, 20)] * 3))
+@given(
+    yaw=angles,
+    pitch=pitches,
+    plane=st.integers(0, 5),
+    gap=st.floats(1e-3, 10.0),
+    size=st.tuples(*[st.floats(0.0, 5.0)] * 3),
+    shift=st.tuples(*[st.floats(-20, 20)] * 3),
+)
 def test_box_fully_outside_one_plane_is_culled(yaw, pitch, plane, gap, size, shift):
     cam = _cam(yaw, pitch)
     n, d = cam.planes[plane, :3], cam.planes[plane, 3]

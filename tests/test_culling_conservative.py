@@ -84,8 +84,11 @@ def test_object_crossing_the_near_plane():
 def test_box_shaped_occluders_see_themselves():
     """Occluders whose mesh equals their AABB: the query box coincides with the depth it is
     tested against, at every angle."""
-    boxes = [box_mesh((x, 0, z), (x + 2, 1 + abs(x) % 3, z + 2))
-             for x in range(-8, 8, 3) for z in range(-8, 8, 3)]
+    boxes = [
+        box_mesh((x, 0, z), (x + 2, 1 + abs(x) % 3, z + 2))
+        for x in range(-8, 8, 3)
+        for z in range(-8, 8, 3)
+    ]
     s = soc.Scene.from_meshes(boxes, occluder=np.ones(len(boxes), bool))
     cams = random_cameras(s, 40, seed=3, width=256, height=256, inside_fraction=0.0)
     _check(s, cams, (256, 256))
@@ -96,12 +99,16 @@ def test_pillar_and_decal_on_a_wall_top():
     the wall's top face, and a decal hovering a millimetre above it (visible, not z-fighting)."""
     wall = box_mesh((-5, 0, -0.5), (5, 4, 0.5))
     pillar = box_mesh((-0.2, 4, -0.2), (0.2, 4.05, 0.2))
-    decal = (np.array([[1, 4, -0.5], [2, 4, -0.5], [2, 4, 0.5], [1, 4, 0.5]], np.float32),
-             np.array([[0, 1, 2], [0, 2, 3]]))
+    decal = (
+        np.array([[1, 4, -0.5], [2, 4, -0.5], [2, 4, 0.5], [1, 4, 0.5]], np.float32),
+        np.array([[0, 1, 2], [0, 2, 3]]),
+    )
     hover = (decal[0] + np.float32([0, 1e-3, 0]) - np.float32([3, 0, 0]), decal[1])
     s = soc.Scene.from_meshes([wall, pillar, decal, hover], occluder=[True, False, False, False])
-    cams = [soc.Camera.look_at((0, 4 + h, 12), (0, 4, 0), width=400, height=300, near=0.2, far=80)
-            for h in (0.05, 0.3, 1.0, 5.0)]
+    cams = [
+        soc.Camera.look_at((0, 4 + h, 12), (0, 4, 0), width=400, height=300, near=0.2, far=80)
+        for h in (0.05, 0.3, 1.0, 5.0)
+    ]
     _check(s, cams, (400, 300))
     assert soc.exact_visibility(s, cams[-1], (400, 300))[[1, 3]].all()  # really visible
 
@@ -112,7 +119,8 @@ def test_random_cameras_over_the_castle(data_dir):
         pytest.skip("VISLOD_DATA does not point at the castle files")
     scene = soc.scenes.castle(data_dir)
     cams = random_cameras(scene, 20, seed=5, width=480, height=270) + flight(
-        scene, frames=10, width=480, height=270)
+        scene, frames=10, width=480, height=270
+    )
     _check(scene, cams, (480, 270))
 
 

@@ -41,8 +41,10 @@ def test_object_behind_the_camera_is_invisible_and_everything_is_counted():
 
 
 def test_id_buffer_counts_pixels_of_a_screen_filling_quad():
-    quad = (np.array([[-50, -50, 0], [50, -50, 0], [50, 50, 0], [-50, 50, 0]], np.float32),
-            np.array([[0, 1, 2], [0, 2, 3]]))
+    quad = (
+        np.array([[-50, -50, 0], [50, -50, 0], [50, 50, 0], [-50, 50, 0]], np.float32),
+        np.array([[0, 1, 2], [0, 2, 3]]),
+    )
     s = soc.Scene.from_meshes([quad])
     ids = soc.Oracle(s).id_buffer(CAM.replace(width=37, height=23))
     assert ids.shape == (23, 37) and (ids == 0).all()

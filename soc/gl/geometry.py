@@ -88,8 +88,16 @@ class SceneGeometry:
         for vao in self._vaos.values():
             vao.release()
         self._vaos.clear()
-        for b in (self.vbo, self.ibo, self.ids, self.colors, self.boxes, self.box_ibo,
-                  self.box_edges, self.indirect):
+        for b in (
+            self.vbo,
+            self.ibo,
+            self.ids,
+            self.colors,
+            self.boxes,
+            self.box_ibo,
+            self.box_edges,
+            self.indirect,
+        ):
             b.release()
 
     # -- vertex arrays, one per (program, kind) ---------------------------------------------

@@ -76,8 +76,9 @@ def register(cls: type[CullMethod]) -> type[CullMethod]:
 
 
 @contextmanager
-def stage(timings: dict[str, float], name: str, finish: Callable[[], None] | None = None
-          ) -> Iterator[None]:
+def stage(
+    timings: dict[str, float], name: str, finish: Callable[[], None] | None = None
+) -> Iterator[None]:
     """Time a block into ``timings[name]`` (ms); ``finish`` (e.g. ``ctx.finish``) runs before
     the clock stops so GL work is counted where it was issued."""
     t0 = time.perf_counter()

@@ -89,7 +89,9 @@ def clutter(seed: int = 0, *, walls: int = 10, objects: int = 160, extent: float
         add(quad((lo[0], hi[1], lo[2]), (hi[0] - lo[0], 0, 0), (0, 0, hi[2] - lo[2])))
 
     for _ in range(objects):
-        kind = rng.choice(["octa", "box", "flat_ground", "upright", "sliver"], p=[.35, .25, .15, .15, .1])
+        kind = rng.choice(
+            ["octa", "box", "flat_ground", "upright", "sliver"], p=[0.35, 0.25, 0.15, 0.15, 0.1]
+        )
         x, z = rng.uniform(-0.8 * extent, 0.8 * extent, 2)
         size = rng.uniform(0.2, 3.0)
         if kind == "octa":

@@ -1,0 +1,97 @@
+"""The GL layer: lazy import, clear errors, error checks, depth read-back, drawing, timings."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import soc
+from soc.depth_prepass import DepthTarget, render_occluders
+from soc.gl.context import default_context
+from soc.renderer import Renderer
+from soc.scenes.clutter import box_mesh, quad
+
+
+def test_import_soc_does_not_load_opengl():
+    code = "import soc, sys; assert 'moderngl' not in sys.modules and 'torch' not in sys.modules"
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_missing_egl_names_the_packages(monkeypatch):
+    import moderngl
+
+    from soc.gl import context
+
+    def broken(**kwargs):
+        raise Exception("libEGL.so: cannot open shared object file")
+
+    monkeypatch.setattr(moderngl, "create_context", broken)
+    with pytest.raises(soc.GLUnavailableError, match="libegl-mesa0"):
+        context.GLContext()
+
+
+def test_thread_count_is_fixed_per_process():
+    ctx = default_context()
+    with pytest.raises(ValueError, match="threads"):
+        default_context(threads=ctx.threads + 1)
+
+
+def test_check_reports_gl_errors():
+    ctx = default_context()
+    ctx.raw.glBeginQuery(0xDEAD, 1)  # invalid target → GL_INVALID_ENUM
+    with pytest.raises(soc.GLError, match="GL_INVALID_ENUM"):
+        ctx.check("a deliberate bad call")
+    ctx.check()  # reading the error cleared it
+
+
+def test_depth_prepass_matches_hand_computed_depth():
+    """A quad facing the camera at distance d: window depth = (z_ndc + 1) / 2, z_ndc from n, f."""
+    n, f, d = 0.5, 50.0, 10.0
+    wall = quad((-100, -100, -d), (200, 0, 0), (0, 200, 0))
+    s = soc.Scene.from_meshes([wall], occluder=[True])
+    cam = soc.Camera.look_at((0, 0, 0), (0, 0, -1), width=64, height=48, near=n, far=f)
+    ctx = default_context()
+    target = DepthTarget(ctx, (64, 48))
+    try:
+        render_occluders(ctx.geometry(s), target, cam, np.array([0]))
+        depth = target.read()
+    finally:
+        target.release()
+    z_ndc = (f + n) / (f - n) - 2 * f * n / ((f - n) * d)
+    np.testing.assert_allclose(depth, 0.5 * z_ndc + 0.5, atol=1e-6)
+
+
+def test_renderer_draws_only_the_given_objects_and_times_it():
+    a = box_mesh((-3, -1, -1), (-1, 1, 1))
+    b = box_mesh((1, -1, -1), (3, 1, 1))
+    s = soc.Scene.from_meshes([a, b])
+    cam = soc.Camera.look_at((0, 0, 10), (0, 0, 0), width=160, height=90, near=0.5, far=50)
+    r = Renderer(default_context().geometry(s), (160, 90))
+    try:
+        ms = r.draw(cam, np.array([1]))
+        img = r.image()
+    finally:
+        r.release()
+    assert ms > 0 and img.shape == (90, 160, 3)
+    sky = img[0, 0]
+    assert (img[:, :70] == sky).all()  # left box not drawn
+    assert (img[:, 90:] != sky).any(axis=-1).sum() > 200  # right box drawn
+
+
+def test_culler_reports_stage_timings_and_counts():
+    s = soc.scenes.clutter(2)
+    cam = soc.paths.flight(s, frames=5, width=320, height=180)[1]
+    with soc.Culler(s, method="queries", resolution=(320, 180)) as c:
+        r = c.cull(cam, draw=True)
+    st = r.stats
+    assert set(st.timings_ms) == {"frustum", "prepass", "queries", "draw"}
+    assert st.models_visible + st.models_culled == len(s)
+    assert st.frustum_culled + st.occlusion_culled == st.models_culled
+    assert 0 <= st.triangles_culled_pct <= 100
+    assert st.queries <= len(s) - st.frustum_culled
+    assert st.total_ms >= st.cull_ms > 0
+    with pytest.raises(TypeError, match="Camera"):
+        soc.Culler(s, method="frustum").cull("not a camera")
