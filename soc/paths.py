@@ -2,9 +2,10 @@
 
 The flight starts far away looking at the town, approaches the gate on a circular arc, turns
 towards the ground in front of the gate at mid-flight, and leaves on the same arc. It is
-defined relative to the scene's bounds and, when present, ``scene.meta["focus"]`` (the gate)
-and ``scene.meta["focus_outward"]`` (the gate's outward direction), so the same path works on
-the generated town and on Intel's castle.
+defined relative to the town's bounds (``scene.meta["town_bounds"]`` when a loader gives them,
+since terrain can reach far beyond the town; else the scene's bounds) and, when present,
+``scene.meta["focus"]`` (the gate) and ``scene.meta["focus_outward"]`` (the gate's outward
+direction), so the same path works on the generated town and on Intel's castle.
 """
 
 from __future__ import annotations
@@ -14,13 +15,31 @@ import numpy as np
 from soc.camera import Camera
 
 ARC_DEGREES = 75.0  # how far round the town the approach starts, from the gate's direction
-START_DISTANCE = 1.9  # start distance from the centre, in town radii
-START_HEIGHT = 0.55  # start height above the focus, in town radii
+START_DISTANCE = 0.8  # start distance from the centre, in town radii (half xz diagonals)
+START_HEIGHT = 0.2  # start height above the focus, in town radii
+# Vertical field of view of Intel's castle camera (0.628 rad): the seed-000 flight's camera.
+FLIGHT_FOV_Y = 36.0
 
 
 def _smoothstep(a: float, b: float, x: np.ndarray) -> np.ndarray:
     t = np.clip((x - a) / (b - a), 0.0, 1.0)
     return t * t * (3 - 2 * t)
+
+
+def town_bounds(scene) -> tuple[np.ndarray, np.ndarray]:
+    """(3,), (3,) float64 min and max corners of the town a flight circles.
+
+    From ``meta["town_bounds"]``, else ``meta["town_center"]`` ± ``meta["town_radius"]`` in
+    x and z, else the scene's bounds.
+    """
+    lo, hi = scene.bounds.astype(np.float64)
+    if "town_bounds" in scene.meta:
+        lo, hi = (np.asarray(b, np.float64) for b in scene.meta["town_bounds"])
+    elif "town_center" in scene.meta and "town_radius" in scene.meta:
+        c, r = np.asarray(scene.meta["town_center"], np.float64), float(scene.meta["town_radius"])
+        lo = np.array([c[0] - r, lo[1], c[2] - r])
+        hi = np.array([c[0] + r, hi[1], c[2] + r])
+    return lo, hi
 
 
 def flight(
@@ -29,7 +48,7 @@ def flight(
     *,
     width: int = 1920,
     height: int = 1080,
-    fov_y: float = 60.0,
+    fov_y: float = FLIGHT_FOV_Y,
 ) -> list[Camera]:
     """The seed-000 camera flight over ``scene`` as ``frames`` cameras (Abb. 7).
 
@@ -45,7 +64,7 @@ def flight(
     """
     if frames < 2:
         raise ValueError(f"a flight needs at least 2 frames, got {frames}")
-    lo, hi = scene.bounds.astype(np.float64)
+    lo, hi = town_bounds(scene)
     center = 0.5 * (lo + hi)
     radius = 0.5 * float(np.hypot(hi[0] - lo[0], hi[2] - lo[2]))
     focus = np.asarray(scene.meta.get("focus", (center[0], lo[1], hi[2])), np.float64)
@@ -67,12 +86,12 @@ def flight(
     y = ground_y + START_HEIGHT * radius + (0.35 * town_height - START_HEIGHT * radius) * s
     eyes = np.stack([center[0] + r * np.cos(phi), y, center[2] + r * np.sin(phi)], axis=1)
 
-    # Look at the town centre, turning to the ground just inside the gate near mid-flight.
-    look_ground = focus - 0.08 * radius * outward
+    # Look at the town centre, turning down to the ground at the gate around mid-flight.
+    look_ground = focus.copy()
     look_ground[1] = ground_y
     town = center.copy()
     town[1] = ground_y + 0.35 * town_height
-    turn = _smoothstep(0.6, 0.97, s)[:, None]
+    turn = _smoothstep(0.4, 0.97, s)[:, None]
     targets = (1.0 - turn) * town + turn * look_ground
 
     far = 4.0 * START_DISTANCE * radius
