@@ -1,0 +1,249 @@
+"""The ``vislod`` command line.
+
+    vislod demo [--scene market|castle|clutter] [--frames 100] [--resolutions 320x192 ...]
+                [--methods NAME ...] [--quick] [--out results]
+    vislod cull --scene market|castle|clutter --method NAME --resolution 1920x1080
+                [--frames N] [--oracle]
+
+Mistakes (unknown scene or method, a bad resolution, the castle without data) print one line
+on stderr and exit with status 2 before anything is written. ``VISLOD_QUICK=1`` in the
+environment has the effect of ``--quick``; ``VISLOD_DATA`` is where the castle is looked for.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from typing import Any, NoReturn
+
+from experiments.common import (
+    DISPLAY,
+    SCENES,
+    UsageError,
+    default_out,
+    env_quick,
+    fmt,
+    format_table,
+    make_setup,
+    parse_resolution,
+    res_str,
+    scaled,
+)
+
+EXIT_USAGE = 2
+EXIT_ENVIRONMENT = 1
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ``ArgumentParser`` whose errors are one line (``vislod: error: …``), status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_USAGE, f"vislod: error: {message} (see {self.prog} --help)\n")
+
+
+def _resolution(text: str) -> tuple[int, int]:
+    try:
+        return parse_resolution(text)
+    except UsageError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _resolutions(text: str) -> list[tuple[int, int]]:
+    return [_resolution(t) for t in text.split(",") if t.strip()]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``vislod`` argument parser (sub-commands ``demo`` and ``cull``)."""
+    p = _Parser(
+        prog="vislod",
+        description="Occlusion-culling and LOD experiments on headless OpenGL (Mesa llvmpipe).",
+    )
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    def common(sp: argparse.ArgumentParser, scene_default: str | None) -> None:
+        sp.add_argument(
+            "--scene",
+            default=scene_default,
+            required=scene_default is None,
+            metavar="|".join(SCENES),
+            help=f"scene to fly over (default: {scene_default or 'required'})",
+        )
+        sp.add_argument(
+            "--frames",
+            type=int,
+            default=None,
+            help="frames of the flight (default 100; 6 in quick mode)",
+        )
+        sp.add_argument("--seed", type=int, default=0, help="scene generator seed (default 0)")
+        sp.add_argument(
+            "--data", default=None, help="folder holding intel_castle/ (default: $VISLOD_DATA)"
+        )
+        sp.add_argument(
+            "--quick",
+            action="store_true",
+            help="few frames, quarter resolutions, small market (also VISLOD_QUICK=1)",
+        )
+        sp.add_argument(
+            "--display",
+            type=_resolution,
+            default=None,
+            help="camera (display) resolution WxH (default 1920x1080, quick 480x270)",
+        )
+
+    demo = sub.add_parser("demo", help="seed 000: Abb. 1, 4, 6-10 with the document's numbers")
+    common(demo, "market")
+    demo.add_argument(
+        "--resolutions",
+        type=_resolutions,
+        nargs="+",
+        default=None,
+        metavar="WxH",
+        help="depth-buffer resolutions of Abb. 8 (default: the document's six)",
+    )
+    demo.add_argument(
+        "--methods",
+        nargs="+",
+        default=None,
+        metavar="NAME",
+        help="methods for Abb. 8 left and Abb. 10 (default: all registered)",
+    )
+    demo.add_argument(
+        "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
+    )
+    demo.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    cull = sub.add_parser("cull", help="cull the flight with one method, print per-frame stats")
+    common(cull, None)
+    cull.add_argument("--method", required=True, help="culling method (see soc.method_names())")
+    cull.add_argument(
+        "--resolution",
+        type=_resolution,
+        default=None,
+        help="depth-buffer resolution WxH (default: the display resolution)",
+    )
+    cull.add_argument(
+        "--oracle",
+        action="store_true",
+        help="also count false culls / keeps against the exact visibility oracle",
+    )
+    return p
+
+
+def _validate_scene(args: argparse.Namespace) -> None:
+    from experiments.common import castle_path
+
+    if args.scene not in SCENES:
+        raise UsageError(f"unknown scene {args.scene!r}; available: {', '.join(SCENES)}")
+    if args.scene == "castle":
+        castle_path(args.data)  # raises before any work when the data is missing
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from experiments.seed000_demo import check_methods, demo
+
+    _validate_scene(args)
+    res = None if args.resolutions is None else [r for group in args.resolutions for r in group]
+    setup = make_setup(args.quick, args.frames, res, args.display)
+    methods = check_methods(args.methods)
+    out = args.out or default_out(setup.quick)
+    if args.quick:
+        print(
+            f"quick mode: {setup.frames} frames, display {res_str(setup.display)}", file=sys.stderr
+        )
+    demo(
+        setup,
+        scene_name=args.scene,
+        out=out,
+        methods=methods,
+        seed=args.seed,
+        data=args.data,
+        progress=not args.no_progress,
+    )
+    return 0
+
+
+def cmd_cull(args: argparse.Namespace) -> int:
+    import soc
+    from experiments.common import load_scene, mean
+
+    _validate_scene(args)
+    if args.method not in soc.method_names():
+        raise UsageError(
+            f"unknown method {args.method!r}; available: {', '.join(soc.method_names())}"
+        )
+    frames = args.frames if args.frames is not None else (6 if args.quick else 100)
+    if frames < 2:
+        raise UsageError(f"--frames must be at least 2, got {frames}")
+    display = args.display or (scaled(DISPLAY, 0.25) if args.quick else DISPLAY)
+    resolution = args.resolution or display
+    scene = load_scene(args.scene, seed=args.seed, quick=args.quick, data=args.data)
+    cams = soc.paths.flight(scene, frames=frames, width=display[0], height=display[1])
+    rows: list[dict[str, Any]] = []
+    oracle = soc.Oracle(scene) if args.oracle else None
+    try:
+        with soc.Culler(scene, method=args.method, resolution=resolution) as culler:
+            culler.cull(cams[0])  # warm-up, untimed
+            for i, cam in enumerate(cams):
+                truth = oracle.visible(cam) if oracle is not None else None
+                rows.append({"frame": i, **culler.cull(cam, truth=truth).stats.as_row()})
+    finally:
+        if oracle is not None:
+            oracle.close()
+
+    cols = [
+        "models_visible",
+        "models_culled",
+        "frustum_culled",
+        "occlusion_culled",
+        "triangles_culled_pct",
+        "draw_calls",
+        "queries",
+    ]
+    if args.oracle:
+        cols += ["false_culls", "false_keeps"]
+    cols += ["ms_cull"]
+    table = [[str(r["frame"]), *(r[c] for c in cols)] for r in rows]
+    table.append(["mean", *(mean(rows, c) for c in cols)])
+    print(
+        format_table(
+            ["frame", *cols],
+            table,
+            f"{args.method!r} on {args.scene} ({len(scene):,} objects), depth buffer "
+            f"{res_str(resolution)}, display {res_str(display)}, {frames} frames",
+        )
+    )
+    print(f"mean cull time {fmt(mean(rows, 'ms_cull'))} ms")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``vislod`` console script; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    if env_quick() and not args.quick:
+        args.quick = True
+        print("VISLOD_QUICK is set: quick mode", file=sys.stderr)
+    try:
+        if args.command == "demo":
+            return cmd_demo(args)
+        return cmd_cull(args)
+    except UsageError as e:
+        print(f"vislod: error: {e}", file=sys.stderr)
+        return EXIT_USAGE
+    except NotImplementedError as e:  # a scene loader that has not landed yet
+        print(f"vislod: error: not available yet: {e}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("vislod: interrupted", file=sys.stderr)
+        return 130
+    except Exception as e:  # GL missing and the like: one line, not a traceback
+        from soc.errors import GLUnavailableError
+
+        if isinstance(e, GLUnavailableError):
+            print(f"vislod: error: {e}", file=sys.stderr)
+            return EXIT_ENVIRONMENT
+        raise
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,335 @@
+"""What every experiment shares: where results go, writing them atomically, choosing a scene,
+parsing resolutions, quick mode, and printing small tables.
+
+Experiments take every setting as an argument; only the entry points (the CLI, notebooks)
+read the environment (``VISLOD_QUICK``, ``VISLOD_DATA``) and say so when they do.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import re
+import tempfile
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+SCENES = ("market", "castle", "clutter")
+DISPLAY = (1920, 1080)  # seed 000's display (and default depth) resolution
+FRAMES = 100  # seed 000's flight length
+MAX_RESOLUTION = 16384  # llvmpipe's largest render target side
+
+# Quick mode (notebooks, CI): a few frames, everything at a quarter of the resolution, and the
+# small market. Depth resolutions keep their ratio to the display, so the table still lines up
+# with the document's columns.
+QUICK_FRAMES = 6
+QUICK_SCALE = 0.25
+QUICK_OCCLUDEES = 2000
+
+
+class UsageError(ValueError):
+    """A user-facing mistake (unknown name, bad resolution, missing data): one line, exit 2."""
+
+
+# -- where results go -------------------------------------------------------------------------
+
+
+def default_results_dir() -> Path:
+    """``results/`` at the repository root (the current directory when not run from a checkout)."""
+    root = Path(__file__).resolve().parents[1]
+    if (root / "pyproject.toml").is_file():
+        return root / "results"
+    return Path.cwd() / "results"
+
+
+def default_out(quick: bool) -> Path:
+    """Where a run writes by default: ``results/``, quick runs ``results/quick/`` (so that a
+    quick run never overwrites the full run's files)."""
+    return default_results_dir() / "quick" if quick else default_results_dir()
+
+
+def env_quick() -> bool:
+    """True when ``VISLOD_QUICK`` is set to something other than ``""``/``0``/``false``/``no``."""
+    return os.environ.get("VISLOD_QUICK", "").strip().lower() not in ("", "0", "false", "no")
+
+
+# -- atomic writing: a file is either complete or absent ---------------------------------------
+
+
+def atomic_write(path: str | os.PathLike, write: Callable[[Path], None]) -> Path:
+    """Call ``write(tmp)`` on a temporary file next to ``path``, then rename it to ``path``.
+
+    Nothing is left at ``path`` (nor a temporary file) when ``write`` raises.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, Path):
+        return str(x)
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    raise TypeError(f"cannot write {type(x).__name__} to JSON")
+
+
+def write_json(path: str | os.PathLike, data: Any) -> Path:
+    """Write ``data`` as indented JSON (numpy scalars and arrays allowed), atomically."""
+    text = json.dumps(data, indent=2, default=_jsonable, allow_nan=False)
+    return atomic_write(path, lambda p: p.write_text(text + "\n"))
+
+
+def write_csv(path: str | os.PathLike, rows: Sequence[Mapping[str, Any]]) -> Path:
+    """Write ``rows`` (dicts; columns = union of keys in first-seen order), atomically.
+
+    ``None`` is written as an empty cell, floats rounded to 6 decimals.
+    """
+    columns: dict[str, None] = {}
+    for r in rows:
+        columns.update(dict.fromkeys(r))
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(columns), lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: _cell(v) for k, v in r.items()})
+    text = buf.getvalue()
+    return atomic_write(path, lambda p: p.write_text(text))
+
+
+def _cell(v: Any) -> Any:
+    if v is None:
+        return ""
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, float):
+        return repr(round(v, 6)) if math.isfinite(v) else str(v)
+    return v
+
+
+def read_csv(path: str | os.PathLike) -> list[dict[str, str]]:
+    """Rows of a CSV written by :func:`write_csv`, as dicts of strings."""
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def save_figure(fig, path: str | os.PathLike, dpi: int = 110) -> Path:
+    """Save a matplotlib ``Figure`` as PNG, atomically."""
+    return atomic_write(path, lambda p: fig.savefig(p, format="png", dpi=dpi))
+
+
+# -- resolutions -------------------------------------------------------------------------------
+
+_RES = re.compile(r"^\s*(\d+)\s*[x×X]\s*(\d+)\s*$")
+
+
+def parse_resolution(text: str) -> tuple[int, int]:
+    """``"1920x1080"`` (or ``1920×1080``) → ``(1920, 1080)``; :class:`UsageError` otherwise."""
+    m = _RES.match(str(text))
+    if not m:
+        raise UsageError(f"bad resolution {text!r}: expected WIDTHxHEIGHT, e.g. 1920x1080")
+    w, h = int(m.group(1)), int(m.group(2))
+    if not (0 < w <= MAX_RESOLUTION and 0 < h <= MAX_RESOLUTION):
+        raise UsageError(
+            f"bad resolution {text!r}: width and height must be in 1..{MAX_RESOLUTION}"
+        )
+    return w, h
+
+
+def res_str(resolution: Sequence[int]) -> str:
+    """``(1920, 1080)`` → ``"1920x1080"`` (ASCII, for file names and CSV cells)."""
+    return f"{int(resolution[0])}x{int(resolution[1])}"
+
+
+def scaled(resolution: Sequence[int], scale: float) -> tuple[int, int]:
+    """``resolution`` times ``scale``, each side rounded to a multiple of 2 and at least 8."""
+    return tuple(max(8, 2 * round(v * scale / 2)) for v in resolution)  # type: ignore[return-value]
+
+
+@dataclass(frozen=True)
+class Setup:
+    """Flight length and resolutions of one seed-000 run.
+
+    Attributes
+    ----------
+    frames : int
+        Cameras on the flight.
+    display : (width, height)
+        Camera (display) resolution, pixels: the oracle and all drawing run at it.
+    resolutions : tuple of (width, height)
+        Depth-buffer resolutions of the Abb. 8 sweep, pixels.
+    quick : bool
+    """
+
+    frames: int
+    display: tuple[int, int]
+    resolutions: tuple[tuple[int, int], ...]
+    quick: bool = False
+
+
+def make_setup(
+    quick: bool = False,
+    frames: int | None = None,
+    resolutions: Iterable[tuple[int, int]] | None = None,
+    display: tuple[int, int] | None = None,
+) -> Setup:
+    """The seed-000 setup (100 frames, 1080p, the document's six depth resolutions), or its
+    quick version (6 frames, everything at a quarter of the resolution). Arguments override;
+    a given ``display`` scales the default depth resolutions with it."""
+    from experiments.seed000_document import DEPTH_RESOLUTIONS
+
+    frames = frames if frames is not None else (QUICK_FRAMES if quick else FRAMES)
+    if frames < 2:
+        raise UsageError(f"--frames must be at least 2, got {frames}")
+    if display is None:
+        scale = QUICK_SCALE if quick else 1.0
+        display = scaled(DISPLAY, scale)
+    else:  # the depth resolutions keep their ratio to the display
+        display = (int(display[0]), int(display[1]))
+        scale = display[0] / DISPLAY[0]
+    if resolutions is None:
+        resolutions = [scaled(r, scale) for r in DEPTH_RESOLUTIONS]
+    res = tuple(tuple(int(v) for v in r) for r in resolutions)
+    if not res:
+        raise UsageError("need at least one depth resolution")
+    return Setup(frames, display, res, quick)  # type: ignore[arg-type]
+
+
+# -- scenes ------------------------------------------------------------------------------------
+
+
+def castle_path(data: str | os.PathLike | None) -> Path:
+    """The castle data folder from ``data`` or ``VISLOD_DATA``; :class:`UsageError` if absent.
+
+    :func:`soc.scenes.castle` accepts the folder holding ``intel_castle/``, ``intel_castle/``
+    itself or its ``Asset/`` folder.
+    """
+    data = data or os.environ.get("VISLOD_DATA")
+    if not data:
+        raise UsageError(
+            "scene 'castle' needs the Intel castle files: pass --data PATH or set VISLOD_DATA "
+            "(see data/README.md)"
+        )
+    root = Path(data).expanduser()
+    if root.is_dir():
+        return root
+    raise UsageError(f"castle data folder {str(root)!r} does not exist")
+
+
+def load_scene(
+    name: str = "market",
+    *,
+    seed: int = 0,
+    quick: bool = False,
+    data: str | os.PathLike | None = None,
+):
+    """A scene by name.
+
+    Parameters
+    ----------
+    name : {"market", "castle", "clutter"}
+        ``market``: the generated town with seed 000's counts (the small version in quick
+        mode); ``castle``: Intel's castle from ``data`` / ``VISLOD_DATA``, its marketplace
+        refilled to seed 000's counts (so partly synthetic); ``clutter``: a small test scene.
+    seed : int
+        Generator seed (market, clutter).
+    """
+    import soc
+    from soc.errors import SceneError
+
+    if name not in SCENES:
+        raise UsageError(f"unknown scene {name!r}; available: {', '.join(SCENES)}")
+    try:
+        if name == "market":
+            if quick:
+                return soc.scenes.market(seed=seed, occludees=QUICK_OCCLUDEES)
+            return soc.scenes.market(seed=seed)
+        if name == "castle":
+            return soc.scenes.castle(castle_path(data), refill_market=True, seed=seed)
+        return soc.scenes.clutter(seed)
+    except (SceneError, FileNotFoundError, NotADirectoryError) as e:
+        raise UsageError(f"cannot load scene {name!r}: {e}") from e
+
+
+def scene_info(scene, name: str | None = None) -> dict[str, Any]:
+    """Counts and provenance of ``scene`` for result files and plot titles."""
+    meta = dict(scene.meta)
+    source = str(meta.get("source", name or "scene"))
+    synthetic = meta.get("synthetic")
+    if name == "castle" or source.startswith("castle"):
+        label = f"{source} (partly synthetic: marketplace refilled to seed-000 counts)"
+    else:
+        label = source + (" (synthetic)" if synthetic else "")
+    return {
+        "name": name or source,
+        "label": label,
+        "objects": len(scene),
+        "occluders": int(scene.occluder.sum()),
+        "triangles": int(scene.triangle_counts.sum()),
+        "occluder_triangles": int(scene.triangle_counts[scene.occluder].sum()),
+        "meta": {k: v for k, v in meta.items() if isinstance(v, (str, int, float, bool))},
+    }
+
+
+# -- numbers and small tables -------------------------------------------------------------------
+
+
+def mean(rows: Sequence[Mapping[str, Any]], key: str) -> float:
+    """Mean of ``row[key]`` over ``rows`` (None/missing skipped; NaN when nothing is left)."""
+    v = [float(r[key]) for r in rows if r.get(key) is not None and r.get(key) != ""]
+    return float(np.mean(v)) if v else float("nan")
+
+
+def median(rows: Sequence[Mapping[str, Any]], key: str) -> float:
+    """Median of ``row[key]`` over ``rows`` (None/missing skipped; NaN when nothing is left)."""
+    v = [float(r[key]) for r in rows if r.get(key) is not None and r.get(key) != ""]
+    return float(np.median(v)) if v else float("nan")
+
+
+def fmt(x: Any, digits: int = 2) -> str:
+    """A number for a printed table (``—`` for None/NaN, integers without decimals)."""
+    if x is None:
+        return "—"
+    if isinstance(x, str):
+        return x
+    x = float(x)
+    if not math.isfinite(x):
+        return "—"
+    if x == int(x) and abs(x) >= 1000:
+        return f"{int(x):,}"
+    return f"{x:,.{digits}f}"
+
+
+def format_table(header: Sequence[str], rows: Sequence[Sequence[Any]], title: str = "") -> str:
+    """A plain-text table: first column left-aligned, the others right-aligned."""
+    cells = [[str(h) for h in header]] + [
+        [c if isinstance(c, str) else fmt(c) for c in r] for r in rows
+    ]
+    widths = [max(len(r[i]) for r in cells) for i in range(len(header))]
+    lines = [title] if title else []
+    for k, r in enumerate(cells):
+        rest = zip(r[1:], widths[1:], strict=True)
+        parts = [r[0].ljust(widths[0])] + [c.rjust(w) for c, w in rest]
+        lines.append("  ".join(parts).rstrip())
+        if k == 0:
+            lines.append("  ".join("-" * w for w in widths))
+    return "\n".join(lines)

@@ -1,0 +1,84 @@
+"""The numbers seed 000 (OpenGL occlusion culling on Mesa in Intel's SOC framework) reports,
+as data, so that every table and plot can put them beside ours.
+
+Source: ``seeds/000_6ce7f5d2788bd2fd.txt`` as digested in ``SPEC.md`` (Abb. 8 table, Abb. 9
+table, the claims in the text). Scene of the document: Intel's castle + marketplace, 115
+occluders with 48,700 triangles, 27,025 occludees with about 1,923,000 triangles, a 100-frame
+flight, display 1920×1080.
+"""
+
+from __future__ import annotations
+
+SCENE = {"objects": 27025, "occluders": 115, "occluder_triangles": 48700, "triangles": 1923000}
+FRAMES = 100
+DISPLAY = (1920, 1080)
+
+# Abb. 8 (right) and its table: the OGL (occlusion query) method at six depth resolutions,
+# averages over the 100 frames.
+DEPTH_RESOLUTIONS: tuple[tuple[int, int], ...] = (
+    (320, 192),
+    (640, 360),
+    (1280, 720),
+    (1920, 1080),
+    (2432, 1440),
+    (3840, 2160),
+)
+ABB8: dict[tuple[int, int], dict[str, float]] = {
+    (320, 192): {"triangles_culled_pct": 51.88, "draw_calls": 3640,
+                 "models_culled": 23795.46, "models_visible": 3229.54},
+    (640, 360): {"triangles_culled_pct": 47.65, "draw_calls": 5759,
+                 "models_culled": 21996.8, "models_visible": 5028.2},
+    (1280, 720): {"triangles_culled_pct": 44.69, "draw_calls": 7725,
+                  "models_culled": 20346.68, "models_visible": 6678.32},
+    (1920, 1080): {"triangles_culled_pct": 43.81, "draw_calls": 8515,
+                   "models_culled": 19683.44, "models_visible": 7341.56},
+    (2432, 1440): {"triangles_culled_pct": 48.55, "draw_calls": 7920,
+                   "models_culled": 20196.8, "models_visible": 6828.2},
+    (3840, 2160): {"triangles_culled_pct": 75.03, "draw_calls": 2602,
+                   "models_culled": 24718.0, "models_visible": 2307.0},
+}  # fmt: skip
+
+# Abb. 9: the stage switches at 1920×1080 (MT = llvmpipe multithreading, always on here).
+# The last column's values in brackets in the document are the Abb. 8 run (43.81 %, …).
+SWITCHES: tuple[str, ...] = ("MT", "MT+Frustum", "MT+Frustum+Depth test")
+ABB9: dict[str, dict[str, float]] = {
+    "MT": {"triangles_culled_pct": 11.13, "draw_calls": 19219,
+           "models_culled": 10180.34, "models_visible": 16844.66},
+    "MT+Frustum": {"triangles_culled_pct": 11.13, "draw_calls": 14318,
+                   "models_culled": 14532.39, "models_visible": 12492.61},
+    "MT+Frustum+Depth test": {"triangles_culled_pct": 43.88, "draw_calls": 8442,
+                              "models_culled": 19728.07, "models_visible": 7296.93},
+}  # fmt: skip
+
+# The quantities of both tables, with the labels the document uses.
+QUANTITIES: dict[str, str] = {
+    "triangles_culled_pct": "triangles culled %",
+    "draw_calls": "draw calls",
+    "models_culled": "models culled",
+    "models_visible": "models visible",
+}
+
+# Claims in the text that Abb. 10 lets us check (the document gives no FPS numbers in tables).
+CLAIMS: dict[str, str] = {
+    "frustum_speedup": "frustum culling brings 'over 200 %' (FPS frustum / FPS none > 2)",
+    "queries_vs_none": "with their occlusion queries, performance was best WITHOUT occlusion "
+    "culling (query read-back stalls)",
+    "hasselgren": "occlusion culling: 1.5–7× shorter frame time than frustum culling alone "
+    "(Hasselgren et al., for MOC)",
+}
+
+
+def document_column(
+    resolution: tuple[int, int], display: tuple[int, int], tolerance: float = 0.05
+) -> tuple[int, int] | None:
+    """The document's depth resolution whose ratio to 1920×1080 matches ``resolution``'s ratio
+    to ``display`` (within ``tolerance`` in width and height), or None.
+
+    Lets a quick run at a quarter of the resolution line up with the document's columns.
+    """
+    sx = resolution[0] / display[0] * DISPLAY[0]
+    sy = resolution[1] / display[1] * DISPLAY[1]
+    for r in DEPTH_RESOLUTIONS:
+        if abs(sx / r[0] - 1) <= tolerance and abs(sy / r[1] - 1) <= tolerance:
+            return r
+    return None
