@@ -322,28 +322,39 @@ def _plan() -> _Plan:
 
 
 def _halls_plan() -> tuple[_Rect, ...]:
-    """Footprints of the big buildings (occluders) inside the walls."""
+    """Footprints of the big buildings (occluders) inside the walls.
+
+    The civic buildings stand north of the market and the main street; the south-west quarter,
+    which the seed-000 flight looks across on its way to the gate, is houses (not occluders), so
+    that the market is in view from the flight's first half, as the paper's curve suggests.
+    """
     halls = [
         _Rect("keep", 48.0, 4.0, 8.0, 8.0),
         _Rect("great_hall", 33.0, -14.0, 10.0, 4.0),
         _Rect("barracks", 30.0, 13.0, 6.0, 3.5),
         _Rect("church", 2.0, 42.0, 16.0, 6.0),
-        _Rect("town_hall", -24.0, -38.5, 10.0, 6.0, np.pi),
-        _Rect("guild_hall_0", -44.0, 37.5, 7.0, 5.0),
-        _Rect("guild_hall_1", -28.0, 37.5, 6.5, 5.0),
-        _Rect("guild_hall_2", -44.5, -37.5, 6.5, 5.0, np.pi),
-        _Rect("guild_hall_3", -4.0, -37.5, 6.5, 5.0, np.pi),
+        _Rect("town_hall", -28.0, 37.5, 10.0, 6.0, np.pi),  # its front on the market
+        _Rect("guild_hall_0", -48.5, 37.5, 7.0, 5.0, np.pi),
         _Rect("guild_hall_4", -60.5, 18.5, 5.0, 7.0, -np.pi / 2),
-        _Rect("guild_hall_5", -60.5, -18.5, 5.0, 7.0, -np.pi / 2),
     ]
-    # district halls (granary, inns, warehouses) between back-to-back house rows, along them
-    theta = np.array([2.25, -2.25, 1.3, -1.3, 0.72, -0.72, 1.05])
-    rho = np.array([0.794] * 6 + [0.576])
-    centre = _ellipse(theta, rho)
-    normal = _ellipse_normal(theta)
-    for i in range(len(theta)):
-        yaw = float(_yaw_facing(*normal[i]))
-        halls.append(_Rect(f"hall_{i:02d}", centre[i, 0], centre[i, 2], 7.0, 6.0, yaw))
+    # guild and district halls (granary, inns, warehouses) on the house rows, along them
+    rows = (
+        ("guild_hall_1", 1.8, 0.794, 6.5, 5.0),
+        ("guild_hall_2", 1.0, 0.794, 6.5, 5.0),
+        ("guild_hall_3", -1.0, 0.794, 6.5, 5.0),
+        ("guild_hall_5", -1.05, 0.576, 7.0, 5.0),
+        ("hall_00", 2.25, 0.794, 7.0, 6.0),
+        ("hall_01", 0.0, 0.82, 7.0, 6.0),
+        ("hall_02", 1.3, 0.794, 7.0, 6.0),
+        ("hall_03", -1.3, 0.794, 7.0, 6.0),
+        ("hall_04", 0.72, 0.794, 7.0, 6.0),
+        ("hall_05", -0.72, 0.794, 7.0, 6.0),
+        ("hall_06", 1.05, 0.576, 7.0, 6.0),
+    )
+    for name, theta, rho, hx, hz in rows:
+        centre = _ellipse(theta, rho)
+        yaw = float(_yaw_facing(*_ellipse_normal(theta)))
+        halls.append(_Rect(name, centre[0], centre[2], hx, hz, yaw))
     return tuple(halls)
 
 
