@@ -116,6 +116,23 @@ def bench_foundation(scene, frames: int) -> tuple[str, dict]:
     return "\n".join(lines), {"frame_ms": frame, "draw_ms": med}
 
 
+def replace_section(path: Path, name: str, body: str) -> str:
+    """Write ``body`` between ``<!-- begin NAME -->``/``<!-- end NAME -->`` in ``path``, keeping
+    every other section (hand-recorded measurements included); atomic."""
+    begin, end = f"<!-- begin {name} -->", f"<!-- end {name} -->"
+    old = path.read_text() if path.exists() else "# Benchmarks\n"
+    block = f"{begin}\n{body}\n{end}"
+    if begin in old and end in old:
+        head, rest = old.split(begin, 1)
+        text = head + block + rest.split(end, 1)[1]
+    else:
+        text = old.rstrip("\n") + "\n\n" + block + "\n"
+    tmp = path.with_suffix(".md.tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+    return text
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="market", choices=["market", "castle", "clutter"])
@@ -129,29 +146,23 @@ def main(argv: list[str] | None = None) -> int:
     load_s = time.perf_counter() - t0
     body, _ = bench_foundation(scene, args.frames)
     rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    text = "\n".join(
+    section = "\n".join(
         [
-            "# Benchmarks",
+            "## Foundation: seed-000 pipeline (frustum, per-object GL queries)",
             "",
-            f"Written by `make bench` (`python -m experiments.bench --scene {args.scene} "
-            f"--frames {args.frames}`) on {platform.node() or 'this machine'}, "
+            f"`python -m experiments.bench --scene {args.scene} --frames {args.frames}` on "
             f"{time.strftime('%Y-%m-%d')}: Python {platform.python_version()}, "
             f"{soc.gl.context.default_context().ctx.info['GL_RENDERER']}.",
-            "",
-            "## Foundation: seed-000 pipeline (frustum, per-object GL queries)",
             "",
             body,
             "",
             f"Scene load/generation: {load_s:.1f} s. Peak RSS of this benchmark process: "
             f"{rss_mb:.0f} MiB.",
-            "",
         ]
     )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    tmp = out / "BENCHMARKS.md.tmp"
-    tmp.write_text(text)
-    tmp.replace(out / "BENCHMARKS.md")
+    text = replace_section(out / "BENCHMARKS.md", "foundation", section)
     print(text)
     return 0
 
