@@ -35,6 +35,9 @@ class Culler:
         Stage switches (frustum, depth test, llvmpipe threads).
     glctx : GLContext, optional
         Default: the process's context.
+    **options
+        Method-specific options (e.g. a grid size or a query cap), documented by each method's
+        class; an option the method does not take raises ``ValueError``.
 
     Notes
     -----
@@ -49,6 +52,7 @@ class Culler:
         resolution: tuple[int, int] = (1920, 1080),
         config: CullConfig | None = None,
         glctx=None,
+        **options,
     ):
         if method not in METHODS:
             raise ValueError(f"unknown culling method {method!r}; available: {method_names()}")
@@ -59,7 +63,13 @@ class Culler:
         self.glctx = glctx or default_context(self.config.threads)
         self.scene = scene
         self.geometry = self.glctx.geometry(scene)
-        self.method = METHODS[method](self.geometry, self.resolution, self.config)
+        cls = METHODS[method]
+        try:
+            self.method = cls(self.geometry, self.resolution, self.config, **options)
+        except TypeError as e:
+            if options and "argument" in str(e):
+                raise ValueError(f"method {method!r} does not take options {options}: {e}") from e
+            raise
         self._renderer = None
 
     @property

@@ -46,3 +46,27 @@ def assert_conservative(result_visible: np.ndarray, truth: np.ndarray, what: str
     """Every object the oracle sees must be kept; name the ones that were not."""
     missed = np.flatnonzero(truth & ~result_visible)
     assert len(missed) == 0, f"{what}: culled visible objects {missed[:20].tolist()}"
+
+
+def check_conservative(scene, cameras, resolution, methods, **options) -> int:
+    """Cull ``cameras`` with every method in ``methods`` and fail on any object the oracle
+    sees at ``resolution`` but a method culls. Returns how many cameras the last method
+    culled something for (so callers can check the scene really exercised culling)."""
+    oracle = soc.Oracle(scene)
+    cullers = {
+        m: soc.Culler(scene, method=m, resolution=resolution, **options.get(m, {})) for m in methods
+    }
+    culled_something = 0
+    try:
+        for i, cam in enumerate(cameras):
+            truth = oracle.visible(cam, resolution)
+            for m, c in cullers.items():
+                c.method.reset()  # conservative check: no temporal reuse between cameras
+                r = c.cull(cam, truth=truth)
+                assert_conservative(r.visible, truth, f"{m} camera {i} eye={cam.eye}")
+            culled_something += int(r.visible.sum() < len(scene))
+    finally:
+        for c in cullers.values():
+            c.close()
+        oracle.close()
+    return culled_something

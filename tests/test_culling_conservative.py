@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import assert_conservative
+from conftest import check_conservative
 
 import soc
 from soc.paths import flight, random_cameras
@@ -20,22 +20,7 @@ CONSERVATIVE = ["none", "frustum", "queries"]
 
 
 def _check(scene, cameras, resolution, methods=CONSERVATIVE):
-    oracle = soc.Oracle(scene)
-    cullers = {m: soc.Culler(scene, method=m, resolution=resolution) for m in methods}
-    kept_fewer = 0
-    try:
-        for i, cam in enumerate(cameras):
-            truth = oracle.visible(cam, resolution)
-            for m, c in cullers.items():
-                r = c.cull(cam, truth=truth)
-                assert_conservative(r.visible, truth, f"{m} camera {i} eye={cam.eye}")
-                assert r.stats.false_culls == 0
-            kept_fewer += int(r.visible.sum() < len(scene))
-    finally:
-        for c in cullers.values():
-            c.close()
-        oracle.close()
-    return kept_fewer
+    return check_conservative(scene, cameras, resolution, methods)
 
 
 @pytest.mark.parametrize("resolution", [(320, 192), (333, 197)])
@@ -122,6 +107,11 @@ def test_random_cameras_over_the_castle(data_dir):
         scene, frames=10, width=480, height=270
     )
     _check(scene, cams, (480, 270))
+
+
+def test_unknown_method_option_is_a_clear_error():
+    with pytest.raises(ValueError, match="does not take options"):
+        soc.Culler(soc.scenes.clutter(0), method="queries", grid_size=3)
 
 
 def test_unknown_method_and_bad_resolution():

@@ -44,11 +44,15 @@ class CullMethod:
     """Base class: a culling method bound to one scene, GL context and depth resolution.
 
     Subclasses set ``name`` and ``conservative`` and implement :meth:`cull`. A conservative
-    method never culls an object that the oracle sees at the same resolution.
+    method never culls an object that the oracle sees at the same resolution. Methods that
+    reuse results across frames (temporal coherence) say so with ``temporal = True`` and
+    keep their state between calls of :meth:`cull`; :meth:`reset` forgets it. Method-specific
+    options are keyword arguments of the subclass's ``__init__``.
     """
 
     name: str = ""
     conservative: bool = True
+    temporal: bool = False
 
     def __init__(self, geometry, resolution: tuple[int, int], config: CullConfig):
         self.geometry = geometry
@@ -59,6 +63,9 @@ class CullMethod:
 
     def cull(self, camera) -> MethodOutput:
         raise NotImplementedError
+
+    def reset(self) -> None:
+        """Forget state carried between frames (temporal methods)."""
 
     def release(self) -> None:
         """Free GL resources this method allocated."""
