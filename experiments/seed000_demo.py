@@ -87,6 +87,11 @@ def demo(
     if scene is None:
         scene = load_scene(scene_name, seed=seed, quick=setup.quick, data=data)
     seconds = {"scene": time.perf_counter() - t0}
+    runnable = set(soc.method_names(scene))
+    skipped = [m for m in methods if m not in runnable]
+    if skipped:
+        print(f"skipping methods that cannot cull this scene: {', '.join(skipped)}")
+    methods = [m for m in methods if m in runnable]
     info = scene_info(scene, scene_name)
     cams = soc.paths.flight(
         scene, frames=setup.frames, width=setup.display[0], height=setup.display[1]

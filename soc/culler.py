@@ -14,9 +14,10 @@ from soc.methods.base import MethodOutput
 from soc.metrics import CullResult, frame_stats
 
 
-def method_names() -> list[str]:
-    """Names accepted by :class:`Culler`'s ``method``."""
-    return sorted(METHODS)
+def method_names(scene=None) -> list[str]:
+    """Names accepted by :class:`Culler`'s ``method``; with ``scene``, only the methods that
+    can cull it (portal culling, for instance, needs a scene of cells and portals)."""
+    return sorted(m for m, cls in METHODS.items() if scene is None or cls.supports(scene))
 
 
 class Culler:

@@ -61,6 +61,11 @@ class CullMethod:
         self.resolution = resolution
         self.config = config
 
+    @classmethod
+    def supports(cls, scene) -> bool:
+        """Whether this method can cull ``scene`` (e.g. portal culling needs cells)."""
+        return True
+
     def cull(self, camera) -> MethodOutput:
         raise NotImplementedError
 
