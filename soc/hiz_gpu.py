@@ -1,0 +1,266 @@
+"""GPU hierarchical-z occlusion tests: a max-depth pyramid built by compute shaders, and one
+compute dispatch that tests many AABBs against it.
+
+Greene, Kass & Miller, "Hierarchical Z-buffer visibility" (SIGGRAPH 1993): a pyramid whose
+texels hold the farthest depth of the pixels below them answers "is this box behind the
+occluders?" with a few texel reads at the level where the box's screen rectangle spans about
+one texel. As GPU culling (D. Rákos, "Hierarchical-Z map based occlusion culling", 2010;
+A. Kapoulkine's niagara, ``drawcull.comp.glsl``) every box is tested by one shader invocation
+and the whole answer is read back once: no per-object draw, query or GL call.
+
+Stages, in the order a frame runs them:
+
+1. :meth:`DepthPyramid.build` — level 0 is the occluder depth texture itself; level k+1 has
+   ``ceil(size_k / 2)`` texels per axis and each texel is the max of its 2×2 texels of level k,
+   with the odd last row/column clamped away (``hiz_reduce.comp.glsl``, one dispatch a level).
+   By induction texel ``x`` of level k stands for exactly the level-0 columns
+   ``[x·2^k, min((x+1)·2^k, W))`` (likewise rows), so the levels cover every pixel at every
+   resolution, powers of two or not. Levels >= 1 live in one float SSBO, level after level.
+2. :meth:`HizTest.test` — one invocation per candidate box (``hiz_test.comp.glsl``), results
+   in a uint SSBO read back once after ``memory_barrier()``.
+
+Why the test is conservative (an object the exact id render sees is never reported hidden):
+
+* The object's mesh lies inside its AABB, and the tested box is that AABB grown by
+  :func:`soc.gl.geometry.grown_aabbs`. When every corner has clip ``w >= near·(1 + margin)``
+  (all corners in front of the near plane), the perspective map is a projective map that is
+  finite on the whole box, so the image of the box is the convex hull of its 8 projected
+  corners: every mesh point projects inside the corners' screen rectangle and has a window
+  depth >= the smallest corner depth. Boxes with a corner closer than that are not tested but
+  kept (a clipped box says nothing about what lies between the eye and its far faces).
+* The oracle samples pixel centres ``((i + 0.5) / W, (j + 0.5) / H)``: a mesh sample at pixel
+  ``(i, j)`` means the centre lies in the mesh's projection, hence in the rectangle. The test
+  reads exactly the pixels whose centres lie in the rectangle widened by
+  :data:`HIZ_PIXEL_MARGIN` (float rounding of the projection, llvmpipe's 1/256-pixel vertex
+  snapping); a rectangle holding no pixel centre holds no sample, and the box is hidden.
+* Fragment depth is interpolated linearly in screen space between vertices inside the box,
+  so a visible sample has depth ``d`` with ``nearest corner depth <= d`` (up to float
+  rounding, which the NDC depth bias ``QUERY_DEPTH_BIAS_NDC`` of the queries absorbs, as it
+  absorbs the 24-bit quantisation of the depth buffer). Being visible, ``d`` is not behind
+  the occluder depth at its pixel, which is <= the max over the pyramid texels covering the
+  pixel range. So ``nearest - bias <= max`` whenever a sample is visible: the box is kept.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from soc.camera import Camera
+from soc.constants import NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
+from soc.gl.geometry import grown_aabbs
+
+# Pixels added on every side of a box's projected rectangle before choosing the pixel centres
+# it may cover: float32 rounding of the corner projection is ~1e-4 px at 4K, llvmpipe snaps
+# vertices to 1/256 px; 1/32 px covers both with room to spare and costs nothing measurable.
+HIZ_PIXEL_MARGIN = 1.0 / 32.0
+
+# Texels per axis read at the chosen pyramid level: 2 (≤ 4 reads, the classic HiZ footprint)
+# or 4 (≤ 16 reads, one level finer, tighter for boxes that straddle texel borders).
+FOOTPRINTS = (2, 4)
+
+# Compute work-group sizes (must match the ``local_size`` of the shaders).
+REDUCE_GROUP = 16  # 16×16 texels of the level being written
+TEST_GROUP = 64  # boxes
+
+# The test shader's uniform array of per-level (offset, width, height); 24 levels reach 2^23 px.
+MAX_LEVELS = 24
+
+# Texture units the shaders sample the depth texture from.
+_DEPTH_UNIT = 0
+
+
+def pyramid_sizes(resolution: tuple[int, int]) -> list[tuple[int, int]]:
+    """(width, height) of every level, level 0 = ``resolution``, halving with ceil to 1×1."""
+    w, h = int(resolution[0]), int(resolution[1])
+    sizes = [(w, h)]
+    while (w, h) != (1, 1):
+        w, h = (w + 1) // 2, (h + 1) // 2
+        sizes.append((w, h))
+    return sizes
+
+
+def reference_pyramid(depth: np.ndarray) -> list[np.ndarray]:
+    """The pyramid computed with numpy: level k texel = max over the level-0 texels it stands
+    for (``[x·2^k, min((x+1)·2^k, W))`` per axis). ``depth`` is (H, W) float; for tests."""
+    depth = np.asarray(depth, np.float32)
+    h, w = depth.shape
+    out = []
+    for k, (lw, lh) in enumerate(pyramid_sizes((w, h))):
+        s = 1 << k
+        padded = np.full((lh * s, lw * s), -np.inf, np.float32)
+        padded[:h, :w] = depth
+        out.append(padded.reshape(lh, s, lw, s).max(axis=(1, 3)))
+    return out
+
+
+class DepthPyramid:
+    """Max-depth pyramid of a ``resolution = (W, H)`` depth texture, built on the GPU.
+
+    Level 0 is the depth texture given to :meth:`build` (not copied); levels 1.. are float32
+    window depths in one SSBO (:attr:`buffer`), level k at :attr:`offsets` ``[k]`` (floats),
+    row-major, :attr:`sizes` ``[k]`` texels. Each texel is >= every level-0 depth it stands for.
+    """
+
+    def __init__(self, glctx, resolution: tuple[int, int]):
+        self.glctx = glctx
+        self.resolution = (int(resolution[0]), int(resolution[1]))
+        self.sizes = pyramid_sizes(self.resolution)
+        if len(self.sizes) > MAX_LEVELS:
+            raise ValueError(f"resolution {self.resolution} needs more than {MAX_LEVELS} levels")
+        counts = [w * h for w, h in self.sizes]
+        starts = np.concatenate([[0], np.cumsum(counts[1:])])[: len(counts) - 1]
+        self.offsets = [-1] + [int(o) for o in starts]  # level 0: the texture itself
+        self.buffer = glctx.ctx.buffer(reserve=max(4 * sum(counts[1:]), 4))
+        self.program = glctx.compute("hiz_reduce.comp")
+        self.depth = None
+
+    def __len__(self) -> int:
+        return len(self.sizes)
+
+    def release(self) -> None:
+        self.buffer.release()
+
+    def build(self, depth_texture) -> None:
+        """Reduce ``depth_texture`` (moderngl depth texture of :attr:`resolution`) into the
+        levels 1..; one dispatch per level, with a barrier between levels.
+
+        The texture's compare mode is switched off (the shaders need raw depths) and its
+        wrap mode set to clamp-to-edge.
+        """
+        import moderngl
+
+        if tuple(depth_texture.size) != self.resolution:
+            raise ValueError(
+                f"depth texture is {depth_texture.size}, the pyramid {self.resolution}"
+            )
+        ctx, prog = self.glctx.ctx, self.program
+        depth_texture.compare_func = ""
+        depth_texture.repeat_x = depth_texture.repeat_y = False  # textureGather clamps
+        depth_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        depth_texture.use(location=_DEPTH_UNIT)
+        self.depth = depth_texture
+        prog["depth"].value = _DEPTH_UNIT
+        self.buffer.bind_to_storage_buffer(0)
+        for k in range(len(self.sizes) - 1):
+            prog["src_offset"].value = self.offsets[k]
+            prog["src_size"].value = self.sizes[k]
+            prog["dst_offset"].value = self.offsets[k + 1]
+            prog["dst_size"].value = self.sizes[k + 1]
+            w, h = self.sizes[k + 1]
+            prog.run(-(-w // REDUCE_GROUP), -(-h // REDUCE_GROUP))
+            ctx.memory_barrier()  # the next level reads what this one wrote
+
+    def level(self, k: int) -> np.ndarray:
+        """(H_k, W_k) float32 copy of level ``k`` (level 0: the depth texture); for tests."""
+        w, h = self.sizes[k]
+        if k == 0:
+            return np.frombuffer(self.depth.read(), np.float32).reshape(h, w).copy()
+        self.glctx.ctx.memory_barrier()
+        data = self.buffer.read(size=4 * w * h, offset=4 * int(self.offsets[k]))
+        return np.frombuffer(data, np.float32).reshape(h, w).copy()
+
+
+class HizTest:
+    """Test many world-space boxes against a :class:`DepthPyramid` in one compute dispatch.
+
+    Parameters
+    ----------
+    glctx : GLContext
+    footprint : int
+        Texels per axis read at the chosen level, one of :data:`FOOTPRINTS`.
+    """
+
+    def __init__(self, glctx, footprint: int = 2):
+        if footprint not in FOOTPRINTS:
+            raise ValueError(f"footprint must be one of {FOOTPRINTS}, got {footprint!r}")
+        self.glctx = glctx
+        self.footprint = footprint
+        self.program = glctx.compute("hiz_test.comp")
+        self._ids = None  # (K,) uint32 candidate ids, grown on demand
+        self._out = None  # (K,) uint32 results
+        self._boxes = None  # uploaded boxes of test_boxes()
+        self._capacity = 0
+
+    def release(self) -> None:
+        for b in (self._ids, self._out, self._boxes):
+            if b is not None:
+                b.release()
+        self._ids = self._out = self._boxes = None
+        self._capacity = 0
+
+    def _reserve(self, n: int) -> None:
+        if n > self._capacity:
+            for b in (self._ids, self._out):
+                if b is not None:
+                    b.release()
+            self._capacity = max(n, 2 * self._capacity, 1024)
+            self._ids = self.glctx.ctx.buffer(reserve=4 * self._capacity, dynamic=True)
+            self._out = self.glctx.ctx.buffer(reserve=4 * self._capacity, dynamic=True)
+
+    def test(self, pyramid: DepthPyramid, camera: Camera, boxes, ids: np.ndarray) -> np.ndarray:
+        """Which of the boxes ``ids`` may be visible.
+
+        Parameters
+        ----------
+        pyramid : DepthPyramid
+            Built for this frame (same camera, any resolution).
+        camera : Camera
+            Its ``view_proj`` projects the boxes; its own resolution is not used.
+        boxes : moderngl.Buffer
+            (N, 6) float32 world-space boxes ``lo, hi``, already grown by the conservative
+            margin (e.g. ``SceneGeometry.boxes``).
+        ids : (K,) int
+            Rows of ``boxes`` to test.
+
+        Returns
+        -------
+        visible : (K,) bool
+            False only where the box covers no pixel centre of the pyramid's resolution or
+            lies behind the occluder depth at all of them (conservative, see the module).
+        """
+        ids = np.ascontiguousarray(ids, np.uint32)
+        k = len(ids)
+        if k == 0:
+            return np.zeros(0, bool)
+        self._reserve(k)
+        self._ids.write(ids)
+        prog = self.program
+        info = np.zeros((MAX_LEVELS, 4), np.int32)
+        info[: len(pyramid), 0] = pyramid.offsets
+        info[: len(pyramid), 1:3] = pyramid.sizes
+        prog["level_info"].write(info.tobytes())
+        prog["levels"].value = len(pyramid)
+        prog["size"].value = pyramid.resolution
+        prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
+        prog["count"].value = k
+        prog["min_w"].value = camera.near * (1.0 + NEAR_PLANE_MARGIN)
+        prog["depth_bias"].value = QUERY_DEPTH_BIAS_NDC
+        prog["pixel_margin"].value = HIZ_PIXEL_MARGIN
+        prog["footprint"].value = self.footprint
+        pyramid.depth.use(location=_DEPTH_UNIT)
+        prog["depth"].value = _DEPTH_UNIT
+        boxes.bind_to_storage_buffer(0)
+        self._ids.bind_to_storage_buffer(1)
+        self._out.bind_to_storage_buffer(2)
+        pyramid.buffer.bind_to_storage_buffer(3)
+        prog.run(-(-k // TEST_GROUP))
+        self.glctx.ctx.memory_barrier()  # llvmpipe returns stale data without it
+        return np.frombuffer(self._out.read(size=4 * k), np.uint32).astype(bool)
+
+    def test_boxes(
+        self, pyramid: DepthPyramid, camera: Camera, boxes: np.ndarray, diagonal: float
+    ) -> np.ndarray:
+        """Like :meth:`test` for arbitrary boxes (packets, nodes, cells).
+
+        ``boxes`` (K, 2, 3) world units are grown by the conservative margin of a scene with
+        this ``diagonal`` (world units), uploaded and tested; returns (K,) bool.
+        """
+        grown = grown_aabbs(np.asarray(boxes, np.float32).reshape(-1, 2, 3), diagonal)
+        data = np.ascontiguousarray(grown.reshape(-1, 6))
+        if self._boxes is None or self._boxes.size < max(data.nbytes, 24):
+            if self._boxes is not None:
+                self._boxes.release()
+            self._boxes = self.glctx.ctx.buffer(reserve=max(data.nbytes, 24), dynamic=True)
+        if len(data):
+            self._boxes.write(data)
+        return self.test(pyramid, camera, self._boxes, np.arange(len(data)))

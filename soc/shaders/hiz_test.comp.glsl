@@ -1,0 +1,85 @@
+#version 450
+// Hierarchical-z test of many AABBs at once: one invocation per candidate box.
+//
+// visible[k] = 1 unless the box (grown, as drawn by occlusion queries) certainly covers no
+// pixel centre of the depth buffer, or is farther than the occluder depth at every pixel
+// centre it may cover. Conservative (proof in soc/hiz_gpu.py): every mesh sample of the object
+// lies inside the box, so its pixel lies inside the box's projected rectangle and its depth
+// is at least the box's nearest corner depth.
+layout(local_size_x = 64) in;
+
+layout(std430, binding = 0) readonly buffer Boxes { float boxes[]; };  // (N, 6): lo, hi
+layout(std430, binding = 1) readonly buffer Ids { uint ids[]; };       // (K,) candidates
+layout(std430, binding = 2) writeonly buffer Visible { uint visible[]; };  // (K,)
+layout(std430, binding = 3) readonly buffer Pyramid { float pyramid[]; };  // levels >= 1
+
+uniform sampler2D depth;    // level 0: the occluder depth buffer (compare mode off)
+uniform mat4 view_proj;
+uniform uint count;         // K
+uniform ivec2 size;         // level 0, pixels
+uniform float min_w;        // corners with clip w below this: keep the box untested
+uniform float depth_bias;   // NDC units, pulls the box towards the camera
+uniform float pixel_margin; // pixels added around the projected rectangle
+uniform int footprint;      // texels per axis at the chosen level (2 or 4)
+uniform int levels;         // number of levels including level 0
+uniform ivec4 level_info[24];  // per level: offset in `pyramid` (level 0: unused), width, height
+
+float texel(int k, int x, int y) {
+    if (k == 0) return texelFetch(depth, ivec2(x, y), 0).r;
+    ivec4 l = level_info[k];
+    return pyramid[l.x + y * l.y + x];
+}
+
+void main() {
+    uint k = gl_GlobalInvocationID.x;
+    if (k >= count) return;
+    uint b = 6u * ids[k];
+    vec3 lo = vec3(boxes[b], boxes[b + 1u], boxes[b + 2u]);
+    vec3 hi = vec3(boxes[b + 3u], boxes[b + 4u], boxes[b + 5u]);
+
+    // Project the 8 corners: clip-space bounds of the box.
+    vec2 rmin = vec2(1e30), rmax = vec2(-1e30);
+    float zmin = 1e30, wmin = 1e30;
+    for (int c = 0; c < 8; ++c) {
+        vec3 t = vec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        vec4 p = view_proj * vec4(mix(lo, hi, t), 1.0);
+        wmin = min(wmin, p.w);
+        p.w = max(p.w, 1e-30);  // only matters when the box is kept below anyway
+        vec3 ndc = p.xyz / p.w;
+        rmin = min(rmin, ndc.xy);
+        rmax = max(rmax, ndc.xy);
+        zmin = min(zmin, ndc.z);
+    }
+    if (wmin < min_w) {  // reaches the near plane (or behind the eye): keep untested
+        visible[k] = 1u;
+        return;
+    }
+
+    // Pixel centres (i + 0.5, j + 0.5) inside the rectangle, widened by the margin; the
+    // rectangle is clamped first so the float -> int conversion cannot overflow.
+    vec2 wsize = vec2(size);
+    vec2 pmin = clamp((rmin * 0.5 + 0.5) * wsize, vec2(-2.0), wsize + 2.0) - pixel_margin;
+    vec2 pmax = clamp((rmax * 0.5 + 0.5) * wsize, vec2(-2.0), wsize + 2.0) + pixel_margin;
+    ivec2 p0 = max(ivec2(ceil(pmin - 0.5)), ivec2(0));
+    ivec2 p1 = min(ivec2(floor(pmax - 0.5)), size - 1);
+    if (any(greaterThan(p0, p1))) {  // covers no pixel centre
+        visible[k] = 0u;
+        return;
+    }
+
+    // The finest level at which the pixel range spans at most `footprint` texels per axis.
+    int lvl = 0;
+    while (lvl < levels - 1 &&
+           any(greaterThanEqual((p1 >> lvl) - (p0 >> lvl), ivec2(footprint)))) {
+        ++lvl;
+    }
+    ivec2 t0 = p0 >> lvl, t1 = p1 >> lvl;
+    float occluder = 0.0;
+    for (int y = t0.y; y <= t1.y; ++y) {
+        for (int x = t0.x; x <= t1.x; ++x) {
+            occluder = max(occluder, texel(lvl, x, y));
+        }
+    }
+    float nearest = 0.5 * (zmin - depth_bias) + 0.5;  // window depth of the nearest corner
+    visible[k] = nearest <= occluder ? 1u : 0u;
+}

@@ -1,0 +1,205 @@
+"""``hiz-gpu``: the max-depth pyramid is exact at odd sizes, the compute AABB test never culls
+what the oracle sees (random cameras, hard cases, odd and large resolutions, the market, the
+castle), and it culls nearly as much as per-object queries."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import check_conservative
+
+import soc
+from soc.depth_prepass import DepthTarget
+from soc.gl.context import default_context
+from soc.hiz_gpu import DepthPyramid, HizTest, pyramid_sizes, reference_pyramid
+from soc.paths import flight, random_cameras
+from soc.scenes.clutter import box_mesh
+
+HIZ = ["hiz-gpu"]
+
+
+def _pyramid_of(depth: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Upload (H, W) ``depth`` into a depth texture, build the pyramid; return the depth as
+    stored (24-bit) and every level read back."""
+    glctx = default_context()
+    h, w = depth.shape
+    target = DepthTarget(glctx, (w, h))
+    pyramid = DepthPyramid(glctx, (w, h))
+    try:
+        target.texture.write(np.ascontiguousarray(depth, np.float32).tobytes())
+        pyramid.build(target.texture)
+        return target.read(), [pyramid.level(k) for k in range(len(pyramid))]
+    finally:
+        pyramid.release()
+        target.release()
+
+
+def test_pyramid_sizes_halve_with_ceil_to_one_texel():
+    assert pyramid_sizes((7, 5)) == [(7, 5), (4, 3), (2, 2), (1, 1)]
+    assert pyramid_sizes((1920, 1080))[1:3] == [(960, 540), (480, 270)]
+    assert pyramid_sizes((1, 1)) == [(1, 1)]
+
+
+@pytest.mark.parametrize("size", [(7, 5), (13, 9), (8, 8), (1, 6)])
+def test_every_pixel_reaches_exactly_the_texels_standing_for_it(size):
+    """One far pixel (1.0) in a near buffer (0.0), at every position: at every level exactly
+    the texel whose footprint holds that pixel is 1.0 — no pixel is dropped by an odd size and
+    none leaks into a neighbour. 0 and 1 are exact in a 24-bit depth buffer."""
+    w, h = size
+    for y in range(h):
+        for x in range(w):
+            depth = np.zeros((h, w), np.float32)
+            depth[y, x] = 1.0
+            stored, levels = _pyramid_of(depth)
+            for k, (got, want) in enumerate(zip(levels, reference_pyramid(stored), strict=True)):
+                assert np.array_equal(got, want), f"pixel ({x}, {y}) level {k}"
+                assert got.sum() == 1.0, f"pixel ({x}, {y}) level {k}: {got}"
+
+
+@pytest.mark.parametrize("size", [(7, 5), (13, 9), (333, 197)])
+def test_pyramid_levels_are_the_max_over_their_footprint(size):
+    """Random depths: every texel equals the numpy max over the level-0 texels it stands for
+    (within the float rounding of unorm-24 → float, 1 ulp, far below the depth bias)."""
+    w, h = size
+    depth = np.random.default_rng(w * h).random((h, w)).astype(np.float32)
+    stored, levels = _pyramid_of(depth)
+    for k, (got, want) in enumerate(zip(levels, reference_pyramid(stored), strict=True)):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1.2e-7, err_msg=f"level {k}")
+
+
+def test_footprint_option_is_checked():
+    with pytest.raises(ValueError, match="footprint"):
+        HizTest(default_context(), footprint=3)
+
+
+# -- conservative against the oracle ---------------------------------------------------------
+
+
+@pytest.mark.parametrize("resolution", [(320, 192), (333, 197)])
+def test_random_cameras_over_clutter_scenes(clutter_scenes, resolution):
+    """4 scenes × 40 cameras × 2 resolutions = 320 camera checks, footprints 2 and 4."""
+    culled_something = 0
+    for k, scene in enumerate(clutter_scenes):
+        cams = random_cameras(scene, 40, seed=200 + k, width=resolution[0], height=resolution[1])
+        culled_something += check_conservative(scene, cams[:20], resolution, HIZ)
+        culled_something += check_conservative(
+            scene, cams[20:], resolution, HIZ, **{"hiz-gpu": {"footprint": 4}}
+        )
+    assert culled_something > 100  # the scenes really exercise culling
+
+
+def test_clutter_at_a_large_odd_resolution(clutter_scenes):
+    scene = clutter_scenes[1]
+    cams = random_cameras(scene, 6, seed=31, width=2432, height=1440)
+    check_conservative(scene, cams, (2432, 1440), HIZ)
+
+
+@pytest.mark.heavy
+def test_random_cameras_and_flight_over_small_market(small_market):
+    cams = random_cameras(small_market, 30, seed=8, width=480, height=270, inside_fraction=0.2)
+    check_conservative(small_market, cams, (480, 270), HIZ)
+    check_conservative(small_market, flight(small_market, frames=40)[::8], (1920, 1080), HIZ)
+
+
+@pytest.mark.castle
+def test_random_cameras_over_the_castle(data_dir):
+    if data_dir is None:
+        pytest.skip("VISLOD_DATA does not point at the castle files")
+    scene = soc.scenes.castle(data_dir)
+    cams = random_cameras(scene, 24, seed=6, width=480, height=270) + flight(
+        scene, frames=10, width=480, height=270
+    )
+    check_conservative(scene, cams, (480, 270), HIZ)
+
+
+def test_camera_inside_an_objects_aabb():
+    room = box_mesh((-10, 0, -10), (10, 10, 10))
+    wall = box_mesh((-3, 0, -2), (3, 6, -1.5))
+    s = soc.Scene.from_meshes([room, wall], occluder=[False, True])
+    cam = soc.Camera.look_at((0, 3, 2), (0, 3, -5), width=320, height=200, near=0.1, far=100)
+    check_conservative(s, [cam], (320, 200), HIZ)
+    with soc.Culler(s, method="hiz-gpu", resolution=(320, 200)) as c:
+        assert c.cull(cam).visible[0]
+
+
+def test_object_crossing_the_near_plane_and_behind_the_camera():
+    beam = box_mesh((-0.2, 1.9, -20), (0.2, 2.1, 5))
+    behind = box_mesh((-1, 1, 3), (1, 3, 4))
+    wall = box_mesh((-5, 0, -3), (5, 5, -2))
+    s = soc.Scene.from_meshes([beam, behind, wall], occluder=[False, False, True])
+    cam = soc.Camera.look_at((0, 2, 0), (0, 2, -10), width=320, height=200, near=0.5, far=100)
+    check_conservative(s, [cam], (320, 200), HIZ)
+
+
+def test_box_shaped_occluders_see_themselves():
+    """Occluder meshes equal to their AABBs: the tested box coincides with the depth."""
+    boxes = [
+        box_mesh((x, 0, z), (x + 2, 1 + abs(x) % 3, z + 2))
+        for x in range(-8, 8, 3)
+        for z in range(-8, 8, 3)
+    ]
+    s = soc.Scene.from_meshes(boxes, occluder=np.ones(len(boxes), bool))
+    cams = random_cameras(s, 40, seed=3, width=256, height=256, inside_fraction=0.0)
+    check_conservative(s, cams, (256, 256), HIZ)
+
+
+def test_pillar_and_flat_decals_on_a_wall_top():
+    """Flat decals lying in (and a millimetre above) a wall's top face, seen at grazing angles."""
+    wall = box_mesh((-5, 0, -0.5), (5, 4, 0.5))
+    pillar = box_mesh((-0.2, 4, -0.2), (0.2, 4.05, 0.2))
+    decal = (
+        np.array([[1, 4, -0.5], [2, 4, -0.5], [2, 4, 0.5], [1, 4, 0.5]], np.float32),
+        np.array([[0, 1, 2], [0, 2, 3]]),
+    )
+    hover = (decal[0] + np.float32([0, 1e-3, 0]) - np.float32([3, 0, 0]), decal[1])
+    s = soc.Scene.from_meshes([wall, pillar, decal, hover], occluder=[True, False, False, False])
+    cams = [
+        soc.Camera.look_at((0, 4 + h, 12), (0, 4, 0), width=400, height=300, near=0.2, far=80)
+        for h in (0.05, 0.3, 1.0, 5.0)
+    ]
+    check_conservative(s, cams, (400, 300), HIZ)
+
+
+def test_box_covering_no_pixel_centre_is_culled_and_one_covering_a_centre_is_kept():
+    """Exact pixel-centre rule: at 4×4 pixels, a box whose projection lies between centres is
+    hidden (it has no sample), a box around one centre is kept, with nothing occluding."""
+    glctx = default_context()
+    cam = soc.Camera.look_at((0, 0, 10), (0, 0, 0), fov_y=90.0, width=4, height=4, near=1, far=20)
+    target, pyramid, tester = (
+        DepthTarget(glctx, (4, 4)),
+        DepthPyramid(glctx, (4, 4)),
+        HizTest(glctx),
+    )
+    try:
+        target.clear()
+        pyramid.build(target.texture)
+        # At z = 0 the view spans [-10, 10]: pixel width 5 world units, centres at ±2.5, ±7.5.
+        between = [[-0.5, -0.5, -0.1], [0.5, 0.5, 0.1]]  # around x = 0: a pixel border
+        around = [[2.0, 2.0, -0.1], [3.0, 3.0, 0.1]]  # around the centre (2.5, 2.5)
+        got = tester.test_boxes(pyramid, cam, np.array([between, around]), diagonal=1.0)
+        assert got.tolist() == [False, True]
+    finally:
+        tester.release()
+        pyramid.release()
+        target.release()
+
+
+# -- it culls -------------------------------------------------------------------------------
+
+
+@pytest.mark.heavy
+def test_culls_nearly_what_queries_cull_on_the_market_flight(small_market):
+    """At the display resolution, a 2×2-texel footprint is nearly as tight as a query per box:
+    hiz-gpu occlusion-culls at least 80 % of what ``queries`` occlusion-culls."""
+    cams = flight(small_market, frames=20, width=960, height=540)[::4]
+    res = (960, 540)
+    hiz_culled = queries_culled = 0
+    with (
+        soc.Culler(small_market, method="hiz-gpu", resolution=res) as hiz,
+        soc.Culler(small_market, method="queries", resolution=res) as queries,
+    ):
+        for cam in cams:
+            hiz_culled += hiz.cull(cam).stats.occlusion_culled
+            queries_culled += queries.cull(cam).stats.occlusion_culled
+    assert queries_culled > 0
+    assert hiz_culled >= 0.8 * queries_culled, (hiz_culled, queries_culled)
