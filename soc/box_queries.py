@@ -29,7 +29,8 @@ class QueryBatch:
 
     def __init__(self, owner: BoxQueries, query_ids: list[int], at_near: np.ndarray):
         self._owner = owner
-        self._ids = query_ids  # one per drawn box, in order of ~at_near
+        self._ids = query_ids  # one per drawn box, in order of ~at_near; emptied once read
+        self._issued = len(query_ids)
         self._at_near = at_near
         self._results: np.ndarray | None = None
 
@@ -39,7 +40,7 @@ class QueryBatch:
     @property
     def issued(self) -> int:
         """Queries actually issued (boxes at the near plane are not queried)."""
-        return len(self._ids)
+        return self._issued
 
     def ready(self) -> bool:
         """True when every result can be read without waiting (never blocks).
@@ -79,7 +80,8 @@ class BoxQueries:
     glctx : GLContext
     diagonal : float
         The scene's diagonal, world units: boxes are grown by the same conservative margin as
-        the per-object queries (``soc.gl.geometry.grown_aabbs``).
+        the per-object queries (``soc.gl.geometry.grown_aabbs``). Pass raw boxes (scene AABBs
+        or unions of them), not ``geometry.query_boxes``, which are grown already.
     """
 
     def __init__(self, glctx, diagonal: float):

@@ -16,11 +16,26 @@ import soc
 from soc.paths import flight, random_cameras
 from soc.scenes.clutter import box_mesh
 
+# Seed 000's methods; each later method runs the random-camera checks in its own test file.
 CONSERVATIVE = ["none", "frustum", "queries"]
+# Temporal methods are conservative without reuse between frames: test them that way.
+STRICT_OPTIONS = {"grid": {"temporal": False}, "chc": {"temporal": False}}
+
+
+def every_conservative_method(scene) -> list[str]:
+    """Every registered method that can cull ``scene`` and is conservative (strictly run)."""
+    from soc.methods import METHODS
+
+    return [m for m in soc.method_names(scene) if METHODS[m].conservative or m in STRICT_OPTIONS]
 
 
 def _check(scene, cameras, resolution, methods=CONSERVATIVE):
-    return check_conservative(scene, cameras, resolution, methods)
+    return check_conservative(scene, cameras, resolution, methods, **STRICT_OPTIONS)
+
+
+def _check_all(scene, cameras, resolution):
+    """The hard cases, for every conservative method."""
+    return _check(scene, cameras, resolution, every_conservative_method(scene))
 
 
 @pytest.mark.parametrize("resolution", [(320, 192), (333, 197)])
@@ -52,7 +67,7 @@ def test_camera_inside_an_objects_aabb():
     wall = box_mesh((-3, 0, -2), (3, 6, -1.5))
     s = soc.Scene.from_meshes([(room_v, room_f), wall], occluder=[False, True])
     cam = soc.Camera.look_at((0, 3, 2), (0, 3, -5), width=320, height=200, near=0.1, far=100)
-    _check(s, [cam], (320, 200))
+    _check_all(s, [cam], (320, 200))
     with soc.Culler(s, method="queries", resolution=(320, 200)) as c:
         assert c.cull(cam).visible[0]
 
@@ -63,7 +78,7 @@ def test_object_crossing_the_near_plane():
     wall = box_mesh((-5, 0, -3), (5, 5, -2))
     s = soc.Scene.from_meshes([beam, wall], occluder=[False, True])
     cam = soc.Camera.look_at((0, 2, 0), (0, 2, -10), width=320, height=200, near=0.5, far=100)
-    _check(s, [cam], (320, 200))
+    _check_all(s, [cam], (320, 200))
 
 
 def test_box_shaped_occluders_see_themselves():
@@ -76,7 +91,7 @@ def test_box_shaped_occluders_see_themselves():
     ]
     s = soc.Scene.from_meshes(boxes, occluder=np.ones(len(boxes), bool))
     cams = random_cameras(s, 40, seed=3, width=256, height=256, inside_fraction=0.0)
-    _check(s, cams, (256, 256))
+    _check_all(s, cams, (256, 256))
 
 
 def test_pillar_and_decal_on_a_wall_top():
@@ -94,7 +109,7 @@ def test_pillar_and_decal_on_a_wall_top():
         soc.Camera.look_at((0, 4 + h, 12), (0, 4, 0), width=400, height=300, near=0.2, far=80)
         for h in (0.05, 0.3, 1.0, 5.0)
     ]
-    _check(s, cams, (400, 300))
+    _check_all(s, cams, (400, 300))
     assert soc.exact_visibility(s, cams[-1], (400, 300))[[1, 3]].all()  # really visible
 
 

@@ -123,10 +123,10 @@ def test_queries_at_display_resolution_never_cull_a_visible_object(demo_run, set
     assert all(r["false_culls"] == 0 for r in rows)
 
 
-def test_abb8_left_has_every_method_and_the_ideal(demo_run):
+def test_abb8_left_has_every_method_and_the_ideal(demo_run, scene):
     out, _ = demo_run
     methods = [r["method"] for r in read_csv(out / "seed000_abb8_methods.csv")]
-    assert methods == [*soc.method_names(), "oracle (ideal)"]
+    assert methods == [*soc.method_names(scene), "oracle (ideal)"]
     ideal = read_csv(out / "seed000_abb8_methods.csv")[-1]
     none = read_csv(out / "seed000_abb8_methods.csv")[methods.index("none")]
     assert _num(none["triangles_culled_pct"]) == 0.0
@@ -154,11 +154,11 @@ def test_abb9_each_stage_culls_at_least_as_many(demo_run, scene):
         assert _num(r["doc_models_culled"]) == pytest.approx(expected)
 
 
-def test_abb10_summary(demo_run, setup):
+def test_abb10_summary(demo_run, setup, scene):
     out, result = demo_run
     table = read_csv(out / "seed000_abb10_table.csv")
     groups = [r["group"] for r in table]
-    assert groups.count("method") == len(soc.method_names())
+    assert groups.count("method") == len(soc.method_names(scene))
     assert groups.count("ideal") == 1
     assert groups.count("depth resolution") == len(setup.resolutions)
     for r in table:

@@ -1,9 +1,11 @@
 """Scene sources: the generated default town (``market``), Intel's castle (``castle``), mesh
-files through trimesh (``load``), and small generated scenes for tests (``boxes``)."""
+files through trimesh (``load``), indoor rooms joined by portals (``rooms``) and a small scene
+of culling's hard cases for tests (``clutter``)."""
 
 from soc.scenes.castle import castle
 from soc.scenes.clutter import clutter
 from soc.scenes.files import load
 from soc.scenes.market import market
+from soc.scenes.rooms import rooms, rooms_walk
 
-__all__ = ["castle", "clutter", "load", "market"]
+__all__ = ["castle", "clutter", "load", "market", "rooms", "rooms_walk"]

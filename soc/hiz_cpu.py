@@ -1,0 +1,179 @@
+"""Hierarchical z-buffer on the CPU: a max-depth pyramid and vectorized AABB tests against it.
+
+The hierarchical z-buffer of Greene, Kass and Miller ("Hierarchical Z-buffer visibility",
+SIGGRAPH 1993) as used by Intel's Software Occlusion Culling framework (seed 000) behind its
+software rasterizers: every level holds, per texel, the *farthest* occluder depth of the
+2×2 texels below it, so one texel read bounds a whole screen rectangle. Stages:
+
+1. :func:`build_pyramid` — max-reduce the occluder depth buffer level by level; odd sizes are
+   padded with 1.0 (far) to a multiple of 2, which can only make a texel farther.
+2. :func:`project_boxes` — all candidate boxes at once: pixel rectangle of their pixel
+   centres, and nearest window depth (of the nearest corner; window depth is monotonic in
+   view depth), pulled nearer by the query depth bias.
+3. :func:`boxes_visible` — per box, the pyramid level at which its rectangle spans at most 2×2
+   texels, and the comparison of its nearest depth with the max of those texels.
+
+Conservativeness promise: given an occluder depth buffer never nearer than GL's (as
+:mod:`soc.software_raster` makes it), a box is reported hidden only when, at every pixel
+centre its projection can cover, the occluder depth is nearer than the box's nearest point
+(minus the depth bias). A rectangle that contains no pixel centre is hidden: the mesh inside
+the box covers a subset of the box's samples. Boxes must lie in front of the near plane
+(callers keep near-plane straddlers without a test, :func:`soc.queries.near_plane_straddlers`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from soc.constants import QUERY_DEPTH_BIAS_NDC
+
+# Box rectangles are grown by this many pixels on every side before taking the pixel centres
+# they contain: GL's sub-pixel snapping and float32 transform can move a box edge onto a
+# pixel centre we would otherwise leave out.
+RECT_MARGIN_PX = 1.0 / 64.0
+
+# The box depth is pulled nearer by the float32 error of GL's vertex transform, in multiples
+# of the unit roundoff times the sum of the absolute terms (as in soc.software_raster).
+FLOAT32_TRANSFORM_ULPS = 8.0
+
+_U32 = 2.0**-24
+
+
+@dataclass(frozen=True)
+class Pyramid:
+    """Max-depth pyramid of a (H, W) depth buffer.
+
+    Attributes
+    ----------
+    flat : (S,) float32 tensor
+        All levels, level 0 first, each row-major (row 0 at the bottom).
+    offsets : (L,) int64 tensor
+        Start of each level in ``flat``.
+    widths, heights : (L,) int64 tensors
+        Size of each level in texels; level ``k + 1`` is ``ceil(level k / 2)``.
+    """
+
+    flat: torch.Tensor
+    offsets: torch.Tensor
+    widths: torch.Tensor
+    heights: torch.Tensor
+
+    @property
+    def levels(self) -> int:
+        return len(self.offsets)
+
+    def level(self, k: int) -> torch.Tensor:
+        """(h_k, w_k) float32 view of level ``k``."""
+        h, w, o = int(self.heights[k]), int(self.widths[k]), int(self.offsets[k])
+        return self.flat[o : o + h * w].view(h, w)
+
+
+def build_pyramid(depth: torch.Tensor) -> Pyramid:
+    """Max pyramid of ``depth`` (H, W) float32 window depth, down to a single texel.
+
+    Texel ``(y, x)`` of level ``k`` is >= every level-0 texel in rows ``y * 2**k ...`` and
+    columns ``x * 2**k ...`` (equal to their max when no padding was needed).
+    """
+    depth = torch.as_tensor(depth, dtype=torch.float32)
+    if depth.ndim != 2 or depth.numel() == 0:
+        raise ValueError(f"depth must be a non-empty (H, W) array, got shape {tuple(depth.shape)}")
+    levels = [depth.contiguous()]
+    while levels[-1].shape[0] > 1 or levels[-1].shape[1] > 1:
+        d = levels[-1]
+        h, w = d.shape
+        pad = (0, w % 2, 0, h % 2)  # right, bottom (= top rows here) padding with far
+        d = torch.nn.functional.pad(d, pad, value=1.0)
+        levels.append(torch.nn.functional.max_pool2d(d[None, None], 2)[0, 0].contiguous())
+    heights = torch.tensor([lv.shape[0] for lv in levels])
+    widths = torch.tensor([lv.shape[1] for lv in levels])
+    sizes = heights * widths
+    offsets = torch.cumsum(sizes, 0) - sizes
+    return Pyramid(torch.cat([lv.reshape(-1) for lv in levels]), offsets, widths, heights)
+
+
+def project_boxes(
+    boxes: np.ndarray, view_proj: np.ndarray, resolution: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel rectangles and nearest depths of boxes in front of the near plane.
+
+    Parameters
+    ----------
+    boxes : (K, 2, 3) float
+        Min and max corners, world units (the grown query boxes).
+    view_proj : (4, 4) float
+    resolution : (width, height)
+
+    Returns
+    -------
+    rect : (K, 4) int64
+        ``x0, y0, x1, y1``: inclusive pixel range whose centres the box can cover, clamped to
+        the buffer; ``x0 > x1`` or ``y0 > y1`` when it covers none.
+    z_near : (K,) float64
+        Nearest window depth of the box, pulled nearer by half of
+        :data:`soc.constants.QUERY_DEPTH_BIAS_NDC` (its window-depth equivalent) and by a
+        bound on GL's float32 error.
+    """
+    width, height = resolution
+    boxes = np.asarray(boxes, np.float64)
+    m = np.asarray(view_proj, np.float64)
+    bits = (np.arange(8)[:, None] >> np.arange(3)) & 1  # (8, 3) corner selectors
+    corners = np.where(bits[None], boxes[:, None, 1], boxes[:, None, 0])  # (K, 8, 3)
+    clip = corners @ m[:, :3].T + m[:, 3]
+    mag = np.abs(corners) @ np.abs(m[:, :3]).T + np.abs(m[:, 3])
+    w = clip[..., 3]
+    ndc = clip[..., :3] / w[..., None]
+    x = (ndc[..., 0] + 1) * (0.5 * width)
+    y = (ndc[..., 1] + 1) * (0.5 * height)
+    err = FLOAT32_TRANSFORM_ULPS * _U32 * (mag[..., 2] + mag[..., 3]) * (1 + np.abs(ndc[..., 2]))
+    z = 0.5 * (ndc[..., 2] + 1) - 0.5 * err / w
+    z_near = z.min(1) - 0.5 * QUERY_DEPTH_BIAS_NDC
+
+    def centres(lo: np.ndarray, hi: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+        # Pixel centres c + 0.5 in [lo - margin, hi + margin], clamped to [0, n - 1].
+        first = np.ceil(np.clip(lo - RECT_MARGIN_PX - 0.5, -1, n))
+        last = np.floor(np.clip(hi + RECT_MARGIN_PX - 0.5, -1, n))
+        return np.clip(first, 0, n).astype(np.int64), np.clip(last, -1, n - 1).astype(np.int64)
+
+    x0, x1 = centres(x.min(1), x.max(1), width)
+    y0, y1 = centres(y.min(1), y.max(1), height)
+    return np.stack([x0, y0, x1, y1], 1), z_near
+
+
+def boxes_visible(pyramid: Pyramid, rect: np.ndarray, z_near: np.ndarray) -> np.ndarray:
+    """(K,) bool: True where a box may be visible (not hidden by the pyramid).
+
+    Parameters
+    ----------
+    pyramid : Pyramid
+        Of a conservative (never too near) occluder depth buffer.
+    rect : (K, 4) int64
+        Inclusive pixel rectangles ``x0, y0, x1, y1`` (:func:`project_boxes`).
+    z_near : (K,) float
+        Nearest window depth of each box, bias already applied.
+
+    A box is visible when its nearest depth is <= the max occluder depth over the (at most
+    2×2) texels covering its rectangle at the finest level where it spans at most 2×2.
+    """
+    rect = torch.as_tensor(np.asarray(rect, np.int64))
+    z = torch.as_tensor(np.asarray(z_near, np.float64))
+    x0, y0, x1, y1 = rect.unbind(1)
+    nonempty = (x0 <= x1) & (y0 <= y1)
+    x0, y0, x1, y1, z = x0[nonempty], y0[nonempty], x1[nonempty], y1[nonempty], z[nonempty]
+    # Finest level k with (x1 >> k) - (x0 >> k) <= 1 and likewise in y.
+    shifts = torch.arange(pyramid.levels)
+    fits = (((x1[:, None] >> shifts) - (x0[:, None] >> shifts)) <= 1) & (
+        ((y1[:, None] >> shifts) - (y0[:, None] >> shifts)) <= 1
+    )
+    k = fits.to(torch.int8).argmax(1)  # the top level (1×1) always fits
+    tx0, tx1, ty0, ty1 = x0 >> k, x1 >> k, y0 >> k, y1 >> k
+    base, wk = pyramid.offsets[k], pyramid.widths[k]
+    texels = torch.stack(
+        [base + ty * wk + tx for ty in (ty0, ty1) for tx in (tx0, tx1)], 1
+    )  # (K', 4) flat indices; repeated when the rectangle spans one texel
+    farthest = pyramid.flat[texels].amax(1).to(torch.float64)
+    visible = torch.zeros(len(rect), dtype=torch.bool)
+    visible[nonempty] = z <= farthest
+    return visible.numpy()

@@ -1,0 +1,178 @@
+"""``hiz-cpu``: the max pyramid on hand-made arrays, the box test on hand-made cases, and the
+method against the exact oracle (conservative), against ``queries`` (it culls) and at every
+depth resolution of seed 000's Abb. 8 table."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from conftest import check_conservative
+
+import soc
+from soc.hiz_cpu import boxes_visible, build_pyramid, project_boxes
+from soc.paths import flight, random_cameras
+from soc.scenes.clutter import box_mesh
+
+ABB8_RESOLUTIONS = [(320, 192), (640, 360), (1280, 720), (1920, 1080), (2432, 1440), (3840, 2160)]
+
+
+# -- the pyramid ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (5, 7), (1, 9), (13, 1), (6, 8), (197, 333)])
+def test_pyramid_texels_bound_the_pixels_they_stand_for(shape):
+    """Every texel of level k is >= the max of its 2^k × 2^k block of level 0, and equal to
+    it where the block lies wholly inside the buffer (no padding with 1.0 involved)."""
+    rng = np.random.default_rng(sum(shape))
+    depth = rng.uniform(0.2, 0.9, shape).astype(np.float32)
+    pyr = build_pyramid(torch.as_tensor(depth))
+    assert (int(pyr.heights[-1]), int(pyr.widths[-1])) == (1, 1)
+    h, w = shape
+    for k in range(pyr.levels):
+        s = 2**k
+        level = pyr.level(k).numpy()
+        assert level.shape == (-(-h // s), -(-w // s))
+        padded = np.full((level.shape[0] * s, level.shape[1] * s), -np.inf, np.float32)
+        padded[:h, :w] = depth
+        block_max = padded.reshape(level.shape[0], s, level.shape[1], s).max(axis=(1, 3))
+        assert (level >= block_max).all(), f"level {k} nearer than the pixels below it"
+        full = np.zeros(level.shape, bool)
+        full[: h // s, : w // s] = True
+        np.testing.assert_array_equal(level[full], block_max[full])
+
+
+def test_pyramid_rejects_a_bad_shape():
+    with pytest.raises(ValueError, match="shape"):
+        build_pyramid(torch.zeros(3))
+
+
+# -- the box test --------------------------------------------------------------------------
+
+
+def _wall_case(z_box_near: float, x=(-0.5, 0.5), y=(-0.5, 0.5)):
+    """A camera at the origin looking down -z at a depth buffer holding a wall at z = -5."""
+    cam = soc.Camera.look_at((0, 0, 0), (0, 0, -1), width=60, height=36, near=0.5, far=50)
+    clip = cam.projection @ np.array([0, 0, -5.0, 1])
+    wall = np.float32(0.5 * (clip[2] / clip[3] + 1))
+    pyr = build_pyramid(torch.full((36, 60), float(wall)))
+    box = np.array([[[x[0], y[0], -z_box_near - 1], [x[1], y[1], -z_box_near]]])
+    rect, z = project_boxes(box, cam.view_proj, (60, 36))
+    return boxes_visible(pyr, rect, z)[0]
+
+
+def test_box_in_front_of_the_wall_is_visible_and_behind_it_hidden():
+    assert _wall_case(3.0)
+    assert not _wall_case(7.0)
+
+
+def test_box_touching_the_wall_is_visible():
+    """A box whose near face lies in the wall (coplanar): the depth bias keeps it."""
+    assert _wall_case(5.0)
+
+
+def test_box_covering_no_pixel_centre_is_hidden():
+    """A box far smaller than a pixel, between pixel centres, can produce no sample."""
+    assert not _wall_case(3.0, x=(0.001, 0.002), y=(0.001, 0.002))
+
+
+# -- the method against the oracle (conservative) --------------------------------------------
+
+
+@pytest.mark.parametrize("resolution", [(320, 192), (333, 197)])
+def test_conservative_over_clutter_scenes(clutter_scenes, resolution):
+    """4 scenes × 30 cameras × 2 resolutions = 240 camera checks."""
+    culled_something = 0
+    for k, scene in enumerate(clutter_scenes):
+        cams = random_cameras(scene, 30, seed=200 + k, width=resolution[0], height=resolution[1])
+        culled_something += check_conservative(scene, cams, resolution, ["hiz-cpu"])
+    assert culled_something > 50
+
+
+def test_conservative_at_a_large_odd_resolution(clutter_scenes):
+    cams = random_cameras(clutter_scenes[1], 4, seed=11, width=2432, height=1440)
+    check_conservative(clutter_scenes[1], cams, (2432, 1440), ["hiz-cpu"])
+
+
+def test_conservative_in_hard_cases():
+    """Box occluders whose mesh is their AABB, a camera inside a room's AABB, a beam through
+    the near plane, and a pillar and decal lying on a wall top seen at grazing angles."""
+    boxes = [
+        box_mesh((x, 0, z), (x + 2, 1 + abs(x) % 3, z + 2))
+        for x in range(-8, 8, 3)
+        for z in range(-8, 8, 3)
+    ]
+    s = soc.Scene.from_meshes(boxes, occluder=np.ones(len(boxes), bool))
+    cams = random_cameras(s, 40, seed=3, width=256, height=256, inside_fraction=0.0)
+    check_conservative(s, cams, (256, 256), ["hiz-cpu"])
+
+    room = box_mesh((-10, 0, -10), (10, 10, 10))
+    beam = box_mesh((-0.2, 1.9, -20), (0.2, 2.1, 5))
+    wall = box_mesh((-3, 0, -3), (3, 6, -2))
+    s = soc.Scene.from_meshes([room, beam, wall], occluder=[False, False, True])
+    cam = soc.Camera.look_at((0, 2, 0), (0, 2, -5), width=320, height=200, near=0.5, far=100)
+    check_conservative(s, [cam], (320, 200), ["hiz-cpu"])
+
+    wall = box_mesh((-5, 0, -0.5), (5, 4, 0.5))
+    pillar = box_mesh((-0.2, 4, -0.2), (0.2, 4.05, 0.2))
+    decal = (
+        np.array([[1, 4, -0.5], [2, 4, -0.5], [2, 4, 0.5], [1, 4, 0.5]], np.float32),
+        np.array([[0, 1, 2], [0, 2, 3]]),
+    )
+    s = soc.Scene.from_meshes([wall, pillar, decal], occluder=[True, False, False])
+    cams = [
+        soc.Camera.look_at((0, 4 + h, 12), (0, 4, 0), width=333, height=197, near=0.2, far=80)
+        for h in (0.05, 0.3, 1.0, 5.0)
+    ]
+    check_conservative(s, cams, (333, 197), ["hiz-cpu"])
+
+
+@pytest.mark.heavy
+def test_conservative_over_the_small_market(small_market):
+    cams = random_cameras(small_market, 20, seed=7, width=480, height=270, inside_fraction=0.2)
+    cams += flight(small_market, 10, width=480, height=270)
+    check_conservative(small_market, cams, (480, 270), ["hiz-cpu"])
+
+
+@pytest.mark.castle
+def test_conservative_over_the_castle(data_dir):
+    if data_dir is None:
+        pytest.skip("VISLOD_DATA does not point at the castle files")
+    scene = soc.scenes.castle(data_dir)
+    cams = random_cameras(scene, 20, seed=5, width=480, height=270)
+    cams += flight(scene, 10, width=480, height=270)
+    check_conservative(scene, cams, (480, 270), ["hiz-cpu"])
+
+
+# -- it culls, and it runs everywhere --------------------------------------------------------
+
+
+def test_culls_most_of_what_queries_culls(small_market):
+    """Over the flight at 320×192 the pyramid test culls at least 80 % of the objects that
+    per-object GL queries cull (it tests a rectangle at its nearest depth, queries the box)."""
+    res = (320, 192)
+    cams = flight(small_market, 8, width=res[0], height=res[1])
+    culled = {}
+    for m in ("hiz-cpu", "queries"):
+        with soc.Culler(small_market, method=m, resolution=res) as c:
+            culled[m] = sum(int((~c.cull(cam).visible).sum()) for cam in cams)
+    assert culled["hiz-cpu"] >= 0.8 * culled["queries"], culled
+
+
+@pytest.mark.heavy
+def test_runs_at_every_abb8_resolution_on_the_full_market():
+    scene = soc.scenes.market()
+    cam = flight(scene, 5)[0]  # the start: most occluder triangles in view
+    for res in ABB8_RESOLUTIONS:
+        with soc.Culler(scene, method="hiz-cpu", resolution=res, threads=2) as c:
+            r = c.cull(cam.with_resolution(res))
+            assert c.method.last_depth.shape == (res[1], res[0])
+        assert 0 < r.stats.models_visible < len(scene)
+
+
+def test_import_soc_does_not_import_torch_through_this_method():
+    import subprocess
+    import sys
+
+    code = "import sys, soc; assert 'torch' not in sys.modules, 'torch imported'"
+    subprocess.run([sys.executable, "-c", code], check=True)
