@@ -37,8 +37,9 @@ test: setup
 bench: setup
 	MPLBACKEND=Agg $(PY) -m experiments.bench $(ARGS)
 
-# Every figure of the source documents; today seed 000's (the demo). Grows with issue 6.
-figures: demo
+# Every figure of the source documents; today seed 000's with every culling method.
+figures: setup
+	MPLBACKEND=Agg $(PY) -m experiments.cli demo --scene $(DEMO_SCENE) --methods all $(ARGS)
 
 lint: setup
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .

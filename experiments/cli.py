@@ -106,7 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
         nargs="+",
         default=None,
         metavar="NAME",
-        help="methods for Abb. 8 left and Abb. 10 (default: all registered)",
+        help="methods for Abb. 8 left and Abb. 10 (default: none frustum queries hiz-gpu; "
+        "'all': every registered method)",
     )
     demo.add_argument(
         "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"

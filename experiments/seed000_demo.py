@@ -31,12 +31,20 @@ from experiments.common import (
 from experiments.seed000_flight import merge_specs, run_all
 
 
+# The demo's default: seed 000's methods and the fastest conservative one, so that the full
+# flight stays within 15 minutes on 2 cores. ``--methods all`` runs every method.
+DEMO_METHODS = ("none", "frustum", "queries", "hiz-gpu")
+
+
 def check_methods(methods: list[str] | None) -> list[str]:
-    """``methods`` (default: every registered method), :class:`UsageError` for unknown names."""
+    """``methods`` (default: :data:`DEMO_METHODS`; ``["all"]``: every registered method),
+    :class:`UsageError` for unknown names."""
     import soc
 
     known = soc.method_names()
     if methods is None:
+        return [m for m in DEMO_METHODS if m in known]
+    if methods == ["all"]:
         return known
     bad = [m for m in methods if m not in known]
     if bad:

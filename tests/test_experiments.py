@@ -61,13 +61,24 @@ def demo_run(tmp_path_factory, scene, setup):
     """One quick demo on clutter, shared by the tests that read its results."""
     out = tmp_path_factory.mktemp("results")
     result = seed000_demo.demo(
-        setup, scene_name="clutter", scene=scene, out=out, progress=False, verbose=False
+        setup,
+        scene_name="clutter",
+        scene=scene,
+        out=out,
+        methods=["all"],
+        progress=False,
+        verbose=False,
     )
     return out, result
 
 
 def _num(x: str) -> float:
     return float(x) if x != "" else float("nan")
+
+
+def test_demo_default_methods_fit_the_time_budget():
+    assert seed000_demo.check_methods(None) == list(seed000_demo.DEMO_METHODS)
+    assert seed000_demo.check_methods(["all"]) == soc.method_names()
 
 
 def test_demo_writes_every_file(demo_run):
