@@ -30,7 +30,6 @@ from experiments.common import (
 )
 from experiments.seed000_flight import merge_specs, run_all
 
-
 # The demo's default: seed 000's methods and the fastest conservative one, so that the full
 # flight stays within 15 minutes on 2 cores. ``--methods all`` runs every method.
 DEMO_METHODS = ("none", "frustum", "queries", "hiz-gpu")
