@@ -1,5 +1,5 @@
-"""GPU hierarchical-z occlusion tests: a max-depth pyramid built by compute shaders, and one
-compute dispatch that tests many AABBs against it.
+"""GPU hierarchical-z occlusion tests: a max-depth pyramid built by fragment shaders, and one
+compute dispatch that tests many AABBs against the frustum and the pyramid.
 
 Greene, Kass & Miller, "Hierarchical Z-buffer visibility" (SIGGRAPH 1993): a pyramid whose
 texels hold the farthest depth of the pixels below them answers "is this box behind the
@@ -12,12 +12,18 @@ Stages, in the order a frame runs them:
 
 1. :meth:`DepthPyramid.build` — level 0 is the occluder depth texture itself; level k+1 has
    ``ceil(size_k / 2)`` texels per axis and each texel is the max of its 2×2 texels of level k,
-   with the odd last row/column clamped away (``hiz_reduce.comp.glsl``, one dispatch a level).
+   with the odd last row/column clamped away (``hiz_reduce*.frag.glsl``, one full-viewport
+   triangle a level, levels 1 and 2 in one pass: llvmpipe writes render targets 2–3× faster
+   than SSBOs or images, and its cost is mostly per fragment).
    By induction texel ``x`` of level k stands for exactly the level-0 columns
    ``[x·2^k, min((x+1)·2^k, W))`` (likewise rows), so the levels cover every pixel at every
-   resolution, powers of two or not. Levels >= 1 live in one float SSBO, level after level.
-2. :meth:`HizTest.test` — one invocation per candidate box (``hiz_test.comp.glsl``), results
-   in a uint SSBO read back once after ``memory_barrier()``.
+   resolution, powers of two or not. Levels 1–2 are packed in one RGBA texture and levels
+   >= 3 are rectangles of one R32F texture (:func:`atlas_layout`), so the test shader can
+   pick any level per box.
+2. :meth:`HizTest.classify` — one invocation per candidate box (``hiz_test.comp.glsl``):
+   outside the frustum (the p-vertex test of :mod:`soc.frustum` on the grown box, with a slack
+   for float32 rounding), else occluded or visible; results in a uint SSBO read back once
+   after ``memory_barrier()``.
 
 Why the test is conservative (an object the exact id render sees is never reported hidden):
 
@@ -46,7 +52,7 @@ from __future__ import annotations
 import numpy as np
 
 from soc.camera import Camera
-from soc.constants import NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
+from soc.constants import FRUSTUM_SLACK, NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
 from soc.gl.geometry import grown_aabbs
 
 # Pixels added on every side of a box's projected rectangle before choosing the pixel centres
@@ -58,15 +64,25 @@ HIZ_PIXEL_MARGIN = 1.0 / 32.0
 # or 4 (≤ 16 reads, one level finer, tighter for boxes that straddle texel borders).
 FOOTPRINTS = (2, 4)
 
-# Compute work-group sizes (must match the ``local_size`` of the shaders).
-REDUCE_GROUP = 16  # 16×16 texels of the level being written
+# Compute work-group size of hiz_test.comp (must match its ``local_size``).
 TEST_GROUP = 64  # boxes
 
 # The test shader's uniform array of per-level (offset, width, height); 24 levels reach 2^23 px.
 MAX_LEVELS = 24
 
-# Texture units the shaders sample the depth texture from.
+# Results of :meth:`HizTest.classify` (``MaskedOcclusionCulling``'s OCCLUDED / VISIBLE /
+# VIEW_CULLED).
+OCCLUDED, VISIBLE, OUTSIDE = 0, 1, 2
+
+# Relative allowance for float32 rounding in the shader's frustum-plane test (a few ulps of
+# the magnitudes summed, 1.2e-7 each, with a wide margin): a box is reported outside only
+# when it is outside by more than this and FRUSTUM_SLACK; nearer boxes go to the HiZ test.
+PLANE_ROUNDING = 1e-5
+
+# Texture units the shaders sample the depth texture, the quads and the atlas from.
 _DEPTH_UNIT = 0
+_QUADS_UNIT = 1
+_ATLAS_UNIT = 2
 
 
 def pyramid_sizes(resolution: tuple[int, int]) -> list[tuple[int, int]]:
@@ -93,39 +109,88 @@ def reference_pyramid(depth: np.ndarray) -> list[np.ndarray]:
     return out
 
 
+def atlas_layout(sizes: list[tuple[int, int]]) -> tuple[list[tuple[int, int]], tuple[int, int]]:
+    """Corners of the levels 3.. of ``sizes`` (as :func:`pyramid_sizes`) in one 2D atlas, and
+    its (width, height): level 3 at the origin, levels 4.. stacked upwards in the column to its
+    right; levels 0–2 (not in the atlas) get ``(-1, -1)``. Levels never overlap."""
+    corners = [(-1, -1)] * min(len(sizes), 3)
+    if len(sizes) <= 3:
+        return corners, (1, 1)
+    x, y = sizes[3][0], 0
+    corners.append((0, 0))
+    for _w, h in sizes[4:]:
+        corners.append((x, y))
+        y += h
+    width = x + (sizes[4][0] if len(sizes) > 4 else 0)
+    return corners, (width, max(y, sizes[3][1]))
+
+
 class DepthPyramid:
     """Max-depth pyramid of a ``resolution = (W, H)`` depth texture, built on the GPU.
 
-    Level 0 is the depth texture given to :meth:`build` (not copied); levels 1.. are float32
-    window depths in one SSBO (:attr:`buffer`), level k at :attr:`offsets` ``[k]`` (floats),
-    row-major, :attr:`sizes` ``[k]`` texels. Each texel is >= every level-0 depth it stands for.
+    Level 0 is the depth texture given to :meth:`build` (not copied). Levels 1 and 2 are packed
+    in one RGBA32F texture (:attr:`quads`) of level 2's size: texel ``d`` holds the level-1
+    texels ``2d + (0, 0), (1, 0), (0, 1), (1, 1)`` and level-2 texel ``d`` is their max. Levels
+    3.. are disjoint rectangles of one R32F texture (:attr:`atlas`), level k with its lower-left
+    texel at :attr:`corners` ``[k]``. Level k has :attr:`sizes` ``[k]`` texels (row 0 is the
+    bottom row, as in the depth texture), and each texel is >= every level-0 depth it stands
+    for. Float32 window depths throughout.
     """
 
     def __init__(self, glctx, resolution: tuple[int, int]):
+        import moderngl
+
         self.glctx = glctx
         self.resolution = (int(resolution[0]), int(resolution[1]))
         self.sizes = pyramid_sizes(self.resolution)
         if len(self.sizes) > MAX_LEVELS:
             raise ValueError(f"resolution {self.resolution} needs more than {MAX_LEVELS} levels")
-        counts = [w * h for w, h in self.sizes]
-        starts = np.concatenate([[0], np.cumsum(counts[1:])])[: len(counts) - 1]
-        self.offsets = [-1] + [int(o) for o in starts]  # level 0: the texture itself
-        self.buffer = glctx.ctx.buffer(reserve=max(4 * sum(counts[1:]), 4))
-        self.program = glctx.compute("hiz_reduce.comp")
+        self.corners, atlas_size = atlas_layout(self.sizes)
+        ctx = glctx.ctx
+        # Level 2's size, also when the pyramid stops at level 1 (its 1×1 quad then holds it).
+        w1, h1 = self.sizes[min(1, len(self.sizes) - 1)]
+        quads_size = ((w1 + 1) // 2, (h1 + 1) // 2)
+        self.quads = ctx.texture(quads_size, 4, dtype="f4")
+        self.atlas = ctx.texture(atlas_size, 1, dtype="f4")
+        for t in (self.quads, self.atlas):
+            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.quads_fbo = ctx.framebuffer(color_attachments=[self.quads])
+        self.atlas_fbo = ctx.framebuffer(color_attachments=[self.atlas])
+        self.programs = [
+            glctx.program("hiz_reduce.vert", f"{name}.frag")
+            for name in ("hiz_reduce_depth", "hiz_reduce_quad", "hiz_reduce")
+        ]
+        self.vaos = [ctx.vertex_array(p, []) for p in self.programs]
         self.depth = None
 
     def __len__(self) -> int:
         return len(self.sizes)
 
     def release(self) -> None:
-        self.buffer.release()
+        for vao in self.vaos:
+            vao.release()
+        self.glctx.release_framebuffer(self.quads_fbo, self.quads)
+        self.glctx.release_framebuffer(self.atlas_fbo, self.atlas)
+
+    def bind(self, program) -> None:
+        """Bind the depth texture, quads and atlas to the texture units of the samplers
+        ``depth``, ``quads`` and ``atlas`` that ``program`` uses."""
+        for name, texture, unit in (
+            ("depth", self.depth, _DEPTH_UNIT),
+            ("quads", self.quads, _QUADS_UNIT),
+            ("atlas", self.atlas, _ATLAS_UNIT),
+        ):
+            if name in program:
+                texture.use(location=unit)
+                program[name].value = unit
 
     def build(self, depth_texture) -> None:
         """Reduce ``depth_texture`` (moderngl depth texture of :attr:`resolution`) into the
-        levels 1..; one dispatch per level, with a barrier between levels.
+        levels 1..: one full-viewport triangle per level (levels 1 and 2 together), with a
+        texture barrier between the atlas levels (the next one reads what this one wrote).
 
         The texture's compare mode is switched off (the shaders need raw depths) and its
-        wrap mode set to clamp-to-edge.
+        wrap mode set to clamp-to-edge. Leaves the depth test off.
         """
         import moderngl
 
@@ -133,31 +198,51 @@ class DepthPyramid:
             raise ValueError(
                 f"depth texture is {depth_texture.size}, the pyramid {self.resolution}"
             )
-        ctx, prog = self.glctx.ctx, self.program
+        if len(self.sizes) == 1:
+            self.depth = depth_texture
+            return
         depth_texture.compare_func = ""
         depth_texture.repeat_x = depth_texture.repeat_y = False  # textureGather clamps
         depth_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        depth_texture.use(location=_DEPTH_UNIT)
         self.depth = depth_texture
-        prog["depth"].value = _DEPTH_UNIT
-        self.buffer.bind_to_storage_buffer(0)
-        for k in range(len(self.sizes) - 1):
-            prog["src_offset"].value = self.offsets[k]
-            prog["src_size"].value = self.sizes[k]
-            prog["dst_offset"].value = self.offsets[k + 1]
-            prog["dst_size"].value = self.sizes[k + 1]
-            w, h = self.sizes[k + 1]
-            prog.run(-(-w // REDUCE_GROUP), -(-h // REDUCE_GROUP))
-            ctx.memory_barrier()  # the next level reads what this one wrote
+        self.glctx.ctx.enable_only(moderngl.NOTHING)
+        depth_prog, quad_prog, atlas_prog = self.programs
+        depth_vao, quad_vao, atlas_vao = self.vaos
+
+        self.quads_fbo.use()  # levels 1 and 2
+        self.bind(depth_prog)
+        depth_vao.render(moderngl.TRIANGLES, vertices=3)
+        if len(self.sizes) <= 3:
+            return
+        fbo = self.atlas_fbo
+        fbo.use()
+        for k in range(3, len(self.sizes)):
+            prog, vao = (quad_prog, quad_vao) if k == 3 else (atlas_prog, atlas_vao)
+            if k > 3:
+                self.glctx.raw.glTextureBarrier()  # level k-1 was rendered, now it is read
+                prog["src_offset"].value = self.corners[k - 1]
+                prog["src_size"].value = self.sizes[k - 1]
+            self.bind(prog)
+            prog["dst_offset"].value = self.corners[k]
+            fbo.viewport = fbo.scissor = (*self.corners[k], *self.sizes[k])
+            vao.render(moderngl.TRIANGLES, vertices=3)
+        fbo.scissor = None
 
     def level(self, k: int) -> np.ndarray:
         """(H_k, W_k) float32 copy of level ``k`` (level 0: the depth texture); for tests."""
         w, h = self.sizes[k]
         if k == 0:
             return np.frombuffer(self.depth.read(), np.float32).reshape(h, w).copy()
-        self.glctx.ctx.memory_barrier()
-        data = self.buffer.read(size=4 * w * h, offset=4 * int(self.offsets[k]))
-        return np.frombuffer(data, np.float32).reshape(h, w).copy()
+        if k <= 2:
+            qw, qh = self.quads.size
+            q = np.frombuffer(self.quads.read(), np.float32).reshape(qh, qw, 2, 2)  # y, x, j, i
+            if k == 2:
+                return q.max(axis=(2, 3))[:h, :w].copy()
+            return q.transpose(0, 2, 1, 3).reshape(2 * qh, 2 * qw)[:h, :w].copy()
+        aw, ah = self.atlas.size
+        atlas = np.frombuffer(self.atlas.read(), np.float32).reshape(ah, aw)
+        x, y = self.corners[k]
+        return atlas[y : y + h, x : x + w].copy()
 
 
 class HizTest:
@@ -197,55 +282,73 @@ class HizTest:
             self._ids = self.glctx.ctx.buffer(reserve=4 * self._capacity, dynamic=True)
             self._out = self.glctx.ctx.buffer(reserve=4 * self._capacity, dynamic=True)
 
-    def test(self, pyramid: DepthPyramid, camera: Camera, boxes, ids: np.ndarray) -> np.ndarray:
-        """Which of the boxes ``ids`` may be visible.
+    def classify(
+        self,
+        pyramid: DepthPyramid,
+        camera: Camera,
+        boxes,
+        ids: np.ndarray,
+        frustum: bool = True,
+    ) -> np.ndarray:
+        """Frustum and occlusion test of the boxes ``ids`` in one dispatch.
 
         Parameters
         ----------
         pyramid : DepthPyramid
             Built for this frame (same camera, any resolution).
         camera : Camera
-            Its ``view_proj`` projects the boxes; its own resolution is not used.
+            Its ``view_proj`` projects the boxes and gives the frustum planes; its own
+            resolution is not used.
         boxes : moderngl.Buffer
             (N, 6) float32 world-space boxes ``lo, hi``, already grown by the conservative
             margin (e.g. ``SceneGeometry.boxes``).
         ids : (K,) int
             Rows of ``boxes`` to test.
+        frustum : bool
+            Report boxes entirely outside one frustum plane as :data:`OUTSIDE`.
 
         Returns
         -------
-        visible : (K,) bool
-            False only where the box covers no pixel centre of the pyramid's resolution or
-            lies behind the occluder depth at all of them (conservative, see the module).
+        result : (K,) uint32
+            :data:`OUTSIDE` (only with ``frustum``), else :data:`OCCLUDED` only where the box
+            covers no pixel centre of the pyramid's resolution or lies behind the occluder
+            depth at all of them (conservative, see the module), else :data:`VISIBLE`.
         """
         ids = np.ascontiguousarray(ids, np.uint32)
         k = len(ids)
         if k == 0:
-            return np.zeros(0, bool)
+            return np.zeros(0, np.uint32)
         self._reserve(k)
         self._ids.write(ids)
         prog = self.program
         info = np.zeros((MAX_LEVELS, 4), np.int32)
-        info[: len(pyramid), 0] = pyramid.offsets
-        info[: len(pyramid), 1:3] = pyramid.sizes
+        info[: len(pyramid), 0:2] = pyramid.corners
+        info[: len(pyramid), 2:4] = pyramid.sizes
         prog["level_info"].write(info.tobytes())
         prog["levels"].value = len(pyramid)
         prog["size"].value = pyramid.resolution
         prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
+        prog["frustum"].value = bool(frustum)
+        prog["planes"].write(np.ascontiguousarray(camera.planes, np.float32).tobytes())
+        prog["plane_slack"].value = FRUSTUM_SLACK
+        prog["plane_rounding"].value = PLANE_ROUNDING
         prog["count"].value = k
         prog["min_w"].value = camera.near * (1.0 + NEAR_PLANE_MARGIN)
         prog["depth_bias"].value = QUERY_DEPTH_BIAS_NDC
         prog["pixel_margin"].value = HIZ_PIXEL_MARGIN
         prog["footprint"].value = self.footprint
-        pyramid.depth.use(location=_DEPTH_UNIT)
-        prog["depth"].value = _DEPTH_UNIT
+        pyramid.bind(prog)
         boxes.bind_to_storage_buffer(0)
         self._ids.bind_to_storage_buffer(1)
         self._out.bind_to_storage_buffer(2)
-        pyramid.buffer.bind_to_storage_buffer(3)
         prog.run(-(-k // TEST_GROUP))
         self.glctx.ctx.memory_barrier()  # llvmpipe returns stale data without it
-        return np.frombuffer(self._out.read(size=4 * k), np.uint32).astype(bool)
+        return np.frombuffer(self._out.read(size=4 * k), np.uint32).copy()
+
+    def test(self, pyramid: DepthPyramid, camera: Camera, boxes, ids: np.ndarray) -> np.ndarray:
+        """Which of the boxes ``ids`` may be visible: (K,) bool, :meth:`classify` without the
+        frustum test (False only for :data:`OCCLUDED`)."""
+        return self.classify(pyramid, camera, boxes, ids, frustum=False) == VISIBLE
 
     def test_boxes(
         self, pyramid: DepthPyramid, camera: Camera, boxes: np.ndarray, diagonal: float

@@ -184,6 +184,39 @@ def test_box_covering_no_pixel_centre_is_culled_and_one_covering_a_centre_is_kep
         target.release()
 
 
+def test_shader_frustum_test_culls_only_what_the_numpy_test_culls(clutter_scenes):
+    """The test shader's OUTSIDE code (grown boxes, float32 with a rounding allowance) is a
+    subset of :func:`soc.frustum.aabbs_in_frustum`'s outside set, and misses almost none."""
+    from soc.frustum import aabbs_in_frustum
+    from soc.hiz_gpu import OUTSIDE
+
+    glctx = default_context()
+    scene = clutter_scenes[0]
+    geometry = glctx.geometry(scene)
+    cams = random_cameras(scene, 12, seed=17, width=160, height=96)
+    target, pyramid, tester = (
+        DepthTarget(glctx, (160, 96)),
+        DepthPyramid(glctx, (160, 96)),
+        HizTest(glctx),
+    )
+    gpu_out = cpu_out = 0
+    try:
+        target.clear()
+        pyramid.build(target.texture)
+        for cam in cams:
+            codes = tester.classify(pyramid, cam, geometry.boxes, np.arange(len(scene)))
+            outside = ~aabbs_in_frustum(scene.aabbs, cam.planes)
+            assert not np.any((codes == OUTSIDE) & ~outside)
+            gpu_out += int((codes == OUTSIDE).sum())
+            cpu_out += int(outside.sum())
+    finally:
+        tester.release()
+        pyramid.release()
+        target.release()
+    assert cpu_out > 0
+    assert gpu_out >= 0.99 * cpu_out, (gpu_out, cpu_out)
+
+
 # -- it culls -------------------------------------------------------------------------------
 
 

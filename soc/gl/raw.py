@@ -42,6 +42,7 @@ _SIGNATURES = {
     "glClearBufferuiv": (None, [_u, _i, ctypes.POINTER(_u)]),
     "glClearBufferfv": (None, [_u, _i, ctypes.POINTER(ctypes.c_float)]),
     "glFlush": (None, []),
+    "glTextureBarrier": (None, []),
     "glGetError": (_u, []),
 }
 

@@ -1,12 +1,13 @@
-"""``hiz-gpu``: hierarchical-z culling on the GPU with compute shaders (Greene et al. 1993,
-as GPU culling in Rákos 2010 and niagara; see :mod:`soc.hiz_gpu`).
+"""``hiz-gpu``: hierarchical-z culling on the GPU, a fragment-shader pyramid and a compute test
+(Greene et al. 1993, as GPU culling in Rákos 2010 and niagara; see :mod:`soc.hiz_gpu`).
 
-Per frame: frustum test of all AABBs (numpy) → occluder meshes into a depth buffer at the
-method's resolution → max-depth pyramid (one compute dispatch per level) → one compute
-dispatch testing every frustum-surviving grown AABB against the pyramid level where its
-screen rectangle spans at most ``footprint``² texels → one read-back. No per-object draw,
-query or GL call. Conservative at the resolution it runs at (the proof is in
-:mod:`soc.hiz_gpu`).
+Per frame: frustum test of the occluders' AABBs (numpy) → those occluder meshes into a depth
+buffer at the method's resolution → max-depth pyramid (one full-viewport triangle per level)
+→ one compute dispatch testing every grown AABB against the frustum and then against the
+pyramid level where its screen rectangle spans at most ``footprint``² texels → one read-back
+of a code per object (occluded / visible / outside the frustum, the last counted as frustum
+culled). No per-object draw, query or GL call. Conservative at the resolution it runs at (the
+proof is in :mod:`soc.hiz_gpu`).
 """
 
 from __future__ import annotations
@@ -14,13 +15,14 @@ from __future__ import annotations
 import numpy as np
 
 from soc.depth_prepass import DepthTarget, render_occluders
-from soc.hiz_gpu import DepthPyramid, HizTest
+from soc.frustum import aabbs_in_frustum
+from soc.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
 
 
 @register
 class GpuHizCulling(CullMethod):
-    """Frustum + occluder depth prepass + GPU max-depth pyramid + one compute AABB test.
+    """Occluder depth prepass + GPU max-depth pyramid + one compute frustum and AABB test.
 
     Options
     -------
@@ -41,8 +43,11 @@ class GpuHizCulling(CullMethod):
         self.target = DepthTarget(self.glctx, resolution)
         self.pyramid = DepthPyramid(self.glctx, self.target.resolution)
         self.tester = HizTest(self.glctx, footprint)
-        aabbs = self.scene.aabbs.astype(np.float64)
-        self._centers = 0.5 * (aabbs[:, 0] + aabbs[:, 1])  # (N, 3) for the occluder order
+        self._occluders = np.flatnonzero(self.scene.occluder)
+        aabbs = self.scene.aabbs[self._occluders].astype(np.float64)
+        self._occluder_aabbs = aabbs  # (M, 2, 3) for their frustum test
+        self._centers = 0.5 * (aabbs[:, 0] + aabbs[:, 1])  # (M, 3) for their order
+        self._all = np.arange(len(self.scene), dtype=np.uint32)
 
     def release(self) -> None:
         self.tester.release()
@@ -51,23 +56,26 @@ class GpuHizCulling(CullMethod):
 
     def cull(self, camera) -> MethodOutput:
         timings: dict[str, float] = {}
-        in_frustum = frustum_stage(self, camera, timings)
-        frustum_culled = int((~in_frustum).sum())
         if not self.config.depth_test:
-            return MethodOutput(in_frustum, frustum_culled, 0, timings)
+            in_frustum = frustum_stage(self, camera, timings)
+            return MethodOutput(in_frustum, int((~in_frustum).sum()), 0, timings)
 
+        # Only the occluders are frustum-tested here (the prepass draws those inside); every
+        # object's frustum test runs in the test shader, beside its occlusion test.
+        with stage(timings, "frustum"):
+            keep = np.ones(len(self._occluders), bool)
+            if self.config.frustum:
+                keep = aabbs_in_frustum(self._occluder_aabbs, camera.planes)
+            occluders, centers = self._occluders[keep], self._centers[keep]
+            if self.front_to_back:
+                occluders = occluders[np.argsort(np.linalg.norm(centers - camera.eye, axis=1))]
         finish = self.glctx.finish
         with stage(timings, "prepass", finish):
-            occluders = np.flatnonzero(in_frustum & self.scene.occluder)
-            if self.front_to_back:
-                dist = np.linalg.norm(self._centers[occluders] - camera.eye, axis=1)
-                occluders = occluders[np.argsort(dist)]
             render_occluders(self.geometry, self.target, camera, occluders)
         with stage(timings, "pyramid", finish):
             self.pyramid.build(self.target.texture)
         with stage(timings, "test", finish):
-            candidates = np.flatnonzero(in_frustum)
-            passed = self.tester.test(self.pyramid, camera, self.geometry.boxes, candidates)
-        visible = np.zeros(len(self.scene), bool)
-        visible[candidates[passed]] = True
-        return MethodOutput(visible, frustum_culled, 0, timings)
+            codes = self.tester.classify(
+                self.pyramid, camera, self.geometry.boxes, self._all, frustum=self.config.frustum
+            )
+        return MethodOutput(codes == VISIBLE, int((codes == OUTSIDE).sum()), 0, timings)

@@ -1,7 +1,9 @@
 #version 450
-// Hierarchical-z test of many AABBs at once: one invocation per candidate box.
+// Frustum and hierarchical-z test of many AABBs at once: one invocation per candidate box.
 //
-// visible[k] = 1 unless the box (grown, as drawn by occlusion queries) certainly covers no
+// result[k] = 2 when frustum testing is on and the box lies entirely outside one frustum
+// plane (p-vertex test, as soc/frustum.py, with a slack that absorbs float32 rounding);
+// otherwise 1 unless the box (grown, as drawn by occlusion queries) certainly covers no
 // pixel centre of the depth buffer, or is farther than the occluder depth at every pixel
 // centre it may cover. Conservative (proof in soc/hiz_gpu.py): every mesh sample of the object
 // lies inside the box, so its pixel lies inside the box's projected rectangle and its depth
@@ -10,10 +12,16 @@ layout(local_size_x = 64) in;
 
 layout(std430, binding = 0) readonly buffer Boxes { float boxes[]; };  // (N, 6): lo, hi
 layout(std430, binding = 1) readonly buffer Ids { uint ids[]; };       // (K,) candidates
-layout(std430, binding = 2) writeonly buffer Visible { uint visible[]; };  // (K,)
-layout(std430, binding = 3) readonly buffer Pyramid { float pyramid[]; };  // levels >= 1
+layout(std430, binding = 2) writeonly buffer Visible { uint visible[]; };  // (K,) 0, 1, 2
 
 uniform sampler2D depth;    // level 0: the occluder depth buffer (compare mode off)
+uniform sampler2D quads;    // levels 1 and 2: texel d holds level-1 texels 2d + (0,0), (1,0),
+                            // (0,1), (1,1) in .xyzw; level-2 texel d is their max
+uniform sampler2D atlas;    // levels >= 3, each a rectangle of this R32F texture
+uniform bool frustum;       // classify boxes outside the frustum as 2
+uniform vec4 planes[6];     // inward frustum planes (a, b, c, d), unit normals
+uniform float plane_slack;  // relative slack of the plane test (soc.constants.FRUSTUM_SLACK)
+uniform float plane_rounding;  // relative float32 rounding allowance of the plane test
 uniform mat4 view_proj;
 uniform uint count;         // K
 uniform ivec2 size;         // level 0, pixels
@@ -22,12 +30,16 @@ uniform float depth_bias;   // NDC units, pulls the box towards the camera
 uniform float pixel_margin; // pixels added around the projected rectangle
 uniform int footprint;      // texels per axis at the chosen level (2 or 4)
 uniform int levels;         // number of levels including level 0
-uniform ivec4 level_info[24];  // per level: offset in `pyramid` (level 0: unused), width, height
+uniform ivec4 level_info[24];  // per level: corner in `atlas` (levels 0-2: unused), width, height
 
 float texel(int k, int x, int y) {
     if (k == 0) return texelFetch(depth, ivec2(x, y), 0).r;
-    ivec4 l = level_info[k];
-    return pyramid[l.x + y * l.y + x];
+    if (k == 1) return texelFetch(quads, ivec2(x, y) >> 1, 0)[(x & 1) + 2 * (y & 1)];
+    if (k == 2) {
+        vec4 q = texelFetch(quads, ivec2(x, y), 0);
+        return max(max(q.x, q.y), max(q.z, q.w));
+    }
+    return texelFetch(atlas, level_info[k].xy + ivec2(x, y), 0).r;
 }
 
 void main() {
@@ -36,6 +48,22 @@ void main() {
     uint b = 6u * ids[k];
     vec3 lo = vec3(boxes[b], boxes[b + 1u], boxes[b + 2u]);
     vec3 hi = vec3(boxes[b + 3u], boxes[b + 4u], boxes[b + 5u]);
+
+    if (frustum) {
+        // Signed distance of the box's most-inside corner; culled only when it is negative
+        // beyond the slack and beyond a bound on the float32 rounding of the sum.
+        vec3 c = 0.5 * (lo + hi), h = 0.5 * (hi - lo);
+        float slack = plane_slack * (1.0 + length(h));
+        for (int i = 0; i < 6; ++i) {
+            vec3 n = planes[i].xyz;
+            float d = dot(c, n) + planes[i].w + dot(h, abs(n));
+            float rounding = plane_rounding * (dot(abs(c), abs(n)) + abs(planes[i].w) + dot(h, abs(n)));
+            if (d < -(slack + rounding)) {
+                visible[k] = 2u;
+                return;
+            }
+        }
+    }
 
     // Project the 8 corners: clip-space bounds of the box.
     vec2 rmin = vec2(1e30), rmax = vec2(-1e30);
