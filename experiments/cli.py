@@ -4,6 +4,9 @@
                 [--methods NAME ...] [--quick] [--out results]
     vislod cull --scene market|castle|clutter --method NAME --resolution 1920x1080
                 [--frames N] [--oracle]
+    vislod grid [--frames 100] [--grid-sizes 16 32 64] [--display WxH] [--quick] [--out results]
+    vislod portals [--frames 200] [--rooms 6x4] [--floors 1] [--display WxH] [--quick]
+                   [--out results]
 
 Mistakes (unknown scene or method, a bad resolution, the castle without data) print one line
 on stderr and exit with status 2 before anything is written. ``VISLOD_QUICK=1`` in the
@@ -53,8 +56,18 @@ def _resolutions(text: str) -> list[tuple[int, int]]:
     return [_resolution(t) for t in text.split(",") if t.strip()]
 
 
+def _rooms(text: str) -> tuple[int, int]:
+    try:
+        nx, nz = (int(t) for t in text.lower().replace("×", "x").split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"bad rooms {text!r}: expected NXxNZ, e.g. 6x4") from None
+    if nx < 1 or nz < 1:
+        raise argparse.ArgumentTypeError(f"bad rooms {text!r}: need at least 1 room per axis")
+    return nx, nz
+
+
 def build_parser() -> argparse.ArgumentParser:
-    """The ``vislod`` argument parser (sub-commands ``demo`` and ``cull``)."""
+    """The ``vislod`` argument parser (sub-commands ``demo``, ``cull``, ``grid``, ``portals``)."""
     p = _Parser(
         prog="vislod",
         description="Occlusion-culling and LOD experiments on headless OpenGL (Mesa llvmpipe).",
@@ -128,6 +141,43 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="also count false culls / keeps against the exact visibility oracle",
     )
+
+    grid = sub.add_parser(
+        "grid", help="seed 002: grid occlusion queries vs frustum, caps and grid sizes"
+    )
+    portals = sub.add_parser("portals", help="seed 001: portal culling on a walk through rooms")
+    for sp, frames in ((grid, "100 per segment"), (portals, "200")):
+        sp.add_argument(
+            "--frames", type=int, default=None, help=f"frames (default {frames}; fewer when quick)"
+        )
+        sp.add_argument("--seed", type=int, default=0, help="scene and walk seed (default 0)")
+        sp.add_argument(
+            "--quick", action="store_true", help="few frames, quarter resolution (VISLOD_QUICK=1)"
+        )
+        sp.add_argument(
+            "--display",
+            type=_resolution,
+            default=None,
+            help="camera (display) resolution WxH (default 1920x1080, quick 480x270)",
+        )
+        sp.add_argument(
+            "--out",
+            default=None,
+            help="results folder (default: results/; quick runs: results/quick/)",
+        )
+        sp.add_argument("--no-progress", action="store_true", help="no progress bar")
+    grid.add_argument(
+        "--grid-sizes",
+        type=int,
+        nargs="+",
+        default=None,
+        metavar="N",
+        help="cells along the longest axis (default 16 32 64; caps run on the middle one)",
+    )
+    portals.add_argument(
+        "--rooms", type=_rooms, default=None, metavar="NXxNZ", help="rooms (default 6x4)"
+    )
+    portals.add_argument("--floors", type=int, default=1, help="storeys (default 1)")
     return p
 
 
@@ -218,6 +268,41 @@ def cmd_cull(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_grid(args: argparse.Namespace) -> int:
+    from experiments import seed002_grid
+
+    setup = seed002_grid.make_setup(
+        args.quick, args.frames, args.display, args.grid_sizes, seed=args.seed
+    )
+    out = args.out or default_out(setup.quick)
+    if setup.quick:
+        print(
+            f"quick mode: {setup.frames} frames per segment, display {res_str(setup.display)}",
+            file=sys.stderr,
+        )
+    seed002_grid.grid_experiment(setup, out, progress=not args.no_progress)
+    return 0
+
+
+def cmd_portals(args: argparse.Namespace) -> int:
+    from experiments import seed001_portals
+
+    setup = seed001_portals.make_setup(
+        args.quick, args.frames, args.display, args.rooms, args.floors, seed=args.seed
+    )
+    out = args.out or default_out(setup.quick)
+    if setup.quick:
+        print(
+            f"quick mode: {setup.frames} frames, display {res_str(setup.display)}",
+            file=sys.stderr,
+        )
+    seed001_portals.portal_experiment(setup, out, progress=not args.no_progress)
+    return 0
+
+
+COMMANDS = {"demo": cmd_demo, "cull": cmd_cull, "grid": cmd_grid, "portals": cmd_portals}
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``vislod`` console script; returns the exit status."""
     args = build_parser().parse_args(argv)
@@ -225,9 +310,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.quick = True
         print("VISLOD_QUICK is set: quick mode", file=sys.stderr)
     try:
-        if args.command == "demo":
-            return cmd_demo(args)
-        return cmd_cull(args)
+        return COMMANDS[args.command](args)
     except UsageError as e:
         print(f"vislod: error: {e}", file=sys.stderr)
         return EXIT_USAGE

@@ -1,0 +1,223 @@
+"""Writes the thin notebooks that call the experiments and show their tables and pictures:
+``notebooks/seed000_methods.ipynb`` (seed 000's Abb. 8 left and Abb. 10 for every culling
+method) and ``notebooks/seed002_grid.ipynb`` (seed 002's grid experiment and seed 001's portal
+culling). Quick mode when ``VISLOD_QUICK`` is set.
+
+The notebooks are generated without outputs, so that they stay a view of the experiments
+rather than a second copy of them: ``python -m experiments.notebooks`` (the seed-000
+notebook has its own generator, :mod:`experiments.seed000_notebook`). Needs ``nbformat`` (the
+``notebooks`` extra).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+FOLDER = Path(__file__).resolve().parents[1] / "notebooks"
+
+# -- seed 000: every method ---------------------------------------------------------------------
+
+METHODS_INTRO = """\
+# Seed 000 — the five culling methods, and every other method we have
+
+Seed 000 compares five culling methods on Intel's castle flight: % of triangles culled per
+frame at a 1920×1080 depth buffer (Abb. 8 left) and frames per second per method (Abb. 10).
+Here every registered culling method (`soc.method_names()`) flies the same 100-frame flight
+over the market; each is drawn at the display resolution, its frame time = cull + draw is
+measured on this machine, and its false culls are counted against an exact per-object id
+render (the oracle).
+
+All the work is done by `experiments/seed000_demo.py` (`vislod demo --methods all`); this
+notebook only calls it and shows the results. Set `VISLOD_QUICK=1` for a quick run (6 frames,
+a quarter of the resolution, the small market); the full run takes about half an hour on two
+CPU cores."""
+
+METHODS_SETUP = """\
+from IPython.display import Image, display
+
+from experiments.common import default_out, env_quick, make_setup
+from experiments.seed000_demo import demo
+
+quick = env_quick()
+setup = make_setup(quick=quick)
+out = default_out(quick) / "seed000_methods"  # apart from `vislod demo`'s default results
+print(f"quick={quick}: {setup.frames} frames, display {setup.display}; results in {out}")"""
+
+METHODS_RUN = """\
+# Every registered method (Abb. 8 left, Abb. 10) plus the query method at the six depth
+# resolutions (Abb. 8 right) and the stage switches (Abb. 9): CSV/JSON/PNG into `out`.
+result = demo(setup, scene_name="market", out=out, methods=["all"], verbose=False)
+methods = result["abb8"]["methods"]
+print("methods:", ", ".join(m["method"] for m in methods))"""
+
+METHODS_TABLES = """\
+from experiments import seed000_frametimes, seed000_resolutions
+
+runs = result["runs"]
+print(seed000_resolutions.format_methods(result["abb8"]["methods"], runs))
+print()
+print(seed000_frametimes.format_summary(result["abb10"]["summary"], runs))"""
+
+METHODS_SECTIONS = [
+    (
+        "## Abb. 8 left — triangles culled per frame, every method\n\nThe oracle's ideal is "
+        "dashed; a method above it culls objects that are visible (false culls, tabled above).",
+        ["seed000_abb8_left.png"],
+    ),
+    ("## Abb. 10 — frame time and FPS per method on this machine", ["seed000_abb10.png"]),
+]
+
+# -- seed 002: grid, and seed 001: portals ---------------------------------------------------------
+
+GRID_INTRO = """\
+# Seed 002 — occlusion queries on a uniform grid; seed 001 — portal culling
+
+**Seed 002** (a thesis on hardware occlusion queries with grid traversal) visits the grid
+cells the view frustum touches front to back, queries each non-empty cell, and uses the
+results one frame later (no stalls, but popping). It shows frame rate and drawn nodes per
+frame with occlusion culling off and with query caps 4000/3000/2000, on three grid sizes,
+indoors and outdoors, and claims: caps 4000 and 3000 look alike, 3000 pops more, 2000 pops
+unacceptably; without culling the frame rate fluctuates and dips when many nodes are drawn;
+a sparser grid is better outdoors, a tighter one indoors, the one in between is the most even;
+culling sometimes makes a frame slower. We measure each claim on an outdoor segment (the
+market flight) and an indoor one (a walk through generated rooms). The document's caps never
+bind on our scenes (at most about a thousand non-empty cells), so caps scaled to our mean
+queries per frame are run as well.
+
+**Seed 001** (Zachmann's lecture) names portal culling for buildings: cells and portals, from
+a viewpoint even less is visible. We walk through the rooms and compare the objects culled per
+room by portal culling and by frustum culling alone, and check against the oracle that portal
+culling never culls a visible object.
+
+All the work is done by `experiments/seed002_grid.py` and `experiments/seed001_portals.py`
+(`vislod grid`, `vislod portals`); this notebook only calls them. Set `VISLOD_QUICK=1` for a
+quick run (a few frames at a quarter of the resolution: seconds); the full runs take a few
+minutes each on two CPU cores."""
+
+GRID_SETUP = """\
+from IPython.display import Image, display
+
+from experiments import seed001_portals, seed002_grid
+from experiments.common import default_out, env_quick
+
+quick = env_quick()
+out = default_out(quick)
+grid_setup = seed002_grid.make_setup(quick=quick)
+portal_setup = seed001_portals.make_setup(quick=quick)
+print(f"quick={quick}: grid {grid_setup}; portals {portal_setup}; results in {out}")"""
+
+GRID_RUN = """\
+# Both segments: frustum only, grid sizes without a cap, then the caps on the middle size.
+grid = seed002_grid.grid_experiment(grid_setup, out, verbose=False)
+print(seed002_grid.caps_note(grid.summary, grid_setup))"""
+
+GRID_TABLES = """\
+print(seed002_grid.format_summary(grid.summary, grid_setup))
+print()
+print(seed002_grid.format_claims(grid.claims))"""
+
+PORTALS_RUN = """\
+portals = seed001_portals.portal_experiment(portal_setup, out, verbose=False)
+print(seed001_portals.format_summary(portals.summary, portal_setup, portals.objects))"""
+
+GRID_SECTIONS = [
+    (
+        "## Frame time per frame (cull + draw)\n\nLeft: grid sizes without a cap; right: query "
+        "caps on the middle grid size. × marks a frame where culling made the frame slower "
+        "than frustum culling alone.",
+        ["seed002_frametime.png"],
+    ),
+    ("## Objects drawn per frame", ["seed002_drawn.png"]),
+    ("## Popping per frame: objects the oracle sees that were not drawn", ["seed002_popping.png"]),
+]
+
+
+def _notebook(cells, prefix: str):
+    import nbformat
+    from nbformat import v4
+
+    for i, cell in enumerate(cells):  # stable ids: regenerating gives the same file
+        cell["id"] = f"{prefix}-{i:02d}"
+    nb = v4.new_notebook(
+        cells=cells,
+        metadata={
+            "kernelspec": {"name": "python3", "display_name": "Python 3", "language": "python"},
+            "language_info": {"name": "python"},
+        },
+    )
+    nbformat.validate(nb)
+    return nb
+
+
+def _images(names) -> str:
+    return "\n".join(f'display(Image(filename=str(out / "{name}")))' for name in names)
+
+
+def build_methods():
+    """``seed000_methods.ipynb`` as an ``nbformat`` node (no outputs)."""
+    from nbformat import v4
+
+    cells = [
+        v4.new_markdown_cell(METHODS_INTRO),
+        v4.new_code_cell(METHODS_SETUP),
+        v4.new_code_cell(METHODS_RUN),
+        v4.new_markdown_cell("## The tables, ours (document)"),
+        v4.new_code_cell(METHODS_TABLES),
+    ]
+    for text, images in METHODS_SECTIONS:
+        cells += [v4.new_markdown_cell(text), v4.new_code_cell(_images(images))]
+    return _notebook(cells, "seed000-methods")
+
+
+def build_grid():
+    """``seed002_grid.ipynb`` as an ``nbformat`` node (no outputs)."""
+    from nbformat import v4
+
+    cells = [
+        v4.new_markdown_cell(GRID_INTRO),
+        v4.new_code_cell(GRID_SETUP),
+        v4.new_markdown_cell("## Seed 002 — run"),
+        v4.new_code_cell(GRID_RUN),
+        v4.new_markdown_cell("## Seed 002 — per segment and run; the claims, ours"),
+        v4.new_code_cell(GRID_TABLES),
+    ]
+    for text, images in GRID_SECTIONS:
+        cells += [v4.new_markdown_cell(text), v4.new_code_cell(_images(images))]
+    cells += [
+        v4.new_markdown_cell(
+            "## Seed 001 — portal culling per room\n\nObjects culled per room the camera "
+            "stands in, frustum alone vs portals vs the oracle's ideal; cull time per frame."
+        ),
+        v4.new_code_cell(PORTALS_RUN),
+        v4.new_code_cell(_images(["seed001_portals.png"])),
+    ]
+    return _notebook(cells, "seed002-grid")
+
+
+NOTEBOOKS = {"seed000_methods.ipynb": build_methods, "seed002_grid.ipynb": build_grid}
+
+
+def write(folder: str | os.PathLike = FOLDER) -> list[Path]:
+    """Write every notebook of :data:`NOTEBOOKS` into ``folder`` (atomically)."""
+    import nbformat
+
+    from experiments.common import atomic_write
+
+    paths = []
+    for name, build in NOTEBOOKS.items():
+        nb = build()
+        paths.append(atomic_write(Path(folder) / name, lambda p, nb=nb: nbformat.write(nb, str(p))))
+    return paths
+
+
+def code(name: str) -> str:
+    """The code cells of notebook ``name`` joined into one script (to check them without
+    Jupyter)."""
+    nb = NOTEBOOKS[name]()
+    return "\n\n".join(c["source"] for c in nb.cells if c["cell_type"] == "code")
+
+
+if __name__ == "__main__":
+    for p in write():
+        print(p)
