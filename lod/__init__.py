@@ -1,0 +1,27 @@
+"""lod — level-of-detail chains, progressive meshes, screen-size estimates and LOD selection
+under a frame-time budget (seed 001).
+
+Names are loaded on first use, so ``import lod`` stays light (no simplifier, no GL).
+"""
+
+from __future__ import annotations
+
+import importlib
+
+_EXPORTS = {
+    "build_chain": "lod.chain",
+    "LodChain": "lod.chain",
+    "Level": "lod.chain",
+    "ProgressiveMesh": "lod.progressive",
+    "melax_simplify": "lod.melax",
+    "projected_area": "lod.screen_size",
+    "select": "lod.selection",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(_EXPORTS[name]), name)
+    raise AttributeError(f"module 'lod' has no attribute {name!r}")
