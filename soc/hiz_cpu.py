@@ -120,9 +120,11 @@ def project_boxes(
     boxes = np.asarray(boxes, np.float64)
     m = np.asarray(view_proj, np.float64)
     bits = (np.arange(8)[:, None] >> np.arange(3)) & 1  # (8, 3) corner selectors
-    corners = np.where(bits[None], boxes[:, None, 1], boxes[:, None, 0])  # (K, 8, 3)
-    clip = corners @ m[:, :3].T + m[:, 3]
-    mag = np.abs(corners) @ np.abs(m[:, :3]).T + np.abs(m[:, 3])
+    corners = np.where(bits[None], boxes[:, None, 1], boxes[:, None, 0]).reshape(-1, 3)
+    # One (8K, 3) @ (3, 4) product (BLAS) rather than K batched (8, 3) products (~10× slower).
+    k = len(boxes)
+    clip = (corners @ m[:, :3].T + m[:, 3]).reshape(k, 8, 4)
+    mag = (np.abs(corners) @ np.abs(m[:, :3]).T + np.abs(m[:, 3])).reshape(k, 8, 4)
     w = clip[..., 3]
     ndc = clip[..., :3] / w[..., None]
     x = (ndc[..., 0] + 1) * (0.5 * width)

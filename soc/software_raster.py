@@ -194,6 +194,20 @@ def setup(
     return {"xy": xy, "edge": edge, "plane": torch.stack([a, b, c], -1)}
 
 
+def _row_blocks(rows: torch.Tensor):
+    """Yield ``(sel, R)``: the triangles ``sel`` whose row count lies in one length class, padded
+    to ``R`` rows (classes of :data:`SPAN_CLASSES`, so padding wastes < 1/3 of the work)."""
+    lower = 0
+    top = int(rows.max()) if len(rows) else 0
+    for width in (1, *SPAN_CLASSES, top):
+        if width <= lower:
+            continue
+        sel = torch.nonzero((rows > lower) & (rows <= width)).squeeze(1)
+        lower = width
+        if len(sel):
+            yield sel, width
+
+
 def spans(
     tri: dict[str, torch.Tensor], resolution: tuple[int, int], margin_px: float = EDGE_MARGIN_PX
 ) -> dict[str, torch.Tensor]:
@@ -203,45 +217,83 @@ def spans(
     inside all three edges (the default :data:`EDGE_MARGIN_PX` makes the coverage a subset of
     GL's; a negative margin grows triangles, for tests that bound the edge band).
 
+    Each edge's bound on x is a linear function of the row, ``x = p + q y`` (two float64
+    numbers per edge); horizontal edges only narrow the triangle's row range. The rows of
+    triangles with similar row counts are evaluated as one dense (triangles, rows) block.
+
     Returns
     -------
     dict of tensors over the P non-empty spans: ``index`` (P,) int64 flat index ``j * W + i0``
-    of the span's first pixel, ``count`` (P,) int64 pixels in the span, ``z0`` (P,) float32
-    depth at the first pixel centre, ``dz`` (P,) float32 depth step per pixel.
+    of the span's first pixel, ``row`` and ``x0`` (P,) int64 its ``j`` and ``i0``, ``count``
+    (P,) int64 pixels in the span, ``z0`` (P,) float64 depth at the first pixel centre,
+    ``dz`` (P,) float64 depth step per pixel.
     """
     width, height = resolution
     xy, edge, plane = tri["xy"], tri["edge"], tri["plane"]
-    y = xy[..., 1]
-    lo = torch.ceil((y.amin(1) - 0.5).clamp(-1, height)).long().clamp(0, height)
-    hi = torch.floor((y.amax(1) - 0.5).clamp(-1, height)).long().clamp(-1, height - 1)
+    nx, ny = edge.unbind(-1)  # (T, 3)
+    ox, oy = xy.unbind(-1)
+    # Edge k: nx (x - ox) + ny (y - oy) >= margin. Horizontal edges (nx == 0, ny == ±1) bound
+    # the rows: y >= oy + margin (ny = 1) or y <= oy - margin (ny = -1).
+    horizontal = nx == 0
+    inf = torch.full_like(oy, float("inf"))
+    y_lo = torch.maximum(
+        oy.amin(1), torch.where(horizontal & (ny > 0), oy + margin_px, -inf).amax(1)
+    )
+    y_hi = torch.minimum(
+        oy.amax(1), torch.where(horizontal & (ny < 0), oy - margin_px, inf).amin(1)
+    )
+    lo = torch.ceil((y_lo - 0.5).clamp(-1, height)).long().clamp(0, height)
+    hi = torch.floor((y_hi - 0.5).clamp(-1, height)).long().clamp(-1, height - 1)
     rows = (hi - lo + 1).clamp(min=0)
-    t = torch.repeat_interleave(torch.arange(len(rows)), rows)
-    first = torch.cumsum(rows, 0) - rows
-    j = lo[t] + (torch.arange(len(t)) - first[t])
-    yc = j.to(torch.float64) + 0.5
-    # Edge k: n_x (x - ox) + n_y (y - oy) >= margin, solved for x on the row y = yc.
-    nx, ny = edge[t, :, 0], edge[t, :, 1]
-    ox, oy = xy[t, :, 0], xy[t, :, 1]
-    rhs = margin_px - ny * (yc[:, None] - oy)
-    safe = torch.where(nx == 0, torch.ones_like(nx), nx)
-    bound = ox + rhs / safe
-    inf = torch.full_like(bound, float("inf"))
-    left = torch.where(nx > 0, bound, -inf).amax(1)
-    right = torch.where(nx < 0, bound, inf).amin(1)
-    blocked = ((nx == 0) & (rhs > 0)).any(1)
-    i0 = torch.ceil((left - 0.5).clamp(-1, width)).long().clamp(0, width)
-    i1 = torch.floor((right - 0.5).clamp(-1, width)).long().clamp(-1, width - 1)
-    count = torch.where(blocked, 0, (i1 - i0 + 1).clamp(min=0))
-    keep = count > 0
-    t, j, i0, count, yc = t[keep], j[keep], i0[keep], count[keep], yc[keep]
-    a, b, c = plane[t].unbind(-1)
-    z0 = a * (i0.to(torch.float64) + 0.5) + b * yc + c
-    return {
-        "index": j * width + i0,
-        "count": count,
-        "z0": z0.to(torch.float32),
-        "dz": a.to(torch.float32),
-    }
+    # x bound of edge k on row y: p + q y, a lower bound where nx > 0, an upper where nx < 0.
+    safe = torch.where(horizontal, torch.ones_like(nx), nx)
+    q = -ny / safe
+    p = ox + (margin_px + ny * oy) / safe
+    is_left, is_right = nx > 0, nx < 0
+    p_left = torch.where(is_left, p, -inf)
+    p_right = torch.where(is_right, p, inf)
+    q_left = torch.where(is_left, q, 0.0)
+    q_right = torch.where(is_right, q, 0.0)
+    a, b, c = plane.unbind(-1)
+    out: dict[str, list[torch.Tensor]] = {"row": [], "x0": [], "count": [], "z0": [], "dz": []}
+    for sel, n_rows in _row_blocks(rows):
+        r = torch.arange(n_rows)
+        j = lo[sel, None] + r  # (n, R)
+        yc = j.to(torch.float64) + 0.5
+        pl, ql, pr, qr = p_left[sel], q_left[sel], p_right[sel], q_right[sel]
+        left = torch.maximum(
+            torch.maximum(
+                torch.addcmul(pl[:, 0, None], ql[:, 0, None], yc),
+                torch.addcmul(pl[:, 1, None], ql[:, 1, None], yc),
+            ),
+            torch.addcmul(pl[:, 2, None], ql[:, 2, None], yc),
+        )
+        right = torch.minimum(
+            torch.minimum(
+                torch.addcmul(pr[:, 0, None], qr[:, 0, None], yc),
+                torch.addcmul(pr[:, 1, None], qr[:, 1, None], yc),
+            ),
+            torch.addcmul(pr[:, 2, None], qr[:, 2, None], yc),
+        )
+        i0 = torch.ceil((left - 0.5).clamp_(-1, width)).clamp_(0, width)
+        i1 = torch.floor((right - 0.5).clamp_(-1, width)).clamp_(-1, width - 1)
+        count = i1 - i0 + 1
+        # One compaction per block: flat indices of the non-empty rows.
+        keep = ((count > 0) & (r[None, :] < rows[sel, None])).view(-1).nonzero().squeeze(1)
+        owner = sel[keep // n_rows]
+        i0 = i0.view(-1)[keep]
+        yc = yc.view(-1)[keep]
+        out["row"].append(j.view(-1)[keep])
+        out["x0"].append(i0.long())
+        out["count"].append(count.view(-1)[keep].long())
+        out["z0"].append(a[owner] * (i0 + 0.5) + (b[owner] * yc + c[owner]))
+        out["dz"].append(a[owner])
+    if not out["row"]:
+        empty = torch.zeros(0, dtype=torch.int64)
+        out = {k: [empty if k in ("row", "x0", "count") else empty.double()] for k in out}
+    sp = {k: torch.cat(v) for k, v in out.items()}
+    sp["index"] = sp["row"] * width + sp["x0"]
+    return sp
 
 
 def scatter_spans(depth: torch.Tensor, sp: dict[str, torch.Tensor]) -> int:
@@ -311,7 +363,10 @@ def rasterize_depth(
     clip, err = clip_near(*clip_space(tris, view_proj))
     tri = setup(clip, err, resolution)
     sp = spans(tri, resolution, margin_px)
-    fragments = scatter_spans(depth, sp)
+    stats_now = {"triangles": len(tri["plane"]), "spans": len(sp["count"])}
+    pc = {"index": sp["index"], "count": sp["count"]}
+    pc.update(z0=sp["z0"].to(torch.float32), dz=sp["dz"].to(torch.float32))
+    stats_now["fragments"] = scatter_spans(depth, pc)
     if stats is not None:
-        stats.update(triangles=len(tri["plane"]), spans=len(sp["count"]), fragments=fragments)
+        stats.update(stats_now)
     return depth[:-1].reshape(height, width)
