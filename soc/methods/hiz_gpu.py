@@ -78,4 +78,6 @@ class GpuHizCulling(CullMethod):
             codes = self.tester.classify(
                 self.pyramid, camera, self.geometry.boxes, self._all, frustum=self.config.frustum
             )
-        return MethodOutput(codes == VISIBLE, int((codes == OUTSIDE).sum()), 0, timings)
+        outside = int((codes == OUTSIDE).sum())
+        # Boxes tested against the pyramid: every box inside the frustum (one dispatch).
+        return MethodOutput(codes == VISIBLE, outside, len(codes) - outside, timings)
