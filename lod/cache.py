@@ -1,0 +1,64 @@
+"""On-disk cache of LOD chains, keyed by a hash of the mesh arrays and the parameters.
+
+One ``.npz`` file per chain, named by the SHA-256 of (format version, simplifier version,
+vertex and face bytes with their dtypes and shapes, parameters). Files are written to a
+temporary name in the same folder and renamed (``os.replace``, atomic on POSIX), so a reader
+never sees a half-written file and concurrent writers simply race to the same content.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+# Default folder (git-ignored via ``data/cache/``).
+DEFAULT_DIR = Path(__file__).resolve().parents[1] / "data" / "cache" / "lod"
+# Bump when the stored layout or the chain algorithm changes: old entries are then ignored.
+FORMAT_VERSION = "lod-chain-1"
+
+
+def key(vertices: np.ndarray, faces: np.ndarray, params: dict) -> str:
+    """Hex SHA-256 of the arrays (dtype, shape, bytes) and the sorted parameters."""
+    import fast_simplification
+
+    h = hashlib.sha256()
+    h.update(FORMAT_VERSION.encode())
+    h.update(str(getattr(fast_simplification, "__version__", "?")).encode())
+    for a in (vertices, faces):
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(a.tobytes())
+    h.update(repr(sorted(params.items())).encode())
+    return h.hexdigest()
+
+
+def load(folder: Path, name: str) -> dict[str, np.ndarray] | None:
+    """The arrays stored under ``name``, or None when absent or unreadable."""
+    path = Path(folder) / f"{name}.npz"
+    if not path.exists():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return {k: z[k] for k in z.files}
+    except (OSError, ValueError, KeyError):
+        return None  # a corrupt entry is recomputed and overwritten
+
+
+def store(folder: Path, name: str, arrays: dict[str, np.ndarray]) -> Path:
+    """Write ``arrays`` atomically to ``folder/name.npz``; returns the path."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **arrays)
+        path = folder / f"{name}.npz"
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
