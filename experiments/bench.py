@@ -233,17 +233,27 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default="results")
     ap.add_argument(
         "--only",
-        choices=["foundation", "methods"],
+        choices=["foundation", "methods", "lod"],
         default=None,
         help="run one benchmark section (default: all)",
     )
     args = ap.parse_args(argv)
 
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    if args.only in (None, "lod"):
+        from experiments.bench_lod_chain import bench_lod_chain
+        from experiments.bench_lod_select import bench_lod_select
+
+        replace_section(out / "BENCHMARKS.md", "lod-chain", bench_lod_chain())
+        text = replace_section(out / "BENCHMARKS.md", "lod-select", bench_lod_select())
+        if args.only == "lod":
+            print(text)
+            return 0
+
     t0 = time.perf_counter()
     scene = _scene(args.scene, args.data)
     load_s = time.perf_counter() - t0
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     if args.only in (None, "methods"):
         text = replace_section(
             out / "BENCHMARKS.md",
