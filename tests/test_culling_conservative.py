@@ -73,10 +73,12 @@ def test_camera_inside_an_objects_aabb():
 
 
 def test_object_crossing_the_near_plane():
-    """A long beam from behind the camera to behind a wall: clipped by the near plane."""
+    """A long beam from behind the camera to behind a wall (clipped by the near plane), and a
+    box wholly behind the camera."""
     beam = box_mesh((-0.2, 1.9, -20), (0.2, 2.1, 5))
+    behind = box_mesh((-1, 1, 3), (1, 3, 4))
     wall = box_mesh((-5, 0, -3), (5, 5, -2))
-    s = soc.Scene.from_meshes([beam, wall], occluder=[False, True])
+    s = soc.Scene.from_meshes([beam, behind, wall], occluder=[False, False, True])
     cam = soc.Camera.look_at((0, 2, 0), (0, 2, -10), width=320, height=200, near=0.5, far=100)
     _check_all(s, [cam], (320, 200))
 

@@ -12,7 +12,6 @@ from conftest import check_conservative
 import soc
 from soc.hiz_cpu import boxes_visible, build_pyramid, project_boxes
 from soc.paths import flight, random_cameras
-from soc.scenes.clutter import box_mesh
 
 ABB8_RESOLUTIONS = [(320, 192), (640, 360), (1280, 720), (1920, 1080), (2432, 1440), (3840, 2160)]
 
@@ -94,37 +93,7 @@ def test_conservative_at_a_large_odd_resolution(clutter_scenes):
     check_conservative(clutter_scenes[1], cams, (2432, 1440), ["hiz-cpu"])
 
 
-def test_conservative_in_hard_cases():
-    """Box occluders whose mesh is their AABB, a camera inside a room's AABB, a beam through
-    the near plane, and a pillar and decal lying on a wall top seen at grazing angles."""
-    boxes = [
-        box_mesh((x, 0, z), (x + 2, 1 + abs(x) % 3, z + 2))
-        for x in range(-8, 8, 3)
-        for z in range(-8, 8, 3)
-    ]
-    s = soc.Scene.from_meshes(boxes, occluder=np.ones(len(boxes), bool))
-    cams = random_cameras(s, 40, seed=3, width=256, height=256, inside_fraction=0.0)
-    check_conservative(s, cams, (256, 256), ["hiz-cpu"])
-
-    room = box_mesh((-10, 0, -10), (10, 10, 10))
-    beam = box_mesh((-0.2, 1.9, -20), (0.2, 2.1, 5))
-    wall = box_mesh((-3, 0, -3), (3, 6, -2))
-    s = soc.Scene.from_meshes([room, beam, wall], occluder=[False, False, True])
-    cam = soc.Camera.look_at((0, 2, 0), (0, 2, -5), width=320, height=200, near=0.5, far=100)
-    check_conservative(s, [cam], (320, 200), ["hiz-cpu"])
-
-    wall = box_mesh((-5, 0, -0.5), (5, 4, 0.5))
-    pillar = box_mesh((-0.2, 4, -0.2), (0.2, 4.05, 0.2))
-    decal = (
-        np.array([[1, 4, -0.5], [2, 4, -0.5], [2, 4, 0.5], [1, 4, 0.5]], np.float32),
-        np.array([[0, 1, 2], [0, 2, 3]]),
-    )
-    s = soc.Scene.from_meshes([wall, pillar, decal], occluder=[True, False, False])
-    cams = [
-        soc.Camera.look_at((0, 4 + h, 12), (0, 4, 0), width=333, height=197, near=0.2, far=80)
-        for h in (0.05, 0.3, 1.0, 5.0)
-    ]
-    check_conservative(s, cams, (333, 197), ["hiz-cpu"])
+# The hard cases run for every conservative method in tests/test_culling_conservative.py.
 
 
 @pytest.mark.heavy

@@ -13,7 +13,6 @@ from soc.depth_prepass import DepthTarget
 from soc.gl.context import default_context
 from soc.hiz_gpu import DepthPyramid, HizTest, pyramid_sizes, reference_pyramid
 from soc.paths import flight, random_cameras
-from soc.scenes.clutter import box_mesh
 
 HIZ = ["hiz-gpu"]
 
@@ -112,52 +111,8 @@ def test_random_cameras_over_the_castle(data_dir):
     check_conservative(scene, cams, (480, 270), HIZ)
 
 
-def test_camera_inside_an_objects_aabb():
-    room = box_mesh((-10, 0, -10), (10, 10, 10))
-    wall = box_mesh((-3, 0, -2), (3, 6, -1.5))
-    s = soc.Scene.from_meshes([room, wall], occluder=[False, True])
-    cam = soc.Camera.look_at((0, 3, 2), (0, 3, -5), width=320, height=200, near=0.1, far=100)
-    check_conservative(s, [cam], (320, 200), HIZ)
-    with soc.Culler(s, method="hiz-gpu", resolution=(320, 200)) as c:
-        assert c.cull(cam).visible[0]
-
-
-def test_object_crossing_the_near_plane_and_behind_the_camera():
-    beam = box_mesh((-0.2, 1.9, -20), (0.2, 2.1, 5))
-    behind = box_mesh((-1, 1, 3), (1, 3, 4))
-    wall = box_mesh((-5, 0, -3), (5, 5, -2))
-    s = soc.Scene.from_meshes([beam, behind, wall], occluder=[False, False, True])
-    cam = soc.Camera.look_at((0, 2, 0), (0, 2, -10), width=320, height=200, near=0.5, far=100)
-    check_conservative(s, [cam], (320, 200), HIZ)
-
-
-def test_box_shaped_occluders_see_themselves():
-    """Occluder meshes equal to their AABBs: the tested box coincides with the depth."""
-    boxes = [
-        box_mesh((x, 0, z), (x + 2, 1 + abs(x) % 3, z + 2))
-        for x in range(-8, 8, 3)
-        for z in range(-8, 8, 3)
-    ]
-    s = soc.Scene.from_meshes(boxes, occluder=np.ones(len(boxes), bool))
-    cams = random_cameras(s, 40, seed=3, width=256, height=256, inside_fraction=0.0)
-    check_conservative(s, cams, (256, 256), HIZ)
-
-
-def test_pillar_and_flat_decals_on_a_wall_top():
-    """Flat decals lying in (and a millimetre above) a wall's top face, seen at grazing angles."""
-    wall = box_mesh((-5, 0, -0.5), (5, 4, 0.5))
-    pillar = box_mesh((-0.2, 4, -0.2), (0.2, 4.05, 0.2))
-    decal = (
-        np.array([[1, 4, -0.5], [2, 4, -0.5], [2, 4, 0.5], [1, 4, 0.5]], np.float32),
-        np.array([[0, 1, 2], [0, 2, 3]]),
-    )
-    hover = (decal[0] + np.float32([0, 1e-3, 0]) - np.float32([3, 0, 0]), decal[1])
-    s = soc.Scene.from_meshes([wall, pillar, decal, hover], occluder=[True, False, False, False])
-    cams = [
-        soc.Camera.look_at((0, 4 + h, 12), (0, 4, 0), width=400, height=300, near=0.2, far=80)
-        for h in (0.05, 0.3, 1.0, 5.0)
-    ]
-    check_conservative(s, cams, (400, 300), HIZ)
+# The hard cases (camera inside a box, near plane, box-shaped occluders, decals on a wall top)
+# run for every conservative method in tests/test_culling_conservative.py.
 
 
 def test_box_covering_no_pixel_centre_is_culled_and_one_covering_a_centre_is_kept():
