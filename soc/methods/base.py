@@ -108,3 +108,14 @@ def frustum_stage(method: CullMethod, camera, timings: dict[str, float]) -> np.n
         if method.config.frustum:
             return aabbs_in_frustum(method.scene.aabbs, camera.planes)
         return np.ones(len(method.scene), bool)
+
+
+def prepass_stage(
+    method: CullMethod, camera, in_frustum: np.ndarray, target, timings: dict[str, float]
+) -> None:
+    """Render the frustum-surviving occluders into ``target``'s depth (timed as "prepass")."""
+    from soc.depth_prepass import render_occluders
+
+    with stage(timings, "prepass", method.glctx.finish):
+        occluders = np.flatnonzero(in_frustum & method.scene.occluder)
+        render_occluders(method.geometry, target, camera, occluders)

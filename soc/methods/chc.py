@@ -44,8 +44,8 @@ import numpy as np
 
 from soc.box_queries import BoxQueries
 from soc.bvh import box_distance, build
-from soc.depth_prepass import DepthTarget, render_occluders
-from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
+from soc.depth_prepass import DepthTarget
+from soc.methods.base import CullMethod, MethodOutput, frustum_stage, prepass_stage, register, stage
 
 # Nodes per query batch (CHC++ "multiqueries"/i-queue). Larger batches mean fewer depth
 # renders and polls, but queries issued before nearer visible geometry reaches the depth.
@@ -140,9 +140,7 @@ class CoherentHierarchicalCulling(CullMethod):
             boxes, counts = self.bvh.refit(in_frustum)
             distance = box_distance(boxes, camera.eye)
         if self.prepass:
-            with stage(timings, "prepass", finish):
-                occluders = np.flatnonzero(in_frustum & self.scene.occluder)
-                render_occluders(self.geometry, self.target, camera, occluders)
+            prepass_stage(self, camera, in_frustum, self.target, timings)
         else:
             self.target.clear()
         with stage(timings, "traverse", finish):

@@ -37,10 +37,10 @@ from __future__ import annotations
 import numpy as np
 
 from soc.box_queries import BoxQueries
-from soc.depth_prepass import DepthTarget, render_occluders
+from soc.depth_prepass import DepthTarget
 from soc.frustum import aabbs_in_frustum
 from soc.grid import DEFAULT_GRID_SIZE, build_grid
-from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
+from soc.methods.base import CullMethod, MethodOutput, frustum_stage, prepass_stage, register, stage
 
 UNKNOWN, OCCLUDED, VISIBLE = -1, 0, 1  # a cell's last known query result
 
@@ -142,9 +142,7 @@ class GridCulling(CullMethod):
         if self.last_fill < self.min_fill:
             return MethodOutput(in_frustum, frustum_culled, 0, timings)
 
-        with stage(timings, "prepass", finish):
-            occluders = np.flatnonzero(in_frustum & self.scene.occluder)
-            render_occluders(self.geometry, self.target, camera, occluders)
+        prepass_stage(self, camera, in_frustum, self.target, timings)
         with stage(timings, "queries", finish):
             queried = slots if self.query_cap is None else slots[: self.query_cap]
             batch = self.queries.issue(self.target, camera, self.grid.boxes[queried])

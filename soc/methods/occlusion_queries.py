@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.depth_prepass import DepthTarget, render_occluders
-from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
+from soc.depth_prepass import DepthTarget
+from soc.methods.base import CullMethod, MethodOutput, frustum_stage, prepass_stage, register, stage
 from soc.queries import OcclusionQueries, near_plane_straddlers
 
 
@@ -35,9 +35,7 @@ class QueryCulling(CullMethod):
             return MethodOutput(in_frustum, frustum_culled, 0, timings)
 
         finish = self.glctx.finish
-        with stage(timings, "prepass", finish):
-            occluders = np.flatnonzero(in_frustum & self.scene.occluder)
-            render_occluders(self.geometry, self.target, camera, occluders)
+        prepass_stage(self, camera, in_frustum, self.target, timings)
         with stage(timings, "queries", finish):
             candidates = np.flatnonzero(in_frustum)
             boxes = self.geometry.query_boxes[candidates]

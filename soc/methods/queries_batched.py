@@ -39,8 +39,8 @@ import numpy as np
 
 from soc.box_queries import BoxQueries
 from soc.bvh import box_distance, build
-from soc.depth_prepass import DepthTarget, render_occluders
-from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
+from soc.depth_prepass import DepthTarget
+from soc.methods.base import CullMethod, MethodOutput, frustum_stage, prepass_stage, register, stage
 
 # Objects per packet (the first query level). Larger packets: fewer top-level queries but
 # more refinement rounds; 32-64 balances both on the market at 1080p.
@@ -116,9 +116,7 @@ class BatchedQueryCulling(CullMethod):
             return MethodOutput(in_frustum, frustum_culled, 0, timings)
 
         finish = self.glctx.finish
-        with stage(timings, "prepass", finish):
-            occluders = np.flatnonzero(in_frustum & self.scene.occluder)
-            render_occluders(self.geometry, self.target, camera, occluders)
+        prepass_stage(self, camera, in_frustum, self.target, timings)
         with stage(timings, "queries", finish):
             visible, queries = self._refine(camera, in_frustum)
         return MethodOutput(visible, frustum_culled, queries, timings)
