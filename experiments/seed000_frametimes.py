@@ -185,26 +185,3 @@ def write(
         save_figure(plot(summary, runs), out / "seed000_abb10.png"),
     ]
     return {"summary": summary, "claims": claims(summary), "files": files}
-
-
-def run(
-    scene,
-    setup: Setup,
-    out: str | os.PathLike,
-    *,
-    methods: list[str] | None = None,
-    scene_name: str | None = None,
-    progress: bool = True,
-) -> dict[str, Any]:
-    """Fly, cull, draw and write Abb. 10 on its own."""
-    import soc
-    from experiments.seed000_flight import run_all
-
-    methods = soc.method_names() if methods is None else list(methods)
-    cams = soc.paths.flight(
-        scene, frames=setup.frames, width=setup.display[0], height=setup.display[1]
-    )
-    runs = run_all(scene, cams, specs(setup, methods), scene_name=scene_name, progress=progress)
-    result = write(runs, setup, out, methods)
-    print(format_summary(result["summary"], runs))
-    return result

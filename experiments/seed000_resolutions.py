@@ -346,27 +346,3 @@ def _unique_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             seen.add(k)
             out.append(r)
     return out
-
-
-def run(
-    scene,
-    setup: Setup,
-    out: str | os.PathLike,
-    *,
-    methods: list[str] | None = None,
-    scene_name: str | None = None,
-    progress: bool = True,
-) -> dict[str, Any]:
-    """Fly, cull and write Abb. 8 on its own (the demo shares the runs instead)."""
-    import soc
-    from experiments.seed000_flight import run_all
-
-    methods = soc.method_names() if methods is None else list(methods)
-    cams = soc.paths.flight(
-        scene, frames=setup.frames, width=setup.display[0], height=setup.display[1]
-    )
-    runs = run_all(scene, cams, specs(setup, methods), scene_name=scene_name, progress=progress)
-    result = write(runs, setup, out, methods)
-    print(format_summary(result["summary"], runs))
-    print(format_methods(result["methods"], runs))
-    return result

@@ -127,26 +127,3 @@ def write(runs: FlightRuns, setup: Setup, out: str | os.PathLike) -> dict[str, A
         save_figure(plot(summary, runs), out / "seed000_abb9.png"),
     ]
     return {"summary": summary, "files": files, "trend_holds": trend_holds(summary)}
-
-
-def run(
-    scene,
-    setup: Setup,
-    out: str | os.PathLike,
-    *,
-    scene_name: str | None = None,
-    progress: bool = True,
-) -> dict[str, Any]:
-    """Fly, cull and write Abb. 9 on its own."""
-    import soc
-    from experiments.seed000_flight import run_all
-
-    cams = soc.paths.flight(
-        scene, frames=setup.frames, width=setup.display[0], height=setup.display[1]
-    )
-    runs = run_all(
-        scene, cams, specs(setup), scene_name=scene_name, oracle_draw=False, progress=progress
-    )
-    result = write(runs, setup, out)
-    print(format_summary(result["summary"], runs))
-    return result
