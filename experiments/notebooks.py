@@ -133,7 +133,8 @@ GRID_SECTIONS = [
 ]
 
 
-def _notebook(cells, prefix: str):
+def notebook(cells, prefix: str):
+    """Cells → a validated notebook with stable cell ids (``prefix-NN``) and no outputs."""
     import nbformat
     from nbformat import v4
 
@@ -150,7 +151,8 @@ def _notebook(cells, prefix: str):
     return nb
 
 
-def _images(names) -> str:
+def image_cell(names) -> str:
+    """Code that displays the PNGs ``names`` from the notebook's ``out`` folder."""
     return "\n".join(f'display(Image(filename=str(out / "{name}")))' for name in names)
 
 
@@ -166,8 +168,8 @@ def build_methods():
         v4.new_code_cell(METHODS_TABLES),
     ]
     for text, images in METHODS_SECTIONS:
-        cells += [v4.new_markdown_cell(text), v4.new_code_cell(_images(images))]
-    return _notebook(cells, "seed000-methods")
+        cells += [v4.new_markdown_cell(text), v4.new_code_cell(image_cell(images))]
+    return notebook(cells, "seed000-methods")
 
 
 def build_grid():
@@ -183,16 +185,16 @@ def build_grid():
         v4.new_code_cell(GRID_TABLES),
     ]
     for text, images in GRID_SECTIONS:
-        cells += [v4.new_markdown_cell(text), v4.new_code_cell(_images(images))]
+        cells += [v4.new_markdown_cell(text), v4.new_code_cell(image_cell(images))]
     cells += [
         v4.new_markdown_cell(
             "## Seed 001 — portal culling per room\n\nObjects culled per room the camera "
             "stands in, frustum alone vs portals vs the oracle's ideal; cull time per frame."
         ),
         v4.new_code_cell(PORTALS_RUN),
-        v4.new_code_cell(_images(["seed001_portals.png"])),
+        v4.new_code_cell(image_cell(["seed001_portals.png"])),
     ]
-    return _notebook(cells, "seed002-grid")
+    return notebook(cells, "seed002-grid")
 
 
 NOTEBOOKS = {"seed000_methods.ipynb": build_methods, "seed002_grid.ipynb": build_grid}

@@ -79,8 +79,9 @@ print(seed000_frametimes.format_summary(result["abb10"]["summary"], runs))"""
 
 def build():
     """The notebook as an ``nbformat`` node (no outputs)."""
-    import nbformat
     from nbformat import v4
+
+    from experiments.notebooks import image_cell, notebook
 
     cells = [
         v4.new_markdown_cell(INTRO),
@@ -90,23 +91,8 @@ def build():
         v4.new_code_cell(TABLES),
     ]
     for text, images in SECTIONS:
-        cells.append(v4.new_markdown_cell(text))
-        cells.append(
-            v4.new_code_cell(
-                "\n".join(f'display(Image(filename=str(out / "{name}")))' for name in images)
-            )
-        )
-    for i, cell in enumerate(cells):  # stable ids: regenerating gives the same file
-        cell["id"] = f"seed000-{i:02d}"
-    nb = v4.new_notebook(
-        cells=cells,
-        metadata={
-            "kernelspec": {"name": "python3", "display_name": "Python 3", "language": "python"},
-            "language_info": {"name": "python"},
-        },
-    )
-    nbformat.validate(nb)
-    return nb
+        cells += [v4.new_markdown_cell(text), v4.new_code_cell(image_cell(images))]
+    return notebook(cells, "seed000")
 
 
 def write(path: str | os.PathLike = NOTEBOOK) -> Path:

@@ -73,12 +73,16 @@ def test_renderer_draws_only_the_given_objects_and_times_it():
     try:
         ms = r.draw(cam, np.array([1]))
         img = r.image()
+        depth = r.depth_image()
     finally:
         r.release()
     assert ms > 0 and img.shape == (90, 160, 3)
     sky = img[0, 0]
     assert (img[:, :70] == sky).all()  # left box not drawn
     assert (img[:, 90:] != sky).any(axis=-1).sum() > 200  # right box drawn
+    drawn = (img != sky).any(axis=-1)
+    assert depth.shape == (90, 160)
+    assert (depth[~drawn] == 1.0).all() and (depth[drawn] < 1.0).all()  # same orientation
 
 
 def test_culler_reports_stage_timings_and_counts():

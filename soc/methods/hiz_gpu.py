@@ -29,24 +29,19 @@ class GpuHizCulling(CullMethod):
     footprint : int
         Texels per axis read per box at its pyramid level, 2 (default) or 4 (one level finer:
         tighter, up to 16 reads).
-    front_to_back : bool
-        Draw the occluders nearest first (their AABB centres' distance to the eye), so
-        llvmpipe's early depth test rejects more of the farther ones. Default True.
     """
 
     name = "hiz-gpu"
     conservative = True
 
-    def __init__(self, geometry, resolution, config, *, footprint: int = 2, front_to_back=True):
+    def __init__(self, geometry, resolution, config, *, footprint: int = 2):
         super().__init__(geometry, resolution, config)
-        self.front_to_back = bool(front_to_back)
         self.target = DepthTarget(self.glctx, resolution)
         self.pyramid = DepthPyramid(self.glctx, self.target.resolution)
         self.tester = HizTest(self.glctx, footprint)
         self._occluders = np.flatnonzero(self.scene.occluder)
         aabbs = self.scene.aabbs[self._occluders].astype(np.float64)
         self._occluder_aabbs = aabbs  # (M, 2, 3) for their frustum test
-        self._centers = 0.5 * (aabbs[:, 0] + aabbs[:, 1])  # (M, 3) for their order
         self._all = np.arange(len(self.scene), dtype=np.uint32)
 
     def release(self) -> None:
@@ -66,9 +61,8 @@ class GpuHizCulling(CullMethod):
             keep = np.ones(len(self._occluders), bool)
             if self.config.frustum:
                 keep = aabbs_in_frustum(self._occluder_aabbs, camera.planes)
-            occluders, centers = self._occluders[keep], self._centers[keep]
-            if self.front_to_back:
-                occluders = occluders[np.argsort(np.linalg.norm(centers - camera.eye, axis=1))]
+            # Drawing them nearest first measured no faster on llvmpipe (fill-bound prepass).
+            occluders = self._occluders[keep]
         finish = self.glctx.finish
         with stage(timings, "prepass", finish):
             render_occluders(self.geometry, self.target, camera, occluders)
