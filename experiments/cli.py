@@ -7,6 +7,10 @@
     vislod grid [--frames 100] [--grid-sizes 16 32 64] [--display WxH] [--quick] [--out results]
     vislod portals [--frames 200] [--rooms 6x4] [--floors 1] [--display WxH] [--quick]
                    [--out results]
+    vislod sweep [--scenes SPEC ...] [--seeds N ...] [--methods ...] [--displays WxH ...]
+                 [--resolutions WxH ...] [--frames N] [--chunk N] [--oracle] [--draw]
+                 [--scheduler tcp://H:P] [--workers N] [--gl-threads N] [--force] [--quick]
+                 [--out DIR]
 
 Mistakes (unknown scene or method, a bad resolution, the castle without data) print one line
 on stderr and exit with status 2 before anything is written. ``VISLOD_QUICK=1`` in the
@@ -33,6 +37,7 @@ from experiments.common import (
     res_str,
     scaled,
 )
+from experiments.sweep import add_sweep_parser, cmd_sweep
 
 EXIT_USAGE = 2
 EXIT_ENVIRONMENT = 1
@@ -178,6 +183,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--rooms", type=_rooms, default=None, metavar="NXxNZ", help="rooms (default 6x4)"
     )
     portals.add_argument("--floors", type=int, default=1, help="storeys (default 1)")
+    add_sweep_parser(sub)
     return p
 
 
@@ -300,7 +306,13 @@ def cmd_portals(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMANDS = {"demo": cmd_demo, "cull": cmd_cull, "grid": cmd_grid, "portals": cmd_portals}
+COMMANDS = {
+    "demo": cmd_demo,
+    "cull": cmd_cull,
+    "grid": cmd_grid,
+    "portals": cmd_portals,
+    "sweep": cmd_sweep,
+}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -1,0 +1,612 @@
+"""``vislod sweep``: scenes × methods × resolutions × flight chunks on Dask, into one table.
+
+Issue 6, part 5 (sweeps that outgrow one machine). The stages, top-down:
+
+1. :func:`make_sweep` checks the grid (unknown scene, parameter or method → :class:`UsageError`
+   before any cluster starts) and :meth:`SweepSetup.tasks` cuts it into keyed tasks
+   (:class:`experiments.sweep_tasks.SweepTask`: one chunk of the seed-000 flight each);
+2. :func:`run_sweep` skips the tasks whose result is stored (unless ``force``), runs the rest on
+   Dask ``distributed`` — a ``LocalCluster`` of ``workers`` single-threaded worker processes by
+   default, each with its own EGL context, or the cluster behind a scheduler address — and
+   stores each task's rows as soon as they arrive (:class:`SweepStore`);
+3. :meth:`SweepStore.merge` joins every stored task into the one table, ``sweep.csv``.
+
+Why it is safe to kill things: the driver, not the workers, writes results, one file per task
+key (``parts/<key>.csv``), atomically and once, after the whole task has returned. A worker
+that dies mid-task returns nothing; Dask runs the task again elsewhere (and the driver resubmits
+it if Dask gives up with ``KilledWorker``), and a second copy of a task can only overwrite its
+own file. So the table holds exactly one set of rows per key, whatever died; a killed driver
+loses only the tasks in flight, and the next run skips what was stored. Workers need no shared
+file system (only the castle's data, when swept, must exist on them).
+
+Timings in the rows are per frame on whatever worker ran the task, with other tasks running
+beside it: compare them within one sweep, as ratios.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sys
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from experiments.common import (
+    DISPLAY,
+    FRAMES,
+    QUICK_FRAMES,
+    QUICK_SCALE,
+    UsageError,
+    castle_path,
+    default_out,
+    format_table,
+    mean,
+    parse_resolution,
+    read_csv,
+    res_str,
+    scaled,
+    write_csv,
+    write_json,
+)
+from experiments.sweep_tasks import SceneSpec, SweepTask, TaskResult, frame_chunks, run_task
+
+DEFAULT_METHODS = ("none", "frustum", "queries", "hiz-gpu")  # as ``vislod demo``
+CHUNK = 25  # frames per task in a full run: 4 tasks per 100-frame flight
+QUICK_CHUNK = 3
+WORKERS = 2  # local worker processes (this machine has 2 cores)
+MAX_RETRIES = 2  # driver resubmissions of a task after Dask's own KilledWorker verdict
+DEATH_QUERY_BATCH = 64  # finished tasks per scheduler round trip asking who saw a worker die
+TABLE = "sweep.csv"
+SUMMARY = "sweep.json"
+PARTS = "parts"
+
+
+# -- the grid ----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SweepSetup:
+    """The grid of one sweep.
+
+    Attributes
+    ----------
+    scenes : tuple of SceneSpec
+        One per scene × seed.
+    methods : tuple of str
+    displays : tuple of (width, height)
+        Camera resolutions, pixels.
+    resolutions : tuple of (width, height), or None
+        Depth-buffer resolutions, pixels, crossed with every display; None: each display's own.
+    frames : int
+        Cameras on the flight.
+    chunk : int
+        Frames per task.
+    oracle, draw : bool
+        See :class:`~experiments.sweep_tasks.SweepTask`.
+    """
+
+    scenes: tuple[SceneSpec, ...]
+    methods: tuple[str, ...]
+    displays: tuple[tuple[int, int], ...]
+    resolutions: tuple[tuple[int, int], ...] | None
+    frames: int
+    chunk: int
+    oracle: bool = False
+    draw: bool = False
+
+    def tasks(self) -> list[SweepTask]:
+        """Every task, scene-major (so a worker meets few scenes in a row), chunks innermost."""
+        return [
+            SweepTask(sc, m, res, disp, self.frames, a, b, self.oracle, self.draw)
+            for sc in self.scenes
+            for disp in self.displays
+            for res in (self.resolutions or (disp,))
+            for m in self.methods
+            for a, b in frame_chunks(self.frames, self.chunk)
+        ]
+
+
+def check_sweep_methods(methods: Sequence[str] | None) -> tuple[str, ...]:
+    """``methods`` checked (default :data:`DEFAULT_METHODS`; ``["all"]``: every method that
+    culls an ordinary scene, i.e. all but those needing cells and portals)."""
+    import soc
+
+    known = soc.method_names()
+    if not methods:
+        return DEFAULT_METHODS
+    if list(methods) == ["all"]:
+        return tuple(soc.method_names(soc.scenes.clutter(0)))
+    bad = [m for m in methods if m not in known]
+    if bad:
+        raise UsageError(f"unknown method {bad[0]!r}; available: {', '.join(known)}, all")
+    return tuple(dict.fromkeys(methods))
+
+
+def make_sweep(
+    scenes: Sequence[str] = ("market",),
+    methods: Sequence[str] | None = None,
+    *,
+    seeds: Sequence[int] = (0,),
+    displays: Sequence[tuple[int, int]] | None = None,
+    resolutions: Sequence[tuple[int, int]] | None = None,
+    frames: int | None = None,
+    chunk: int | None = None,
+    oracle: bool = False,
+    draw: bool = False,
+    quick: bool = False,
+) -> SweepSetup:
+    """A checked :class:`SweepSetup`; :class:`UsageError` on any bad name or number.
+
+    Parameters
+    ----------
+    scenes : list of str
+        Scene specs, ``NAME[:KEY=VALUE,...]`` (``"market"``, ``"clutter:objects=80"``).
+    methods : list of str, optional
+        See :func:`check_sweep_methods`.
+    seeds : list of int
+        Generator seeds, crossed with every scene.
+    displays : list of (width, height), optional
+        Default 1920x1080 (quick: 480x270).
+    resolutions : list of (width, height), optional
+        Depth-buffer resolutions; default: the display's.
+    frames, chunk : int, optional
+        Flight length (default 100, quick 6) and frames per task (default 25, quick 3).
+    quick : bool
+        Small market, quarter resolution, few frames.
+    """
+    specs = tuple(SceneSpec.parse(s, seed, quick=quick) for s in scenes for seed in seeds)
+    if not specs:
+        raise UsageError("need at least one scene and one seed")
+    frames = frames if frames is not None else (QUICK_FRAMES if quick else FRAMES)
+    if frames < 2:
+        raise UsageError(f"--frames must be at least 2, got {frames}")
+    chunk = chunk if chunk is not None else (QUICK_CHUNK if quick else CHUNK)
+    frame_chunks(frames, chunk)  # checks chunk
+    disp = tuple(tuple(d) for d in displays) if displays else None
+    disp = disp or ((scaled(DISPLAY, QUICK_SCALE),) if quick else (DISPLAY,))
+    res = tuple(tuple(r) for r in resolutions) if resolutions else None
+    for r in (*disp, *(res or ())):
+        parse_resolution(res_str(r))  # range check
+    return SweepSetup(
+        specs,
+        check_sweep_methods(methods),
+        tuple(dict.fromkeys(disp)),  # type: ignore[arg-type]
+        tuple(dict.fromkeys(res)) if res else None,  # type: ignore[arg-type]
+        frames,
+        chunk,
+        oracle,
+        draw,
+    )
+
+
+# -- the table ---------------------------------------------------------------------------------
+
+
+class SweepStore:
+    """Results of sweeps under one folder: ``parts/<key>.csv`` per task, merged into
+    ``sweep.csv``.
+
+    A part file is written atomically (complete or absent), so its presence means the task is
+    done, and writing a key again replaces its rows.
+    """
+
+    def __init__(self, out: str | os.PathLike):
+        self.out = Path(out)
+        self.parts = self.out / PARTS
+        self.table = self.out / TABLE
+
+    def path(self, key: str) -> Path:
+        return self.parts / f"{key}.csv"
+
+    def has(self, key: str) -> bool:
+        return self.path(key).is_file()
+
+    def write(self, task: SweepTask, rows: Sequence[dict[str, Any]]) -> Path:
+        """Store the rows of ``task`` under its key (replacing any earlier rows)."""
+        if not rows or any(r.get("key") != task.key for r in rows):
+            raise ValueError(f"rows for task {task.key} must be non-empty and carry its key")
+        return write_csv(self.path(task.key), rows)
+
+    def keys(self) -> list[str]:
+        """Keys of every stored task (temporary files of interrupted writes excluded)."""
+        return sorted(p.stem for p in self.parts.glob("[!.]*.csv"))
+
+    def remove_temporaries(self) -> int:
+        """Delete what interrupted writes left (``parts/.<key>.csv.*.tmp``); how many."""
+        stale = list(self.parts.glob(".*.tmp"))
+        for p in stale:
+            p.unlink(missing_ok=True)
+        return len(stale)
+
+    def merge(self) -> int:
+        """Write every stored task's rows into ``sweep.csv`` (atomically), ordered by scene,
+        seed, display, depth resolution, method and frame; returns the number of rows."""
+        parts = [read_csv(self.path(k)) for k in self.keys()]
+
+        def order(rows: list[dict[str, str]]) -> tuple:
+            r = rows[0]
+            start = int(r["chunk"].split("-")[0])
+            return (r["scene"], int(r["seed"]), r["display"], r["depth_resolution"], r["method"],
+                    int(r["flight_frames"]), start, r["key"])  # fmt: skip
+
+        rows = [r for part in sorted((p for p in parts if p), key=order) for r in part]
+        write_csv(self.table, rows)
+        return len(rows)
+
+
+# -- running on Dask ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SweepSummary:
+    """What one :func:`run_sweep` did.
+
+    Attributes
+    ----------
+    tasks : int
+        Tasks in the grid.
+    done, skipped : int
+        Run now, and found stored (skipped).
+    retried : int
+        Tasks run more than once because a worker died under them (counted by Dask, plus the
+        driver's resubmissions).
+    failed : tuple of (key, label, error)
+        Tasks that raised; their rows are absent.
+    wall_s : float
+        Driver wall time, seconds, cluster start included.
+    startup_s : float
+        Of which starting (or connecting to) the cluster, seconds.
+    workers : int
+        Workers that served the sweep (0 when nothing had to run).
+    rows : int
+        Rows in the merged table (every sweep stored in ``out``).
+    table : Path
+    """
+
+    tasks: int
+    done: int
+    skipped: int
+    retried: int
+    failed: tuple[tuple[str, str, str], ...]
+    wall_s: float
+    startup_s: float
+    workers: int
+    rows: int
+    table: Path
+
+
+@contextmanager
+def dask_client(
+    scheduler: str | None, workers: int, gl_threads: int | None
+) -> Iterator[tuple[Any, int | None]]:
+    """A ``distributed.Client`` and the llvmpipe threads each worker should use.
+
+    ``scheduler`` None: a ``LocalCluster`` of ``workers`` processes with one thread each (a
+    GL context is not thread-safe), whose llvmpipe threads default to the cores shared out.
+    Otherwise connect to ``scheduler`` and wait for ``workers`` workers (Mesa's default
+    threads, unless given).
+    """
+    from distributed import Client, LocalCluster
+
+    if scheduler is None:
+        threads = gl_threads if gl_threads is not None else max(1, (os.cpu_count() or 1) // workers)
+        with (
+            LocalCluster(
+                n_workers=workers,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+            ) as cluster,
+            Client(cluster) as client,
+        ):
+            yield client, threads
+        return
+    try:
+        client = Client(scheduler, timeout="30s")
+    except (OSError, TimeoutError) as e:
+        raise UsageError(f"cannot reach the Dask scheduler at {scheduler!r}: {e}") from e
+    with client:
+        try:
+            client.wait_for_workers(workers, timeout="120s")
+        except TimeoutError as e:
+            raise UsageError(f"fewer than {workers} workers joined {scheduler!r} in 120 s") from e
+        yield client, gl_threads
+
+
+def _worker_deaths(keys: list[str], dask_scheduler=None) -> dict[str, int]:
+    """On the scheduler: in how many worker deaths each task took part."""
+    tasks = dask_scheduler.tasks
+    return {k: tasks[k].suspicious for k in keys if k in tasks}
+
+
+def run_sweep(
+    tasks: Sequence[SweepTask],
+    out: str | os.PathLike,
+    *,
+    scheduler: str | None = None,
+    workers: int = WORKERS,
+    force: bool = False,
+    progress: bool = True,
+    data: str | None = None,
+    gl_threads: int | None = None,
+    crash_marker: str | os.PathLike | None = None,
+) -> SweepSummary:
+    """Run the tasks not stored in ``out`` yet on Dask; store each; merge the table.
+
+    Parameters
+    ----------
+    tasks : list of SweepTask
+    out : folder
+        Holds ``parts/``, ``sweep.csv`` (the table) and ``sweep.json`` (this run's summary).
+    scheduler : str, optional
+        ``tcp://host:port`` of a running Dask scheduler; default: a local cluster.
+    workers : int
+        Local worker processes, or workers to wait for on the scheduler.
+    force : bool
+        Run stored tasks again (their rows are replaced).
+    data : str, optional
+        Castle folder on the workers (default their ``VISLOD_DATA``).
+    gl_threads : int, optional
+        llvmpipe threads per worker (default locally: cores / workers).
+    crash_marker : path, optional
+        Tests only: one worker kills itself mid-task, once (the marker file records it).
+
+    Returns
+    -------
+    SweepSummary
+        Failed tasks are reported there (and in ``sweep.json``), not raised.
+    """
+    if workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {workers}")
+    t0 = time.perf_counter()
+    store = SweepStore(out)
+    by_key = {t.key: t for t in tasks}  # a grid with repeated entries runs each task once
+    todo = [t for k, t in by_key.items() if force or not store.has(k)]
+    done, retried, failed, n_workers, startup = 0, set(), [], 0, 0.0
+    if todo:
+        with dask_client(scheduler, workers, gl_threads) as (client, threads):
+            startup = time.perf_counter() - t0
+            n_workers = len(client.scheduler_info(n_workers=-1)["workers"])
+            done, retried, failed = _run_on(
+                client, todo, store, data, threads, crash_marker, progress
+            )
+    store.remove_temporaries()
+    rows = store.merge()
+    summary = SweepSummary(
+        tasks=len(by_key),
+        done=done,
+        skipped=len(by_key) - len(todo),
+        retried=len(retried),
+        failed=tuple(failed),
+        wall_s=time.perf_counter() - t0,
+        startup_s=startup,
+        workers=n_workers,
+        rows=rows,
+        table=store.table,
+    )
+    write_json(
+        store.out / SUMMARY,
+        {
+            **{k: v for k, v in summary.__dict__.items() if k not in ("failed", "table")},
+            "failed": [dict(zip(("key", "task", "error"), f, strict=True)) for f in failed],
+            "table": str(summary.table),
+            "scheduler": scheduler or "local",
+            "keys": sorted(by_key),
+        },
+    )
+    return summary
+
+
+def _run_on(
+    client, todo: list[SweepTask], store: SweepStore, data, threads, crash_marker, progress: bool
+) -> tuple[int, set[str], list[tuple[str, str, str]]]:
+    """Submit ``todo``, store results as they complete; (done, retried keys, failures)."""
+    from distributed import as_completed
+    from distributed.scheduler import KilledWorker
+    from tqdm.auto import tqdm
+
+    marker = None if crash_marker is None else str(crash_marker)
+
+    def submit(task: SweepTask, attempt: int):
+        suffix = f"-retry{attempt}" if attempt else ""
+        return client.submit(
+            run_task,
+            task,
+            data=data,
+            gl_threads=threads,
+            crash_marker=marker,
+            key=f"vislod-sweep-{task.key}{suffix}",
+        )
+
+    futures = {}
+    for t in todo:
+        futures[submit(t, 0)] = (t, 0)
+    done, retried, failed = 0, set(), []
+    finished: list = []  # futures kept until the scheduler told how many deaths they saw
+
+    def count_deaths() -> None:
+        keys = [f.key for f in finished]
+        try:
+            deaths = client.run_on_scheduler(_worker_deaths, keys)
+        except Exception:  # a remote scheduler without vislod: only the driver's retries count
+            deaths = {}
+        retried.update(futures[f][0].key for f in finished if deaths.get(f.key, 0) > 0)
+        for f in finished:
+            del futures[f]
+        finished.clear()
+
+    with tqdm(total=len(todo), unit="task", desc="sweep", disable=not progress) as bar:
+        stream = as_completed(list(futures))
+        for fut in stream:
+            task, attempt = futures[fut]
+            if fut.status == "finished":
+                result: TaskResult = fut.result()
+                store.write(task, result.rows)
+                done += 1
+                bar.update(1)
+            else:
+                err = fut.exception() if fut.status == "error" else RuntimeError(fut.status)
+                if isinstance(err, KilledWorker) and attempt < MAX_RETRIES:
+                    retried.add(task.key)
+                    new = submit(task, attempt + 1)
+                    futures[new] = (task, attempt + 1)
+                    stream.add(new)
+                else:
+                    failed.append((task.key, task.label, f"{type(err).__name__}: {err}"))
+                    bar.update(1)
+            finished.append(fut)
+            if len(finished) >= DEATH_QUERY_BATCH:
+                count_deaths()
+            bar.set_postfix(done=done, retried=len(retried), failed=len(failed))
+        count_deaths()
+    return done, retried, failed
+
+
+# -- printing ----------------------------------------------------------------------------------
+
+
+def summary_table(summary: SweepSummary, keys: Sequence[str]) -> str:
+    """Means per configuration over the rows of ``keys`` in the table, and the counts."""
+    keys = set(keys)
+    rows = [r for r in read_csv(summary.table) if r["key"] in keys] if summary.rows else []
+    groups: dict[tuple, list] = {}
+    for r in rows:
+        g = (r["scene"], r["seed"], r["display"], r["depth_resolution"], r["method"])
+        groups.setdefault(g, []).append(r)
+    oracle = any(r.get("false_culls") not in (None, "") for r in rows)
+    cols = ["models_visible", "triangles_culled_pct", "ms_cull"] + (
+        ["false_culls"] if oracle else []
+    )
+    table = [[" ".join(g), str(len(rs)), *(mean(rs, c) for c in cols)] for g, rs in groups.items()]
+    text = format_table(["scene seed display depth method", "frames", *cols], table)
+    s = summary
+    return (
+        f"{text}\n{s.tasks} tasks: {s.done} run, {s.skipped} skipped (stored), {s.retried} "
+        f"retried after a worker died, {len(s.failed)} failed; {s.workers} workers, "
+        f"{s.wall_s:.1f} s wall ({s.startup_s:.1f} s cluster start); "
+        f"table {s.table} ({s.rows:,} rows)"
+    )
+
+
+# -- command line ------------------------------------------------------------------------------
+
+
+def add_sweep_parser(sub) -> argparse.ArgumentParser:
+    """Add the ``sweep`` sub-command to ``sub`` (an ``add_subparsers()`` object)."""
+    from experiments.common import parse_resolution
+
+    def resolution(text: str) -> tuple[int, int]:
+        try:
+            return parse_resolution(text)
+        except UsageError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+
+    sp = sub.add_parser(
+        "sweep",
+        help="scenes x methods x resolutions x flight chunks on Dask, into one table",
+        description="Run a grid of culling runs as keyed, idempotent tasks on a Dask cluster "
+        "(local by default) and append their per-frame rows to OUT/sweep.csv. Stored tasks "
+        "are skipped on re-runs; a task whose worker dies is run again, never twice stored.",
+    )
+    sp.add_argument(
+        "--scenes",
+        nargs="+",
+        default=["market"],
+        metavar="SPEC",
+        help="scenes NAME[:KEY=VALUE,...], e.g. market clutter:objects=80 (default: market)",
+    )
+    sp.add_argument("--seeds", type=int, nargs="+", default=[0], help="scene seeds (default 0)")
+    sp.add_argument(
+        "--methods",
+        nargs="+",
+        default=None,
+        metavar="NAME",
+        help=f"culling methods (default: {' '.join(DEFAULT_METHODS)}; 'all')",
+    )
+    sp.add_argument(
+        "--displays",
+        type=resolution,
+        nargs="+",
+        default=None,
+        metavar="WxH",
+        help="camera resolutions (default 1920x1080, quick 480x270)",
+    )
+    sp.add_argument(
+        "--resolutions",
+        type=resolution,
+        nargs="+",
+        default=None,
+        metavar="WxH",
+        help="depth-buffer resolutions, crossed with every display (default: the display's)",
+    )
+    sp.add_argument("--frames", type=int, default=None, help="flight length (default 100; quick 6)")
+    sp.add_argument("--chunk", type=int, default=None, help="frames per task (default 25; quick 3)")
+    sp.add_argument("--oracle", action="store_true", help="count false culls against the oracle")
+    sp.add_argument("--draw", action="store_true", help="also draw the kept set and time it")
+    sp.add_argument(
+        "--scheduler", default=None, metavar="tcp://HOST:PORT", help="a running Dask scheduler"
+    )
+    sp.add_argument(
+        "--workers",
+        type=int,
+        default=WORKERS,
+        help=f"local worker processes, or workers to wait for (default {WORKERS})",
+    )
+    sp.add_argument(
+        "--gl-threads",
+        type=int,
+        default=None,
+        help="llvmpipe threads per worker (default: cores / workers locally)",
+    )
+    sp.add_argument("--force", action="store_true", help="re-run tasks already stored")
+    sp.add_argument("--data", default=None, help="castle folder (default: $VISLOD_DATA)")
+    sp.add_argument("--quick", action="store_true", help="small market, 480x270, 6 frames")
+    sp.add_argument(
+        "--out", default=None, help="sweep folder (default: results/sweep; quick results/quick/)"
+    )
+    sp.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return sp
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """Run ``vislod sweep``; 0 when every task is stored, 1 when some failed."""
+    setup = make_sweep(
+        args.scenes,
+        args.methods,
+        seeds=args.seeds,
+        displays=args.displays,
+        resolutions=args.resolutions,
+        frames=args.frames,
+        chunk=args.chunk,
+        oracle=args.oracle,
+        draw=args.draw,
+        quick=args.quick,
+    )
+    if args.scheduler is None and any(s.name == "castle" for s in setup.scenes):
+        castle_path(args.data)  # local workers read it: fail now, not in every task
+    if args.gl_threads is not None and args.gl_threads < 0:
+        raise UsageError(f"--gl-threads must be >= 0, got {args.gl_threads}")
+    tasks = setup.tasks()
+    out = Path(args.out) if args.out else default_out(args.quick) / "sweep"
+    where = args.scheduler or f"a local cluster of {args.workers} workers"
+    print(f"sweep: {len(tasks)} tasks on {where} → {out}", file=sys.stderr)
+    summary = run_sweep(
+        tasks,
+        out,
+        scheduler=args.scheduler,
+        workers=args.workers,
+        force=args.force,
+        progress=not args.no_progress,
+        data=args.data,
+        gl_threads=args.gl_threads,
+    )
+    print(summary_table(summary, [t.key for t in tasks]))
+    for key, label, err in summary.failed:
+        print(f"vislod: task {key} ({label}) failed: {err}", file=sys.stderr)
+    return 1 if summary.failed else 0
