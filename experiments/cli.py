@@ -7,6 +7,7 @@
     vislod grid [--frames 100] [--grid-sizes 16 32 64] [--display WxH] [--quick] [--out results]
     vislod portals [--frames 200] [--rooms 6x4] [--floors 1] [--display WxH] [--quick]
                    [--out results]
+    vislod state-sorting [--frames 100] [--method hiz-gpu] [--k 1 2 ...] [--quick] [--out results]
     vislod sweep [--scenes SPEC ...] [--seeds N ...] [--methods ...] [--displays WxH ...]
                  [--resolutions WxH ...] [--frames N] [--chunk N] [--oracle] [--draw]
                  [--scheduler tcp://H:P] [--workers N] [--gl-threads N] [--force] [--quick]
@@ -183,6 +184,28 @@ def build_parser() -> argparse.ArgumentParser:
         "--rooms", type=_rooms, default=None, metavar="NXxNZ", help="rooms (default 6x4)"
     )
     portals.add_argument("--floors", type=int, default=1, help="storeys (default 1)")
+    ss = sub.add_parser(
+        "state-sorting", help="seed 001: sorting-buffer strategies, state changes per buffer size"
+    )
+    ss.add_argument("--frames", type=int, default=None, help="flight frames (default 100; quick 6)")
+    ss.add_argument(
+        "--display",
+        type=_resolution,
+        default=None,
+        help="culling resolution WxH (default 1920x1080, quick 480x270)",
+    )
+    ss.add_argument(
+        "--method", default=None, help="culling method producing the draw stream (default hiz-gpu)"
+    )
+    ss.add_argument(
+        "--k", type=int, nargs="+", default=None, metavar="K", help="buffer sizes (default 1..64)"
+    )
+    ss.add_argument("--seed", type=int, default=0, help="scene and stream seed (default 0)")
+    ss.add_argument("--quick", action="store_true", help="6 frames, small sweep (VISLOD_QUICK=1)")
+    ss.add_argument(
+        "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
+    )
+    ss.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_sweep_parser(sub)
     return p
 
@@ -306,11 +329,22 @@ def cmd_portals(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_state_sorting(args: argparse.Namespace) -> int:
+    from experiments import seed001_state_sorting as ss
+
+    setup = ss.make_setup(
+        args.quick, args.frames, args.display, args.method, args.k, seed=args.seed
+    )
+    ss.run(setup.quick, args.out, True, setup=setup, progress=not args.no_progress)
+    return 0
+
+
 COMMANDS = {
     "demo": cmd_demo,
     "cull": cmd_cull,
     "grid": cmd_grid,
     "portals": cmd_portals,
+    "state-sorting": cmd_state_sorting,
     "sweep": cmd_sweep,
 }
 
