@@ -37,9 +37,10 @@ test: setup
 bench: setup
 	MPLBACKEND=Agg $(PY) -m experiments.bench $(ARGS)
 
-# Every figure of the source documents; today seed 000's with every culling method.
+# Every figure of the source documents, then results/REPORT.md (skips figures already done;
+# ARGS=--force re-runs them, ARGS=--quick for a small run).
 figures: setup
-	MPLBACKEND=Agg $(PY) -m experiments.cli demo --scene $(DEMO_SCENE) --methods all $(ARGS)
+	MPLBACKEND=Agg $(PY) -m experiments.cli figures $(ARGS)
 
 lint: setup
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .

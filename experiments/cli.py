@@ -8,6 +8,7 @@
     vislod portals [--frames 200] [--rooms 6x4] [--floors 1] [--display WxH] [--quick]
                    [--out results]
     vislod state-sorting [--frames 100] [--method hiz-gpu] [--k 1 2 ...] [--quick] [--out results]
+    vislod figures [--only NAME ...] [--force] [--quick] [--out results]
     vislod sweep [--scenes SPEC ...] [--seeds N ...] [--methods ...] [--displays WxH ...]
                  [--resolutions WxH ...] [--frames N] [--chunk N] [--oracle] [--draw]
                  [--scheduler tcp://H:P] [--workers N] [--gl-threads N] [--force] [--quick]
@@ -206,6 +207,24 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
     )
     ss.add_argument("--no-progress", action="store_true", help="no progress bar")
+    figs = sub.add_parser(
+        "figures", help="every figure of the source documents, then results/REPORT.md"
+    )
+    figs.add_argument(
+        "--only", nargs="+", default=None, metavar="NAME", help="these figures only (see --list)"
+    )
+    figs.add_argument("--list", action="store_true", help="list the figures and exit")
+    figs.add_argument("--force", action="store_true", help="re-run figures already done")
+    figs.add_argument(
+        "--quick", action="store_true", help="small scenes, few frames (VISLOD_QUICK=1)"
+    )
+    figs.add_argument(
+        "--data", default=None, help="folder holding intel_castle/ (default: $VISLOD_DATA)"
+    )
+    figs.add_argument(
+        "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
+    )
+    figs.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_sweep_parser(sub)
     return p
 
@@ -339,12 +358,34 @@ def cmd_state_sorting(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_figures(args: argparse.Namespace) -> int:
+    import os
+
+    from experiments.figures import FIGURES, run_figures
+
+    if args.list:
+        for f in FIGURES:
+            print(f"{f.key:24s} seed {f.seed}  ~{f.minutes:g} min  {f.title}")
+        return 0
+    data = args.data or os.environ.get("VISLOD_DATA") or None
+    run_figures(
+        args.out,
+        quick=args.quick,
+        only=args.only,
+        force=args.force,
+        data=data,
+        progress=not args.no_progress,
+    )
+    return 0
+
+
 COMMANDS = {
     "demo": cmd_demo,
     "cull": cmd_cull,
     "grid": cmd_grid,
     "portals": cmd_portals,
     "state-sorting": cmd_state_sorting,
+    "figures": cmd_figures,
     "sweep": cmd_sweep,
 }
 

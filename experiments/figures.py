@@ -1,0 +1,221 @@
+"""Every figure of the source documents in one run (``make figures`` = ``vislod figures``).
+
+Each :class:`Figure` is one experiment module: how to run it (``run(quick, out)``, writing
+CSV/JSON/PNG under ``out``), which JSON summary it leaves, and how its summary becomes rows of
+``results/REPORT.md`` (:mod:`experiments.report`): per row of SPEC's figure tables, our number
+beside the document's and a verdict, reproduced / differs (why) / image.
+
+A figure that already ran (its summary and a stamp with the same mode and package version
+exist) is skipped, so an interrupted run resumes where it stopped; ``--force`` runs
+everything again. The report is rewritten from whatever summaries exist at the end.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from experiments.common import (
+    UsageError,
+    castle_path,
+    default_out,
+    make_setup,
+    write_json,
+)
+
+STAMPS = ".figures"  # folder (under the results folder) of per-figure stamps
+
+
+@dataclass(frozen=True)
+class Figure:
+    """One experiment of ``make figures``.
+
+    Attributes
+    ----------
+    key : str
+        Name on the command line (``--only``) and of the stamp file.
+    seed : str
+        Source document ("000" … "004").
+    title : str
+        What it reproduces, one line.
+    summary : str
+        The JSON it writes, relative to the results folder (the report reads it).
+    run : callable
+        ``run(quick, out, data)`` — writes everything under ``out``.
+    minutes : float
+        Rough full-run time on this machine (2 cores, llvmpipe), for the progress bar.
+    images : str
+        Glob (relative to the results folder) of the PNGs the report shows.
+    """
+
+    key: str
+    seed: str
+    title: str
+    summary: str
+    run: Callable[[bool, Path, str | None], Any]
+    minutes: float
+    images: str = ""
+
+
+# -- how each experiment is run (imports are lazy: `vislod --help` stays fast) ---------------
+
+
+def _seed000(quick: bool, out: Path, data: str | None) -> None:
+    from experiments.seed000_demo import demo
+
+    scene = "castle" if data is not None and _has_castle(data) else "market"
+    demo(make_setup(quick=quick), scene_name=scene, out=out, methods=["all"], data=data)
+
+
+def _seed001_portals(quick: bool, out: Path, data: str | None) -> None:
+    from experiments import seed001_portals
+
+    seed001_portals.portal_experiment(seed001_portals.make_setup(quick), out)
+
+
+def _seed001_state_sorting(quick: bool, out: Path, data: str | None) -> None:
+    from experiments import seed001_state_sorting
+
+    seed001_state_sorting.run(quick, out, True)
+
+
+def _seed002(quick: bool, out: Path, data: str | None) -> None:
+    from experiments import seed002_grid
+
+    seed002_grid.grid_experiment(seed002_grid.make_setup(quick), out)
+
+
+def _has_castle(data: str) -> bool:
+    try:
+        castle_path(data)
+    except UsageError:
+        return False
+    return True
+
+
+FIGURES: tuple[Figure, ...] = (
+    Figure(
+        "seed000",
+        "000",
+        "software occlusion culling: Abb. 1, 4, 6-10 with every culling method",
+        "seed000_summary.json",
+        _seed000,
+        40.0,
+        "seed000_abb*.png",
+    ),
+    Figure(
+        "seed001-portals",
+        "001",
+        "portal culling in a building",
+        "seed001_portals_summary.json",
+        _seed001_portals,
+        2.0,
+        "seed001_portals*.png",
+    ),
+    Figure(
+        "seed001-state-sorting",
+        "001",
+        "state sorting: sorting-buffer strategies against the offline optimum",
+        "seed001_state_sorting/seed001_state_sorting.json",
+        _seed001_state_sorting,
+        3.0,
+        "seed001_state_sorting/*.png",
+    ),
+    Figure(
+        "seed002",
+        "002",
+        "occlusion queries on grid cells: query caps, grid sizes, popping",
+        "seed002_summary.json",
+        _seed002,
+        8.0,
+        "seed002_*.png",
+    ),
+)
+
+
+def figure_names() -> list[str]:
+    return [f.key for f in FIGURES]
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("vislod")
+    except PackageNotFoundError:
+        return "0+unknown"
+
+
+def _stamp_path(out: Path, fig: Figure) -> Path:
+    return out / STAMPS / f"{fig.key}.json"
+
+
+def is_done(out: Path, fig: Figure, quick: bool) -> bool:
+    """The figure's summary exists and its stamp says it ran in this mode and version."""
+    stamp = _stamp_path(out, fig)
+    if not (stamp.is_file() and (out / fig.summary).is_file()):
+        return False
+    try:
+        s = json.loads(stamp.read_text())
+    except (OSError, ValueError):
+        return False
+    return s.get("quick") == quick and s.get("version") == _version()
+
+
+def run_figures(
+    out: str | Path | None = None,
+    *,
+    quick: bool = False,
+    only: Sequence[str] | None = None,
+    force: bool = False,
+    data: str | None = None,
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Run every figure (or ``only`` those), skipping the ones already done unless ``force``;
+    then write ``REPORT.md``. Returns ``{"ran": [...], "skipped": [...], "seconds": {...},
+    "report": path}``."""
+    from tqdm.auto import tqdm
+
+    from experiments.report import write_report
+
+    names = figure_names()
+    unknown = sorted(set(only or ()) - set(names))
+    if unknown:
+        raise UsageError(f"unknown figure(s) {', '.join(unknown)}; available: {', '.join(names)}")
+    out = Path(out) if out is not None else default_out(quick)
+    chosen = [f for f in FIGURES if not only or f.key in only]
+    todo = [f for f in chosen if force or not is_done(out, f, quick)]
+    skipped = [f.key for f in chosen if f not in todo]
+    if skipped:
+        print(f"already done (use --force to re-run): {', '.join(skipped)}")
+    seconds: dict[str, float] = {}
+    weight = {f.key: (f.minutes / 10 if quick else f.minutes) for f in todo}
+    with tqdm(
+        total=round(sum(weight.values()), 1),
+        unit="min",
+        desc="figures",
+        disable=not progress,
+        position=0,
+    ) as bar:
+        for fig in todo:
+            bar.set_postfix_str(fig.key)
+            t0 = time.perf_counter()
+            fig.run(quick, out, data)
+            seconds[fig.key] = time.perf_counter() - t0
+            write_json(
+                _stamp_path(out, fig),
+                {"quick": quick, "version": _version(), "seconds": seconds[fig.key]},
+            )
+            bar.update(round(weight[fig.key], 1))
+    report = write_report(out, FIGURES, quick=quick)
+    print(f"report: {report}")
+    return {
+        "ran": [f.key for f in todo],
+        "skipped": skipped,
+        "seconds": seconds,
+        "report": report,
+    }
