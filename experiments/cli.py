@@ -7,6 +7,7 @@
     vislod grid [--frames 100] [--grid-sizes 16 32 64] [--display WxH] [--quick] [--out results]
     vislod portals [--frames 200] [--rooms 6x4] [--floors 1] [--display WxH] [--quick]
                    [--out results]
+    vislod image-based [--display 800x600] [--views 8] [--quick] [--out results]
     vislod state-sorting [--frames 100] [--method hiz-gpu] [--k 1 2 ...] [--quick] [--out results]
     vislod figures [--only NAME ...] [--force] [--quick] [--out results]
     vislod sweep [--scenes SPEC ...] [--seeds N ...] [--methods ...] [--displays WxH ...]
@@ -185,6 +186,21 @@ def build_parser() -> argparse.ArgumentParser:
         "--rooms", type=_rooms, default=None, metavar="NXxNZ", help="rooms (default 6x4)"
     )
     portals.add_argument("--floors", type=int, default=1, help="storeys (default 1)")
+    image = sub.add_parser(
+        "image-based", help="seed 001: stereo by warping, warping renderer, z-compositing"
+    )
+    image.add_argument(
+        "--quick", action="store_true", help="small market, 320x240, 3 views (VISLOD_QUICK=1)"
+    )
+    image.add_argument(
+        "--display", type=_resolution, default=None, help="WxH (default 800x600, quick 320x240)"
+    )
+    image.add_argument("--views", type=int, default=None, help="views per sweep (default 8)")
+    image.add_argument("--seed", type=int, default=0, help="scene and animation seed (default 0)")
+    image.add_argument(
+        "--out", default=None, help="results root; files go to <out>/seed001_image_based/"
+    )
+    image.add_argument("--no-progress", action="store_true", help="no progress bar")
     ss = sub.add_parser(
         "state-sorting", help="seed 001: sorting-buffer strategies, state changes per buffer size"
     )
@@ -348,6 +364,14 @@ def cmd_portals(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_image_based(args: argparse.Namespace) -> int:
+    from experiments import seed001_image_based as exp
+
+    setup = exp.make_setup(args.quick, args.display, args.views, args.seed)
+    exp.run(setup.quick, args.out, True, setup=setup, progress=not args.no_progress)
+    return 0
+
+
 def cmd_state_sorting(args: argparse.Namespace) -> int:
     from experiments import seed001_state_sorting as ss
 
@@ -384,6 +408,7 @@ COMMANDS = {
     "cull": cmd_cull,
     "grid": cmd_grid,
     "portals": cmd_portals,
+    "image-based": cmd_image_based,
     "state-sorting": cmd_state_sorting,
     "figures": cmd_figures,
     "sweep": cmd_sweep,

@@ -83,6 +83,12 @@ def _seed001_state_sorting(quick: bool, out: Path, data: str | None) -> None:
     seed001_state_sorting.run(quick, out, True)
 
 
+def _seed001_image_based(quick: bool, out: Path, data: str | None) -> None:
+    from experiments import seed001_image_based
+
+    seed001_image_based.run(quick, out, True)
+
+
 def _seed002(quick: bool, out: Path, data: str | None) -> None:
     from experiments import seed002_grid
 
@@ -124,6 +130,15 @@ FIGURES: tuple[Figure, ...] = (
         _seed001_state_sorting,
         3.0,
         "seed001_state_sorting/*.png",
+    ),
+    Figure(
+        "seed001-image-based",
+        "001",
+        "image-based rendering: stereo by warping, the warping renderer, z-compositing",
+        "seed001_image_based/seed001_image_based.json",
+        _seed001_image_based,
+        3.0,
+        "seed001_image_based/*.png",
     ),
     Figure(
         "seed002",
