@@ -42,7 +42,10 @@ class UsageError(ValueError):
 
 
 def default_results_dir() -> Path:
-    """``results/`` at the repository root (the current directory when not run from a checkout)."""
+    """``results/`` at the repository root (the current directory when not run from a checkout),
+    or ``$VISLOD_RESULTS`` when set (tests and CI keep their results out of the checkout)."""
+    if os.environ.get("VISLOD_RESULTS"):
+        return Path(os.environ["VISLOD_RESULTS"])
     root = Path(__file__).resolve().parents[1]
     if (root / "pyproject.toml").is_file():
         return root / "results"

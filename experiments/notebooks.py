@@ -1,7 +1,8 @@
 """Writes the thin notebooks that call the experiments and show their tables and pictures:
 ``notebooks/seed000_methods.ipynb`` (seed 000's Abb. 8 left and Abb. 10 for every culling
-method) and ``notebooks/seed002_grid.ipynb`` (seed 002's grid experiment and seed 001's portal
-culling). Quick mode when ``VISLOD_QUICK`` is set.
+method), ``notebooks/seed001_rendering.ipynb`` (seed 001's portal culling, state sorting and
+image-based techniques) and ``notebooks/seed002_grid.ipynb`` (seed 002's grid experiment).
+Quick mode when ``VISLOD_QUICK`` is set.
 
 The notebooks are generated without outputs, so that they stay a view of the experiments
 rather than a second copy of them: ``python -m experiments.notebooks`` (the seed-000
@@ -68,10 +69,10 @@ METHODS_SECTIONS = [
     ("## Abb. 10 — frame time and FPS per method on this machine", ["seed000_abb10.png"]),
 ]
 
-# -- seed 002: grid, and seed 001: portals ---------------------------------------------------------
+# -- seed 002: grid ----------------------------------------------------------------------------
 
 GRID_INTRO = """\
-# Seed 002 — occlusion queries on a uniform grid; seed 001 — portal culling
+# Seed 002 — occlusion queries on a uniform grid
 
 **Seed 002** (a thesis on hardware occlusion queries with grid traversal) visits the grid
 cells the view frustum touches front to back, queries each non-empty cell, and uses the
@@ -85,27 +86,20 @@ market flight) and an indoor one (a walk through generated rooms). The document'
 bind on our scenes (at most about a thousand non-empty cells), so caps scaled to our mean
 queries per frame are run as well.
 
-**Seed 001** (Zachmann's lecture) names portal culling for buildings: cells and portals, from
-a viewpoint even less is visible. We walk through the rooms and compare the objects culled per
-room by portal culling and by frustum culling alone, and check against the oracle that portal
-culling never culls a visible object.
-
-All the work is done by `experiments/seed002_grid.py` and `experiments/seed001_portals.py`
-(`vislod grid`, `vislod portals`); this notebook only calls them. Set `VISLOD_QUICK=1` for a
-quick run (a few frames at a quarter of the resolution: seconds); the full runs take a few
-minutes each on two CPU cores."""
+All the work is done by `experiments/seed002_grid.py` (`vislod grid`); this notebook only
+calls it. Set `VISLOD_QUICK=1` for a quick run (a few frames at a quarter of the resolution:
+seconds); the full run takes a few minutes on two CPU cores."""
 
 GRID_SETUP = """\
 from IPython.display import Image, display
 
-from experiments import seed001_portals, seed002_grid
+from experiments import seed002_grid
 from experiments.common import default_out, env_quick
 
 quick = env_quick()
 out = default_out(quick)
 grid_setup = seed002_grid.make_setup(quick=quick)
-portal_setup = seed001_portals.make_setup(quick=quick)
-print(f"quick={quick}: grid {grid_setup}; portals {portal_setup}; results in {out}")"""
+print(f"quick={quick}: {grid_setup}; results in {out}")"""
 
 GRID_RUN = """\
 # Both segments: frustum only, grid sizes without a cap, then the caps on the middle size.
@@ -117,9 +111,6 @@ print(seed002_grid.format_summary(grid.summary, grid_setup))
 print()
 print(seed002_grid.format_claims(grid.claims))"""
 
-PORTALS_RUN = """\
-portals = seed001_portals.portal_experiment(portal_setup, out, verbose=False)
-print(seed001_portals.format_summary(portals.summary, portal_setup, portals.objects))"""
 
 GRID_SECTIONS = [
     (
@@ -186,18 +177,101 @@ def build_grid():
     ]
     for text, images in GRID_SECTIONS:
         cells += [v4.new_markdown_cell(text), v4.new_code_cell(image_cell(images))]
-    cells += [
-        v4.new_markdown_cell(
-            "## Seed 001 — portal culling per room\n\nObjects culled per room the camera "
-            "stands in, frustum alone vs portals vs the oracle's ideal; cull time per frame."
-        ),
-        v4.new_code_cell(PORTALS_RUN),
-        v4.new_code_cell(image_cell(["seed001_portals.png"])),
-    ]
     return notebook(cells, "seed002-grid")
 
 
-NOTEBOOKS = {"seed000_methods.ipynb": build_methods, "seed002_grid.ipynb": build_grid}
+# -- seed 001: portals, state sorting, image-based techniques ----------------------------------
+
+RENDERING_INTRO = """\
+# Seed 001 — portal culling, state sorting, image-based techniques
+
+Zachmann's VR lecture on real-time rendering (seed 001) covers, besides levels of detail
+(`seed001_lod.ipynb`):
+
+- **portal culling** in buildings: cells and portals; from a viewpoint even less is visible.
+  We walk through generated rooms and compare objects culled per room by portal culling and
+  by frustum culling alone, and check against the oracle that portals never cull a visible
+  object (`experiments/seed001_portals.py`, `vislod portals`);
+- **state sorting** with a sorting buffer of k draws and lazy online strategies (LRU,
+  Bounded-Waste, Random-Choice, Round-Robin) against the offline optimum, by their number of
+  state changes, on synthetic streams and on the draw stream of the culled market flight;
+  LRU's worst-case input (`experiments/seed001_state_sorting.py`, `vislod state-sorting`);
+- **image-based techniques**: stereo by warping one eye's image to the other (holes vs eye
+  separation), the decoupled warping renderer (re-projecting an older frame with per-object
+  transforms: holes and error vs frame age, warp vs render time), and z-compositing of images
+  of disjoint object subsets, which must equal the full render exactly
+  (`experiments/seed001_image_based.py`, `vislod image-based`).
+
+The notebook only calls the experiments. `VISLOD_QUICK=1`: small scenes, few frames (about a
+minute in all); the full runs take a few minutes each on two CPU cores."""
+
+RENDERING_SETUP = """\
+from IPython.display import Image, display
+
+from experiments import seed001_image_based, seed001_portals, seed001_state_sorting
+from experiments.common import default_out, env_quick
+
+quick = env_quick()
+out = default_out(quick)
+print(f"quick={quick}: results in {out}")"""
+
+PORTALS_RUN = """\
+portal_setup = seed001_portals.make_setup(quick=quick)
+portals = seed001_portals.portal_experiment(portal_setup, out, verbose=False)
+print(seed001_portals.format_summary(portals.summary, portal_setup, portals.objects))"""
+
+SORTING_RUN = """\
+sorting = seed001_state_sorting.run(quick, out, verbose=False, progress=False)
+print(seed001_state_sorting.format_summary(sorting["summary"], sorting["stream"]))
+print()
+print(seed001_state_sorting.format_worst(sorting["worst_case"]))"""
+
+IMAGE_RUN = """\
+image = seed001_image_based.run(quick, out, verbose=False, progress=False)
+print(seed001_image_based.format_claims(image["claims"]))"""
+
+
+def build_rendering():
+    """``seed001_rendering.ipynb`` as an ``nbformat`` node (no outputs)."""
+    from nbformat import v4
+
+    sorting_pngs = ["seed001_state_changes.png", "seed001_state_ratio.png"]
+    image_pngs = [
+        "seed001_stereo_images.png",
+        "seed001_stereo_error.png",
+        "seed001_warp_images.png",
+        "seed001_warp_age.png",
+        "seed001_composite.png",
+    ]
+    cells = [
+        v4.new_markdown_cell(RENDERING_INTRO),
+        v4.new_code_cell(RENDERING_SETUP),
+        v4.new_markdown_cell(
+            "## Portal culling per room\n\nObjects culled per room the camera stands in, "
+            "frustum alone vs portals vs the oracle's ideal; cull time per frame."
+        ),
+        v4.new_code_cell(PORTALS_RUN),
+        v4.new_code_cell(image_cell(["seed001_portals.png"])),
+        v4.new_markdown_cell(
+            "## State sorting\n\nState changes per buffer size k and the ratio to the "
+            "best offline order, per strategy and stream."
+        ),
+        v4.new_code_cell(SORTING_RUN),
+        v4.new_code_cell(image_cell([f"seed001_state_sorting/{p}" for p in sorting_pngs])),
+        v4.new_markdown_cell(
+            "## Image-based techniques\n\nStereo by warping, the warping renderer, z-compositing."
+        ),
+        v4.new_code_cell(IMAGE_RUN),
+        v4.new_code_cell(image_cell([f"seed001_image_based/{p}" for p in image_pngs])),
+    ]
+    return notebook(cells, "seed001-rendering")
+
+
+NOTEBOOKS = {
+    "seed000_methods.ipynb": build_methods,
+    "seed001_rendering.ipynb": build_rendering,
+    "seed002_grid.ipynb": build_grid,
+}
 
 
 def write(folder: str | os.PathLike = FOLDER) -> list[Path]:

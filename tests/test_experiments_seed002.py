@@ -184,20 +184,3 @@ def test_cli_portals_runs_and_prints_the_check(tmp_path, capsys, monkeypatch):
     printed = capsys.readouterr().out
     assert "false culls against the oracle: portals 0" in printed
     assert (tmp_path / "seed001_portals.png").is_file()
-
-
-@pytest.mark.parametrize("name", ["seed000_methods.ipynb", "seed002_grid.ipynb"])
-def test_notebooks_are_committed_without_outputs_and_match_the_generator(name):
-    nbformat = pytest.importorskip("nbformat")
-    from experiments import notebooks
-
-    path = ROOT / "notebooks" / name
-    nb = json.loads(path.read_text())
-    code = [c for c in nb["cells"] if c["cell_type"] == "code"]
-    assert code, "the notebook has no code"
-    for c in code:
-        assert c["outputs"] == [] and c["execution_count"] is None
-    assert "env_quick" in json.dumps(nb)
-    assert nbformat.reads(path.read_text(), as_version=4) == notebooks.NOTEBOOKS[name](), (
-        f"{name} is stale: run python -m experiments.notebooks"
-    )
