@@ -7,6 +7,7 @@
     vislod grid [--frames 100] [--grid-sizes 16 32 64] [--display WxH] [--quick] [--out results]
     vislod portals [--frames 200] [--rooms 6x4] [--floors 1] [--display WxH] [--quick]
                    [--out results]
+    vislod lod [--frames 150] [--budget-ms MS] [--recalibrate] [--quick] [--out results]
     vislod image-based [--display 800x600] [--views 8] [--quick] [--out results]
     vislod state-sorting [--frames 100] [--method hiz-gpu] [--k 1 2 ...] [--quick] [--out results]
     vislod figures [--only NAME ...] [--force] [--quick] [--out results]
@@ -186,6 +187,25 @@ def build_parser() -> argparse.ArgumentParser:
         "--rooms", type=_rooms, default=None, metavar="NXxNZ", help="rooms (default 6x4)"
     )
     portals.add_argument("--floors", type=int, default=1, help="storeys (default 1)")
+    lodp = sub.add_parser(
+        "lod", help="seed 001: LOD picture pair and strategies over a flight under a frame budget"
+    )
+    lodp.add_argument(
+        "--frames", type=int, default=None, help="flight frames (default 150; 12 quick)"
+    )
+    lodp.add_argument(
+        "--budget-ms",
+        type=float,
+        default=None,
+        help="target frame ms (default 0.35 x no-LOD; document: 100)",
+    )
+    lodp.add_argument("--quick", action="store_true", help="small scene, 480x270 (VISLOD_QUICK=1)")
+    lodp.add_argument("--data", default=None, help="mesh folder for the prototypes")
+    lodp.add_argument(
+        "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
+    )
+    lodp.add_argument("--recalibrate", action="store_true", help="re-measure the cost model")
+    lodp.add_argument("--no-progress", action="store_true", help="no progress bar")
     image = sub.add_parser(
         "image-based", help="seed 001: stereo by warping, warping renderer, z-compositing"
     )
@@ -364,6 +384,25 @@ def cmd_portals(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_lod(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from experiments import seed001_lod_budget
+
+    out = Path(args.out or default_out(args.quick)) / "seed001_lod"
+    seed001_lod_budget.run(
+        args.quick,
+        out,
+        args.data,
+        args.budget_ms,
+        args.frames,
+        verbose=True,
+        progress=not args.no_progress,
+        force_calibration=args.recalibrate,
+    )
+    return 0
+
+
 def cmd_image_based(args: argparse.Namespace) -> int:
     from experiments import seed001_image_based as exp
 
@@ -408,6 +447,7 @@ COMMANDS = {
     "cull": cmd_cull,
     "grid": cmd_grid,
     "portals": cmd_portals,
+    "lod": cmd_lod,
     "image-based": cmd_image_based,
     "state-sorting": cmd_state_sorting,
     "figures": cmd_figures,

@@ -77,6 +77,12 @@ def _seed001_portals(quick: bool, out: Path, data: str | None) -> None:
     seed001_portals.portal_experiment(seed001_portals.make_setup(quick), out)
 
 
+def _seed001_lod(quick: bool, out: Path, data: str | None) -> None:
+    from experiments import seed001_lod_budget
+
+    seed001_lod_budget.run(quick, out / "seed001_lod", None, progress=True)
+
+
 def _seed001_state_sorting(quick: bool, out: Path, data: str | None) -> None:
     from experiments import seed001_state_sorting
 
@@ -112,6 +118,15 @@ FIGURES: tuple[Figure, ...] = (
         _seed000,
         40.0,
         "seed000_abb*.png",
+    ),
+    Figure(
+        "seed001-lod",
+        "001",
+        "levels of detail under a frame budget: the picture pair, strategies over a flight",
+        "seed001_lod/seed001_lod_summary.json",
+        _seed001_lod,
+        4.0,
+        "seed001_lod/seed001_lod_*.png",
     ),
     Figure(
         "seed001-portals",

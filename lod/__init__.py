@@ -16,6 +16,11 @@ _EXPORTS = {
     "melax_simplify": "lod.melax",
     "projected_area": "lod.screen_size",
     "select": "lod.selection",
+    "LodScene": "lod.lod_scene",
+    "LodSceneConfig": "lod.lod_scene",
+    "CostModel": "lod.benefit",
+    "calibrate": "lod.calibration",
+    "Calibration": "lod.calibration",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -29,7 +29,7 @@ All functions are vectorized over objects; units are stated per argument.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -40,6 +40,8 @@ from soc.camera import Camera
 # Rendering accuracy 1 − c/polygons: c is the polygon count at which a level is worth nothing
 # (our choice; the lecture leaves c open). 4 ≈ a bounding-box-like impostor.
 RENDERING_C = 4.0
+# error_accuracy: projected geometric error (pixels) at which a level's accuracy is 1/2.
+ERROR_TOLERANCE_PX = 1.0
 # Hysteresis c1/(1 + |L − L'|) + c2: c1 + c2 = 1 makes the factor 1 at last frame's level and
 # c2 + c1/2 one level away. Funkhouser–Séquin give no values; these keep a level change cheap
 # but not free.
@@ -67,20 +69,31 @@ class CostModel:
     plus an optional fixed ``per_draw`` (0 reproduces the lecture's formula).
 
     Attributes are ms per polygon, per vertex, per pixel and per draw. The defaults are
-    order-of-magnitude values for llvmpipe at 1080p, to be replaced by :meth:`fit` on
-    measured frame times.
+    order-of-magnitude values for llvmpipe at 1080p, to be replaced by :meth:`fit` or
+    :func:`lod.calibration.calibrate` on measured draw times. ``combine`` is ``"max"`` (the
+    lecture: geometry and fill overlap, the slower one counts) or ``"sum"`` (they do not
+    overlap — e.g. one CPU doing both, as llvmpipe largely does). ``per_edge`` (ms per
+    ``sqrt(Poly · Pixels)``, default 0 = the lecture's formula) adds to the fill side the
+    rasterizer's work along triangle edges: P triangles covering A pixels have a total
+    perimeter ∝ sqrt(A · P) pixels, and a tiled rasterizer (llvmpipe: 4×4 blocks) pays for
+    every partially covered block along them — measured on llvmpipe, a close object costs
+    several times more per pixel at 20k triangles than at 640 (``lod.calibration``).
     """
 
     per_polygon: float = 2e-5
     per_vertex: float = 1e-5
     per_pixel: float = 2e-6
     per_draw: float = 0.0
+    per_edge: float = 0.0
+    combine: str = "max"
 
     def __post_init__(self):
-        for name in ("per_polygon", "per_vertex", "per_pixel", "per_draw"):
+        for name in ("per_polygon", "per_vertex", "per_pixel", "per_draw", "per_edge"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"CostModel.{name} must be finite and >= 0, got {v!r}")
+        if self.combine not in ("max", "sum"):
+            raise ValueError(f"CostModel.combine must be 'max' or 'sum', got {self.combine!r}")
 
     def cost(self, polygons, vertices, pixels) -> np.ndarray:
         """(N, L) float64 ms.
@@ -94,7 +107,26 @@ class CostModel:
         """
         p, v, a = _geometry_and_pixels(polygons, vertices, pixels)
         geometry = self.per_polygon * p + self.per_vertex * v
-        return np.maximum(geometry, self.per_pixel * a[:, None]) + self.per_draw
+        fill = self.per_pixel * a[:, None]
+        if self.per_edge:
+            fill = fill + self.per_edge * np.sqrt(p * a[:, None])
+        both = np.maximum(geometry, fill) if self.combine == "max" else geometry + fill
+        return both + self.per_draw
+
+    def scaled(self, factor: float) -> CostModel:
+        """The same model with every constant times ``factor`` (> 0): a whole-frame
+        correction of constants measured on isolated draws (:mod:`lod.calibration`)."""
+        if not (np.isfinite(factor) and factor > 0):
+            raise ValueError(f"factor must be finite and > 0, got {factor!r}")
+        f = float(factor)
+        return replace(
+            self,
+            per_polygon=self.per_polygon * f,
+            per_vertex=self.per_vertex * f,
+            per_pixel=self.per_pixel * f,
+            per_draw=self.per_draw * f,
+            per_edge=self.per_edge * f,
+        )
 
     @classmethod
     def fit(cls, polygons, vertices, pixels, ms, iterations: int = 20) -> CostModel:
@@ -150,6 +182,23 @@ def rendering_accuracy(polygons, c: float = RENDERING_C) -> np.ndarray:
         raise ValueError(f"polygon counts must be >= 0, got {p.reshape(-1)[:5].tolist()}")
     with np.errstate(divide="ignore"):
         return np.clip(1.0 - c / p, 0.0, 1.0)
+
+
+def error_accuracy(error_px, tolerance_px: float = ERROR_TOLERANCE_PX) -> np.ndarray:
+    """Rendering accuracy from a level's geometric error projected to the screen:
+    ``1 / (1 + error_px / tolerance_px)`` in (0, 1]: (N, L) → (N, L).
+
+    The lecture's ``1 − c/pgons`` with one constant c barely separates levels of 10³–10⁵
+    polygons (0.9997 vs 0.997 for c = 4), so the hysteresis factor (0.9 one level away)
+    would freeze every object at its first level; the projected error separates them where
+    it shows — near objects — and not where it does not (far objects: every level ≈ 1).
+    """
+    e = np.asarray(error_px, dtype=np.float64)
+    if np.isnan(e).any() or (e < 0).any():
+        raise ValueError(f"projected errors must be >= 0, got {e.reshape(-1)[:5].tolist()}")
+    if not tolerance_px > 0:
+        raise ValueError(f"tolerance_px must be > 0, got {tolerance_px!r}")
+    return 1.0 / (1.0 + e / tolerance_px)
 
 
 def hysteresis(

@@ -36,6 +36,11 @@ class Renderer:
     def release(self) -> None:
         self.glctx.release_framebuffer(self.fbo, self.color, self.depth)
 
+    def device(self) -> str:
+        """What draws: the GL renderer string and llvmpipe's thread count (a cache key for
+        anything measured on this renderer, e.g. LOD cost-model constants)."""
+        return f"{self.glctx.ctx.info['GL_RENDERER']} ({self.glctx.threads} threads)"
+
     def draw(self, camera, ids: np.ndarray, *, clear: bool = True) -> float:
         """Draw objects ``ids`` (K,) from ``camera``; returns the wall time in ms (finished)."""
         import moderngl

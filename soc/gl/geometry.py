@@ -100,6 +100,19 @@ class SceneGeometry:
         ):
             b.release()
 
+    def write_colors(self, colors: np.ndarray | None = None) -> None:
+        """Replace the per-object colours that ``shade.frag`` draws with: ``colors`` (N, 3)
+        float in [0, 1] (e.g. grey by LOD level for a picture), or None for the default
+        palette (:func:`object_colors`)."""
+        n = len(self.scene)
+        if colors is None:
+            rgb = object_colors(n, self.scene.occluder)
+        else:
+            rgb = np.ascontiguousarray(colors, dtype=np.float32)
+            if rgb.shape != (n, 3) or not np.isfinite(rgb).all():
+                raise ValueError(f"colors must be ({n}, 3) finite floats, got shape {rgb.shape}")
+        self.colors.write(rgb)
+
     # -- vertex arrays, one per (program, kind) ---------------------------------------------
 
     def mesh_vao(self, program):
