@@ -10,6 +10,7 @@
     vislod lod [--frames 150] [--budget-ms MS] [--recalibrate] [--quick] [--out results]
     vislod image-based [--display 800x600] [--views 8] [--quick] [--out results]
     vislod state-sorting [--frames 100] [--method hiz-gpu] [--k 1 2 ...] [--quick] [--out results]
+    vislod seed004-octree [--quick] [--frames N] [--objects 70000] [--out DIR]
     vislod figures [--only NAME ...] [--force] [--quick] [--out results]
     vislod sweep [--scenes SPEC ...] [--seeds N ...] [--methods ...] [--displays WxH ...]
                  [--resolutions WxH ...] [--frames N] [--chunk N] [--oracle] [--draw]
@@ -28,6 +29,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
+from experiments import seed004_octree
 from experiments.common import (
     DISPLAY,
     SCENES,
@@ -261,6 +263,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
     )
     figs.add_argument("--no-progress", action="store_true", help="no progress bar")
+    octree = sub.add_parser(
+        "seed004-octree", help="seed 004: dynamic scenes, octree node buffers, Table 2"
+    )
+    seed004_octree.add_arguments(octree)
     add_sweep_parser(sub)
     return p
 
@@ -451,6 +457,7 @@ COMMANDS = {
     "image-based": cmd_image_based,
     "state-sorting": cmd_state_sorting,
     "figures": cmd_figures,
+    "seed004-octree": seed004_octree.command,
     "sweep": cmd_sweep,
 }
 

@@ -1,11 +1,22 @@
 """Scene sources: the generated default town (``market``), Intel's castle (``castle``), mesh
 files through trimesh (``load``), indoor rooms joined by portals (``rooms``) and a small scene
-of culling's hard cases for tests (``clutter``)."""
+of culling's hard cases for tests (``clutter``), and scenes that change over time
+(``dynamic_scene``: seed 004's growing scenes)."""
 
 from soc.scenes.castle import castle
 from soc.scenes.clutter import clutter
+from soc.scenes.dynamic import DynamicScene, dynamic_scene
 from soc.scenes.files import load
 from soc.scenes.market import market
 from soc.scenes.rooms import rooms, rooms_walk
 
-__all__ = ["castle", "clutter", "load", "market", "rooms", "rooms_walk"]
+__all__ = [
+    "DynamicScene",
+    "castle",
+    "clutter",
+    "dynamic_scene",
+    "load",
+    "market",
+    "rooms",
+    "rooms_walk",
+]
