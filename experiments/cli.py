@@ -10,6 +10,7 @@
     vislod lod [--frames 150] [--budget-ms MS] [--recalibrate] [--quick] [--out results]
     vislod image-based [--display 800x600] [--views 8] [--quick] [--out results]
     vislod state-sorting [--frames 100] [--method hiz-gpu] [--k 1 2 ...] [--quick] [--out results]
+    vislod seed003 [--quick] [--out DIR]
     vislod seed004-octree [--quick] [--frames N] [--objects 70000] [--out DIR]
     vislod figures [--only NAME ...] [--force] [--quick] [--out results]
     vislod sweep [--scenes SPEC ...] [--seeds N ...] [--methods ...] [--displays WxH ...]
@@ -263,6 +264,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
     )
     figs.add_argument("--no-progress", action="store_true", help="no progress bar")
+    s3 = sub.add_parser("seed003", help="seed 003: forward vs deferred shading, time vs V, VP, L")
+    s3.add_argument("--quick", action="store_true", help="the quick sweep (also VISLOD_QUICK=1)")
+    s3.add_argument(
+        "--out", default=None, help="folder (default: results/[quick/]seed003_complexity/)"
+    )
+    s3.add_argument("--no-progress", action="store_true", help="no progress bar")
     octree = sub.add_parser(
         "seed004-octree", help="seed 004: dynamic scenes, octree node buffers, Table 2"
     )
@@ -417,6 +424,16 @@ def cmd_image_based(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_seed003(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from experiments import seed003_complexity
+
+    out = Path(args.out) if args.out else None
+    seed003_complexity.run(args.quick, out, progress=not args.no_progress)
+    return 0
+
+
 def cmd_state_sorting(args: argparse.Namespace) -> int:
     from experiments import seed001_state_sorting as ss
 
@@ -457,6 +474,7 @@ COMMANDS = {
     "image-based": cmd_image_based,
     "state-sorting": cmd_state_sorting,
     "figures": cmd_figures,
+    "seed003": cmd_seed003,
     "seed004-octree": seed004_octree.command,
     "sweep": cmd_sweep,
 }

@@ -109,6 +109,12 @@ def _has_castle(data: str) -> bool:
     return True
 
 
+def _seed003(quick: bool, out: Path, data: str | None) -> None:
+    from experiments import seed003_complexity
+
+    seed003_complexity.run(quick, out / "seed003_complexity")
+
+
 def _seed004_octree(quick: bool, out: Path, data: str | None) -> None:
     from experiments import seed004_octree
 
@@ -169,6 +175,15 @@ FIGURES: tuple[Figure, ...] = (
         _seed002,
         8.0,
         "seed002_*.png",
+    ),
+    Figure(
+        "seed003",
+        "003",
+        "forward vs deferred shading: time against triangles, pixels and lights; g-buffer size",
+        "seed003_complexity/seed003_summary.json",
+        _seed003,
+        3.0,
+        "seed003_complexity/*.png",
     ),
     Figure(
         "seed004-octree",

@@ -267,10 +267,18 @@ def build_rendering():
     return notebook(cells, "seed001-rendering")
 
 
+def build_seed003():
+    """``seed003_complexity.ipynb`` (its cells live beside the experiment)."""
+    from experiments.seed003_complexity import build_notebook
+
+    return build_notebook()
+
+
 NOTEBOOKS = {
     "seed000_methods.ipynb": build_methods,
     "seed001_rendering.ipynb": build_rendering,
     "seed002_grid.ipynb": build_grid,
+    "seed003_complexity.ipynb": build_seed003,
 }
 
 

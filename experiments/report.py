@@ -235,6 +235,24 @@ def _seed002(s: dict[str, Any]) -> list[Row]:
     return _claims(s["claims"])
 
 
+# -- seed 003 ---------------------------------------------------------------------------------
+
+
+def _seed003(s: dict[str, Any]) -> list[Row]:
+    g = s["gbuffer"]
+    same = g["bytes_computed"] == g["bytes_read"]
+    rows = [
+        Row(
+            f"g-buffer memory at {g['resolution']}",
+            f"≈{g['lecture_mb']:g} MB (depth 24, normal 2×32, diffuse 3×32, material 16 bit)",
+            f"{g['mib_computed']:.2f} MiB computed, {g['mib_read']:.2f} MiB read from GL",
+            "reproduced" if same and abs(g["mib_read"] - g["lecture_mb"]) < 0.5 else "differs",
+            "the lecture's MB are MiB (2^20 bytes)",
+        )
+    ]
+    return rows + _claims(s["claims"])
+
+
 # -- seed 004 ---------------------------------------------------------------------------------
 
 
@@ -263,6 +281,7 @@ ROWS: dict[str, Callable[[dict[str, Any]], list[Row]]] = {
     "seed001-portals": _seed001_portals,
     "seed001-state-sorting": _seed001_state_sorting,
     "seed002": _seed002,
+    "seed003": _seed003,
     "seed004-octree": _seed004_octree,
 }
 
