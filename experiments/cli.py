@@ -11,6 +11,7 @@
     vislod image-based [--display 800x600] [--views 8] [--quick] [--out results]
     vislod state-sorting [--frames 100] [--method hiz-gpu] [--k 1 2 ...] [--quick] [--out results]
     vislod seed003 [--quick] [--out DIR]
+    vislod seed004-model [--quick] [--out DIR]
     vislod seed004-octree [--quick] [--frames N] [--objects 70000] [--out DIR]
     vislod figures [--only NAME ...] [--force] [--quick] [--out results]
     vislod sweep [--scenes SPEC ...] [--seeds N ...] [--methods ...] [--displays WxH ...]
@@ -30,7 +31,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
-from experiments import seed004_octree
+from experiments import seed004_model, seed004_octree
 from experiments.common import (
     DISPLAY,
     SCENES,
@@ -270,6 +271,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", default=None, help="folder (default: results/[quick/]seed003_complexity/)"
     )
     s3.add_argument("--no-progress", action="store_true", help="no progress bar")
+    s4 = sub.add_parser("seed004-model", help="seed 004: performance model, Table 1")
+    seed004_model.add_arguments(s4)
     octree = sub.add_parser(
         "seed004-octree", help="seed 004: dynamic scenes, octree node buffers, Table 2"
     )
@@ -475,6 +478,7 @@ COMMANDS = {
     "state-sorting": cmd_state_sorting,
     "figures": cmd_figures,
     "seed003": cmd_seed003,
+    "seed004-model": seed004_model.command,
     "seed004-octree": seed004_octree.command,
     "sweep": cmd_sweep,
 }

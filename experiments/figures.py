@@ -115,6 +115,12 @@ def _seed003(quick: bool, out: Path, data: str | None) -> None:
     seed003_complexity.run(quick, out / "seed003_complexity")
 
 
+def _seed004_model(quick: bool, out: Path, data: str | None) -> None:
+    from experiments import seed004_model
+
+    seed004_model.run(quick, out / "seed004_model")
+
+
 def _seed004_octree(quick: bool, out: Path, data: str | None) -> None:
     from experiments import seed004_octree
 
@@ -184,6 +190,15 @@ FIGURES: tuple[Figure, ...] = (
         _seed003,
         3.0,
         "seed003_complexity/*.png",
+    ),
+    Figure(
+        "seed004-model",
+        "004",
+        "performance model: memory (1) and frame time (2) with measured constants (Table 1)",
+        "seed004_model/seed004_model.json",
+        _seed004_model,
+        1.0,
+        "seed004_model/*.png",
     ),
     Figure(
         "seed004-octree",

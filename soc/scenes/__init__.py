@@ -8,6 +8,7 @@ from soc.scenes.clutter import clutter
 from soc.scenes.dynamic import DynamicScene, dynamic_scene
 from soc.scenes.files import load
 from soc.scenes.market import market
+from soc.scenes.random_boxes import random_boxes
 from soc.scenes.rooms import rooms, rooms_walk
 
 __all__ = [
@@ -17,6 +18,7 @@ __all__ = [
     "dynamic_scene",
     "load",
     "market",
+    "random_boxes",
     "rooms",
     "rooms_walk",
 ]
