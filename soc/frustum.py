@@ -44,6 +44,12 @@ def aabbs_in_frustum(aabbs, planes: np.ndarray | Camera) -> np.ndarray:
     center = 0.5 * (a[:, 0] + a[:, 1])  # (N, 3)
     half = 0.5 * (a[:, 1] - a[:, 0])
     # Signed distance of the box's most-inside corner: centre distance + projected half-extent.
-    dist = center @ p[:, :3].T + p[:, 3] + half @ np.abs(p[:, :3]).T  # (N, 6)
+    # einsum, not `@`: a BLAS matmul wakes its thread pool, which fights llvmpipe's rasterizer
+    # threads for the cores (several times slower between GL frames).
+    dist = (
+        np.einsum("nk,pk->np", center, p[:, :3])
+        + p[:, 3]
+        + np.einsum("nk,pk->np", half, np.abs(p[:, :3]))
+    )  # (N, 6)
     slack = FRUSTUM_SLACK * (1.0 + np.linalg.norm(half, axis=1, keepdims=True))
     return (dist >= -slack).all(axis=1)

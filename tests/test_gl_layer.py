@@ -99,3 +99,19 @@ def test_culler_reports_stage_timings_and_counts():
     assert st.total_ms >= st.cull_ms > 0
     with pytest.raises(TypeError, match="Camera"):
         soc.Culler(s, method="frustum").cull("not a camera")
+
+
+def test_geometry_cache_frees_a_scene_nobody_holds():
+    import gc
+    import weakref
+
+    from soc.gl.context import default_context
+
+    glctx = default_context()
+    scene = soc.scenes.clutter(seed=3)
+    geom = glctx.geometry(scene)
+    assert glctx.geometry(scene) is geom and len(geom.scene) == len(scene)
+    ref = weakref.ref(scene)
+    del scene, geom
+    gc.collect()
+    assert ref() is None, "the context's geometry cache keeps the scene alive"

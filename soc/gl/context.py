@@ -121,7 +121,7 @@ class GLContext:
         entry = self._geometry.get(id(scene))
         if entry is not None and entry[0]() is scene:
             return entry[1]
-        geom = SceneGeometry(self, scene)
+        geom = SceneGeometry(self, scene, weak=True)
         key = id(scene)
 
         def _forget(_ref, key=key, geom=geom):

@@ -8,6 +8,8 @@ the object id. The id reaches shaders through a per-instance attribute (divisor 
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from soc.constants import AABB_GROW_ABSOLUTE, AABB_GROW_RELATIVE
@@ -55,10 +57,13 @@ class SceneGeometry:
         The AABBs grown by the conservative margin, as drawn by occlusion tests.
     """
 
-    def __init__(self, glctx, scene):
+    def __init__(self, glctx, scene, *, weak: bool = False):
         ctx = glctx.ctx
         self.glctx = glctx
-        self.scene = scene
+        # The context's cache holds its geometries weakly to their scene (weak=True), so that
+        # a scene nobody uses any more is freed, and its GL buffers with it.
+        self._scene = weakref.ref(scene) if weak else scene
+        self._weak = weak
         n = len(scene)
         first_index = (3 * scene.face_offsets[:-1]).astype(np.uint32)
         self.commands = np.stack(
@@ -83,6 +88,16 @@ class SceneGeometry:
         self.box_edges = ctx.buffer(BOX_EDGES)
         self.indirect = ctx.buffer(reserve=max(n, 1) * 20, dynamic=True)
         self._vaos: dict[tuple, object] = {}
+
+    @property
+    def scene(self):
+        """The :class:`~soc.scene.Scene` this geometry was uploaded from."""
+        if not self._weak:
+            return self._scene
+        scene = self._scene()
+        if scene is None:
+            raise RuntimeError("the scene of this geometry has been freed; keep a reference to it")
+        return scene
 
     def release(self) -> None:
         for vao in self._vaos.values():
