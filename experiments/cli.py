@@ -8,6 +8,7 @@
     vislod portals [--frames 200] [--rooms 6x4] [--floors 1] [--display WxH] [--quick]
                    [--out results]
     vislod lod [--frames 150] [--budget-ms MS] [--recalibrate] [--quick] [--out results]
+    vislod lod-quality [--data DIR] [--quick] [--out results]
     vislod image-based [--display 800x600] [--views 8] [--quick] [--out results]
     vislod state-sorting [--frames 100] [--method hiz-gpu] [--k 1 2 ...] [--quick] [--out results]
     vislod seed003 [--quick] [--out DIR]
@@ -210,6 +211,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     lodp.add_argument("--recalibrate", action="store_true", help="re-measure the cost model")
     lodp.add_argument("--no-progress", action="store_true", help="no progress bar")
+    lq = sub.add_parser(
+        "lod-quality", help="seed 001: quadric vs Melax; naive vs exact screen size"
+    )
+    lq.add_argument("--quick", action="store_true", help="small meshes, < 30 s (VISLOD_QUICK=1)")
+    lq.add_argument(
+        "--data", default=None, help="folder holding meshes/ (full runs; default $VISLOD_DATA)"
+    )
+    lq.add_argument(
+        "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
+    )
     image = sub.add_parser(
         "image-based", help="seed 001: stereo by warping, warping renderer, z-compositing"
     )
@@ -419,6 +430,18 @@ def cmd_lod(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_lod_quality(args: argparse.Namespace) -> int:
+    import os
+    from pathlib import Path
+
+    from experiments import seed001_lod_quality
+
+    out = Path(args.out or default_out(args.quick)) / "seed001_lod"
+    data = args.data or os.environ.get("VISLOD_DATA") or None
+    seed001_lod_quality.run(args.quick, out, data, verbose=True)
+    return 0
+
+
 def cmd_image_based(args: argparse.Namespace) -> int:
     from experiments import seed001_image_based as exp
 
@@ -474,6 +497,7 @@ COMMANDS = {
     "grid": cmd_grid,
     "portals": cmd_portals,
     "lod": cmd_lod,
+    "lod-quality": cmd_lod_quality,
     "image-based": cmd_image_based,
     "state-sorting": cmd_state_sorting,
     "figures": cmd_figures,

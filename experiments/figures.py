@@ -83,6 +83,12 @@ def _seed001_lod(quick: bool, out: Path, data: str | None) -> None:
     seed001_lod_budget.run(quick, out / "seed001_lod", None, progress=True)
 
 
+def _seed001_lod_quality(quick: bool, out: Path, data: str | None) -> None:
+    from experiments import seed001_lod_quality
+
+    seed001_lod_quality.run(quick, out / "seed001_lod", data, verbose=True)
+
+
 def _seed001_state_sorting(quick: bool, out: Path, data: str | None) -> None:
     from experiments import seed001_state_sorting
 
@@ -145,6 +151,15 @@ FIGURES: tuple[Figure, ...] = (
         _seed001_lod,
         4.0,
         "seed001_lod/seed001_lod_*.png",
+    ),
+    Figure(
+        "seed001-lod-quality",
+        "001",
+        "LOD quality: quadric vs Melax edge collapse, naive vs exact screen-size estimate",
+        "seed001_lod/simplifiers_summary.json",
+        _seed001_lod_quality,
+        2.0,
+        "seed001_lod/s[ci]*_*.png",
     ),
     Figure(
         "seed001-portals",

@@ -267,6 +267,88 @@ def build_rendering():
     return notebook(cells, "seed001-rendering")
 
 
+# -- seed 001: levels of detail ----------------------------------------------------------------
+
+LOD_INTRO = """\
+# Seed 001 — levels of detail
+
+Zachmann's VR lecture (seed 001) on LOD: chains of reduced meshes built offline by edge
+collapses (the quadric error of Garland & Heckbert as the reference, Melax's simple cost
+‖U−V‖·curv(U) as the lecture's own), the object's size on screen (naive: the 2D box of the
+8 projected corners; exact: the silhouette polygon from a 27-region lookup table), and the
+selection of a level per object under a frame-time budget: static distance bands, reactive
+(frame-time history → coarser/finer: overshoots), and predictive (Funkhouser & Séquin 1993:
+benefit/cost, greedy multiple-choice knapsack; and the incremental variant). The lecture's
+picture pair: *no detail elision, 19,821 polygons* vs *optimization, 1,389 polygons at a
+0.1 s/frame target*, and a picture where darker grey means a more detailed level.
+
+The cost model `max(C1·Poly + C2·Vert, C3·Pixels)` is measured on this GL context, as
+Funkhouser and Séquin did, by drawing every level of every object at several sizes.
+
+All the work is done by `experiments/seed001_lod_budget.py` (`vislod lod`) and
+`experiments/seed001_lod_quality.py` (`vislod lod-quality`). `VISLOD_QUICK=1`: small scenes
+and meshes (seconds); the full runs take a few minutes each."""
+
+LOD_SETUP = """\
+import os
+
+from IPython.display import Image, display
+
+from experiments import seed001_lod_budget, seed001_lod_quality
+from experiments.common import default_out, env_quick
+
+quick = env_quick()
+out = default_out(quick) / "seed001_lod"
+data = None if quick else os.environ.get("VISLOD_DATA")  # test meshes, when present
+print(f"quick={quick}: results in {out}")"""
+
+LOD_BUDGET = """\
+budget = seed001_lod_budget.run(quick, out, verbose=False, progress=False)
+print(seed001_lod_budget.format_summary(budget))"""
+
+LOD_QUALITY = """\
+quality = seed001_lod_quality.run(quick, out, data, verbose=False)
+print(seed001_lod_quality.format_simplifiers(quality["simplifiers"]))
+print()
+print(seed001_lod_quality.format_screen_size(quality["screen_size"]))"""
+
+
+def build_lod():
+    """``seed001_lod.ipynb`` as an ``nbformat`` node (no outputs)."""
+    from nbformat import v4
+
+    cells = [
+        v4.new_markdown_cell(LOD_INTRO),
+        v4.new_code_cell(LOD_SETUP),
+        v4.new_markdown_cell(
+            "## Under a frame budget\n\nThe picture pair and the chosen levels (darker grey = "
+            "more detail); frame time per frame over a flight for no LOD, static, reactive, "
+            "predictive and incremental selection against the budget; the cost model's fit."
+        ),
+        v4.new_code_cell(LOD_BUDGET),
+        v4.new_code_cell(
+            image_cell(
+                [
+                    "seed001_lod_pictures.png",
+                    "seed001_lod_flight.png",
+                    "seed001_lod_calibration.png",
+                ]
+            )
+        ),
+        v4.new_markdown_cell(
+            "## Quality\n\nHausdorff error and time against triangles, quadric vs Melax; the "
+            "error of the naive and the exact screen-size estimate against rasterized pixels."
+        ),
+        v4.new_code_cell(LOD_QUALITY),
+        v4.new_code_cell(
+            image_cell(
+                ["simplifiers_error_time.png", "simplifiers_picture.png", "screen_size_errors.png"]
+            )
+        ),
+    ]
+    return notebook(cells, "seed001-lod")
+
+
 def build_seed003():
     """``seed003_complexity.ipynb`` (its cells live beside the experiment)."""
     from experiments.seed003_complexity import build_notebook
@@ -276,6 +358,7 @@ def build_seed003():
 
 NOTEBOOKS = {
     "seed000_methods.ipynb": build_methods,
+    "seed001_lod.ipynb": build_lod,
     "seed001_rendering.ipynb": build_rendering,
     "seed002_grid.ipynb": build_grid,
     "seed003_complexity.ipynb": build_seed003,

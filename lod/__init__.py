@@ -21,6 +21,8 @@ _EXPORTS = {
     "CostModel": "lod.benefit",
     "calibrate": "lod.calibration",
     "Calibration": "lod.calibration",
+    "melax_levels": "lod.melax",
+    "quadric_simplify": "lod.chain",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -23,6 +23,8 @@ Stages: ``_Mesh`` (adjacency: triangles per vertex, face normals) → ``_Mesh.be
 valid collapse of one vertex) → ``melax_simplify`` (heap of per-vertex candidates with
 version stamps: lazy invalidation; after each collapse only V and its neighbours are
 re-evaluated, so the work per collapse is proportional to the neighbourhood size).
+``melax_levels`` takes snapshots of one pass at several targets (the greedy order does not
+depend on the target), for error-vs-triangles curves at the cost of the coarsest one.
 The collapse loop is Python (one iteration per collapse), the neighbourhood work is small
 pure-Python arithmetic, which beats numpy's per-call overhead on ~6-element sets.
 """
@@ -31,6 +33,9 @@ from __future__ import annotations
 
 import heapq
 import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
@@ -182,45 +187,91 @@ def melax_simplify(vertices, faces, target_triangles: int) -> MelaxResult:
     valid collapse is left (fold-over, link or border rules). Returns ``MelaxResult``
     (unpacks as ``vertices, faces, collapses``); vertex positions are input positions.
     """
+    return melax_levels(vertices, faces, [target_triangles])[0].result
+
+
+@dataclass(frozen=True)
+class MelaxLevel:
+    """One snapshot of :func:`melax_levels`: ``result`` (as :func:`melax_simplify` returns
+    for this target) and ``seconds``, the wall time from the input to this snapshot
+    (setup included, snapshots of earlier targets excluded)."""
+
+    result: MelaxResult
+    seconds: float
+
+
+def melax_levels(vertices, faces, targets: Sequence[int]) -> list[MelaxLevel]:
+    """One collapse pass through several triangle targets (any order; returned in the given
+    order). Each level equals ``melax_simplify(vertices, faces, target)``: the greedy order
+    does not depend on the target, so the pass to the smallest target goes through every
+    larger one. vertices: (n, 3) float; faces: (m, 3) int; targets: integers ≥ 0.
+    """
     verts, f = validate_mesh(vertices, faces)
-    if int(target_triangles) != target_triangles or target_triangles < 0:
-        raise ValueError(f"target_triangles must be an integer ≥ 0, got {target_triangles!r}")
+    targets = list(targets)
+    for t in targets:
+        if int(t) != t or t < 0:
+            raise ValueError(f"target_triangles must be an integer ≥ 0, got {t!r}")
+    t0 = time.perf_counter()
+    paused = 0.0  # time spent taking snapshots, not counted
     f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])]
-    mesh = _Mesh(verts, f)
-    n = len(verts)
-    version = [0] * n
-    heap: list[tuple[float, int, int, int]] = []
-    for u in range(n):  # initial candidates (each evaluation is local)
-        if mesh.vfaces[u]:
-            c, v = mesh.best(u)
-            if v >= 0:
-                heap.append((c, u, 0, v))
-    heapq.heapify(heap)
+    state = _Collapser(_Mesh(verts, f))
+    out: dict[int, MelaxLevel] = {}
+    for t in sorted(set(int(x) for x in targets), reverse=True):
+        state.run_to(t)
+        seconds = time.perf_counter() - t0 - paused
+        t1 = time.perf_counter()
+        out[t] = MelaxLevel(state.result(verts), seconds)
+        paused += time.perf_counter() - t1
+    return [out[int(t)] for t in targets]
 
-    collapses: list[tuple[int, int]] = []
-    while mesh.n_alive > target_triangles and heap:
-        c, u, stamp, v = heapq.heappop(heap)
-        if stamp != version[u] or not mesh.vfaces[u]:
-            continue  # stale entry
-        if not mesh.valid(u, v, mesh.is_border(u)):
-            version[u] += 1  # v's side changed since: re-evaluate u
-            c, v = mesh.best(u)
-            if v >= 0:
-                heapq.heappush(heap, (c, u, version[u], v))
-            continue
-        mesh.collapse(u, v)
-        collapses.append((u, v))
-        version[u] += 1
-        for w in mesh.neighbours(v) | {v}:
-            version[w] += 1
-            c, x = mesh.best(w)
-            if x >= 0:
-                heapq.heappush(heap, (c, w, version[w], x))
 
-    out_f = np.array(mesh.faces, dtype=np.int64).reshape(-1, 3)[np.array(mesh.alive, dtype=bool)]
-    used, inverse = np.unique(out_f.ravel(), return_inverse=True)
-    return MelaxResult(
-        verts[used].astype(np.float32),
-        inverse.reshape(-1, 3).astype(np.int32),
-        np.array(collapses, dtype=np.int64).reshape(-1, 2),
-    )
+class _Collapser:
+    """The collapse loop over a ``_Mesh``, resumable at decreasing triangle targets."""
+
+    def __init__(self, mesh: _Mesh):
+        self.mesh = mesh
+        n = len(mesh.pos)
+        self.version = [0] * n
+        heap: list[tuple[float, int, int, int]] = []
+        for u in range(n):  # initial candidates (each evaluation is local)
+            if mesh.vfaces[u]:
+                c, v = mesh.best(u)
+                if v >= 0:
+                    heap.append((c, u, 0, v))
+        heapq.heapify(heap)
+        self.heap = heap
+        self.collapses: list[tuple[int, int]] = []
+
+    def run_to(self, target_triangles: int) -> None:
+        """Collapse until at most ``target_triangles`` remain or no valid collapse is left."""
+        mesh, version, heap = self.mesh, self.version, self.heap
+        while mesh.n_alive > target_triangles and heap:
+            c, u, stamp, v = heapq.heappop(heap)
+            if stamp != version[u] or not mesh.vfaces[u]:
+                continue  # stale entry
+            if not mesh.valid(u, v, mesh.is_border(u)):
+                version[u] += 1  # v's side changed since: re-evaluate u
+                c, v = mesh.best(u)
+                if v >= 0:
+                    heapq.heappush(heap, (c, u, version[u], v))
+                continue
+            mesh.collapse(u, v)
+            self.collapses.append((u, v))
+            version[u] += 1
+            for w in mesh.neighbours(v) | {v}:
+                version[w] += 1
+                c, x = mesh.best(w)
+                if x >= 0:
+                    heapq.heappush(heap, (c, w, version[w], x))
+
+    def result(self, verts: np.ndarray) -> MelaxResult:
+        """The current mesh, compacted (referenced vertices only, in input order)."""
+        mesh = self.mesh
+        alive = np.array(mesh.alive, dtype=bool)
+        out_f = np.array(mesh.faces, dtype=np.int64).reshape(-1, 3)[alive]
+        used, inverse = np.unique(out_f.ravel(), return_inverse=True)
+        return MelaxResult(
+            verts[used].astype(np.float32),
+            inverse.reshape(-1, 3).astype(np.int32),
+            np.array(self.collapses, dtype=np.int64).reshape(-1, 2),
+        )

@@ -11,8 +11,9 @@ import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from lod.chain import accumulate_errors, build_chain
-from lod.mesh_error import _closest_on_triangles, mesh_hausdorff
+import lod.chain
+from lod.chain import _weld, accumulate_errors, build_chain, quadric_simplify
+from lod.mesh_error import SurfaceSamples, _closest_on_triangles, hausdorff, mesh_hausdorff
 
 RATIOS = (1.0, 0.5, 0.25, 0.125, 0.0625)
 
@@ -151,3 +152,99 @@ def test_bunny_chain():
     assert np.all(np.diff(ch.errors) >= 0)
     scale = np.linalg.norm(m.extents)
     assert ch.errors[-1] < 0.05 * scale
+
+
+# -- weld, quadric_simplify, exact refinement of the Hausdorff distance ----------------------
+
+
+def _soup(mesh):
+    """Every face with its own three vertices (all duplicated), as OBJ exporters write seams."""
+    v = np.asarray(mesh.vertices)[mesh.faces].reshape(-1, 3)
+    return v, np.arange(len(v)).reshape(-1, 3)
+
+
+def test_weld_merges_exact_duplicates_only():
+    s = trimesh.creation.icosphere(2)
+    v, f = _soup(s)
+    v[5] = v[5] + [0, 0, 1e-6]  # one vertex nudged: stays apart
+    wv, wf = _weld(v, f)
+    expected = len(np.unique(v.astype(np.float32), axis=0))
+    assert len(wv) == expected == len(s.vertices) + 1
+    np.testing.assert_array_equal(wv[wf], v.astype(np.float32)[f])  # same corners
+
+
+def test_weld_keeps_a_clean_mesh_as_it_is():
+    s = trimesh.creation.icosphere(2)
+    wv, wf = _weld(s.vertices, s.faces)
+    np.testing.assert_array_equal(wv, s.vertices.astype(np.float32))
+    np.testing.assert_array_equal(wf, s.faces)
+
+
+def test_weld_is_exact_even_when_every_hash_collides(monkeypatch):
+    s = trimesh.creation.icosphere(2)
+    v, f = _soup(s)
+    ref_v, ref_f = _weld(v, f)
+    monkeypatch.setattr(lod.chain, "_coordinate_hash", lambda v: np.zeros(len(v), np.uint64))
+    wv, wf = _weld(v, f)
+    np.testing.assert_array_equal(wv, ref_v)
+    np.testing.assert_array_equal(wf, ref_f)
+
+
+def test_quadric_simplify_welds_hits_the_target_and_validates():
+    s = trimesh.creation.icosphere(4)  # 5120 triangles
+    v, f = quadric_simplify(*_soup(s), 1000)  # a soup would fall apart without welding
+    assert abs(len(f) - 1000) <= 50
+    assert trimesh.Trimesh(v, f, process=False).is_watertight
+    with pytest.raises(ValueError, match="0"):
+        quadric_simplify(s.vertices, s.faces, 0)
+    with pytest.raises(ValueError, match=r"\(3, 2\)"):
+        quadric_simplify(np.zeros((3, 2)), [[0, 1, 2]], 1)
+
+
+def _brute_max_distance(points, tri):
+    """(q,) distance of each point to the nearest of all triangles, every pair computed."""
+    q, m = len(points), len(tri)
+    d = _closest_on_triangles(np.tile(tri, (q, 1, 1)), np.repeat(points, m, axis=0))
+    return d.reshape(q, m).min(axis=1)
+
+
+def test_max_distance_is_exact_next_to_a_long_sliver():
+    """A unit sphere, a small sphere and a 6-unit sliver (almost no area, so no samples)
+    whose far end lies next to the small sphere. Points beside that end see only the small
+    sphere's samples among their nearest tree points (bound ≈ 1.2, truth ≈ 0.05); the
+    sliver's centroid is 4 units away, out of reach of the ordinary triangles' balls — only
+    its size class finds it. Brute force over all pairs agrees."""
+    a = trimesh.creation.icosphere(2)
+    b = trimesh.creation.icosphere(1, radius=0.3)
+    sliver = np.array([[2.0, 0, 0], [8.0, 0, 0], [2.0, 0.01, 0]])
+    v = np.concatenate([a.vertices, b.vertices + [7.9, 1.5, 0], sliver])
+    n0, n1 = len(a.vertices), len(a.vertices) + len(b.vertices)
+    f = np.concatenate([a.faces, b.faces + n0, [[n1, n1 + 1, n1 + 2]]])
+    s = SurfaceSamples.of(v, f, samples=400)
+    assert len(s.large) >= 1  # the sliver has its own size class
+    rng = np.random.default_rng(7)
+    d = rng.normal(size=(300, 3))
+    shell = d / np.linalg.norm(d, axis=1, keepdims=True) * rng.uniform(1.0, 1.3, (300, 1))
+    end = [7.9, 0.05, 0.0] + rng.uniform(-0.03, 0.03, (20, 3))
+    pts = np.concatenate([shell, end])
+    brute = _brute_max_distance(pts, v[f])
+    bound = s.distance_from(pts)
+    assert np.all(bound >= brute - 1e-12)  # an upper bound per point
+    assert bound[300:].min() > 1.0 > 0.1 > brute[300:].max()  # loose where it matters
+    assert s.max_distance_from(pts) == pytest.approx(brute.max(), rel=1e-12)
+    # the floor: returned when nothing exceeds it, ignored when the maximum does
+    assert s.max_distance_from(pts, floor=1e3) == 1e3
+    assert s.max_distance_from(pts, floor=0.5 * brute.max()) == pytest.approx(brute.max())
+
+
+def test_hausdorff_is_symmetric_and_the_max_of_both_sides():
+    a = trimesh.creation.icosphere(2)
+    b = trimesh.creation.box(extents=(1.5, 1.5, 1.5))
+    sa, sb = (
+        SurfaceSamples.of(a.vertices, a.faces, 500),
+        SurfaceSamples.of(b.vertices, b.faces, 500),
+    )
+    one = _brute_max_distance(sa.points, b.vertices[b.faces]).max()
+    other = _brute_max_distance(sb.points, a.vertices[a.faces]).max()
+    assert hausdorff(sa, sb) == pytest.approx(max(one, other), rel=1e-12)
+    assert hausdorff(sb, sa) == pytest.approx(max(one, other), rel=1e-12)

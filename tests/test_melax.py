@@ -122,3 +122,27 @@ def test_bad_target():
     v, f = fan()
     with pytest.raises(ValueError, match="-1"):
         melax_simplify(v, f, -1)
+
+
+def test_levels_of_one_pass_equal_separate_runs():
+    """The greedy order does not depend on the target: snapshots of one pass to the
+    smallest target equal separate runs to each target, array for array."""
+    rng = np.random.default_rng(1)
+    s = trimesh.creation.icosphere(2)  # 320 triangles
+    v = s.vertices * (1 + 0.02 * rng.standard_normal((len(s.vertices), 1)))
+    targets = [80, 200, 40]  # any order, returned in the given order
+    levels = melax.melax_levels(v, s.faces, targets)
+    for t, lv in zip(targets, levels, strict=True):
+        sep = melax_simplify(v, s.faces, t)
+        np.testing.assert_array_equal(lv.result.faces, sep.faces)
+        np.testing.assert_array_equal(lv.result.vertices, sep.vertices)
+        np.testing.assert_array_equal(lv.result.collapses, sep.collapses)
+        assert len(lv.result.faces) <= t
+    seconds = {t: lv.seconds for t, lv in zip(targets, levels, strict=True)}
+    assert 0 < seconds[200] <= seconds[80] <= seconds[40]  # times from the full mesh
+
+
+def test_levels_bad_target():
+    v, f = fan()
+    with pytest.raises(ValueError, match=r"2\.5"):
+        melax.melax_levels(v, f, [4, 2.5])

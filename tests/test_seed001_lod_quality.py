@@ -1,0 +1,178 @@
+"""Seed 001 LOD quality experiment (experiments/seed001_lod_quality.py): the simplifier
+comparison against the lecture's claim, the screen-size estimates against rasterized pixels,
+box categories on hand-made cases, and the files a run writes."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import soc
+from experiments import seed001_lod_quality as q
+from experiments.common import UsageError, read_csv
+
+SMALL = q.LodQualitySetup(
+    ("sphere", "torus"),
+    ratios=(1 / 2, 1 / 4, 1 / 8, 1 / 16),
+    sphere_subdivisions=3,  # 1,280 triangles
+    torus_sections=(32, 16),  # 1,024 triangles
+    samples=10_000,
+)
+
+
+@pytest.fixture(scope="module")
+def simplifier_rows():
+    rows = []
+    for mesh in q.load_meshes(SMALL):
+        rows += q.compare_simplifiers(mesh, SMALL.ratios, SMALL.samples)[0]
+    return rows
+
+
+@pytest.fixture(scope="module")
+def screen_rows():
+    cases = q.screen_size_cases(30, 6, (192, 144), seed=3)
+    return q.measure_screen_size(cases)
+
+
+# -- simplifiers ----------------------------------------------------------------------------
+
+
+def test_quadric_error_at_most_melax_on_smooth_meshes(simplifier_rows):
+    """Seed 001: "quadric error (Garland, QSlim) is the reference". Measured on the smooth
+    generated meshes (noisy sphere, torus) at 1/2 … 1/16 of the triangles, quadric's
+    Hausdorff error is below Melax's at every ratio (by 1.2–4× in the full run)."""
+    claims = q.simplifier_claims(simplifier_rows)
+    assert [c["mesh"] for c in claims] == ["sphere", "torus"]
+    for c in claims:
+        assert c["counts_match"], c
+        assert c["quadric_better_everywhere"], c
+        assert c["melax_over_quadric_error_median"] > 1.2, c
+
+
+def test_simplified_counts_hit_targets_and_errors_grow(simplifier_rows):
+    for r in simplifier_rows:
+        assert r["triangles"] <= r["target"] * 1.05 and r["triangles"] >= 0.9 * r["target"], r
+        if r["simplifier"] == "melax":
+            assert r["triangles"] <= r["target"]  # Melax stops at the first count ≤ target
+    for mesh in ("sphere", "torus"):
+        for simp in ("quadric", "melax"):
+            e = [
+                r["error"] for r in simplifier_rows if (r["mesh"], r["simplifier"]) == (mesh, simp)
+            ]
+            assert np.all(np.diff(e) > 0), (mesh, simp, e)  # coarser → farther from the input
+
+
+def test_simplifier_error_is_at_least_the_sag_of_the_coarse_sphere():
+    """Independent lower bound: a coarse mesh of a unit sphere whose vertices lie on the
+    sphere (Melax keeps input positions) is inside it; its face centres lie at least
+    1 − max |centre| below the surface, so the Hausdorff error cannot be smaller."""
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(3)
+    mesh = q.NamedMesh("sphere", "unit sphere", sphere.vertices, sphere.faces)
+    rows, kept = q.compare_simplifiers(mesh, (1 / 8,), 10_000, keep=1 / 8)
+    v, f = kept["melax"]
+    sag = 1.0 - np.linalg.norm(v[f].mean(axis=1), axis=1).max()
+    melax = next(r for r in rows if r["simplifier"] == "melax")
+    assert melax["error"] >= sag - 1e-6
+
+
+# -- screen size ----------------------------------------------------------------------------
+
+
+def test_every_category_is_covered(screen_rows):
+    cats = {r["category"] for r in screen_rows}
+    assert set(q.CATEGORIES) <= cats
+
+
+def test_naive_is_never_below_exact(screen_rows):
+    for r in screen_rows:
+        assert r["naive"] >= r["exact"] * (1 - 1e-9) - 1e-6, r
+
+
+def test_exact_matches_pixels_and_is_tighter_than_naive(screen_rows):
+    """The exact (silhouette) estimate is within a few % of the rasterized pixel count in
+    every category (boundary pixels only); the naive one overestimates boxes in front."""
+    summary = q.summarize_screen_size(screen_rows)
+    get = {(s["category"], s["estimate"]): s for s in summary}
+    for cat in (*q.CATEGORIES, "all"):
+        exact, naive = get[(cat, "exact")], get[(cat, "naive")]
+        assert exact["measured"] >= 10, cat
+        assert exact["median_abs_rel_error"] < 0.01, exact
+        assert exact["p95_abs_rel_error"] < 0.05, exact
+        assert naive["p95_abs_rel_error"] > 3 * exact["p95_abs_rel_error"], (naive, exact)
+    for cat in ("on screen", "cut by viewport"):
+        assert get[(cat, "naive")]["median_rel_error"] > 0.1  # the bbox of a hexagon/quad
+
+
+def test_relative_errors_are_recomputed_from_the_counts(screen_rows):
+    r = next(r for r in screen_rows if r["exact_rel_error"] is not None)
+    assert r["exact_rel_error"] == pytest.approx((r["exact"] - r["pixels"]) / r["pixels"])
+    small = [r for r in screen_rows if r["pixels"] < q.MIN_PIXELS]
+    assert all(r["naive_rel_error"] is None for r in small)
+
+
+@pytest.mark.parametrize(
+    ("box", "eye", "target", "near", "expected"),
+    [
+        ([[-1, -1, -1], [1, 1, 1]], (0, 0, 0), (0, 0, -1), 0.1, "eye inside"),
+        ([[-1, -1, 2], [1, 1, 3]], (0, 0, 0), (0, 0, -1), 0.1, "behind"),  # behind the eye
+        ([[-1, -1, -3], [1, 1, -0.05]], (0, 0, 0), (0, 0, -1), 0.1, "crossing near plane"),
+        ([[-0.1, -0.1, -5.1], [0.1, 0.1, -4.9]], (0, 0, 0), (0, 0, -1), 0.1, "on screen"),
+        ([[2.0, -0.1, -5.1], [9.0, 0.1, -4.9]], (0, 0, 0), (0, 0, -1), 0.1, "cut by viewport"),
+    ],
+)
+def test_box_category_hand_cases(box, eye, target, near, expected):
+    cam = soc.Camera.look_at(eye, target, fov_y=60, width=64, height=48, near=near)
+    assert q.box_category(np.array(box, float), cam) == expected
+
+
+# -- the run --------------------------------------------------------------------------------
+
+
+def test_tiny_run_writes_prefixed_files(tmp_path):
+    setup = q.LodQualitySetup(
+        ("torus",),
+        ratios=(1 / 2, 1 / 8),
+        torus_sections=(24, 12),
+        samples=4000,
+        boxes=6,
+        cams_per_box=3,
+        resolution=(96, 64),
+    )
+    result = q.lod_quality_experiment(setup, tmp_path, progress=False, verbose=False)
+    names = sorted(p.name for p in result.files)
+    assert all(n.startswith(("simplifiers_", "screen_size_")) for n in names), names
+    assert {"simplifiers_picture.png", "screen_size_errors.png"} <= set(names)
+    rows = read_csv(tmp_path / "simplifiers_errors.csv")
+    assert len(rows) == 4 and {r["simplifier"] for r in rows} == {"quadric", "melax"}
+    summary = json.loads((tmp_path / "screen_size_summary.json").read_text())
+    assert summary["cases"] == 18 and summary["naive_ge_exact_all"] is True
+    assert result.picture is not None and result.picture.shape == (
+        q.PICTURE_SIZE[1],
+        3 * q.PICTURE_SIZE[0],
+        3,
+    )
+    # the picture is not blank: the meshes differ from the background in every panel
+    w = q.PICTURE_SIZE[0]
+    for k in range(3):
+        panel = result.picture[:, k * w : (k + 1) * w].astype(int)
+        assert (np.abs(panel - panel[0, 0]).sum(axis=2) > 30).mean() > 0.05
+
+
+def test_missing_data_is_a_usage_error(tmp_path):
+    with pytest.raises(UsageError, match="no meshes/ folder"):
+        q.make_setup(quick=False, data=tmp_path / "nowhere")
+    (tmp_path / "meshes").mkdir()
+    with pytest.raises(UsageError, match=r"fandisk_13k\.obj"):
+        q.make_setup(quick=False, data=tmp_path)
+    assert q.main(["--quiet", "--data", str(tmp_path / "nowhere")]) == 2
+
+
+def test_quick_setup_is_small_and_uses_generated_meshes_only(tmp_path):
+    quick, full = q.make_setup(quick=True, data=tmp_path), q.make_setup(quick=False)
+    assert quick.meshes == full.meshes == ("sphere", "torus")
+    assert quick.boxes < full.boxes and quick.samples < full.samples
+    assert quick.sphere_subdivisions < full.sphere_subdivisions
