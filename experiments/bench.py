@@ -233,7 +233,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default="results")
     ap.add_argument(
         "--only",
-        choices=["foundation", "methods", "lod"],
+        choices=["foundation", "methods", "lod", "adaptive"],
         default=None,
         help="run one benchmark section (default: all)",
     )
@@ -248,6 +248,20 @@ def main(argv: list[str] | None = None) -> int:
         replace_section(out / "BENCHMARKS.md", "lod-chain", bench_lod_chain())
         text = replace_section(out / "BENCHMARKS.md", "lod-select", bench_lod_select())
         if args.only == "lod":
+            print(text)
+            return 0
+
+    if args.only in (None, "adaptive"):
+        from experiments import seed004_adaptive
+
+        setup = seed004_adaptive.make_setup()
+        result = seed004_adaptive.run(verbose=False, setup=setup, progress=True)
+        text = replace_section(
+            out / "BENCHMARKS.md",
+            "seed004-adaptive",
+            seed004_adaptive.benchmark_markdown(result, setup),
+        )
+        if args.only == "adaptive":
             print(text)
             return 0
 

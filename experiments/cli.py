@@ -14,6 +14,7 @@
     vislod seed003 [--quick] [--out DIR]
     vislod seed004-model [--quick] [--out DIR]
     vislod seed004-octree [--quick] [--frames N] [--objects 70000] [--out DIR]
+    vislod seed004-adaptive [--quick] [--frames N] [--scale S] [--scenes ...] [--out DIR]
     vislod figures [--only NAME ...] [--force] [--quick] [--out results]
     vislod sweep [--scenes SPEC ...] [--seeds N ...] [--methods ...] [--displays WxH ...]
                  [--resolutions WxH ...] [--frames N] [--chunk N] [--oracle] [--draw]
@@ -32,7 +33,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
-from experiments import seed004_model, seed004_octree
+from experiments import seed004_adaptive, seed004_model, seed004_octree
 from experiments.common import (
     DISPLAY,
     SCENES,
@@ -288,6 +289,10 @@ def build_parser() -> argparse.ArgumentParser:
         "seed004-octree", help="seed 004: dynamic scenes, octree node buffers, Table 2"
     )
     seed004_octree.add_arguments(octree)
+    ad = sub.add_parser(
+        "seed004-adaptive", help="seed 004: Figs. 3-5, frustum vs queries vs adaptive"
+    )
+    seed004_adaptive.add_arguments(ad)
     add_sweep_parser(sub)
     return p
 
@@ -504,6 +509,7 @@ COMMANDS = {
     "seed003": cmd_seed003,
     "seed004-model": seed004_model.command,
     "seed004-octree": seed004_octree.command,
+    "seed004-adaptive": seed004_adaptive.command,
     "sweep": cmd_sweep,
 }
 

@@ -133,6 +133,12 @@ def _seed004_octree(quick: bool, out: Path, data: str | None) -> None:
     seed004_octree.run(quick, out / "seed004_octree", True)
 
 
+def _seed004_adaptive(quick: bool, out: Path, data: str | None) -> None:
+    from experiments import seed004_adaptive
+
+    seed004_adaptive.run(quick, out / "seed004_adaptive", True)
+
+
 FIGURES: tuple[Figure, ...] = (
     Figure(
         "seed000",
@@ -223,6 +229,15 @@ FIGURES: tuple[Figure, ...] = (
         _seed004_octree,
         2.0,
         "seed004_octree/*.png",
+    ),
+    Figure(
+        "seed004-adaptive",
+        "004",
+        "the adaptive method on three growing scenes: frustum vs queries vs adaptive (Figs. 3-5)",
+        "seed004_adaptive/seed004_adaptive_summary.json",
+        _seed004_adaptive,
+        5.0,
+        "seed004_adaptive/*.png",
     ),
 )
 

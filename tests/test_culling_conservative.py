@@ -19,7 +19,11 @@ from soc.scenes.clutter import box_mesh
 # Seed 000's methods; each later method runs the random-camera checks in its own test file.
 CONSERVATIVE = ["none", "frustum", "queries"]
 # Temporal methods are conservative without reuse between frames: test them that way.
-STRICT_OPTIONS = {"grid": {"temporal": False}, "chc": {"temporal": False}}
+STRICT_OPTIONS = {
+    "grid": {"temporal": False},
+    "chc": {"temporal": False},
+    "adaptive": {"temporal": False},
+}
 
 
 def every_conservative_method(scene) -> list[str]:

@@ -1,0 +1,291 @@
+"""``adaptive`` (seed 004): conservative in modes 1 and 2 (and 3 when it waits for its
+queries) against the oracle; the switching conditions (5) and (6) on synthetic timings; the
+query count equals the brute-force minimum of the fitted T(q); dynamic events keep the
+octree equal to the alive set; late query results pop only while the view changes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import check_conservative
+
+import soc
+from soc.adaptive import (
+    LinearCost,
+    ModeCosts,
+    QueryPlanner,
+    choose_mode,
+    condition5,
+    condition6,
+)
+from soc.paths import random_cameras
+from soc.query_model import QueryModel, synthetic_statistics
+
+RES = (320, 192)
+
+
+def _costs(**kw) -> ModeCosts:
+    base = dict(buf_s=0, fc_s=0, buf_h=0, fc_h=0, draw_s=10, draw_h=10, draw_vis=10, vis_h=0)
+    return ModeCosts(**{**base, **kw})
+
+
+# -- conservative against the oracle -----------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "options",
+    [{"mode": 1}, {"mode": 2}, {"mode": 3, "temporal": False, "queries": "all"},
+     {"mode": 3, "temporal": False, "queries": 3}, {"temporal": False}],
+    ids=["mode1", "mode2", "mode3-wait-all", "mode3-wait-3", "adaptive-wait"],
+)  # fmt: skip
+def test_conservative_on_random_cameras(clutter_scenes, options):
+    """2 clutter scenes × 40 random cameras (some inside boxes) in each forced mode."""
+    culled = 0
+    for k, scene in enumerate(clutter_scenes[:2]):
+        cams = random_cameras(scene, 40, seed=50 + k, width=RES[0], height=RES[1])
+        opts = {**options, "leaf_capacity": 4}  # small leaves: node culling really culls
+        culled += check_conservative(scene, cams, RES, ["adaptive"], adaptive=opts)
+    assert culled > 10  # the cameras exercise culling in every mode
+
+
+def test_conservative_flag_follows_the_options():
+    scene = soc.scenes.clutter(0)
+    expect = {(None, True): False, (None, False): True, (1, True): True, (2, True): True,
+              (3, True): False, (3, False): True}  # fmt: skip
+    for (mode, temporal), flag in expect.items():
+        with soc.Culler(scene, method="adaptive", resolution=RES, mode=mode,
+                        temporal=temporal) as c:  # fmt: skip
+            assert c.conservative is flag, (mode, temporal)
+
+
+def test_bad_options_raise():
+    scene = soc.scenes.clutter(0)
+    for bad in ({"mode": 4}, {"latency": 0}, {"queries": "some"}, {"margin": 1.0},
+                {"alive": np.ones(3, bool)}, {"dwell": 0}):  # fmt: skip
+        with pytest.raises(ValueError):
+            soc.Culler(scene, method="adaptive", resolution=RES, **bad)
+
+
+def test_node_culling_keeps_a_superset_of_the_object_frustum_test(clutter_scenes):
+    """Mode 2 draws every object mode 1 draws (node boxes contain their objects' boxes)."""
+    scene = clutter_scenes[2]
+    cams = random_cameras(scene, 30, seed=9, width=RES[0], height=RES[1])
+    with (
+        soc.Culler(scene, method="adaptive", resolution=RES, mode=1) as one,
+        soc.Culler(scene, method="adaptive", resolution=RES, mode=2, leaf_capacity=4) as two,
+    ):
+        for cam in cams:
+            v1, v2 = one.cull(cam).visible, two.cull(cam).visible
+            assert not (v1 & ~v2).any()
+            assert two.method.last.mode == 2 and one.method.last.mode == 1
+
+
+# -- conditions (5) and (6), and the choice of mode --------------------------------------------
+
+
+def test_condition5_is_the_papers_inequality():
+    assert condition5(buf_s=3.0, fc_s=1.0, buf_h=2.0, fc_h=1.0)  # 4 >= 3
+    assert condition5(2.0, 1.0, 2.0, 1.0)  # equality switches (>=)
+    assert not condition5(1.0, 1.0, 2.0, 0.5)
+
+
+def test_condition6_is_the_papers_inequality():
+    assert condition6(t_s=20.0, t_s_vis=12.0, t_vis_h=5.0)
+    assert condition6(17.0, 12.0, 5.0)
+    assert not condition6(16.9, 12.0, 5.0)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_choice_follows_conditions_5_and_6_with_equal_draws(seed):
+    """With equal draws and no margin: 1 → 2 exactly when (5) holds, 2 → 3 exactly when (6)."""
+    rng = np.random.default_rng(seed)
+    for _ in range(200):
+        buf_s, fc_s, buf_h, fc_h = rng.uniform(0, 5, 4)
+        draw, draw_vis, vis_h = 20.0, rng.uniform(0, 20), rng.uniform(0, 10)
+        c = ModeCosts(buf_s, fc_s, buf_h, fc_h, draw, draw, draw_vis, vis_h)
+        up = choose_mode(1, c, margin=0.0, allowed=(1, 2))
+        assert (up == 2) == condition5(buf_s, fc_s, buf_h, fc_h)
+        on = choose_mode(2, c, margin=0.0, allowed=(2, 3))
+        assert (on == 3) == condition6(draw, draw_vis, vis_h)
+
+
+def test_choice_waits_for_the_margin_and_can_jump_or_go_back():
+    # mode 2 saves 5 % of 40 ms: not enough for a 10 % margin, enough for 0
+    c = _costs(buf_s=30, buf_h=28, draw_s=10, draw_h=10, vis_h=1)
+    assert choose_mode(1, c, margin=0.1) == 1
+    assert choose_mode(1, c, margin=0.0) == 2
+    # (5) and (6) together: 1 → 3 at once
+    c = _costs(buf_s=10, fc_s=5, buf_h=1, fc_h=1, draw_vis=2, vis_h=1)
+    assert choose_mode(1, c) == 3
+    # recording got cheap again and queries find nothing: back to 1
+    c = _costs(buf_s=1, fc_s=1, buf_h=8, fc_h=1, draw_vis=10, vis_h=4)
+    assert choose_mode(3, c) == 1
+    assert choose_mode(3, c, allowed=(2, 3)) == 2  # mode 1 not allowed
+    with pytest.raises(ValueError):
+        _costs(buf_s=-1)
+    with pytest.raises(ValueError):
+        choose_mode(4, c)
+
+
+# -- the unit costs ----------------------------------------------------------------------------
+
+
+def test_linear_cost_recovers_known_coefficients_and_keeps_priors_it_cannot_see():
+    rng = np.random.default_rng(0)
+    cost = LinearCost({"fixed": 1.0, "commands": 1e-3, "calls": 0.05}, window=80)
+    for _ in range(80):
+        k = rng.integers(100, 5000)
+        cost.observe(2.0 + 4e-3 * k + rng.normal(0, 0.01), commands=k, calls=0)
+    c = cost.coef
+    assert c["commands"] == pytest.approx(4e-3, rel=0.05)  # the prior weighs one frame in 80
+    assert c["fixed"] == pytest.approx(2.0, abs=0.2)
+    assert c["calls"] == pytest.approx(0.05, rel=1e-6)  # never observed: the prior
+    assert cost.predict(commands=1000, calls=10) == pytest.approx(6.5, rel=0.05)
+    with pytest.raises(ValueError):
+        cost.predict(commands=1)
+
+
+# -- the number of queries: (11) against a brute-force minimum ---------------------------------
+
+
+def _brute_force(model: QueryModel, n: int) -> int:
+    q = np.arange(n + 1)
+    t = model.time(q)
+    return int(q[np.argmin(t)])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_planner_choice_is_the_brute_force_minimum_of_its_fitted_model(seed):
+    rng = np.random.default_rng(seed)
+    truth = QueryModel(alpha_n=float(rng.uniform(0.05, 0.5)), c_n=20.0, n_0=300.0,
+                       s_1=float(rng.uniform(5, 40)), e_0=2e5, p=float(rng.uniform(5, 50)),
+                       e_1=float(rng.uniform(5e3, 2e4)), t_c=1e-4, t_s=1e-2,
+                       t_e=2e-4)  # fmt: skip
+    stats = synthetic_statistics(truth, np.tile([0, 5, 20, 60, 150, 300], 5), seed=seed)
+    planner = QueryPlanner()
+    for q, c, s, e in zip(stats.q, stats.commands, stats.submits, stats.elements, strict=True):
+        planner.record(q, c, s, e)
+    choice = planner.refit(20.0, 1e-4, 1e-2, 2e-4, 300)
+    assert choice is not None
+    assert choice.q == _brute_force(planner.model, 300)
+    # the counts planned afterwards are that choice (clamped to the candidates), but probes
+    planned = [planner.plan(300) for _ in range(planner.probe_every - 1)]
+    assert planned == [min(choice.q, 300)] * (planner.probe_every - 1)
+
+
+def test_statistics_take_each_frames_view_out():
+    """Frames of different views (bases) with the same query effect: after the adjustment
+    the elements depend on q only."""
+    rng = np.random.default_rng(1)
+    planner = QueryPlanner()
+    qs = np.tile([0, 4, 16, 64], 6)
+    base_tri = rng.uniform(1e5, 3e5, len(qs))
+    hidden = 2e4 * np.log1p(qs)
+    for q, bt, h in zip(qs, base_tri, hidden, strict=True):
+        planner.record(q, 10 + q, 50.0, bt - h, 0, q, base=(51.0, bt, 0.0))
+    st = planner.statistics(per_command=0.0, per_query=3.0)
+    expect = base_tri.mean() - hidden + 3.0 * qs
+    assert np.allclose(st.elements, expect)
+    assert np.allclose(st.submits, 50.0)
+
+
+def test_method_uses_the_brute_force_minimum_of_its_fitted_model(clutter_scenes):
+    """A forced mode-3 method explores query counts, fits (8)-(10) and then issues the
+    count minimising its fitted T(q) over the integers (or the fit is not trusted)."""
+    scene = clutter_scenes[0]
+    cam = random_cameras(scene, 1, seed=4, width=RES[0], height=RES[1], inside_fraction=0)[0]
+    with soc.Culler(scene, method="adaptive", resolution=RES, mode=3, temporal=False,
+                    leaf_capacity=2) as c:  # fmt: skip
+        m = c.method
+        for _ in range(16):
+            c.cull(cam)
+        choice = m.fit_queries()
+        if choice is None:  # noisy timings can make the fit untrusted: force one to test
+            pytest.skip("fit not trusted on this machine's timings")
+        n_nodes = int((m.octree.own_counts > 0).sum())
+        assert choice.q == _brute_force(m.planner.model, n_nodes)
+        m.planner.planned = 0  # not a probe frame
+        issued = c.cull(cam).stats.queries
+        candidates = len(m.octree.visible_nodes(cam))
+        assert issued == min(choice.q, candidates)
+
+
+# -- dynamic scenes ----------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def small_dynamic():
+    from soc.scenes.dynamic import dynamic_scene
+
+    return dynamic_scene("scene1", 0, frames=16, objects=1500)
+
+
+@pytest.mark.parametrize("mode", [None, 2, 3])
+def test_octree_follows_the_alive_set_after_events(small_dynamic, mode):
+    dyn = small_dynamic
+    n = len(dyn.scene)
+    res = (160, 90)
+    with soc.Culler(dyn.scene, method="adaptive", resolution=res, mode=mode,
+                    alive=np.zeros(n, bool), leaf_capacity=16) as c:  # fmt: skip
+        m = c.method
+        cams = dyn.cameras(*res)
+        for state, cam in zip(dyn, cams, strict=True):
+            m.apply(state)
+            assert (m.alive == state.alive).all()
+            if m.mode != 1:  # modes 2/3 update at once; mode 1 at its next decision
+                assert (m.octree.alive == state.alive).all()
+            c.cull(cam)
+        octree = m.sync_octree()
+        assert (octree.alive == dyn.alive(dyn.frames - 1)).all()
+        # every alive object in exactly one node, and that node's count says so
+        assert np.bincount(octree.node_of[octree.alive], minlength=octree.nodes).tolist() == (
+            octree.own_counts.tolist()
+        )
+        visible = m.last.visible
+        assert not (visible & ~dyn.alive(dyn.frames - 1)).any()  # dead objects never drawn
+
+
+def test_apply_rejects_events_that_contradict_the_alive_set(small_dynamic):
+    dyn = small_dynamic
+    with soc.Culler(dyn.scene, method="adaptive", resolution=(64, 36),
+                    alive=np.zeros(len(dyn.scene), bool)) as c:  # fmt: skip
+        c.method.apply(dyn.state(0))
+        with pytest.raises(ValueError, match="frame 0"):
+            c.method.apply(dyn.state(0))  # adding the same objects again
+
+
+def test_render_draws_the_same_set_as_cull(small_dynamic):
+    from soc.renderer import Renderer
+
+    dyn = small_dynamic
+    res = (160, 90)
+    alive = dyn.alive(dyn.frames - 1)
+    cam = dyn.cameras(*res)[-1]
+    for mode in (1, 2):
+        with soc.Culler(dyn.scene, method="adaptive", resolution=res, mode=mode,
+                        alive=alive) as c:  # fmt: skip
+            r = Renderer(c.geometry, res)
+            try:
+                drawn = c.method.render(cam, r)
+                assert (drawn.visible == c.cull(cam).visible).all()
+                assert drawn.ms > 0 and drawn.commands == int(drawn.visible.sum())
+                # the picture shows what was drawn: not the sky everywhere
+                assert (r.image().reshape(-1, 3) != r.image()[0, 0]).any()
+            finally:
+                r.release()
+
+
+# -- late results: popping only while the view changes -----------------------------------------
+
+
+def test_late_results_do_not_pop_for_a_static_camera(clutter_scenes):
+    scene = clutter_scenes[1]
+    cam = random_cameras(scene, 1, seed=2, width=RES[0], height=RES[1], inside_fraction=0)[0]
+    truth = soc.exact_visibility(scene, cam, RES)
+    with soc.Culler(scene, method="adaptive", resolution=RES, mode=3, queries="all",
+                    latency=2, leaf_capacity=2) as c:  # fmt: skip
+        results = [c.cull(cam, truth=truth) for _ in range(6)]
+    effective = [r.stats.queries for r in results]
+    assert effective[0] > 0  # queries issued from the first frame
+    assert all(r.stats.false_culls == 0 for r in results)
+    assert c.method.last.queries_effective > 0  # results two frames old decide by now
