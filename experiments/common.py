@@ -336,3 +336,28 @@ def format_table(header: Sequence[str], rows: Sequence[Sequence[Any]], title: st
         if k == 0:
             lines.append("  ".join("-" * w for w in widths))
     return "\n".join(lines)
+
+
+# -- `python -m experiments.<module>` entry points ----------------------------------------------
+
+
+def module_main(
+    module: str,
+    description: str,
+    add_arguments: Callable[[Any], None],
+    command: Callable[[Any], int],
+    argv: Sequence[str] | None = None,
+) -> int:
+    """``python -m experiments.<module>``: parse ``argv`` with ``add_arguments``, run
+    ``command``; a :class:`UsageError` prints one line and returns 2."""
+    import argparse
+    import sys
+
+    p = argparse.ArgumentParser(prog=f"python -m experiments.{module}", description=description)
+    add_arguments(p)
+    args = p.parse_args(argv)
+    try:
+        return command(args)
+    except UsageError as e:
+        print(f"{module.replace('_', '-')}: error: {e}", file=sys.stderr)
+        return 2

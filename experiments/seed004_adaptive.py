@@ -56,6 +56,7 @@ from experiments.common import (
     default_out,
     env_quick,
     format_table,
+    module_main,
     parse_resolution,
     res_str,
     save_figure,
@@ -933,17 +934,13 @@ def command(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m experiments.seed004_adaptive [options]``; returns the exit status."""
-    p = argparse.ArgumentParser(
-        prog="python -m experiments.seed004_adaptive",
-        description="Seed 004: Figs. 3-5, frustum vs queries on all nodes vs adaptive.",
+    return module_main(
+        "seed004_adaptive",
+        "Seed 004: Figs. 3-5, frustum vs queries on all nodes vs adaptive.",
+        add_arguments,
+        command,
+        argv,
     )
-    add_arguments(p)
-    args = p.parse_args(argv)
-    try:
-        return command(args)
-    except UsageError as e:
-        print(f"seed004-adaptive: error: {e}", file=sys.stderr)
-        return 2
 
 
 if __name__ == "__main__":

@@ -48,6 +48,7 @@ from experiments.common import (
     env_quick,
     fmt,
     format_table,
+    module_main,
     parse_resolution,
     res_str,
     save_figure,
@@ -693,17 +694,13 @@ def command(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m experiments.seed004_model [options]``; returns the exit status."""
-    p = argparse.ArgumentParser(
-        prog="python -m experiments.seed004_model",
-        description="Seed 004: Gonakhchyan's performance model, Table 1, on this GL context.",
+    return module_main(
+        "seed004_model",
+        "Seed 004: Gonakhchyan's performance model, Table 1, on this GL context.",
+        add_arguments,
+        command,
+        argv,
     )
-    add_arguments(p)
-    args = p.parse_args(argv)
-    try:
-        return command(args)
-    except UsageError as e:
-        print(f"seed004-model: error: {e}", file=sys.stderr)
-        return 2
 
 
 if __name__ == "__main__":

@@ -45,6 +45,7 @@ from experiments.common import (
     default_out,
     env_quick,
     format_table,
+    module_main,
     parse_resolution,
     res_str,
     save_figure,
@@ -756,17 +757,13 @@ def command(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m experiments.seed004_octree [options]``; returns the exit status."""
-    p = argparse.ArgumentParser(
-        prog="python -m experiments.seed004_octree",
-        description="Seed 004: dynamic scenes, the octree's node buffers and Table 2.",
+    return module_main(
+        "seed004_octree",
+        "Seed 004: dynamic scenes, the octree's node buffers and Table 2.",
+        add_arguments,
+        command,
+        argv,
     )
-    add_arguments(p)
-    args = p.parse_args(argv)
-    try:
-        return command(args)
-    except UsageError as e:
-        print(f"seed004-octree: error: {e}", file=sys.stderr)
-        return 2
 
 
 if __name__ == "__main__":
