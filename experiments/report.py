@@ -288,6 +288,20 @@ def _seed001_lod_quality(s: dict[str, Any]) -> list[Row]:
     return rows
 
 
+def _seed001_image_based(s: dict[str, Any]) -> list[Row]:
+    c = s["composite"]
+    return [
+        Row(
+            "image composition by per-pixel z comparison",
+            "each part rendered separately, combined by z",
+            f"{c['parts']} parts, {c['pixels']:,} pixels: {c['ids_differ']} ids and "
+            f"{c['color_differs']} colours differ from the full render",
+            _verdict(c["exact"]),
+        ),
+        *_claims(s["claims"], "image-based: "),
+    ]
+
+
 def _seed001_state_sorting(s: dict[str, Any]) -> list[Row]:
     return _claims(s["claims"], "state sorting: ")
 
@@ -412,6 +426,7 @@ ROWS: dict[str, Callable[[dict[str, Any]], list[Row]]] = {
     "seed000": _seed000,
     "seed001-lod": _seed001_lod,
     "seed001-lod-quality": _seed001_lod_quality,
+    "seed001-image-based": _seed001_image_based,
     "seed001-portals": _seed001_portals,
     "seed001-state-sorting": _seed001_state_sorting,
     "seed002": _seed002,
