@@ -165,48 +165,15 @@ def test_area_is_continuous_across_the_near_plane():
 # -- against the rasterizer -----------------------------------------------------------------
 
 
-def _random_cases(rng, n_boxes: int, cams_per_box: int):
-    """Boxes of random shape; per box cameras outside looking near it (often partly off
-    screen), close to it (crossing the near plane) and inside it."""
-    for _ in range(n_boxes):
-        lo = rng.uniform(-3, 3, 3)
-        hi = lo + rng.uniform(0.05, 4, 3)
-        cams = []
-        for c in range(cams_per_box):
-            centre = (lo + hi) / 2
-            kind = c % 3
-            if kind == 0:
-                d = rng.normal(size=3)
-                eye = centre + d / np.linalg.norm(d) * rng.uniform(2, 15)
-                target = centre + rng.normal(size=3) * 1.5
-            elif kind == 1:
-                eye = rng.uniform(lo - 0.5, hi + 0.5)
-                target = eye + rng.normal(size=3)
-            else:
-                eye = rng.uniform(lo, hi)
-                target = eye + rng.normal(size=3)
-            cams.append(
-                soc.Camera.look_at(
-                    eye,
-                    target,
-                    fov_y=rng.uniform(40, 90),
-                    width=256,
-                    height=192,
-                    near=float(rng.choice([0.05, 0.3, 1.0])),
-                    far=1000.0,
-                )
-            )
-        yield lo, hi, cams
-
-
 def test_exact_area_matches_rasterized_pixels():
     """Per-object pixel counts of the id render (no culling, one box per scene) against the
     exact area on screen: within 2 % plus half a pixel per boundary pixel (pixel-centre
     sampling misses at most half a pixel across each edge) plus 4, on 180 box/camera pairs
     with boxes off screen, crossing the near plane and around the eye."""
-    rng = np.random.default_rng(2024)
+    from experiments.seed001_lod_quality import screen_size_cases
+
     rows = []
-    for lo, hi, cams in _random_cases(rng, 30, 6):
+    for (lo, hi), cams in screen_size_cases(30, 6, (256, 192), seed=2024):
         scene = soc.Scene.from_meshes([box_mesh(lo, hi)])
         with soc.Oracle(scene) as oracle:
             for cam in cams:
