@@ -8,6 +8,7 @@ from soc import paths, scenes
 from soc.camera import Camera
 from soc.culler import Culler, method_names
 from soc.errors import GLError, GLUnavailableError, SceneError, SceneFormatError
+from soc.fly import fly
 from soc.frustum import aabbs_in_frustum
 from soc.methods import CullConfig
 from soc.metrics import CullResult, FrameStats
@@ -29,6 +30,7 @@ __all__ = [
     "SceneFormatError",
     "aabbs_in_frustum",
     "exact_visibility",
+    "fly",
     "method_names",
     "paths",
     "scenes",

@@ -1,0 +1,48 @@
+"""``soc.fly``: a flight of culls as a DataFrame, judged by the oracle."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import soc
+from soc.paths import random_cameras
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return soc.scenes.clutter(1)
+
+
+def test_one_row_per_frame_with_stats_and_stage_times(scene):
+    cams = random_cameras(scene, 6, seed=3, width=160, height=96)
+    with soc.Culler(scene, "queries", (160, 96)) as culler:
+        df = soc.fly(culler, cams, truth="oracle", progress=False)
+    assert list(df["frame"]) == list(range(6))
+    assert set(df["method"]) == {"queries"}
+    assert {"ms_frustum", "ms_prepass", "ms_cull", "ms_total", "false_culls"} <= set(df.columns)
+    assert (df["false_culls"] == 0).all()  # queries are conservative at their own resolution
+    assert (df["models_visible"] + df["models_culled"] == len(scene)).all()
+    assert np.allclose(df["ms_total"], df["ms_cull"])  # nothing drawn
+
+
+def test_truth_given_per_frame_matches_the_oracle_and_draw_adds_its_column(scene):
+    cams = random_cameras(scene, 4, seed=5, width=160, height=96)
+    sets = [soc.exact_visibility(scene, c) for c in cams]
+    with soc.Culler(scene, "frustum", (160, 96)) as culler:
+        by_sets = soc.fly(culler, cams, truth=sets, draw=True, progress=False)
+        by_fn = soc.fly(culler, cams, truth=lambda c: soc.exact_visibility(scene, c), progress=False)
+    assert list(by_sets["false_keeps"]) == list(by_fn["false_keeps"])
+    assert (by_sets["ms_draw"] > 0).all()
+    assert "false_culls" in by_sets
+
+
+def test_without_truth_there_is_no_judgement_and_bad_truth_is_refused(scene):
+    cams = random_cameras(scene, 2, seed=1, width=160, height=96)
+    with soc.Culler(scene, "frustum", (160, 96)) as culler:
+        df = soc.fly(culler, cams, progress=False)
+        assert "false_culls" not in df
+        with pytest.raises(ValueError, match="3 visible sets for 2 cameras"):
+            soc.fly(culler, cams, truth=[np.ones(len(scene), bool)] * 3, progress=False)
+        with pytest.raises(ValueError, match="'exact'"):
+            soc.fly(culler, cams, truth="exact", progress=False)
