@@ -87,7 +87,9 @@ def _truth_source(culler, cameras, truth):
         return None
     if isinstance(truth, str):
         if truth != "oracle":
-            raise ValueError(f"truth must be None, 'oracle', a sequence or a callable, got {truth!r}")
+            raise ValueError(
+                f"truth must be None, 'oracle', a sequence or a callable, got {truth!r}"
+            )
         from soc.oracle import Oracle
 
         oracle = Oracle(culler.scene, glctx=culler.glctx)

@@ -31,7 +31,8 @@ def test_truth_given_per_frame_matches_the_oracle_and_draw_adds_its_column(scene
     sets = [soc.exact_visibility(scene, c) for c in cams]
     with soc.Culler(scene, "frustum", (160, 96)) as culler:
         by_sets = soc.fly(culler, cams, truth=sets, draw=True, progress=False)
-        by_fn = soc.fly(culler, cams, truth=lambda c: soc.exact_visibility(scene, c), progress=False)
+        oracle = lambda c: soc.exact_visibility(scene, c)  # noqa: E731
+        by_fn = soc.fly(culler, cams, truth=oracle, progress=False)
     assert list(by_sets["false_keeps"]) == list(by_fn["false_keeps"])
     assert (by_sets["ms_draw"] > 0).all()
     assert "false_culls" in by_sets
