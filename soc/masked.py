@@ -1,0 +1,659 @@
+"""Masked software occlusion culling: occluders rasterized into a masked hierarchical depth
+buffer of coverage bits and two depth layers, and AABB tests against it, on the CPU.
+
+Hasselgren, Andersson & Akenine-Möller, "Masked Software Occlusion Culling" (HPG 2016), as
+Intel's ``MaskedOcclusionCulling`` library implements it. The screen is cut into tiles of
+:data:`TILE_W` × :data:`TILE_H` = 32×8 pixels, each made of eight 8×4-pixel subtiles (the
+SIMD lanes of the library's AVX2 tile, whose 256-bit coverage mask is stored as eight 32-bit
+subtile masks, bit ``8 r + c`` for the pixel in row ``r``, column ``c`` of the subtile). There
+is no per-pixel depth: every subtile keeps
+
+* ``z0`` — the *reference layer*: a depth no nearer than any occluder sample of the subtile
+  (and no nearer than the far plane before anything is drawn), and
+* ``z1`` with ``mask`` — the *working layer*: the pixels whose bits are set in ``mask`` hold
+  occluder samples no farther than ``z1``.
+
+(The paper speaks of a tile's two depths; the library, and this module, keep them per 8×4
+subtile, one per SIMD lane.) Depth is window depth in [0, 1], larger = farther (the library
+stores ``1/w`` with the opposite order, so its ``min`` is our ``max``).
+
+Stages of a frame, in the order :class:`MaskedBuffer` runs them:
+
+1. :func:`occluder_order` (numpy) — the occluders whose AABB is in the frustum, sorted front
+   to back by their AABB's nearest view depth (the merge rule culls best when near occluders
+   arrive first).
+2. :func:`setup_triangles` (numba) — transform (float64, with bounds on GL's float32 error),
+   clip against the near plane (a crossing triangle becomes one or two triangles, never
+   dropped), drop triangles outside one frustum plane, degenerate ones and back faces of closed
+   meshes, orient counter-clockwise, and compute the conservative depth plane.
+3. :func:`rasterize` (numba) — per triangle, per 8×4 subtile it touches: the coverage bits of
+   the pixel centres lying :data:`EDGE_MARGIN_PX` inside all three edges, the triangle's
+   farthest depth over those centres (its depth plane at the farthest covered corner, clamped
+   to its farthest vertex), merged into the subtile by :func:`_update_subtile` — the paper's
+   merge rule (section 3.2, the library's ``UpdateTileQuick``):
+
+   - the triangle is ignored where its farthest depth is behind ``z0``;
+   - the working layer is *discarded* (mask cleared) when the triangle covers the whole
+     subtile by itself, or when it is farther from the working layer than the working layer is
+     from the reference layer (``z1 - zt > z0 - z1``: the triangle is much nearer);
+   - the triangle's bits join the mask and ``z1`` becomes the farther of ``z1`` and the
+     triangle's depth (the triangle's depth alone after a discard);
+   - when the mask is full, the working layer becomes the reference layer:
+     ``z0 = z1``, the mask is cleared and ``z1`` emptied.
+
+4. :func:`test_boxes` (numba) — per box, its rectangle of pixel centres and nearest depth (as
+   :func:`soc.hiz_cpu.project_boxes`), scanned subtile by subtile: a subtile hides the box when
+   the box's nearest depth is behind its ``z0``, or behind ``z1`` when every pixel of the
+   rectangle inside the subtile is in the working mask. The box is :data:`OCCLUDED` only when
+   every subtile under it hides it (the library's ``TestRect``, refined by the mask).
+
+Why it is conservative (an object the oracle's GL render sees is never reported hidden):
+``z0`` only ever takes the value ``far`` or a ``z1`` whose mask had become full; ``z1`` is the
+maximum of the depths of triangles whose bits are in the mask; a triangle's bit is set only for
+a pixel centre inside it by a margin wider than GL's snapping and rounding (so GL covers that
+centre too), and its depth there is at most the value merged (the plane is pushed farther by
+the bounds of :mod:`soc.software_raster`; it is evaluated at the covered centres' farthest
+corner, or bounded by the farthest vertex since interpolation is convex). So at every pixel
+centre, ``z0`` (and ``z1`` where the bit is set) is never nearer than GL's occluder depth; the
+box test is then the proof of :mod:`soc.hiz_gpu` with subtiles for pyramid texels. Skipped
+triangles (back faces, degenerate, dead subtiles) and discarded working layers only lose
+culling. Partial tiles at the right and top borders are handled by counting pixels outside the
+screen as covered by every triangle that touches their subtile (no box ever reads them).
+
+The kernels are compiled by numba with ``cache=True``: the first call in a fresh environment
+compiles them (a few seconds), later processes load them from the cache;
+:class:`MaskedBuffer` warms them up when it is built.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from soc.software_raster import (
+    DEPTH_EPSILON,
+    EDGE_MARGIN_PX,
+    FLOAT32_TRANSFORM_ULPS,
+    SNAP_SLOPE_PX,
+)
+
+# Tile and subtile sizes, pixels (the library's AVX2 layout: a tile is 4×2 subtiles).
+TILE_W, TILE_H = 32, 8
+SUB_W, SUB_H = 8, 4
+
+# Results per box (the library's ``CullingResult``), the same codes as :mod:`soc.hiz_gpu`.
+OCCLUDED, VISIBLE, VIEW_CULLED = 0, 1, 2
+
+# Reference depth of an empty subtile: the far plane (a box inside the frustum is never behind it).
+Z_FAR = 1.0
+
+# Working depth of an empty working layer: nearer than anything, so max() with it is a no-op.
+Z_EMPTY = -np.inf
+
+# Floats per triangle record of :func:`setup_triangles`: x0 y0 x1 y1 x2 y2 (window pixels,
+# counter-clockwise), a b c (depth plane, pushed farther), z_max (farthest vertex, pushed).
+RECORD = 10
+
+FULL_MASK = 0xFFFFFFFF
+_U32 = 2.0**-24  # float32 unit roundoff
+
+
+@dataclass(frozen=True)
+class MaskedStats:
+    """Work counters of one frame (the library's ``OcclusionCullingStatistics``, abridged).
+
+    Attributes
+    ----------
+    occluders : int
+        Occluder objects in the frustum, rasterized front to back.
+    triangles : int
+        Triangles rasterized after clipping and back-face culling.
+    subtile_updates : int
+        Subtile merges (subtiles a triangle covered some pixel centre of).
+    """
+
+    occluders: int
+    triangles: int
+    subtile_updates: int
+
+
+def buffer_shape(resolution: tuple[int, int]) -> tuple[int, int]:
+    """(tiles_y, tiles_x) of the masked buffer of ``resolution = (W, H)``; partial tiles count."""
+    width, height = int(resolution[0]), int(resolution[1])
+    if width <= 0 or height <= 0:
+        raise ValueError(f"resolution must be two positive integers, got {resolution!r}")
+    return -(-height // TILE_H), -(-width // TILE_W)
+
+
+def occluder_triangles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """World triangles of the scene's occluders, grouped by occluder.
+
+    Returns
+    -------
+    ids : (M,) int64
+        The occluder objects.
+    triangles : (T, 3, 3) float64
+        Their triangles, world units, occluder after occluder.
+    offsets : (M + 1,) int64
+        Occluder ``k``'s triangles are ``triangles[offsets[k]:offsets[k + 1]]``.
+    closed : (M,) bool
+        Meshes that are closed and consistently oriented (every directed edge's reverse occurs
+        exactly once): their back faces may be skipped, the front faces hide them.
+    """
+    ids = np.flatnonzero(scene.occluder)
+    fo = np.asarray(scene.face_offsets, np.int64)
+    counts = fo[ids + 1] - fo[ids]
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    owner = np.repeat(np.arange(len(ids)), counts)
+    faces = np.arange(offsets[-1]) - offsets[owner] + fo[ids][owner]
+    corners = (
+        scene.faces[faces].astype(np.int64) + np.asarray(scene.vertex_offsets)[ids][owner][:, None]
+    )
+    triangles = np.asarray(scene.vertices, np.float64)[corners].reshape(-1, 3, 3)
+    # Directed edges (owner, a, b) keyed by the local vertex ids; closed ⇔ each occurs once and
+    # its reverse occurs once.
+    a = corners.reshape(-1)
+    b = corners[:, [1, 2, 0]].reshape(-1)
+    own = np.repeat(owner, 3)
+    closed = np.ones(len(ids), bool)
+    if len(a):
+        span = int(max(a.max(), b.max())) + 1
+        key = (own * span + a) * span + b
+        rev = (own * span + b) * span + a
+        uniq, count = np.unique(key, return_counts=True)
+        dup = np.zeros(len(ids), bool)
+        dup[own[np.isin(key, uniq[count > 1])]] = True
+        missing = ~np.isin(rev, uniq)
+        open_ = np.zeros(len(ids), bool)
+        open_[own[missing]] = True
+        closed = ~(dup | open_)
+    closed[counts == 0] = False
+    return ids, triangles, offsets, closed
+
+
+def occluder_order(aabbs: np.ndarray, camera, in_frustum: np.ndarray) -> np.ndarray:
+    """Indices into ``aabbs`` (M, 2, 3) of the boxes with ``in_frustum`` (M,) bool, sorted by
+    the view depth of their nearest point (nearest first; world units along the view axis)."""
+    keep = np.flatnonzero(in_frustum)
+    boxes = np.asarray(aabbs, np.float64)[keep]
+    axis = np.asarray(camera.forward, np.float64)
+    center = 0.5 * (boxes[:, 0] + boxes[:, 1])
+    half = 0.5 * (boxes[:, 1] - boxes[:, 0])
+    nearest = center @ axis - half @ np.abs(axis)
+    return keep[np.argsort(nearest, kind="stable")]
+
+
+# -- stage 2: transform, clip, set up --------------------------------------------------------
+
+
+@numba.njit(cache=True, inline="always")
+def _emit(out, n, px, py, pz, width, height, backface):
+    """Append the window triangle ``(px, py, pz)`` (clip x/w, y/w, pushed window z) to ``out``;
+    returns the new count. Drops degenerate triangles and, with ``backface``, clockwise ones."""
+    x0 = (px[0] + 1.0) * 0.5 * width
+    x1 = (px[1] + 1.0) * 0.5 * width
+    x2 = (px[2] + 1.0) * 0.5 * width
+    y0 = (py[0] + 1.0) * 0.5 * height
+    y1 = (py[1] + 1.0) * 0.5 * height
+    y2 = (py[2] + 1.0) * 0.5 * height
+    z0, z1, z2 = pz[0], pz[1], pz[2]
+    area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)  # twice the signed area, px²
+    if abs(area) <= 1e-12 or (backface and area < 0.0):
+        return n
+    if area < 0.0:  # orient counter-clockwise
+        x1, x2 = x2, x1
+        y1, y2 = y2, y1
+        z1, z2 = z2, z1
+        area = -area
+    dx1, dx2, dy1, dy2 = x1 - x0, x2 - x0, y1 - y0, y2 - y0
+    dz1, dz2 = z1 - z0, z2 - z0
+    a = (dz1 * dy2 - dz2 * dy1) / area
+    b = (dx1 * dz2 - dx2 * dz1) / area
+    c = z0 - a * x0 - b * y0 + (abs(a) + abs(b)) * SNAP_SLOPE_PX + DEPTH_EPSILON
+    r = out[n]
+    r[0], r[1], r[2], r[3], r[4], r[5] = x0, y0, x1, y1, x2, y2
+    r[6], r[7], r[8] = a, b, c
+    r[9] = max(z0, max(z1, z2)) + DEPTH_EPSILON
+    return n + 1
+
+
+@numba.njit(cache=True)
+def setup_triangles(
+    triangles, offsets, order, backface, view_proj, width, height, out
+):  # pragma: no cover - compiled
+    """Transform, near-clip and set up the triangles of the occluders ``order``, in order.
+
+    Parameters
+    ----------
+    triangles : (T, 3, 3) float64
+        World triangles grouped by occluder (:func:`occluder_triangles`).
+    offsets : (M + 1,) int64
+    order : (K,) int64
+        Occluders to draw, nearest first.
+    backface : (M,) bool
+        Skip clockwise (back-facing) triangles of these occluders.
+    view_proj : (4, 4) float64
+    width, height : int
+        Buffer resolution, pixels.
+    out : (2 T, RECORD) float64
+        Receives the triangle records (a triangle crossing the near plane can become two).
+
+    Returns
+    -------
+    int
+        Records written.
+    """
+    m = view_proj
+    am = np.abs(m)
+    n = 0
+    cx = np.empty(4)
+    cy = np.empty(4)
+    cz = np.empty(4)
+    cw = np.empty(4)
+    ez = np.empty(4)
+    ew = np.empty(4)
+    px = np.empty(3)
+    py = np.empty(3)
+    pz = np.empty(3)
+    # Clipped polygon (at most 4 vertices).
+    qx = np.empty(4)
+    qy = np.empty(4)
+    qz = np.empty(4)
+    qw = np.empty(4)
+    qez = np.empty(4)
+    qew = np.empty(4)
+    for oi in range(len(order)):
+        o = order[oi]
+        bf = backface[o]
+        for t in range(offsets[o], offsets[o + 1]):
+            for v in range(3):
+                p0, p1, p2 = triangles[t, v, 0], triangles[t, v, 1], triangles[t, v, 2]
+                cx[v] = m[0, 0] * p0 + m[0, 1] * p1 + m[0, 2] * p2 + m[0, 3]
+                cy[v] = m[1, 0] * p0 + m[1, 1] * p1 + m[1, 2] * p2 + m[1, 3]
+                cz[v] = m[2, 0] * p0 + m[2, 1] * p1 + m[2, 2] * p2 + m[2, 3]
+                cw[v] = m[3, 0] * p0 + m[3, 1] * p1 + m[3, 2] * p2 + m[3, 3]
+                a0, a1, a2 = abs(p0), abs(p1), abs(p2)
+                ez[v] = (
+                    FLOAT32_TRANSFORM_ULPS
+                    * _U32
+                    * (am[2, 0] * a0 + am[2, 1] * a1 + am[2, 2] * a2 + am[2, 3])
+                )
+                ew[v] = (
+                    FLOAT32_TRANSFORM_ULPS
+                    * _U32
+                    * (am[3, 0] * a0 + am[3, 1] * a1 + am[3, 2] * a2 + am[3, 3])
+                )
+            # Outside one frustum plane (other than near, clipped below) entirely: drop.
+            if (
+                (cx[0] < -cw[0] and cx[1] < -cw[1] and cx[2] < -cw[2])
+                or (cx[0] > cw[0] and cx[1] > cw[1] and cx[2] > cw[2])
+                or (cy[0] < -cw[0] and cy[1] < -cw[1] and cy[2] < -cw[2])
+                or (cy[0] > cw[0] and cy[1] > cw[1] and cy[2] > cw[2])
+                or (cz[0] > cw[0] and cz[1] > cw[1] and cz[2] > cw[2])
+            ):
+                continue
+            # Near plane z = -w: Sutherland–Hodgman on one plane (keep z + w >= 0).
+            k = 0
+            for v in range(3):
+                u = (v + 1) % 3
+                dv = cz[v] + cw[v]
+                du = cz[u] + cw[u]
+                if dv >= 0.0:
+                    qx[k], qy[k], qz[k], qw[k], qez[k], qew[k] = (
+                        cx[v],
+                        cy[v],
+                        cz[v],
+                        cw[v],
+                        ez[v],
+                        ew[v],
+                    )
+                    k += 1
+                if (dv >= 0.0) != (du >= 0.0):
+                    s = dv / (dv - du)
+                    qx[k] = cx[v] + s * (cx[u] - cx[v])
+                    qy[k] = cy[v] + s * (cy[u] - cy[v])
+                    qz[k] = cz[v] + s * (cz[u] - cz[v])
+                    qw[k] = cw[v] + s * (cw[u] - cw[v])
+                    qez[k] = ez[v] + s * (ez[u] - ez[v])
+                    qew[k] = ew[v] + s * (ew[u] - ew[v])
+                    k += 1
+            if k < 3:
+                continue
+            # Fan (0, 1, 2) and, for a quad, (0, 2, 3).
+            for f in range(k - 2):
+                for j in range(3):
+                    q = 0 if j == 0 else f + j
+                    w = qw[q]
+                    nz = qz[q] / w
+                    px[j] = qx[q] / w
+                    py[j] = qy[q] / w
+                    # Window depth pushed farther by GL's float32 error: (ez + |z/w| ew) / w.
+                    pz[j] = 0.5 * (nz + 1.0) + 0.5 * (qez[q] + abs(nz) * qew[q]) / w
+                n = _emit(out, n, px, py, pz, width, height, bf)
+    return n
+
+
+# -- stage 3: rasterize and merge ------------------------------------------------------------
+
+
+@numba.njit(cache=True, inline="always")
+def _update_subtile(mask, z0, z1, ty, tx, s, bits, zt):
+    """Merge a triangle's coverage ``bits`` (uint32 of one 8×4 subtile) at farthest depth
+    ``zt`` into subtile ``s`` of tile ``(ty, tx)``: the paper's quick merge rule (module
+    docstring). Returns 1 when the subtile was updated, 0 when the triangle was behind ``z0``."""
+    za = z0[ty, tx, s]
+    if zt > za:  # behind the reference layer everywhere: nothing to learn
+        return 0
+    zb = z1[ty, tx, s]
+    m = np.int64(mask[ty, tx, s])
+    if bits == FULL_MASK or 2.0 * zb - (zt + za) > 0.0:  # discard the working layer
+        m = bits
+        znew = zt
+    else:
+        m |= bits
+        znew = max(zb, zt)
+    if m == FULL_MASK:  # the working layer covers the subtile: it becomes the reference
+        z0[ty, tx, s] = znew
+        z1[ty, tx, s] = Z_EMPTY
+        mask[ty, tx, s] = 0
+    else:
+        z1[ty, tx, s] = znew
+        mask[ty, tx, s] = m
+    return 1
+
+
+@numba.njit(cache=True)
+def rasterize(records, count, width, height, mask, z0, z1, margin):  # pragma: no cover
+    """Rasterize ``records[:count]`` (:func:`setup_triangles`) in order into the buffer.
+
+    Parameters
+    ----------
+    records : (R, RECORD) float64
+    count : int
+    width, height : int
+        Resolution, pixels; the buffer arrays have :func:`buffer_shape` tiles.
+    mask : (TY, TX, 8) uint32
+    z0, z1 : (TY, TX, 8) float64
+        The masked buffer, updated in place.
+    margin : float
+        A pixel centre is covered when it lies this many pixels inside all three edges
+        (:data:`EDGE_MARGIN_PX` for a conservative raster).
+
+    Returns
+    -------
+    int
+        Subtile updates (merges).
+    """
+    updates = 0
+    lo = np.empty(SUB_H, np.int64)
+    hi = np.empty(SUB_H, np.int64)
+    ox = np.empty(3)
+    oy = np.empty(3)
+    nx = np.empty(3)
+    ny = np.empty(3)
+    sub_rows = (height + SUB_H - 1) // SUB_H
+    sub_cols = (width + SUB_W - 1) // SUB_W
+    # Bits of the pixels outside the screen in the last subtile column / row (counted covered).
+    extra_cols = sub_cols * SUB_W - width
+    extra_rows = sub_rows * SUB_H - height
+    col_pad = 0
+    for c in range(SUB_W - extra_cols, SUB_W):
+        for r in range(SUB_H):
+            col_pad |= 1 << (8 * r + c)
+    row_pad = 0
+    for r in range(SUB_H - extra_rows, SUB_H):
+        row_pad |= 0xFF << (8 * r)
+    for t in range(count):
+        rec = records[t]
+        ymin = min(rec[1], min(rec[3], rec[5]))
+        ymax = max(rec[1], max(rec[3], rec[5]))
+        xmin = min(rec[0], min(rec[2], rec[4]))
+        xmax = max(rec[0], max(rec[2], rec[4]))
+        j_lo = max(0, math.ceil(min(max(ymin - 0.5, -1.0), height)))
+        j_hi = min(height - 1, math.floor(min(max(ymax - 0.5, -1.0), height)))
+        i_min = max(0, math.ceil(min(max(xmin - 0.5, -1.0), width)))
+        i_max = min(width - 1, math.floor(min(max(xmax - 0.5, -1.0), width)))
+        if j_lo > j_hi or i_min > i_max:
+            continue
+        for e in range(3):
+            f = (e + 1) % 3
+            ox[e], oy[e] = rec[2 * e], rec[2 * e + 1]
+            dx, dy = rec[2 * f] - ox[e], rec[2 * f + 1] - oy[e]
+            length = math.sqrt(dx * dx + dy * dy)
+            nx[e], ny[e] = -dy / length, dx / length  # inward normal (counter-clockwise)
+        a, b, c, zvmax = rec[6], rec[7], rec[8], rec[9]
+        for sr in range(j_lo // SUB_H, j_hi // SUB_H + 1):
+            # Span of covered pixel centres on each of the subtile row's 4 pixel rows.
+            c_lo, c_hi = width, -1
+            for r in range(SUB_H):
+                j = sr * SUB_H + r
+                lo[r], hi[r] = 1, 0
+                if j < j_lo or j > j_hi:
+                    continue
+                yc = j + 0.5
+                left, right = -1.0, float(width)
+                ok = True
+                for e in range(3):
+                    # nx (x - ox) + ny (y - oy) >= margin
+                    rest = margin - ny[e] * (yc - oy[e])
+                    if nx[e] > 0.0:
+                        left = max(left, ox[e] + rest / nx[e])
+                    elif nx[e] < 0.0:
+                        right = min(right, ox[e] + rest / nx[e])
+                    elif rest > 0.0:
+                        ok = False
+                if not ok:
+                    continue
+                i0 = max(i_min, math.ceil(min(left - 0.5, float(width))))
+                i1 = min(i_max, math.floor(max(right - 0.5, -1.0)))
+                if i0 <= i1:
+                    lo[r], hi[r] = i0, i1
+                    c_lo = min(c_lo, i0)
+                    c_hi = max(c_hi, i1)
+            if c_lo > c_hi:
+                continue
+            ty, s_row = sr // 2, (sr % 2) * 4
+            for sc in range(c_lo // SUB_W, c_hi // SUB_W + 1):
+                x0 = sc * SUB_W
+                bits = 0
+                u_lo, u_hi, v_lo, v_hi = SUB_W, -1, SUB_H, -1
+                for r in range(SUB_H):
+                    l0 = max(lo[r], x0) - x0
+                    l1 = min(hi[r], x0 + SUB_W - 1) - x0
+                    if l0 <= l1:
+                        bits |= (((1 << (l1 - l0 + 1)) - 1) << l0) << (8 * r)
+                        u_lo = min(u_lo, l0)
+                        u_hi = max(u_hi, l1)
+                        v_lo = min(v_lo, r)
+                        v_hi = max(v_hi, r)
+                if bits == 0:
+                    continue
+                # Farthest depth over the covered centres' bounding box, at most the farthest
+                # vertex (interpolation inside a triangle is a convex combination).
+                xf = x0 + (u_hi if a > 0.0 else u_lo) + 0.5
+                yf = sr * SUB_H + (v_hi if b > 0.0 else v_lo) + 0.5
+                zt = min(a * xf + b * yf + c, zvmax)
+                if sc == sub_cols - 1:
+                    bits |= col_pad
+                if sr == sub_rows - 1:
+                    bits |= row_pad
+                updates += _update_subtile(mask, z0, z1, ty, sc // 4, s_row + sc % 4, bits, zt)
+    return updates
+
+
+# -- stage 4: test boxes ---------------------------------------------------------------------
+
+
+@numba.njit(cache=True)
+def test_boxes(rects, z_near, mask, z0, z1, out):  # pragma: no cover - compiled
+    """Test boxes against the masked buffer.
+
+    Parameters
+    ----------
+    rects : (K, 4) int64
+        Inclusive pixel-centre rectangles ``x0, y0, x1, y1`` clamped to the screen
+        (:func:`soc.hiz_cpu.project_boxes`); empty when ``x0 > x1`` or ``y0 > y1``.
+    z_near : (K,) float64
+        Nearest window depth of each box, biases applied.
+    mask, z0, z1 : the buffer (:func:`rasterize`).
+    out : (K,) uint8
+        Receives :data:`OCCLUDED` or :data:`VISIBLE`.
+
+    Returns
+    -------
+    int
+        Subtiles read.
+    """
+    reads = 0
+    for k in range(len(rects)):
+        x0, y0, x1, y1 = rects[k, 0], rects[k, 1], rects[k, 2], rects[k, 3]
+        zn = z_near[k]
+        result = OCCLUDED
+        if x0 <= x1 and y0 <= y1:
+            for sr in range(y0 // SUB_H, y1 // SUB_H + 1):
+                r0 = max(y0 - sr * SUB_H, 0)
+                r1 = min(y1 - sr * SUB_H, SUB_H - 1)
+                row_bits = 0
+                for r in range(r0, r1 + 1):
+                    row_bits |= 0xFF << (8 * r)
+                ty, s_row = sr // 2, (sr % 2) * 4
+                for sc in range(x0 // SUB_W, x1 // SUB_W + 1):
+                    reads += 1
+                    tx, s = sc // 4, s_row + sc % 4
+                    if zn > z0[ty, tx, s]:
+                        continue  # behind the reference layer
+                    m = np.int64(mask[ty, tx, s])
+                    if m != 0 and zn > z1[ty, tx, s]:
+                        c0 = max(x0 - sc * SUB_W, 0)
+                        c1 = min(x1 - sc * SUB_W, SUB_W - 1)
+                        col_bits = ((1 << (c1 - c0 + 1)) - 1) << c0
+                        cols = 0
+                        for r in range(SUB_H):
+                            cols |= col_bits << (8 * r)
+                        if (row_bits & cols & ~m) == 0:
+                            continue  # the rectangle's pixels here are all in the working mask
+                    result = VISIBLE
+                    break
+                if result == VISIBLE:
+                    break
+        out[k] = result
+    return reads
+
+
+# -- the buffer ------------------------------------------------------------------------------
+
+
+class MaskedBuffer:
+    """A masked hierarchical depth buffer of ``resolution = (W, H)`` pixels for one scene's
+    occluders: :meth:`render` draws a frame's occluders, :meth:`classify` tests boxes.
+
+    Attributes
+    ----------
+    mask : (TY, TX, 8) uint32
+        Working-layer coverage per subtile (bit ``8 r + c``: row ``r``, column ``c``).
+    z0, z1 : (TY, TX, 8) float64
+        Reference and working depth per subtile (window depth, larger = farther).
+    """
+
+    def __init__(self, scene, resolution: tuple[int, int], *, backface: bool = True):
+        self.resolution = (int(resolution[0]), int(resolution[1]))
+        shape = (*buffer_shape(self.resolution), 8)
+        self.mask = np.zeros(shape, np.uint32)
+        self.z0 = np.full(shape, Z_FAR)
+        self.z1 = np.full(shape, Z_EMPTY)
+        self.ids, self.triangles, self.offsets, closed = occluder_triangles(scene)
+        self.backface = closed & bool(backface)
+        self.aabbs = np.asarray(scene.aabbs, np.float64)[self.ids]
+        self._records = np.empty((2 * len(self.triangles), RECORD))
+        self.last_stats = MaskedStats(0, 0, 0)
+        _warm_up()
+
+    def clear(self) -> None:
+        """Empty every subtile: reference layer at the far plane, no working coverage."""
+        self.mask.fill(0)
+        self.z0.fill(Z_FAR)
+        self.z1.fill(Z_EMPTY)
+
+    def render(self, camera, in_frustum: np.ndarray | None = None, timings=None) -> None:
+        """Clear and draw the occluders seen by ``camera`` (its ``view_proj``), front to back.
+
+        ``in_frustum`` (M,) bool over :attr:`ids` selects them (default: all); ``timings``, a
+        dict, receives the ms of the stages ``sort``, ``transform`` and ``raster``.
+        """
+        from soc.methods.base import stage
+
+        timings = {} if timings is None else timings
+        width, height = self.resolution
+        with stage(timings, "sort"):
+            if in_frustum is None:
+                in_frustum = np.ones(len(self.ids), bool)
+            order = occluder_order(self.aabbs, camera, in_frustum)
+        with stage(timings, "transform"):
+            vp = np.ascontiguousarray(camera.view_proj, np.float64)
+            n = setup_triangles(
+                self.triangles,
+                self.offsets,
+                order,
+                self.backface,
+                vp,
+                width,
+                height,
+                self._records,
+            )
+        with stage(timings, "raster"):
+            self.clear()
+            updates = rasterize(
+                self._records, n, width, height, self.mask, self.z0, self.z1, EDGE_MARGIN_PX
+            )
+        self.last_stats = MaskedStats(len(order), int(n), int(updates))
+
+    def classify(self, rects: np.ndarray, z_near: np.ndarray) -> np.ndarray:
+        """(K,) uint8 :data:`OCCLUDED` / :data:`VISIBLE` of boxes given as pixel rectangles
+        (K, 4) int64 and nearest depths (K,) float64 (:func:`soc.hiz_cpu.project_boxes`)."""
+        rects = np.ascontiguousarray(rects, np.int64).reshape(-1, 4)
+        z_near = np.ascontiguousarray(z_near, np.float64).reshape(-1)
+        if len(rects) != len(z_near):
+            raise ValueError(f"{len(rects)} rectangles but {len(z_near)} depths")
+        out = np.empty(len(rects), np.uint8)
+        test_boxes(rects, z_near, self.mask, self.z0, self.z1, out)
+        return out
+
+    def depth(self) -> np.ndarray:
+        """(H, W) float64 per-pixel conservative occluder depth (``z1`` where the working mask
+        holds the pixel, else ``z0``), row 0 at the bottom; a debug read-back for tests."""
+        width, height = self.resolution
+        ty, tx = self.mask.shape[:2]
+        # Subtile s = 4 sy + sx, bit 8 r + c → pixel (tx·32 + sx·8 + c, ty·8 + sy·4 + r).
+        bits = (self.mask[..., None].astype(np.int64) >> np.arange(32)) & 1
+        bits = bits.reshape(ty, tx, 2, 4, SUB_H, SUB_W).astype(bool)
+        z0 = self.z0.reshape(ty, tx, 2, 4, 1, 1)
+        z1 = self.z1.reshape(ty, tx, 2, 4, 1, 1)
+        d = np.where(bits, np.minimum(z0, z1), z0).transpose(0, 2, 4, 1, 3, 5)
+        d = d.reshape(ty * TILE_H, tx * TILE_W)
+        return d[:height, :width].copy()
+
+
+_WARM = False
+
+
+def _warm_up() -> None:
+    """Compile (or load from numba's cache) the kernels once per process on a tiny input."""
+    global _WARM
+    if _WARM:
+        return
+    tri = np.array([[[-1.0, -1.0, -5.0], [1.0, -1.0, -5.0], [0.0, 1.0, -5.0]]])
+    vp = np.eye(4)
+    vp[3] = [0.0, 0.0, -1.0, 0.0]
+    vp[2] = [0.0, 0.0, -1.2, -2.2]
+    rec = np.empty((2, RECORD))
+    n = setup_triangles(
+        tri, np.array([0, 1], np.int64), np.array([0], np.int64), np.array([True]), vp, 8, 4, rec
+    )
+    mask = np.zeros((1, 1, 8), np.uint32)
+    z0, z1 = np.full((1, 1, 8), Z_FAR), np.full((1, 1, 8), Z_EMPTY)
+    rasterize(rec, n, 8, 4, mask, z0, z1, EDGE_MARGIN_PX)
+    test_boxes(np.zeros((1, 4), np.int64), np.zeros(1), mask, z0, z1, np.empty(1, np.uint8))
+    _WARM = True
