@@ -24,11 +24,14 @@ the box covers a subset of the box's samples. Boxes must lie in front of the nea
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import torch
 
 from soc.constants import QUERY_DEPTH_BIAS_NDC
+
+if TYPE_CHECKING:  # torch is imported where it is used: `import soc` stays torch-free
+    import torch
 
 # Box rectangles are grown by this many pixels on every side before taking the pixel centres
 # they contain: GL's sub-pixel snapping and float32 transform can move a box edge onto a
@@ -77,6 +80,8 @@ def build_pyramid(depth: torch.Tensor) -> Pyramid:
     Texel ``(y, x)`` of level ``k`` is >= every level-0 texel in rows ``y * 2**k ...`` and
     columns ``x * 2**k ...`` (equal to their max when no padding was needed).
     """
+    import torch
+
     depth = torch.as_tensor(depth, dtype=torch.float32)
     if depth.ndim != 2 or depth.numel() == 0:
         raise ValueError(f"depth must be a non-empty (H, W) array, got shape {tuple(depth.shape)}")
@@ -159,6 +164,8 @@ def boxes_visible(pyramid: Pyramid, rect: np.ndarray, z_near: np.ndarray) -> np.
     A box is visible when its nearest depth is <= the max occluder depth over the (at most
     2×2) texels covering its rectangle at the finest level where it spans at most 2×2.
     """
+    import torch
+
     rect = torch.as_tensor(np.asarray(rect, np.int64))
     z = torch.as_tensor(np.asarray(z_near, np.float64))
     x0, y0, x1, y1 = rect.unbind(1)

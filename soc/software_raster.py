@@ -33,8 +33,12 @@ function of the window position over a planar triangle, exactly as GL interpolat
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import torch
+
+if TYPE_CHECKING:  # torch is imported where it is used: `import soc` stays torch-free
+    import torch
 
 # Coverage margin: a pixel centre is covered only when it lies at least this far (in pixels)
 # inside every edge. Must exceed GL's sub-pixel snapping (llvmpipe: 1/256 px grid, error
@@ -83,6 +87,8 @@ def clip_space(triangles: torch.Tensor, view_proj: np.ndarray) -> tuple[torch.Te
         Bound on GL's float32 error of ``z`` and ``w`` per vertex (clip units): used to push
         depth farther in :func:`setup`.
     """
+    import torch
+
     m = torch.as_tensor(np.asarray(view_proj, np.float64))
     clip = triangles @ m[:, :3].T + m[:, 3]
     # Sum of |terms| of the z and w rows: scale of float32 rounding in GL's vertex shader.
@@ -116,6 +122,8 @@ def clip_near(clip: torch.Tensor, err: torch.Tensor) -> tuple[torch.Tensor, torc
         Triangles wholly in front of the near plane: each input triangle becomes 0 (behind),
         1 (in front, or two vertices behind) or 2 (one vertex behind) triangles.
     """
+    import torch
+
     d = clip[..., 2] + clip[..., 3]  # signed distance to the near plane (clip units)
     inside = d >= 0
     n_in = inside.sum(1)
@@ -159,6 +167,8 @@ def setup(
     ``A x + B y + C``, already pushed farther by :data:`SNAP_SLOPE_PX` and
     :data:`DEPTH_EPSILON` and by the float32 vertex error bounds.
     """
+    import torch
+
     width, height = resolution
     w = clip[..., 3]
     ndc = clip[..., :3] / w[..., None]
@@ -197,6 +207,8 @@ def setup(
 def _row_blocks(rows: torch.Tensor):
     """Yield ``(sel, R)``: the triangles ``sel`` whose row count lies in one length class, padded
     to ``R`` rows (classes of :data:`SPAN_CLASSES`, so padding wastes < 1/3 of the work)."""
+    import torch
+
     lower = 0
     top = int(rows.max()) if len(rows) else 0
     for width in (1, *SPAN_CLASSES, top):
@@ -228,6 +240,8 @@ def spans(
     (P,) int64 pixels in the span, ``z0`` (P,) float64 depth at the first pixel centre,
     ``dz`` (P,) float64 depth step per pixel.
     """
+    import torch
+
     width, height = resolution
     xy, edge, plane = tri["xy"], tri["edge"], tri["plane"]
     nx, ny = edge.unbind(-1)  # (T, 3)
@@ -306,6 +320,8 @@ def scatter_spans(depth: torch.Tensor, sp: dict[str, torch.Tensor]) -> int:
 
     Returns the number of (non-padding) fragments written.
     """
+    import torch
+
     count = sp["count"]
     if len(count) == 0:
         return 0
@@ -357,6 +373,8 @@ def rasterize_depth(
         :meth:`soc.depth_prepass.DepthTarget.read`. Never nearer than the GL prepass of the
         same triangles at any pixel centre (see the module docstring).
     """
+    import torch
+
     width, height = resolution
     tris = torch.as_tensor(triangles).to(torch.float64).reshape(-1, 3, 3)
     depth = torch.ones(height * width + 1, dtype=torch.float32)  # + 1: trash element
