@@ -5,21 +5,23 @@ SHELL := /bin/bash
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
-EXTRAS ?= test,fit,sweep
+# Every extra (pyproject.toml): the test suite exercises all of them.
+EXTRAS ?= test,fit,sweep,viz,notebooks,cpu
 comma := ,
 STAMP := $(VENV)/.installed-$(subst $(comma),-,$(EXTRAS))
 PYTEST_ARGS ?=
 ARGS ?=
 
-.PHONY: setup gl demo test bench figures lint format clean
+.PHONY: setup gl demo test bench figures notebooks lint format clean clean-cache
 
 setup: gl $(STAMP)
 
 gl:
 	@bash scripts/ensure_gl.sh
 
-# Re-install only when the dependency list or the pins change. torch is pinned through
-# constraints.txt (the CPU build kept on this machine), never in pyproject's bounds.
+# Re-install only when the dependency list or the pins change. torch (the `cpu` extra) is
+# pinned through constraints.txt (the CPU build kept on this machine), never in pyproject's
+# bounds: constraints.txt is for `make` only, not for users of the wheel.
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --disable-pip-version-check -c constraints.txt -e '.[$(EXTRAS)]'
@@ -27,6 +29,9 @@ $(STAMP): pyproject.toml constraints.txt
 
 # The demo runs on Intel's castle when VISLOD_DATA holds it, else on the generated town.
 DEMO_SCENE = $(shell test -d "$(VISLOD_DATA)/intel_castle/Asset" && echo castle || echo market)
+
+# pyvista (the `viz` extra) renders off-screen through EGL, like moderngl.
+demo test figures notebooks: export VTK_DEFAULT_OPENGL_WINDOW = vtkEGLRenderWindow
 
 demo: setup
 	MPLBACKEND=Agg $(PY) -m experiments.cli demo --scene $(DEMO_SCENE) $(ARGS)
@@ -42,6 +47,12 @@ bench: setup
 figures: setup
 	MPLBACKEND=Agg $(PY) -m experiments.cli figures $(ARGS)
 
+# The notebooks (one per source document) in Jupyter Lab; on a machine without a browser,
+# open the printed URL through an SSH tunnel.
+notebooks: setup
+	@echo "opening notebooks/ in Jupyter Lab (or run: $(VENV)/bin/jupyter lab notebooks/)"
+	$(VENV)/bin/jupyter lab notebooks/
+
 lint: setup
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .
 
@@ -49,4 +60,9 @@ format: setup
 	$(VENV)/bin/ruff format . && $(VENV)/bin/ruff check --fix .
 
 clean:
-	rm -rf $(VENV) .pytest_cache .ruff_cache data/cache
+	rm -rf $(VENV) .pytest_cache .ruff_cache
+
+# LOD chains and cost-model calibrations live in the user's cache folder ($$VISLOD_CACHE, else
+# platformdirs' user cache dir for "vislod"; see lod/cache.py), not in the checkout.
+clean-cache:
+	$(PY) -c "import shutil, lod.cache as c; print('removing', c.cache_root()); shutil.rmtree(c.cache_root(), ignore_errors=True)"
