@@ -1,5 +1,10 @@
 """On-disk cache of LOD chains, keyed by a hash of the mesh arrays and the parameters.
 
+Where: :func:`cache_root` — ``$VISLOD_CACHE`` when set, else the user's cache folder
+(``platformdirs.user_cache_dir("vislod")``, e.g. ``~/.cache/vislod`` on Linux); never inside
+the installed package. LOD chains go to ``<root>/lod`` (:func:`default_dir`), the cost-model
+calibrations of :mod:`lod.calibration` to ``<root>/calibration``.
+
 One ``.npz`` file per chain, named by the SHA-256 of (format version, simplifier version,
 vertex and face bytes with their dtypes and shapes, parameters). Files are written to a
 temporary name in the same folder and renamed (``os.replace``, atomic on POSIX), so a reader
@@ -15,10 +20,28 @@ from pathlib import Path
 
 import numpy as np
 
-# Default folder (git-ignored via ``data/cache/``).
-DEFAULT_DIR = Path(__file__).resolve().parents[1] / "data" / "cache" / "lod"
+# Environment variable naming the cache root (where things are, never how they behave).
+ENV = "VISLOD_CACHE"
 # Bump when the stored layout or the chain algorithm changes: old entries are then ignored.
 FORMAT_VERSION = "lod-chain-1"
+
+
+def cache_root() -> Path:
+    """The root of vislod's caches: ``$VISLOD_CACHE`` when set (and not empty), else
+    ``platformdirs.user_cache_dir("vislod")``. Read at every call, so a test or a user can
+    move it without re-importing."""
+    env = os.environ.get(ENV, "").strip()
+    if env:
+        return Path(env).expanduser()
+    import platformdirs
+
+    return Path(platformdirs.user_cache_dir("vislod", appauthor=False))
+
+
+def default_dir(kind: str = "lod") -> Path:
+    """The cache folder of one kind of entry (``"lod"``, ``"calibration"``) under
+    :func:`cache_root`."""
+    return cache_root() / kind
 
 
 def key(vertices: np.ndarray, faces: np.ndarray, params: dict) -> str:

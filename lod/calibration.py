@@ -54,13 +54,13 @@ from typing import Any
 import numpy as np
 
 from lod.benefit import CostModel
+from lod.cache import default_dir
 from lod.chain import LodChain
 
 # -- configuration --------------------------------------------------------------------------
 
 # Bump when the measurement or the fit changes: cached calibrations are then ignored.
 VERSION = "lod-calibration-1"
-DEFAULT_DIR = Path(__file__).resolve().parents[1] / "data" / "cache" / "calibration"
 # Camera distances, in bounding radii of the object: from filling the screen's height to a
 # few dozen pixels across at 1080p (60° field of view).
 DISTANCES = (1.8, 2.6, 4.0, 7.0, 13.0, 30.0, 70.0)
@@ -252,7 +252,8 @@ def calibrate(
     force : bool
         Measure even when a cached calibration exists (and overwrite it).
     cache_dir : path or bool, optional
-        Folder of the cache (None: the repository's ``data/cache/calibration``; False: none).
+        Folder of the cache (None: ``lod.cache.default_dir("calibration")``, in the user's
+        cache folder or ``$VISLOD_CACHE``; False: none).
         Entries are keyed by GL renderer, threads, resolution, quick and :data:`VERSION` —
         the constants describe the renderer, so a calibration made with other prototypes at
         the same key is reused.
@@ -271,7 +272,7 @@ def calibrate(
     renderer = Renderer(glctx.geometry(stacks.scene), resolution)
     try:
         device = renderer.device()
-        folder = None if cache_dir is False else Path(cache_dir or DEFAULT_DIR)
+        folder = None if cache_dir is False else Path(cache_dir or default_dir("calibration"))
         name = _key(device, renderer.resolution, quick)
         if folder is not None and not force:
             hit = _load(folder / f"{name}.json")

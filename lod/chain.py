@@ -263,8 +263,8 @@ def build_chain(
     level, each in (0, 1], strictly decreasing; ratio 1.0 gives the input itself (validated,
     faces with a repeated index dropped). aggressiveness: fast-simplification's ``agg``.
     cascade: simplify level k from level k−1 (True) or every level from the full mesh.
-    cache_dir: folder of the on-disk cache; None → ``data/cache/lod/`` in the repository;
-    False → no cache.
+    cache_dir: folder of the on-disk cache; None → ``lod.cache.default_dir("lod")`` (the user's
+    cache folder, or ``$VISLOD_CACHE/lod``); False → no cache.
 
     Returns a LodChain with one Level per ratio; errors in object units, non-decreasing.
     Raises ValueError for invalid meshes or ratios (see ``validate_mesh``/``validate_ratios``).
@@ -278,7 +278,7 @@ def build_chain(
     params = {"ratios": r, "agg": float(aggressiveness), "cascade": bool(cascade)}
     params["samples"] = SAMPLES
     params["weld"] = "first-occurrence"  # vertex order of the levels: older entries differ
-    folder = None if cache_dir is False else Path(cache_dir or _cache.DEFAULT_DIR)
+    folder = None if cache_dir is False else Path(cache_dir or _cache.default_dir("lod"))
     name = _cache.key(v_in, f_in, params) if folder is not None else ""
     if folder is not None:
         hit = _cache.load(folder, name)

@@ -292,8 +292,8 @@ def build(
         most :data:`DATA_MAX_TRIANGLES` triangles are the prototypes instead of the generated
         ones. ValueError when it holds none.
     cache_dir : path or bool, optional
-        LOD chain cache (see :func:`lod.build_chain`: None = the repository's
-        ``data/cache/lod``, False = none).
+        LOD chain cache (see :func:`lod.build_chain`: None = the user's cache folder,
+        ``lod.cache.default_dir("lod")``; False = none).
     """
     protos = data_prototypes(data) if data is not None else generated_prototypes(config)
     chains = tuple(
