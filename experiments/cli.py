@@ -2,7 +2,7 @@
 
     vislod demo [--scene market|castle|clutter] [--frames 100] [--resolutions 320x192 ...]
                 [--methods NAME ...] [--quick] [--out results]
-    vislod cull --scene market|castle|clutter --method NAME --resolution 1920x1080
+    vislod cull --method NAME [--scene market|castle|clutter] [--resolution 1920x1080]
                 [--frames N] [--oracle]
     vislod grid [--frames 100] [--grid-sizes 16 32 64] [--display WxH] [--quick] [--out results]
     vislod portals [--frames 200] [--rooms 6x4] [--floors 1] [--display WxH] [--quick]
@@ -21,16 +21,22 @@
                  [--scheduler tcp://H:P] [--workers N] [--gl-threads N] [--force] [--quick]
                  [--out DIR]
 
-Mistakes (unknown scene or method, a bad resolution, the castle without data) print one line
-on stderr and exit with status 2 before anything is written. ``VISLOD_QUICK=1`` in the
-environment has the effect of ``--quick``; ``VISLOD_DATA`` is where the castle is looked for.
+Mistakes print one line on stderr and exit with status 2 before any work: an unknown scene or
+method, a method that cannot cull the scene, a bad resolution, a data path that was given
+(``--data`` or ``VISLOD_DATA``) and holds no castle, an output folder that cannot be written
+(created and probed up front), and a command whose dependencies are an extra that is not
+installed (:data:`COMMAND_EXTRAS`, :data:`METHOD_EXTRAS`: "vislod seed004-model needs the
+'fit' extra: pip install 'vislod[fit]'"). ``VISLOD_QUICK=1`` in the environment has the effect
+of ``--quick``; ``VISLOD_DATA`` is where the castle is looked for.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any, NoReturn
 
 from experiments import seed004_adaptive, seed004_model, seed004_octree
@@ -38,6 +44,8 @@ from experiments.common import (
     DISPLAY,
     SCENES,
     UsageError,
+    castle_path,
+    check_writable,
     default_out,
     env_quick,
     fmt,
@@ -51,6 +59,110 @@ from experiments.sweep import add_sweep_parser, cmd_sweep
 
 EXIT_USAGE = 2
 EXIT_ENVIRONMENT = 1
+
+# -- optional dependencies: one table, checked before any work --------------------------------
+
+# Extra (pyproject.toml's optional-dependencies) → modules whose presence says it is installed.
+EXTRA_MODULES: dict[str, tuple[str, ...]] = {
+    "cpu": ("torch",),
+    "fit": ("jax", "optimistix"),
+    "sweep": ("dask", "distributed"),
+    "viz": ("pyvista", "vtk"),
+    "notebooks": ("nbformat", "nbclient", "ipywidgets"),
+}
+# Command → the extras it always needs (every command is listed; () = the core only).
+COMMAND_EXTRAS: dict[str, tuple[str, ...]] = {
+    "demo": (),
+    "cull": (),
+    "grid": (),
+    "portals": (),
+    "lod": (),
+    "lod-quality": (),
+    "image-based": (),
+    "state-sorting": (),
+    "figures": (),  # and what its chosen figures need (experiments.figures.Figure.extras)
+    "seed003": (),
+    "seed004-model": ("fit",),  # the query-count model (7)-(11) is fitted with JAX/optimistix
+    "seed004-octree": (),
+    "seed004-adaptive": ("fit",),  # the adaptive method fits q* while rendering
+    "sweep": ("sweep",),  # Dask distributed
+}
+# Culling method → the extras it needs, for the commands that take methods.
+METHOD_EXTRAS: dict[str, tuple[str, ...]] = {
+    "hiz-cpu": ("cpu",),  # the software rasterizer is torch
+    "adaptive": ("fit",),  # fits the query-count model with JAX/optimistix
+}
+# What a method that cannot cull an ordinary scene needs instead (soc.Culler's supports()).
+METHOD_NEEDS: dict[str, str] = {
+    "portals": "a scene of cells and portals (rooms: soc.scenes.rooms, or `vislod portals`)",
+}
+
+
+class MissingExtraError(UsageError):
+    """A command needs an optional dependency (an extra) that is not installed."""
+
+
+def _installed(extra: str) -> bool:
+    return all(importlib.util.find_spec(m) is not None for m in EXTRA_MODULES[extra])
+
+
+def _named_methods(args: argparse.Namespace) -> list[str]:
+    """The culling methods a command will run, from its options (``all`` expanded)."""
+    import soc
+
+    if args.command == "cull":
+        return [args.method]
+    if args.command == "state-sorting":
+        from experiments.seed001_state_sorting import METHOD
+
+        return [args.method or METHOD]
+    if args.command in ("demo", "sweep"):
+        if args.methods is None:
+            if args.command == "demo":
+                from experiments.seed000_demo import DEMO_METHODS
+
+                return list(DEMO_METHODS)
+            from experiments.sweep import DEFAULT_METHODS
+
+            return list(DEFAULT_METHODS)
+        return soc.method_names() if list(args.methods) == ["all"] else list(args.methods)
+    return []
+
+
+def required_extras(args: argparse.Namespace) -> dict[str, str]:
+    """Extras the parsed command needs → why ("" for the command itself, else the method or
+    figure that needs it), from :data:`COMMAND_EXTRAS`, :data:`METHOD_EXTRAS` and the figures'
+    ``extras``."""
+    need: dict[str, str] = dict.fromkeys(COMMAND_EXTRAS[args.command], "")
+    for m in _named_methods(args):
+        for extra in METHOD_EXTRAS.get(m, ()):
+            need.setdefault(extra, f"method {m!r}")
+    if args.command == "figures" and not args.list:
+        from experiments.figures import FIGURES
+
+        for fig in FIGURES:
+            if not args.only or fig.key in args.only:
+                for extra in fig.extras:
+                    need.setdefault(extra, f"figure {fig.key!r}")
+    return need
+
+
+def check_extras(args: argparse.Namespace) -> None:
+    """:class:`MissingExtraError` naming the extras the command needs and lacks, with the
+    ``pip install`` line: "vislod seed004-model needs the 'fit' extra: pip install
+    'vislod[fit]'"."""
+    need = required_extras(args)
+    missing = [e for e in need if not _installed(e)]
+    if not missing:
+        return
+    names = " and ".join(repr(e) for e in missing)
+    why = sorted({need[e] for e in missing if need[e]})
+    reason = f" (for {', '.join(why)})" if why else ""
+    plural = "s" if len(missing) > 1 else ""
+    raise MissingExtraError(
+        f"vislod {args.command} needs the {names} extra{plural}{reason}: "
+        f"pip install 'vislod[{','.join(missing)}]'"
+    )
 
 
 class _Parser(argparse.ArgumentParser):
@@ -143,7 +255,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--no-progress", action="store_true", help="no progress bar")
 
     cull = sub.add_parser("cull", help="cull the flight with one method, print per-frame stats")
-    common(cull, None)
+    common(cull, "market")
     cull.add_argument("--method", required=True, help="culling method (see soc.method_names())")
     cull.add_argument(
         "--resolution",
@@ -297,9 +409,51 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _validate_scene(args: argparse.Namespace) -> None:
-    from experiments.common import castle_path
+def output_folder(args: argparse.Namespace) -> Path | None:
+    """The folder the command writes under (``--out``, else the results folder of its mode),
+    or None for commands that write nothing (``cull``, ``figures --list``)."""
+    if not hasattr(args, "out") or (args.command == "figures" and args.list):
+        return None
+    return Path(args.out) if args.out else default_out(bool(getattr(args, "quick", False)))
 
+
+def check_inputs(args: argparse.Namespace) -> None:
+    """Everything that can be checked before the work, each a one-line :class:`UsageError`:
+    the output folder is created and a probe file written and deleted in it; a scene, its
+    data path and the methods named are valid (a ``--data``/``VISLOD_DATA`` given for the
+    castle must hold it)."""
+    out = output_folder(args)
+    if out is not None:
+        check_writable(out)
+    if hasattr(args, "scene"):
+        _validate_scene(args)
+    if args.command == "lod" and args.data is not None:
+        folder = Path(args.data).expanduser()
+        if not folder.is_dir():
+            what = "is a file, not a folder" if folder.exists() else "does not exist"
+            raise UsageError(f"mesh folder {str(folder)!r} (--data) {what}")
+    if args.command == "state-sorting" and args.method is not None:
+        _check_method_culls(args.method, "market")
+
+
+def _check_method_culls(method: str, scene_name: str, scene=None) -> None:
+    """:class:`UsageError` when ``method`` is unknown or cannot cull ``scene`` (default: the
+    small clutter scene, standing for every scene without cells and portals)."""
+    import soc
+
+    if method not in soc.method_names():
+        raise UsageError(f"unknown method {method!r}; available: {', '.join(soc.method_names())}")
+    scene = scene if scene is not None else soc.scenes.clutter(0)
+    if method not in soc.method_names(scene):
+        needs = METHOD_NEEDS.get(method, "another kind of scene")
+        usable = ", ".join(soc.method_names(scene))
+        raise UsageError(
+            f"method {method!r} cannot cull scene {scene_name!r}: it needs {needs}; "
+            f"methods for {scene_name!r}: {usable}"
+        )
+
+
+def _validate_scene(args: argparse.Namespace) -> None:
     if args.scene not in SCENES:
         raise UsageError(f"unknown scene {args.scene!r}; available: {', '.join(SCENES)}")
     if args.scene == "castle":
@@ -335,16 +489,14 @@ def cmd_cull(args: argparse.Namespace) -> int:
     from experiments.common import load_scene, mean
 
     _validate_scene(args)
-    if args.method not in soc.method_names():
-        raise UsageError(
-            f"unknown method {args.method!r}; available: {', '.join(soc.method_names())}"
-        )
+    _check_method_culls(args.method, args.scene)  # before loading a large scene
     frames = args.frames if args.frames is not None else (6 if args.quick else 100)
     if frames < 2:
         raise UsageError(f"--frames must be at least 2, got {frames}")
     display = args.display or (scaled(DISPLAY, 0.25) if args.quick else DISPLAY)
     resolution = args.resolution or display
     scene = load_scene(args.scene, seed=args.seed, quick=args.quick, data=args.data)
+    _check_method_culls(args.method, args.scene, scene)
     cams = soc.paths.flight(scene, frames=frames, width=display[0], height=display[1])
     rows: list[dict[str, Any]] = []
     oracle = soc.Oracle(scene) if args.oracle else None
@@ -521,6 +673,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.quick = True
         print("VISLOD_QUICK is set: quick mode", file=sys.stderr)
     try:
+        check_extras(args)
+        check_inputs(args)
         return COMMANDS[args.command](args)
     except UsageError as e:
         print(f"vislod: error: {e}", file=sys.stderr)

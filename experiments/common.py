@@ -220,22 +220,57 @@ def make_setup(
 # -- scenes ------------------------------------------------------------------------------------
 
 
+# Where the castle's scene files may sit under a data folder: ``<data>/intel_castle/Asset``,
+# ``<data>/Asset`` or ``<data>`` itself (what :func:`soc.scenes.castle` accepts).
+CASTLE_LAYOUTS = (("intel_castle", "Asset"), ("Asset",), ())
+
+
 def castle_path(data: str | os.PathLike | None) -> Path:
-    """The castle data folder from ``data`` or ``VISLOD_DATA``; :class:`UsageError` if absent.
+    """The castle data folder from ``data`` or ``VISLOD_DATA``; :class:`UsageError` when neither
+    is set, or the path is missing, is a file, or holds no castle (no ``.set`` scene file in
+    ``intel_castle/Asset/``, ``Asset/`` or the folder itself) — checked before any work, so a
+    wrong path is an error, never a silent fallback to the generated market.
 
     :func:`soc.scenes.castle` accepts the folder holding ``intel_castle/``, ``intel_castle/``
     itself or its ``Asset/`` folder.
     """
-    data = data or os.environ.get("VISLOD_DATA")
+    env = os.environ.get("VISLOD_DATA")
+    source = "VISLOD_DATA" if not data or str(data) == env else "--data"
+    data = data or env
     if not data:
         raise UsageError(
             "scene 'castle' needs the Intel castle files: pass --data PATH or set VISLOD_DATA "
             "(see data/README.md)"
         )
     root = Path(data).expanduser()
-    if root.is_dir():
-        return root
-    raise UsageError(f"castle data folder {str(root)!r} does not exist")
+    if not root.exists():
+        raise UsageError(f"castle data folder {str(root)!r} ({source}) does not exist")
+    if not root.is_dir():
+        raise UsageError(f"castle data folder {str(root)!r} ({source}) is a file, not a folder")
+    for parts in CASTLE_LAYOUTS:
+        folder = root.joinpath(*parts)
+        if folder.is_dir() and any(folder.glob("*.set")):
+            return root
+    raise UsageError(
+        f"no Intel castle in {str(root)!r} ({source}): no .set scene files in intel_castle/Asset/, "
+        "Asset/ or the folder itself (see data/README.md)"
+    )
+
+
+def check_writable(folder: str | os.PathLike) -> Path:
+    """Create ``folder`` (with its parents) and write and delete a probe file in it, so that a
+    results folder that cannot be written fails in a second, before the work, not minutes
+    later when the first file is saved. :class:`UsageError` (one line) otherwise."""
+    folder = Path(folder).expanduser()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".vislod-probe-", dir=folder)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        reason = e.strerror or type(e).__name__
+        raise UsageError(f"cannot write to output folder {str(folder)!r}: {reason}") from None
+    return folder
 
 
 def load_scene(
