@@ -5,13 +5,22 @@ CSV/JSON/PNG under ``out``), which JSON summary it leaves, and how its summary b
 ``results/REPORT.md`` (:mod:`experiments.report`): per row of SPEC's figure tables, our number
 beside the document's and a verdict, reproduced / differs (why) / image.
 
-A figure that already ran (its summary and a stamp with the same mode and package version
-exist) is skipped, so an interrupted run resumes where it stopped; ``--force`` runs
-everything again. The report is rewritten from whatever summaries exist at the end.
+A figure that already ran is skipped — its summary exists and its stamp holds the same
+*inputs key*: a hash of everything that changes its result (:func:`figure_inputs`: the figure,
+quick mode, package version, the scene and the resolved data path where the figure reads
+data, and the source of the experiment's module, which holds its parameters) — so an
+interrupted run resumes where it stopped, and a run with other inputs re-runs; ``--force``
+runs everything again. The report is rewritten from whatever summaries exist at the end.
+
+Before anything runs, every chosen figure's inputs are checked (:attr:`Figure.check`): a data
+path given (``--data`` or ``VISLOD_DATA``) that lacks what a figure reads from it is an error,
+never a silent fallback to the generated scenes.
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib.util
 import json
 import time
 from collections.abc import Callable, Sequence
@@ -50,6 +59,17 @@ class Figure:
         Rough full-run time on this machine (2 cores, llvmpipe), for the progress bar.
     images : str
         Glob (relative to the results folder) of the PNGs the report shows.
+    module : str
+        The experiment's module; its source (parameters included) is part of the inputs key.
+    extras : tuple of str
+        Optional dependencies (pyproject extras) it needs; ``vislod figures`` names the
+        missing ones before running anything.
+    uses_data : bool
+        Reads the data folder (``--data`` / ``VISLOD_DATA``): its resolved path and the scene
+        it implies are part of the inputs key.
+    check : callable or None
+        ``check(quick, data)`` raises :class:`UsageError` when the inputs are wrong, before
+        any figure runs; returns the scene name it will use (or None).
     """
 
     key: str
@@ -59,16 +79,37 @@ class Figure:
     run: Callable[[bool, Path, str | None], Any]
     minutes: float
     images: str = ""
+    module: str = ""
+    extras: tuple[str, ...] = ()
+    uses_data: bool = False
+    check: Callable[[bool, str | None], str | None] | None = None
 
 
 # -- how each experiment is run (imports are lazy: `vislod --help` stays fast) ---------------
 
 
+def _seed000_scene(quick: bool, data: str | None) -> str:
+    """The castle when a data path is given (which must hold it: :class:`UsageError`
+    otherwise), else the generated market."""
+    if data is None:
+        return "market"
+    castle_path(data)
+    return "castle"
+
+
 def _seed000(quick: bool, out: Path, data: str | None) -> None:
     from experiments.seed000_demo import demo
 
-    scene = "castle" if data is not None and _has_castle(data) else "market"
+    scene = _seed000_scene(quick, data)
     demo(make_setup(quick=quick), scene_name=scene, out=out, methods=["all"], data=data)
+
+
+def _seed001_lod_quality_check(quick: bool, data: str | None) -> str | None:
+    """A full run reads fandisk and kitten from ``<data>/meshes``: check they are there."""
+    from experiments import seed001_lod_quality
+
+    seed001_lod_quality.make_setup(quick, data)
+    return None
 
 
 def _seed001_portals(quick: bool, out: Path, data: str | None) -> None:
@@ -107,14 +148,6 @@ def _seed002(quick: bool, out: Path, data: str | None) -> None:
     seed002_grid.grid_experiment(seed002_grid.make_setup(quick), out)
 
 
-def _has_castle(data: str) -> bool:
-    try:
-        castle_path(data)
-    except UsageError:
-        return False
-    return True
-
-
 def _seed003(quick: bool, out: Path, data: str | None) -> None:
     from experiments import seed003_complexity
 
@@ -148,6 +181,10 @@ FIGURES: tuple[Figure, ...] = (
         _seed000,
         40.0,
         "seed000_abb*.png",
+        module="experiments.seed000_demo",
+        extras=("cpu", "fit"),  # every method: hiz-cpu (torch), adaptive (JAX)
+        uses_data=True,
+        check=_seed000_scene,
     ),
     Figure(
         "seed001-lod",
@@ -157,6 +194,7 @@ FIGURES: tuple[Figure, ...] = (
         _seed001_lod,
         4.0,
         "seed001_lod/seed001_lod_*.png",
+        module="experiments.seed001_lod_budget",
     ),
     Figure(
         "seed001-lod-quality",
@@ -166,6 +204,9 @@ FIGURES: tuple[Figure, ...] = (
         _seed001_lod_quality,
         2.0,
         "seed001_lod/s[ci]*_*.png",
+        module="experiments.seed001_lod_quality",
+        uses_data=True,
+        check=_seed001_lod_quality_check,
     ),
     Figure(
         "seed001-portals",
@@ -175,6 +216,7 @@ FIGURES: tuple[Figure, ...] = (
         _seed001_portals,
         2.0,
         "seed001_portals*.png",
+        module="experiments.seed001_portals",
     ),
     Figure(
         "seed001-state-sorting",
@@ -184,6 +226,7 @@ FIGURES: tuple[Figure, ...] = (
         _seed001_state_sorting,
         3.0,
         "seed001_state_sorting/*.png",
+        module="experiments.seed001_state_sorting",
     ),
     Figure(
         "seed001-image-based",
@@ -193,6 +236,7 @@ FIGURES: tuple[Figure, ...] = (
         _seed001_image_based,
         3.0,
         "seed001_image_based/*.png",
+        module="experiments.seed001_image_based",
     ),
     Figure(
         "seed002",
@@ -202,6 +246,7 @@ FIGURES: tuple[Figure, ...] = (
         _seed002,
         8.0,
         "seed002_*.png",
+        module="experiments.seed002_grid",
     ),
     Figure(
         "seed003",
@@ -211,6 +256,7 @@ FIGURES: tuple[Figure, ...] = (
         _seed003,
         3.0,
         "seed003_complexity/*.png",
+        module="experiments.seed003_complexity",
     ),
     Figure(
         "seed004-model",
@@ -220,6 +266,8 @@ FIGURES: tuple[Figure, ...] = (
         _seed004_model,
         1.0,
         "seed004_model/*.png",
+        module="experiments.seed004_model",
+        extras=("fit",),
     ),
     Figure(
         "seed004-octree",
@@ -229,6 +277,7 @@ FIGURES: tuple[Figure, ...] = (
         _seed004_octree,
         2.0,
         "seed004_octree/*.png",
+        module="experiments.seed004_octree",
     ),
     Figure(
         "seed004-adaptive",
@@ -238,6 +287,8 @@ FIGURES: tuple[Figure, ...] = (
         _seed004_adaptive,
         5.0,
         "seed004_adaptive/*.png",
+        module="experiments.seed004_adaptive",
+        extras=("fit",),
     ),
 )
 
@@ -259,8 +310,38 @@ def _stamp_path(out: Path, fig: Figure) -> Path:
     return out / STAMPS / f"{fig.key}.json"
 
 
-def is_done(out: Path, fig: Figure, quick: bool) -> bool:
-    """The figure's summary exists and its stamp says it ran in this mode and version."""
+def _source_hash(module: str) -> str:
+    """SHA-256 of a module's source file (found without importing it), "" when unknown."""
+    spec = importlib.util.find_spec(module) if module else None
+    if spec is None or not spec.origin or not Path(spec.origin).is_file():
+        return ""
+    return hashlib.sha256(Path(spec.origin).read_bytes()).hexdigest()
+
+
+def figure_inputs(fig: Figure, quick: bool, data: str | None) -> dict[str, Any]:
+    """Everything that changes ``fig``'s result: the figure, quick mode, the package version,
+    the hash of its module's source (its parameters), and — for figures that read data — the
+    resolved data path and the scene it implies."""
+    inputs: dict[str, Any] = {
+        "figure": fig.key,
+        "quick": bool(quick),
+        "version": _version(),
+        "source": _source_hash(fig.module),
+    }
+    if fig.uses_data:
+        inputs["data"] = str(Path(data).expanduser().resolve()) if data else None
+        inputs["scene"] = fig.check(quick, data) if fig.check is not None else None
+    return inputs
+
+
+def inputs_key(inputs: dict[str, Any]) -> str:
+    """SHA-256 of the inputs as sorted JSON."""
+    return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
+
+
+def is_done(out: Path, fig: Figure, quick: bool, data: str | None = None) -> bool:
+    """The figure's summary exists and its stamp holds the key of the same inputs
+    (:func:`figure_inputs`: mode, version, source, data and scene)."""
     stamp = _stamp_path(out, fig)
     if not (stamp.is_file() and (out / fig.summary).is_file()):
         return False
@@ -268,7 +349,7 @@ def is_done(out: Path, fig: Figure, quick: bool) -> bool:
         s = json.loads(stamp.read_text())
     except (OSError, ValueError):
         return False
-    return s.get("quick") == quick and s.get("version") == _version()
+    return s.get("key") == inputs_key(figure_inputs(fig, quick, data))
 
 
 def run_figures(
@@ -293,7 +374,10 @@ def run_figures(
         raise UsageError(f"unknown figure(s) {', '.join(unknown)}; available: {', '.join(names)}")
     out = Path(out) if out is not None else default_out(quick)
     chosen = [f for f in FIGURES if not only or f.key in only]
-    todo = [f for f in chosen if force or not is_done(out, f, quick)]
+    for f in chosen:  # wrong data or options: fail now, not after the figures before it
+        if f.check is not None:
+            f.check(quick, data)
+    todo = [f for f in chosen if force or not is_done(out, f, quick, data)]
     skipped = [f.key for f in chosen if f not in todo]
     if skipped:
         print(f"already done (use --force to re-run): {', '.join(skipped)}")
@@ -311,9 +395,10 @@ def run_figures(
             t0 = time.perf_counter()
             fig.run(quick, out, data)
             seconds[fig.key] = time.perf_counter() - t0
+            inputs = figure_inputs(fig, quick, data)
             write_json(
                 _stamp_path(out, fig),
-                {"quick": quick, "version": _version(), "seconds": seconds[fig.key]},
+                {"key": inputs_key(inputs), **inputs, "seconds": seconds[fig.key]},
             )
             bar.update(round(weight[fig.key], 1))
     report = write_report(out, FIGURES, quick=quick)
