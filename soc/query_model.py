@@ -296,9 +296,22 @@ class QueryFit:
         )
 
 
+# The message when the fit's optional dependencies are missing (the `fit` extra).
+FIT_EXTRA = "the query-count fit needs the 'fit' extra (JAX, optimistix): pip install 'vislod[fit]'"
+
+
+def _require_fit() -> None:
+    """ImportError naming the ``fit`` extra when JAX or optimistix is missing."""
+    import importlib.util
+
+    if any(importlib.util.find_spec(m) is None for m in ("jax", "optimistix")):
+        raise ImportError(FIT_EXTRA)
+
+
 @lru_cache(maxsize=1)
 def _compiled_fit():
     """The jitted solver, built on first use (JAX imported here, not at ``import soc``)."""
+    _require_fit()
     import jax
     import jax.numpy as jnp
     import optimistix as optx
@@ -373,6 +386,7 @@ def fit_query_model(stats: QueryStatistics, c_n: float) -> QueryFit:
     The first call compiles (about a second); later calls with up to the same padded length
     (:func:`fit_capacity`) reuse the compiled solver.
     """
+    _require_fit()
     import jax
     import jax.numpy as jnp
 
