@@ -157,6 +157,8 @@ def load_meshes(setup: LodQualitySetup) -> list[NamedMesh]:
     positions merged, so both simplifiers see the same connected surface)."""
     import trimesh
 
+    from lod.chain import load_mesh
+
     out = []
     for name in setup.meshes:
         if name == "sphere":
@@ -173,7 +175,11 @@ def load_meshes(setup: LodQualitySetup) -> list[NamedMesh]:
         else:
             if setup.data is None:
                 raise UsageError(f"mesh {name!r} needs a data folder (--data or VISLOD_DATA)")
-            m = trimesh.load(Path(setup.data) / "meshes" / name, force="mesh")
+            try:  # checked like soc.Scene: NaN vertices, out-of-range indices → one line
+                v, f = load_mesh(Path(setup.data) / "meshes" / name)
+            except ValueError as e:
+                raise UsageError(str(e)) from None
+            m = trimesh.Trimesh(v, f)  # merges equal positions, as trimesh.load did
             # OBJ seams: trimesh keeps vertices apart that differ only in texture coordinates
             # (kitten: 80 pieces, 970 border edges); Melax would treat them as cracks
             m.merge_vertices(merge_tex=True, merge_norm=True)

@@ -127,6 +127,29 @@ def validate_mesh(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(v, dtype=np.float32), np.ascontiguousarray(f, dtype=np.int32)
 
 
+def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read a triangle mesh file (OBJ/PLY/glTF through trimesh, *unprocessed*, so that nothing
+    is dropped silently) and check it like :func:`validate_mesh` (and ``soc.Scene``): NaN/inf
+    vertices, out-of-range or non-integer indices, empty meshes.
+
+    Returns vertices (n, 3) float64 and faces (m, 3) int64, as read. Raises ValueError
+    quoting the file and the problem (a file trimesh cannot parse — e.g. an OBJ face naming a
+    vertex that does not exist — included).
+    """
+    import trimesh
+
+    path = Path(path)
+    try:
+        mesh = trimesh.load(path, force="mesh", process=False)
+    except Exception as e:  # trimesh's readers raise IndexError, KeyError, … on bad files
+        raise ValueError(f"cannot read mesh {str(path)!r}: {type(e).__name__}: {e}") from None
+    try:
+        validate_mesh(mesh.vertices, mesh.faces)
+    except ValueError as e:
+        raise ValueError(f"mesh {str(path)!r}: {e}") from None
+    return np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
+
+
 def validate_ratios(ratios: Sequence[float]) -> tuple[float, ...]:
     """Ratios must be non-empty, each in (0, 1], strictly decreasing."""
     r = tuple(float(x) for x in ratios)

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lod.chain import LodChain, build_chain
+from lod.chain import LodChain, build_chain, load_mesh
 from soc.camera import Camera
 from soc.scene import Scene
 from soc.scenes import primitives as prim
@@ -414,8 +414,6 @@ def generated_prototypes(config: LodSceneConfig) -> list[Prototype]:
 def data_prototypes(data: str | Path) -> list[Prototype]:
     """The test meshes under ``data/meshes`` (or ``data`` itself) with at most
     :data:`DATA_MAX_TRIANGLES` triangles, sorted by name; ValueError when there are none."""
-    import trimesh
-
     root = Path(data).expanduser()
     folder = root / "meshes" if (root / "meshes").is_dir() else root
     if not folder.is_dir():
@@ -424,9 +422,9 @@ def data_prototypes(data: str | Path) -> list[Prototype]:
     for path in sorted(folder.iterdir()):
         if path.suffix.lower() not in DATA_SUFFIXES:
             continue
-        mesh = trimesh.load(path, force="mesh", process=False)
-        if 0 < len(mesh.faces) <= DATA_MAX_TRIANGLES:
-            out.append(_normalized(path.stem, mesh.vertices, mesh.faces))
+        vertices, faces = load_mesh(path)  # ValueError naming the file: NaN, bad indices
+        if len(faces) <= DATA_MAX_TRIANGLES:
+            out.append(_normalized(path.stem, vertices, faces))
     if not out:
         raise ValueError(
             f"no .obj/.ply mesh of at most {DATA_MAX_TRIANGLES:,} triangles in {str(folder)!r}"
