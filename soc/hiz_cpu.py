@@ -23,9 +23,11 @@ the box covers a subset of the box's samples. Boxes must lie in front of the nea
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import numba
 import numpy as np
 
 from soc.constants import QUERY_DEPTH_BIAS_NDC
@@ -123,30 +125,46 @@ def project_boxes(
     """
     width, height = resolution
     boxes = np.asarray(boxes, np.float64)
-    m = np.asarray(view_proj, np.float64)
-    bits = (np.arange(8)[:, None] >> np.arange(3)) & 1  # (8, 3) corner selectors
-    corners = np.where(bits[None], boxes[:, None, 1], boxes[:, None, 0]).reshape(-1, 3)
-    # One (8K, 3) @ (3, 4) product (BLAS) rather than K batched (8, 3) products (~10× slower).
-    k = len(boxes)
-    clip = (corners @ m[:, :3].T + m[:, 3]).reshape(k, 8, 4)
-    mag = (np.abs(corners) @ np.abs(m[:, :3]).T + np.abs(m[:, 3])).reshape(k, 8, 4)
-    w = clip[..., 3]
-    ndc = clip[..., :3] / w[..., None]
-    x = (ndc[..., 0] + 1) * (0.5 * width)
-    y = (ndc[..., 1] + 1) * (0.5 * height)
-    err = FLOAT32_TRANSFORM_ULPS * _U32 * (mag[..., 2] + mag[..., 3]) * (1 + np.abs(ndc[..., 2]))
-    z = 0.5 * (ndc[..., 2] + 1) - 0.5 * err / w
-    z_near = z.min(1) - 0.5 * QUERY_DEPTH_BIAS_NDC
+    m = np.ascontiguousarray(view_proj, np.float64)
+    rect = np.empty((len(boxes), 4), np.int64)
+    z_near = np.empty(len(boxes), np.float64)
+    _project_boxes(np.ascontiguousarray(boxes), m, int(width), int(height), rect, z_near)
+    return rect, z_near
 
-    def centres(lo: np.ndarray, hi: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+
+@numba.njit(cache=True)
+def _project_boxes(boxes, m, width, height, rect, z_near):  # pragma: no cover - compiled
+    """:func:`project_boxes`' loop over boxes and their 8 corners (numba: numpy's BLAS takes
+    ~60 ms for the thin (8K, 3) @ (3, 4) product of 24,000 boxes on this machine, this ~1 ms)."""
+    am = np.abs(m)
+    for k in range(len(boxes)):
+        xlo, ylo, zlo = np.inf, np.inf, np.inf
+        xhi, yhi = -np.inf, -np.inf
+        for corner in range(8):
+            p0 = boxes[k, corner & 1, 0]
+            p1 = boxes[k, (corner >> 1) & 1, 1]
+            p2 = boxes[k, (corner >> 2) & 1, 2]
+            w = m[3, 0] * p0 + m[3, 1] * p1 + m[3, 2] * p2 + m[3, 3]
+            inv = 1.0 / w
+            nx = (m[0, 0] * p0 + m[0, 1] * p1 + m[0, 2] * p2 + m[0, 3]) * inv
+            ny = (m[1, 0] * p0 + m[1, 1] * p1 + m[1, 2] * p2 + m[1, 3]) * inv
+            nz = (m[2, 0] * p0 + m[2, 1] * p1 + m[2, 2] * p2 + m[2, 3]) * inv
+            a0, a1, a2 = abs(p0), abs(p1), abs(p2)
+            mag = (am[2, 0] + am[3, 0]) * a0 + (am[2, 1] + am[3, 1]) * a1
+            mag += (am[2, 2] + am[3, 2]) * a2 + am[2, 3] + am[3, 3]
+            err = FLOAT32_TRANSFORM_ULPS * _U32 * mag * (1.0 + abs(nz))
+            x = (nx + 1.0) * (0.5 * width)
+            y = (ny + 1.0) * (0.5 * height)
+            z = 0.5 * (nz + 1.0) - 0.5 * err * inv
+            xlo, xhi = min(xlo, x), max(xhi, x)
+            ylo, yhi = min(ylo, y), max(yhi, y)
+            zlo = min(zlo, z)
+        z_near[k] = zlo - 0.5 * QUERY_DEPTH_BIAS_NDC
         # Pixel centres c + 0.5 in [lo - margin, hi + margin], clamped to [0, n - 1].
-        first = np.ceil(np.clip(lo - RECT_MARGIN_PX - 0.5, -1, n))
-        last = np.floor(np.clip(hi + RECT_MARGIN_PX - 0.5, -1, n))
-        return np.clip(first, 0, n).astype(np.int64), np.clip(last, -1, n - 1).astype(np.int64)
-
-    x0, x1 = centres(x.min(1), x.max(1), width)
-    y0, y1 = centres(y.min(1), y.max(1), height)
-    return np.stack([x0, y0, x1, y1], 1), z_near
+        rect[k, 0] = max(0, math.ceil(min(max(xlo - RECT_MARGIN_PX - 0.5, -1.0), width)))
+        rect[k, 1] = max(0, math.ceil(min(max(ylo - RECT_MARGIN_PX - 0.5, -1.0), height)))
+        rect[k, 2] = min(width - 1, math.floor(min(max(xhi + RECT_MARGIN_PX - 0.5, -1.0), width)))
+        rect[k, 3] = min(height - 1, math.floor(min(max(yhi + RECT_MARGIN_PX - 0.5, -1.0), height)))
 
 
 def boxes_visible(pyramid: Pyramid, rect: np.ndarray, z_near: np.ndarray) -> np.ndarray:

@@ -94,8 +94,9 @@ Z_FAR = 1.0
 Z_EMPTY = -np.inf
 
 # Floats per triangle record of :func:`setup_triangles`: x0 y0 x1 y1 x2 y2 (window pixels,
-# counter-clockwise), a b c (depth plane, pushed farther), z_max (farthest vertex, pushed).
-RECORD = 10
+# counter-clockwise), a b c (depth plane, pushed farther), z_max (farthest vertex, pushed),
+# z_min (nearest vertex: the triangle is skipped where it is behind the reference layer).
+RECORD = 11
 
 FULL_MASK = 0xFFFFFFFF
 _U32 = 2.0**-24  # float32 unit roundoff
@@ -217,6 +218,7 @@ def _emit(out, n, px, py, pz, width, height, backface):
     r[0], r[1], r[2], r[3], r[4], r[5] = x0, y0, x1, y1, x2, y2
     r[6], r[7], r[8] = a, b, c
     r[9] = max(z0, max(z1, z2)) + DEPTH_EPSILON
+    r[10] = min(z0, min(z1, z2))
     return n + 1
 
 
@@ -390,10 +392,11 @@ def rasterize(records, count, width, height, mask, z0, z1, margin):  # pragma: n
     updates = 0
     lo = np.empty(SUB_H, np.int64)
     hi = np.empty(SUB_H, np.int64)
-    ox = np.empty(3)
     oy = np.empty(3)
-    nx = np.empty(3)
-    ny = np.empty(3)
+    lx = np.empty(3)
+    lq = np.empty(3)
+    rx = np.empty(3)
+    rq = np.empty(3)
     sub_rows = (height + SUB_H - 1) // SUB_H
     sub_cols = (width + SUB_W - 1) // SUB_W
     # Bits of the pixels outside the screen in the last subtile column / row (counted covered).
@@ -418,13 +421,32 @@ def rasterize(records, count, width, height, mask, z0, z1, margin):  # pragma: n
         i_max = min(width - 1, math.floor(min(max(xmax - 0.5, -1.0), width)))
         if j_lo > j_hi or i_min > i_max:
             continue
+        # Edge e: nx (x - ox) + ny (y - oy) >= margin, i.e. on row y a bound on x of
+        # x_e(y) = ox + margin / nx - ny / nx (y - oy): a lower bound where nx > 0, an upper
+        # where nx < 0; edges with nx == 0 bound the rows instead.
+        y_lo, y_hi = ymin, ymax
         for e in range(3):
             f = (e + 1) % 3
-            ox[e], oy[e] = rec[2 * e], rec[2 * e + 1]
-            dx, dy = rec[2 * f] - ox[e], rec[2 * f + 1] - oy[e]
+            ex, ey = rec[2 * e], rec[2 * e + 1]
+            dx, dy = rec[2 * f] - ex, rec[2 * f + 1] - ey
             length = math.sqrt(dx * dx + dy * dy)
-            nx[e], ny[e] = -dy / length, dx / length  # inward normal (counter-clockwise)
-        a, b, c, zvmax = rec[6], rec[7], rec[8], rec[9]
+            enx, eny = -dy / length, dx / length  # inward normal (counter-clockwise)
+            oy[e] = ey
+            if enx > 0.0:
+                lx[e], lq[e] = ex + margin / enx, -eny / enx
+                rx[e], rq[e] = np.inf, 0.0
+            elif enx < 0.0:
+                rx[e], rq[e] = ex + margin / enx, -eny / enx
+                lx[e], lq[e] = -np.inf, 0.0
+            else:
+                lx[e], lq[e], rx[e], rq[e] = -np.inf, 0.0, np.inf, 0.0
+                if eny > 0.0:
+                    y_lo = max(y_lo, ey + margin)
+                else:
+                    y_hi = min(y_hi, ey - margin)
+        j_lo = max(j_lo, math.ceil(min(max(y_lo - 0.5, -1.0), height)))
+        j_hi = min(j_hi, math.floor(min(max(y_hi - 0.5, -1.0), height)))
+        a, b, c, zvmax, zvmin = rec[6], rec[7], rec[8], rec[9], rec[10]
         for sr in range(j_lo // SUB_H, j_hi // SUB_H + 1):
             # Span of covered pixel centres on each of the subtile row's 4 pixel rows.
             c_lo, c_hi = width, -1
@@ -434,21 +456,16 @@ def rasterize(records, count, width, height, mask, z0, z1, margin):  # pragma: n
                 if j < j_lo or j > j_hi:
                     continue
                 yc = j + 0.5
-                left, right = -1.0, float(width)
-                ok = True
-                for e in range(3):
-                    # nx (x - ox) + ny (y - oy) >= margin
-                    rest = margin - ny[e] * (yc - oy[e])
-                    if nx[e] > 0.0:
-                        left = max(left, ox[e] + rest / nx[e])
-                    elif nx[e] < 0.0:
-                        right = min(right, ox[e] + rest / nx[e])
-                    elif rest > 0.0:
-                        ok = False
-                if not ok:
-                    continue
-                i0 = max(i_min, math.ceil(min(left - 0.5, float(width))))
-                i1 = min(i_max, math.floor(max(right - 0.5, -1.0)))
+                left = max(
+                    max(lx[0] + lq[0] * (yc - oy[0]), lx[1] + lq[1] * (yc - oy[1])),
+                    lx[2] + lq[2] * (yc - oy[2]),
+                )
+                right = min(
+                    min(rx[0] + rq[0] * (yc - oy[0]), rx[1] + rq[1] * (yc - oy[1])),
+                    rx[2] + rq[2] * (yc - oy[2]),
+                )
+                i0 = max(i_min, math.ceil(min(max(left - 0.5, -1.0), float(width))))
+                i1 = min(i_max, math.floor(min(max(right - 0.5, -1.0), float(width))))
                 if i0 <= i1:
                     lo[r], hi[r] = i0, i1
                     c_lo = min(c_lo, i0)
@@ -457,6 +474,8 @@ def rasterize(records, count, width, height, mask, z0, z1, margin):  # pragma: n
                 continue
             ty, s_row = sr // 2, (sr % 2) * 4
             for sc in range(c_lo // SUB_W, c_hi // SUB_W + 1):
+                if zvmin > z0[ty, sc // 4, s_row + sc % 4]:
+                    continue  # all of the triangle is behind the reference layer here
                 x0 = sc * SUB_W
                 bits = 0
                 u_lo, u_hi, v_lo, v_hi = SUB_W, -1, SUB_H, -1
