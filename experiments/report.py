@@ -13,6 +13,7 @@ the figure's key; a figure whose summary is missing is listed as "not run".
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -455,6 +456,31 @@ def figure_rows(out: Path, fig) -> list[Row] | None:
     return builder(summary)
 
 
+def image_lines(out: Path, pngs: Sequence[Path], key: str) -> list[str]:
+    """Markdown for a figure's PNGs (paths under ``out``) that resolves in a fresh clone: the
+    ones the README's gallery keeps (``docs/gallery/``, tracked) as images linked relative to
+    the report; the others (``results/`` is not tracked) named in plain text with the command
+    that draws them."""
+    from experiments.gallery import FOLDER, SHOTS
+
+    by_source = {s.source: s for s in SHOTS}
+    lines, untracked = [], []
+    for png in pngs:
+        rel = Path(png).relative_to(out).as_posix()
+        shot = by_source.get(rel)
+        if shot is not None and (FOLDER / shot.name).is_file():
+            link = Path(os.path.relpath(FOLDER / shot.name, Path(out).resolve())).as_posix()
+            lines.append(f"![{Path(png).stem}]({link})")
+        else:
+            untracked.append(f"`{rel}`")
+    if untracked:
+        lines.append(
+            f"Drawn into the results folder (not tracked in git; `vislod figures --only {key}`): "
+            + ", ".join(untracked)
+        )
+    return lines
+
+
 def write_report(out: Path, figures: Sequence, *, quick: bool = False) -> Path:
     """Write ``out/REPORT.md`` from the summaries present; returns its path."""
     out = Path(out)
@@ -473,8 +499,7 @@ def write_report(out: Path, figures: Sequence, *, quick: bool = False) -> Path:
         if rows is None:
             lines += [f"_not run_ (`vislod figures --only {fig.key}`)", ""]
             continue
-        for png in sorted(out.glob(fig.images)) if fig.images else []:
-            lines.append(f"![{png.stem}]({png.relative_to(out).as_posix()})")
+        lines += image_lines(out, sorted(out.glob(fig.images)) if fig.images else [], fig.key)
         lines += ["", "| item | document | ours | verdict | why |", "|---|---|---|---|---|"]
         for r in rows:
             counts[r.verdict] = counts.get(r.verdict, 0) + 1
