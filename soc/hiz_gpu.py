@@ -289,6 +289,7 @@ class HizTest:
         boxes,
         ids: np.ndarray,
         frustum: bool = True,
+        display: tuple[int, int] | None = None,
     ) -> np.ndarray:
         """Frustum and occlusion test of the boxes ``ids`` in one dispatch.
 
@@ -306,12 +307,18 @@ class HizTest:
             Rows of ``boxes`` to test.
         frustum : bool
             Report boxes entirely outside one frustum plane as :data:`OUTSIDE`.
+        display : (int, int), optional
+            The resolution (width, height) pixels visibility is judged at; default the
+            pyramid's. A coarser pyramid must hold, in each texel, a depth >= the occluder
+            depth at every display pixel centre inside it (as
+            :class:`soc.depth_prepass.ConservativeOccluders` writes); the test then reads the
+            texels holding the display pixel centres the box may cover.
 
         Returns
         -------
         result : (K,) uint32
             :data:`OUTSIDE` (only with ``frustum``), else :data:`OCCLUDED` only where the box
-            covers no pixel centre of the pyramid's resolution or lies behind the occluder
+            covers no pixel centre of the display resolution or lies behind the occluder
             depth at all of them (conservative, see the module), else :data:`VISIBLE`.
         """
         ids = np.ascontiguousarray(ids, np.uint32)
@@ -327,6 +334,13 @@ class HizTest:
         prog["level_info"].write(info.tobytes())
         prog["levels"].value = len(pyramid)
         prog["size"].value = pyramid.resolution
+        display = pyramid.resolution if display is None else (int(display[0]), int(display[1]))
+        if display[0] < pyramid.resolution[0] or display[1] < pyramid.resolution[1]:
+            raise ValueError(
+                f"display {display} must be at least the pyramid's resolution "
+                f"{pyramid.resolution} in both axes"
+            )
+        prog["display"].value = display
         prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
         prog["frustum"].value = bool(frustum)
         prog["planes"].write(np.ascontiguousarray(camera.planes, np.float32).tobytes())
@@ -345,13 +359,25 @@ class HizTest:
         self.glctx.ctx.memory_barrier()  # llvmpipe returns stale data without it
         return np.frombuffer(self._out.read(size=4 * k), np.uint32).copy()
 
-    def test(self, pyramid: DepthPyramid, camera: Camera, boxes, ids: np.ndarray) -> np.ndarray:
+    def test(
+        self,
+        pyramid: DepthPyramid,
+        camera: Camera,
+        boxes,
+        ids: np.ndarray,
+        display: tuple[int, int] | None = None,
+    ) -> np.ndarray:
         """Which of the boxes ``ids`` may be visible: (K,) bool, :meth:`classify` without the
         frustum test (False only for :data:`OCCLUDED`)."""
-        return self.classify(pyramid, camera, boxes, ids, frustum=False) == VISIBLE
+        return self.classify(pyramid, camera, boxes, ids, frustum=False, display=display) == VISIBLE
 
     def test_boxes(
-        self, pyramid: DepthPyramid, camera: Camera, boxes: np.ndarray, diagonal: float
+        self,
+        pyramid: DepthPyramid,
+        camera: Camera,
+        boxes: np.ndarray,
+        diagonal: float,
+        display: tuple[int, int] | None = None,
     ) -> np.ndarray:
         """Like :meth:`test` for arbitrary boxes (packets, nodes, cells).
 
@@ -366,4 +392,4 @@ class HizTest:
             self._boxes = self.glctx.ctx.buffer(reserve=max(data.nbytes, 24), dynamic=True)
         if len(data):
             self._boxes.write(data)
-        return self.test(pyramid, camera, self._boxes, np.arange(len(data)))
+        return self.test(pyramid, camera, self._boxes, np.arange(len(data)), display)

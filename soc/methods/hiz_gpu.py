@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.depth_prepass import DepthTarget, render_occluders
+from soc.camera import _resolution
+from soc.depth_prepass import ConservativeOccluders, DepthTarget, render_occluders
 from soc.frustum import aabbs_in_frustum
 from soc.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
@@ -29,22 +30,53 @@ class GpuHizCulling(CullMethod):
     footprint : int
         Texels per axis read per box at its pyramid level, 2 (default) or 4 (one level finer:
         tighter, up to 16 reads).
+    occluder_resolution : (int, int), optional
+        (width, height) of the occluder depth buffer and pyramid, at most the display
+        resolution in each axis; default the display resolution. Visibility is still judged
+        at the display resolution.
+    conservative : bool, optional
+        Rasterize the occluders inner-conservatively
+        (:class:`soc.depth_prepass.ConservativeOccluders`): no false cull at the display
+        resolution whatever ``occluder_resolution``. Default: exactly when
+        ``occluder_resolution`` differs from the display resolution (at the display
+        resolution the ordinary raster is exact and holds more). ``conservative=False`` at a
+        lower resolution is seed 000's coarse depth buffer, which culls visible objects.
     """
 
     name = "hiz-gpu"
     conservative = True
 
-    def __init__(self, geometry, resolution, config, *, footprint: int = 2):
+    def __init__(
+        self,
+        geometry,
+        resolution,
+        config,
+        *,
+        footprint: int = 2,
+        occluder_resolution: tuple[int, int] | None = None,
+        conservative: bool | None = None,
+    ):
         super().__init__(geometry, resolution, config)
-        self.target = DepthTarget(self.glctx, resolution)
+        display = _resolution(*resolution)
+        occ = display if occluder_resolution is None else _resolution(*occluder_resolution)
+        if occ[0] > display[0] or occ[1] > display[1]:
+            raise ValueError(
+                f"occluder_resolution {occ} must not exceed the display resolution {display}"
+            )
+        self.display = display
+        self.conservative = occ != display if conservative is None else bool(conservative)
+        self.target = DepthTarget(self.glctx, occ)
         self.pyramid = DepthPyramid(self.glctx, self.target.resolution)
         self.tester = HizTest(self.glctx, footprint)
+        self.raster = ConservativeOccluders(geometry) if self.conservative else None
         self._occluders = np.flatnonzero(self.scene.occluder)
         aabbs = self.scene.aabbs[self._occluders].astype(np.float64)
         self._occluder_aabbs = aabbs  # (M, 2, 3) for their frustum test
         self._all = np.arange(len(self.scene), dtype=np.uint32)
 
     def release(self) -> None:
+        if self.raster is not None:
+            self.raster.release()
         self.tester.release()
         self.pyramid.release()
         self.target.release()
@@ -65,12 +97,20 @@ class GpuHizCulling(CullMethod):
             occluders = self._occluders[keep]
         finish = self.glctx.finish
         with stage(timings, "prepass", finish):
-            render_occluders(self.geometry, self.target, camera, occluders)
+            if self.raster is not None:
+                self.raster.render(self.target, camera, occluders)
+            else:
+                render_occluders(self.geometry, self.target, camera, occluders)
         with stage(timings, "pyramid", finish):
             self.pyramid.build(self.target.texture)
         with stage(timings, "test", finish):
             codes = self.tester.classify(
-                self.pyramid, camera, self.geometry.boxes, self._all, frustum=self.config.frustum
+                self.pyramid,
+                camera,
+                self.geometry.boxes,
+                self._all,
+                frustum=self.config.frustum,
+                display=self.display,
             )
         outside = int((codes == OUTSIDE).sum())
         # Boxes tested against the pyramid: every box inside the frustum (one dispatch).

@@ -24,7 +24,8 @@ uniform float plane_slack;  // relative slack of the plane test (soc.constants.F
 uniform float plane_rounding;  // relative float32 rounding allowance of the plane test
 uniform mat4 view_proj;
 uniform uint count;         // K
-uniform ivec2 size;         // level 0, pixels
+uniform ivec2 size;         // level 0, texels
+uniform ivec2 display;      // the resolution visibility is judged at (pixel centres), >= size
 uniform float min_w;        // corners with clip w below this: keep the box untested
 uniform float depth_bias;   // NDC units, pulls the box towards the camera
 uniform float pixel_margin; // pixels added around the projected rectangle
@@ -83,17 +84,23 @@ void main() {
         return;
     }
 
-    // Pixel centres (i + 0.5, j + 0.5) inside the rectangle, widened by the margin; the
-    // rectangle is clamped first so the float -> int conversion cannot overflow.
-    vec2 wsize = vec2(size);
+    // Display pixel centres (i + 0.5, j + 0.5) inside the rectangle, widened by the margin;
+    // the rectangle is clamped first so the float -> int conversion cannot overflow.
+    vec2 wsize = vec2(display);
     vec2 pmin = clamp((rmin * 0.5 + 0.5) * wsize, vec2(-2.0), wsize + 2.0) - pixel_margin;
     vec2 pmax = clamp((rmax * 0.5 + 0.5) * wsize, vec2(-2.0), wsize + 2.0) + pixel_margin;
-    ivec2 p0 = max(ivec2(ceil(pmin - 0.5)), ivec2(0));
-    ivec2 p1 = min(ivec2(floor(pmax - 0.5)), size - 1);
-    if (any(greaterThan(p0, p1))) {  // covers no pixel centre
+    ivec2 i0 = max(ivec2(ceil(pmin - 0.5)), ivec2(0));
+    ivec2 i1 = min(ivec2(floor(pmax - 0.5)), display - 1);
+    if (any(greaterThan(i0, i1))) {  // covers no pixel centre
         visible[k] = 0u;
         return;
     }
+    // The level-0 texels holding those centres (centre i lies in texel floor((i + 0.5) s),
+    // s = size / display); a centre within 1e-3 texel of a texel border takes both texels.
+    // At size == display this is p = i.
+    vec2 s = vec2(size) / wsize;
+    ivec2 p0 = max(ivec2(floor((vec2(i0) + 0.5) * s - 1e-3)), ivec2(0));
+    ivec2 p1 = min(ivec2(floor((vec2(i1) + 0.5) * s + 1e-3)), size - 1);
 
     // The finest level at which the pixel range spans at most `footprint` texels per axis.
     int lvl = 0;
