@@ -56,6 +56,7 @@ import numpy as np
 from lod.benefit import CostModel
 from lod.cache import default_dir
 from lod.chain import LodChain
+from soc.gl.context import uses_gl
 
 # -- configuration --------------------------------------------------------------------------
 
@@ -226,6 +227,7 @@ class Calibration:
 # -- the entry point ------------------------------------------------------------------------
 
 
+@uses_gl
 def calibrate(
     chains: list[LodChain] | tuple[LodChain, ...],
     resolution: tuple[int, int] = (1920, 1080),
@@ -418,6 +420,7 @@ class _Stacks:
         )
 
 
+@uses_gl
 def measure(
     stacks: _Stacks,
     renderer,

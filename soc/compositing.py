@@ -24,12 +24,14 @@ from collections.abc import Sequence
 import numpy as np
 
 from soc.camera import _resolution
+from soc.gl.context import uses_gl
 from soc.warping import Frame
 
 # Compute work-group side of composite_z.comp (its ``local_size``).
 GROUP = 8
 
 
+@uses_gl
 class Compositor:
     """Folds frames (colour, depth, ids textures on the GL) into their per-pixel nearest.
 
@@ -112,6 +114,7 @@ class Compositor:
         return Frame(rgba[::-1, :, :3].copy(), depth[::-1].copy(), ids[::-1].copy())
 
 
+@uses_gl
 def composite_subsets(
     scene,
     camera,

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from soc.camera import Camera, _resolution
+from soc.gl.context import uses_gl
 from soc.methods import METHODS, CullConfig
 from soc.methods.base import MethodOutput
 from soc.metrics import CullResult, frame_stats
@@ -44,6 +45,15 @@ class Culler:
     -----
     Conservative methods keep every object the oracle (:func:`soc.exact_visibility`) sees at
     the same resolution; see each method's ``conservative`` flag.
+
+    Every call runs with vislod's GL context current and leaves the caller's EGL context
+    (pyvista's, another moderngl context, or none) current again when it returns.
+
+    Raises
+    ------
+    ValueError
+        If ``resolution`` exceeds the GL's render-target limit (``GL_MAX_TEXTURE_SIZE``,
+        ``GL_MAX_RENDERBUFFER_SIZE``), before anything is allocated.
     """
 
     def __init__(
@@ -59,24 +69,39 @@ class Culler:
             raise ValueError(f"unknown culling method {method!r}; available: {method_names()}")
         self.resolution = _resolution(*resolution)
         self.config = config or CullConfig()
-        from soc.gl.context import default_context
+        from soc.gl.context import _default_context
 
-        self.glctx = glctx or default_context(self.config.threads)
-        self.scene = scene
-        self.geometry = self.glctx.geometry(scene)
-        cls = METHODS[method]
-        try:
-            self.method = cls(self.geometry, self.resolution, self.config, **options)
-        except TypeError as e:
-            if options and "argument" in str(e):
-                raise ValueError(f"method {method!r} does not take options {options}: {e}") from e
-            raise
+        self.glctx = glctx or _default_context(self.config.threads)
         self._renderer = None
+        with self.glctx.current():
+            self.glctx.check_size(self.resolution, "culling resolution")
+            self.scene = scene
+            self.geometry = self.glctx.geometry(scene)
+            cls = METHODS[method]
+            try:
+                self.method = cls(self.geometry, self.resolution, self.config, **options)
+            except TypeError as e:
+                self.glctx.pop_errors()
+                if options and "argument" in str(e):
+                    raise ValueError(
+                        f"method {method!r} does not take options {options}: {e}"
+                    ) from e
+                raise
+            except BaseException:
+                self.glctx.pop_errors()  # a failed constructor leaves no GL error behind
+                raise
 
     @property
     def conservative(self) -> bool:
         return self.method.conservative
 
+    @uses_gl
+    def reset(self) -> None:
+        """Forget what the method carried over from earlier frames (temporal methods), e.g.
+        before a camera unrelated to the last one."""
+        self.method.reset()
+
+    @uses_gl
     def close(self) -> None:
         """Release the method's and the renderer's GL resources (the scene upload stays cached)."""
         self.method.release()
@@ -90,6 +115,7 @@ class Culler:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    @uses_gl
     def renderer(self, resolution: tuple[int, int]):
         """The renderer used by ``cull(draw=True)`` (display resolution)."""
         from soc.renderer import Renderer
@@ -100,6 +126,7 @@ class Culler:
             self._renderer = Renderer(self.geometry, resolution)
         return self._renderer
 
+    @uses_gl
     def cull(
         self, camera: Camera, *, truth: np.ndarray | None = None, draw: bool = False
     ) -> CullResult:
@@ -112,13 +139,19 @@ class Culler:
             The oracle's visible set; fills ``stats.false_culls`` / ``false_keeps``.
         draw : bool
             Also draw the kept set at the camera's resolution and time it (``"draw"`` stage).
+            A method that draws the frame itself (``draws_frame``, e.g. ``hiz-2phase``) gets
+            the flag and draws once, at its own resolution.
         """
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be a soc.Camera, got {type(camera).__name__}")
-        out: MethodOutput = self.method.cull(camera)
+        draws_frame = getattr(self.method, "draws_frame", False)
+        if draws_frame:
+            out: MethodOutput = self.method.cull(camera, draw=draw)
+        else:
+            out = self.method.cull(camera)
         visible = np.asarray(out.visible, bool)
         timings = dict(out.timings_ms)
-        if draw:
+        if draw and not draws_frame:
             timings["draw"] = self.renderer(camera.resolution).draw(camera, np.flatnonzero(visible))
         self.glctx.check(f"culling with {self.method.name!r}")
         stats = frame_stats(

@@ -11,10 +11,12 @@ from __future__ import annotations
 import numpy as np
 
 from soc.camera import Camera, _resolution
+from soc.gl.context import uses_gl
 
 NO_OBJECT = 0xFFFFFFFF
 
 
+@uses_gl
 class Oracle:
     """Reusable exact-visibility renderer for one scene on one GL context.
 
@@ -23,6 +25,10 @@ class Oracle:
     scene : Scene
     glctx : GLContext, optional
         Default: the process's context.
+
+    Notes
+    -----
+    Every call runs with vislod's GL context current and leaves the caller's current again.
     """
 
     def __init__(self, scene, glctx=None):
@@ -50,6 +56,7 @@ class Oracle:
 
     def _target(self, size: tuple[int, int]):
         if self._size != size:
+            self.glctx.check_size(size, "oracle resolution")
             self.close()
             ctx = self.glctx.ctx
             self._fbo = ctx.framebuffer(
@@ -88,6 +95,7 @@ class Oracle:
         return np.bincount(ids, minlength=len(self.scene)) > 0
 
 
+@uses_gl
 def exact_visibility(
     scene, camera: Camera, resolution: tuple[int, int] | None = None
 ) -> np.ndarray:

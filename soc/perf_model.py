@@ -71,6 +71,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from soc.camera import Camera
+from soc.gl.context import uses_gl
 from soc.scene import Scene
 
 MATERIAL = ("mesh.vert", "shade.frag")  # the renderer's material: all our objects use it
@@ -540,6 +541,7 @@ class FragmentCounts:
     shaded: int
 
 
+@uses_gl
 def count_fragments(renderer, camera: Camera, ids: np.ndarray) -> FragmentCounts:
     """Count the fragments of objects ``ids`` (K,) drawn by ``renderer`` from ``camera`` (see
     :class:`FragmentCounts`): two extra draws, outside any timed frame."""
@@ -805,6 +807,7 @@ def layer_scene(layers: int) -> Scene:
                  np.zeros(layers, bool))  # fmt: skip
 
 
+@uses_gl
 class Calibration:
     """The calibration batches of one :class:`CalibrationSetup`, ready to be timed.
 
@@ -862,8 +865,17 @@ class Calibration:
         return r
 
     def _pair(self, name: str, run: Callable[[int], float], items: tuple[int, int]) -> None:
-        self.tasks[f"{name}:small"] = lambda: run(items[0])
-        self.tasks[f"{name}:large"] = lambda: run(items[1])
+        glctx = self.glctx
+
+        def task(k: int) -> Callable[[], float]:
+            def timed() -> float:  # run later, from anyone's code: makes the context current
+                with glctx.current():
+                    return run(k)
+
+            return timed
+
+        self.tasks[f"{name}:small"] = task(items[0])
+        self.tasks[f"{name}:large"] = task(items[1])
         self.items[name] = (float(items[0]), float(items[1]))
 
     def _draws(self, renderer) -> Callable[[int], float]:
@@ -1012,6 +1024,7 @@ class Calibration:
         )
 
 
+@uses_gl
 def measure_constants(
     setup: CalibrationSetup | None = None, *, glctx=None, progress: bool = False
 ) -> PerfConstants:

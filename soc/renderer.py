@@ -8,11 +8,13 @@ import time
 import numpy as np
 
 from soc.camera import _resolution
+from soc.gl.context import uses_gl
 
 LIGHT_DIR = (0.4, 0.8, 0.3)
 SKY = (0.80, 0.86, 0.93)
 
 
+@uses_gl
 class Renderer:
     """Colour + depth target of ``resolution`` pixels that draws objects of a scene.
 
@@ -20,6 +22,11 @@ class Renderer:
     ----------
     geometry : SceneGeometry
     resolution : (width, height)
+        Pixels; at most the GL's limit (``GL_MAX_TEXTURE_SIZE``), else ``ValueError``.
+
+    Notes
+    -----
+    Every call runs with vislod's GL context current and leaves the caller's current again.
     """
 
     def __init__(self, geometry, resolution: tuple[int, int]):
@@ -27,6 +34,7 @@ class Renderer:
         self.glctx = geometry.glctx
         ctx = self.glctx.ctx
         self.resolution = _resolution(*resolution)
+        self.glctx.check_size(self.resolution, "render resolution")
         self.color = ctx.texture(self.resolution, 4)
         self.depth = ctx.depth_texture(self.resolution)
         self.fbo = ctx.framebuffer(color_attachments=[self.color], depth_attachment=self.depth)

@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from soc.camera import Camera, _resolution
+from soc.gl.context import uses_gl
 from soc.gl.raw import GL_QUERY_RESULT, GL_SAMPLES_PASSED
 from soc.renderer import SKY
 
@@ -246,6 +247,7 @@ def _get_texture_level_parameteriv():
     return sig(addr)
 
 
+@uses_gl
 def texture_storage(texture) -> TextureStorage:
     """Read the internal format, size and component bits of ``texture`` (a moderngl texture or
     depth texture of the current context) back from the GL."""
@@ -337,6 +339,7 @@ def _source(name: str) -> str:
     return "\n".join(lines)
 
 
+@uses_gl
 class ShadingRenderer:
     """Forward and deferred shading of a scene at ``resolution`` pixels with point lights.
 

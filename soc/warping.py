@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from soc.camera import Camera, _resolution
+from soc.gl.context import uses_gl
 from soc.gl.raw import GL_COLOR
 from soc.oracle import NO_OBJECT
 from soc.renderer import LIGHT_DIR, SKY
@@ -343,6 +344,7 @@ class _Target:
         return Frame(rgba[::-1, :, :3].copy(), depth[::-1].copy(), ids[::-1].copy())
 
 
+@uses_gl
 class FrameRenderer:
     """The application frame of the warping renderer: colour, depth and object id of a scene.
 
@@ -466,6 +468,7 @@ def _source(name: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+@uses_gl
 class Warper:
     """The warping server: one splat per pixel of a :class:`FrameRenderer`'s last frame,
     moved to a newer camera (:meth:`reproject`) or to the other eye (:meth:`stereo`).

@@ -13,6 +13,7 @@ import weakref
 import numpy as np
 
 from soc.constants import AABB_GROW_ABSOLUTE, AABB_GROW_RELATIVE
+from soc.gl.context import uses_gl
 
 # Corner numbers (bit 0: x, bit 1: y, bit 2: z; 0 = min, 1 = max) of a box's 12 triangles
 # and 12 edges.
@@ -46,6 +47,7 @@ def grown_aabbs(aabbs: np.ndarray, diagonal: float) -> np.ndarray:
     return out
 
 
+@uses_gl
 class SceneGeometry:
     """GPU copy of a :class:`~soc.scene.Scene`, owned by a :class:`~soc.gl.context.GLContext`.
 

@@ -1,8 +1,12 @@
-"""The few OpenGL entry points moderngl does not expose, called through ctypes.
+"""The few OpenGL entry points moderngl does not expose, and the EGL calls that switch contexts,
+called through ctypes.
 
 Per-object occlusion queries need ``glBeginQuery``/``glEndQuery`` around single draws with a
 base instance, and coherent methods poll ``GL_QUERY_RESULT_AVAILABLE`` without blocking.
-Pointers come from ``eglGetProcAddress`` of the current EGL context (the one moderngl made).
+GL pointers come from ``eglGetProcAddress``, resolved all at once while vislod's context is
+current (:class:`RawGL` is made by :class:`~soc.gl.context.GLContext`). :class:`EGL` reads and
+sets the calling thread's current EGL context, so that vislod can make its own current and give
+the caller's back (:meth:`soc.gl.context.GLContext.current`).
 """
 
 from __future__ import annotations
@@ -47,21 +51,62 @@ _SIGNATURES = {
 }
 
 
-class RawGL:
-    """ctypes bindings of :data:`_SIGNATURES`, resolved lazily against the current context."""
+EGL_OPENGL_API = 0x30A2
+EGL_DRAW = 0x3059
+EGL_READ = 0x305A
+
+_EGL_SIGNATURES = {
+    "eglGetProcAddress": (_p, [ctypes.c_char_p]),
+    "eglGetCurrentContext": (_p, []),
+    "eglGetCurrentDisplay": (_p, []),
+    "eglGetCurrentSurface": (_p, [_i]),
+    "eglMakeCurrent": (_u, [_p, _p, _p, _p]),
+    "eglQueryAPI": (_u, []),
+    "eglBindAPI": (_u, [_u]),
+    "eglGetError": (_i, []),
+}
+
+_egl: EGL | None = None
+
+
+class EGL:
+    """ctypes bindings of :data:`_EGL_SIGNATURES` from the process's ``libEGL`` (the library
+    moderngl's EGL backend loads too, so both see the same current context)."""
 
     def __init__(self):
         name = ctypes.util.find_library("EGL") or "libEGL.so.1"
         try:
-            egl = ctypes.CDLL(name)
+            lib = ctypes.CDLL(name)
         except OSError as e:  # pragma: no cover - depends on the machine
             raise GLUnavailableError(
                 f"cannot load {name}: {e}. Install Mesa's EGL: "
                 "apt-get install libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri"
             ) from e
-        self._get_proc = egl.eglGetProcAddress
-        self._get_proc.restype = _p
-        self._get_proc.argtypes = [ctypes.c_char_p]
+        for fname, (restype, argtypes) in _EGL_SIGNATURES.items():
+            fn = getattr(lib, fname)
+            fn.restype, fn.argtypes = restype, argtypes
+            setattr(self, fname, fn)
+
+
+def egl() -> EGL:
+    """The process's :class:`EGL` bindings, loaded on first use (never at import)."""
+    global _egl
+    if _egl is None:
+        _egl = EGL()
+    return _egl
+
+
+class RawGL:
+    """ctypes bindings of :data:`_SIGNATURES`, all resolved when made: make it only while the
+    context it is for is current, and call it only while that context is current."""
+
+    def __init__(self):
+        get_proc = egl().eglGetProcAddress
+        for name, (restype, argtypes) in _SIGNATURES.items():
+            addr = get_proc(name.encode())
+            if not addr:
+                raise GLUnavailableError(f"OpenGL function {name} is not available in this context")
+            setattr(self, name, ctypes.CFUNCTYPE(restype, *argtypes)(addr))
 
     def clear_uint_color(self, value: int, draw_buffer: int = 0) -> None:
         """Clear an integer colour attachment of the bound framebuffer to ``value`` (moderngl
@@ -71,14 +116,3 @@ class RawGL:
     def clear_depth(self, value: float = 1.0) -> None:
         """Clear the bound framebuffer's depth attachment."""
         self.glClearBufferfv(GL_DEPTH, 0, (ctypes.c_float * 1)(value))
-
-    def __getattr__(self, name: str):
-        if name not in _SIGNATURES:
-            raise AttributeError(name)
-        restype, argtypes = _SIGNATURES[name]
-        addr = self._get_proc(name.encode())
-        if not addr:
-            raise GLUnavailableError(f"OpenGL function {name} is not available in this context")
-        fn = ctypes.CFUNCTYPE(restype, *argtypes)(addr)
-        setattr(self, name, fn)  # later lookups skip __getattr__
-        return fn

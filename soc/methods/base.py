@@ -80,10 +80,13 @@ METHODS: dict[str, type[CullMethod]] = {}
 
 
 def register(cls: type[CullMethod]) -> type[CullMethod]:
-    """Class decorator adding a method to :data:`METHODS` under ``cls.name``."""
+    """Class decorator adding a method to :data:`METHODS` under ``cls.name``; its calls run
+    with the GL context current (:func:`soc.gl.context.uses_gl`)."""
+    from soc.gl.context import uses_gl
+
     if not cls.name or cls.name in METHODS:
         raise ValueError(f"culling method name {cls.name!r} is empty or taken")
-    METHODS[cls.name] = cls
+    METHODS[cls.name] = uses_gl(cls)
     return cls
 
 
