@@ -1,0 +1,213 @@
+"""``hiz-2phase``: two-phase occlusion culling from the frame's own depth, as GPU-driven
+renderers do it (Haar & Aaltonen, "GPU-Driven Rendering Pipelines", SIGGRAPH 2015; the early
+and late passes of A. Kapoulkine's niagara). No occluder prepass: the depth that culls is the
+depth of the frame being drawn.
+
+Stages of one frame, all at the method's resolution (the display resolution: the frame is
+drawn into the method's own colour + depth target):
+
+1. **early draw** — the objects kept last frame (:attr:`TwoPhaseCulling.next_set`) that are
+   still in the view frustum (numpy box test) are drawn, no occlusion test;
+2. **pyramid** — the max-depth pyramid of that depth (:class:`soc.hiz_gpu.DepthPyramid`);
+3. **test** — every object's grown box against the frustum and that pyramid in one compute
+   dispatch (:class:`soc.hiz_gpu.HizTest`);
+4. **late draw** — the objects that pass and were not drawn early, into the same depth;
+5. **next set** — the objects kept next frame: with ``next_from="early"`` (niagara's choice,
+   no extra work) those that passed stage 3, early ones included; with ``next_from="final"``
+   the pyramid is rebuilt from the finished frame's depth and the in-frustum objects are
+   tested again ("next pyramid", "next test"): a tighter set, for a second pyramid.
+
+The frame's kept set (``visible``) is everything drawn: early ∪ late.
+
+**Conservative in every frame, whatever the previous frames were.** The early pass draws a
+subset S of the scene, so at every pixel the early depth is >= the finished frame's depth,
+which is >= the depth of any object sample that the oracle sees there (the oracle's image is
+the nearest sample per pixel, the same ``<`` depth test). The HiZ test keeps every box with a
+sample not behind the depth it is tested against (proof in :mod:`soc.hiz_gpu`; boxes through
+the near plane are kept untested), so an object the oracle sees is either in S or passes
+stage 3 and is drawn late. Nothing in that argument depends on which subset S is: the first
+frame and :meth:`~TwoPhaseCulling.reset` (S empty: every object goes to the late pass, tested
+against a far-plane pyramid, i.e. frustum culling only), camera cuts (S from an unrelated view:
+fewer objects culled, never a visible one) and objects that appear in a dynamic scene (not in
+S: they are tested in stage 3) are all correct, only less efficient. Early depths are real
+drawn depths of meshes, so the HiZ semantics (nearest box corner vs the max of the pyramid)
+hold unchanged.
+
+**Cull ms** (:attr:`soc.FrameStats.cull_ms`, everything but the ``"draw"`` key): the numpy
+frustum test of the early set, the pyramid(s) and the test dispatch(es) with their read-back.
+``"draw"`` is the early plus the late draw (finished), with a colour target when
+``cull(camera, draw=True)``, depth only otherwise; the two parts are in
+:attr:`TwoPhaseCulling.last_draws_ms`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from soc.frustum import aabbs_in_frustum
+from soc.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
+from soc.methods.base import CullMethod, MethodOutput, register, stage
+
+NEXT_FROM = ("early", "final")
+
+
+@register
+class TwoPhaseCulling(CullMethod):
+    """Two-phase HiZ culling that draws the frame itself (early pass, pyramid, late pass).
+
+    Culling and drawing are one pass, so the method draws (``draws_frame = True``):
+    ``soc.Culler.cull(camera, draw=True)`` draws the shaded frame into the method's colour +
+    depth target (:attr:`renderer`, a :class:`soc.Renderer` of the method's resolution; read
+    it with ``renderer.image()``), ``draw=False`` draws the same objects depth only. Either way
+    the drawing time is the ``"draw"`` stage. Conservative every frame (see the module); the
+    previous frame only changes how much is culled and what it costs (``temporal = True``).
+
+    Options
+    -------
+    footprint : int
+        Texels per axis read per box at its pyramid level, 2 (default) or 4.
+    next_from : {"early", "final"}
+        Which depth chooses next frame's early set: the early pass's pyramid (default, no extra
+        work) or the finished frame's (a second pyramid and test, fewer hidden objects drawn
+        early next frame).
+
+    Attributes
+    ----------
+    next_set : (N,) bool
+        Objects to draw in next frame's early pass (empty after construction and reset()).
+    alive : (N,) bool
+        Objects that exist (dynamic scenes, :meth:`set_alive`); dead ones are never drawn.
+    last_draws_ms : dict
+        ``{"early draw": ms, "late draw": ms}`` of the last frame.
+    """
+
+    name = "hiz-2phase"
+    conservative = True
+    temporal = True
+    draws_frame = True
+
+    def __init__(
+        self, geometry, resolution, config, *, footprint: int = 2, next_from: str = "early"
+    ):
+        if next_from not in NEXT_FROM:
+            raise ValueError(f"next_from must be one of {NEXT_FROM}, got {next_from!r}")
+        super().__init__(geometry, resolution, config)
+        from soc.renderer import Renderer
+
+        self.next_from = next_from
+        self.renderer = Renderer(geometry, resolution)
+        self.depth_fbo = self.glctx.ctx.framebuffer(depth_attachment=self.renderer.depth)
+        self.depth_program = self.glctx.program("mesh.vert", "depth_only.frag")
+        self.pyramid = DepthPyramid(self.glctx, self.renderer.resolution)
+        self.tester = HizTest(self.glctx, footprint)
+        n = len(self.scene)
+        self._all = np.arange(n, dtype=np.uint32)
+        self.alive = np.ones(n, bool)
+        self.next_set = np.zeros(n, bool)
+        self.last_draws_ms: dict[str, float] = {}
+
+    def release(self) -> None:
+        self.tester.release()
+        self.pyramid.release()
+        self.depth_fbo.release()
+        self.renderer.release()
+
+    def reset(self) -> None:
+        """Forget last frame's set: the next frame draws nothing early (all objects late)."""
+        self.next_set[:] = False
+
+    def set_alive(self, alive: np.ndarray | None) -> None:
+        """Objects that exist from the next frame on: (N,) bool, or None for all (dynamic
+        scenes: a pool of objects switched on and off, :mod:`soc.scenes.dynamic`). Objects
+        that appear are not in the early set and go through the late pass's test."""
+        n = len(self.scene)
+        if alive is None:
+            self.alive = np.ones(n, bool)
+            return
+        alive = np.asarray(alive)
+        if alive.shape != (n,) or alive.dtype != bool:
+            raise ValueError(f"alive must be ({n},) bool, got {alive.shape} {alive.dtype}")
+        self.alive = alive.copy()
+
+    # -- the frame ---------------------------------------------------------------------------
+
+    def _draw(self, camera, ids: np.ndarray, *, color: bool, clear: bool) -> float:
+        """Draw ``ids`` into the method's target (shaded or depth only); ms, finished."""
+        if color:
+            return self.renderer.draw(camera, ids, clear=clear)
+        import time
+
+        import moderngl
+
+        ctx = self.glctx.ctx
+        t0 = time.perf_counter()
+        self.depth_fbo.use()
+        self.depth_fbo.depth_mask = True
+        if clear:
+            self.glctx.raw.clear_depth(1.0)
+        ctx.enable_only(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        self.depth_program["view_proj"].write(camera.gl_bytes(camera.view_proj))
+        self.geometry.draw_objects(self.depth_program, ids)
+        ctx.finish()
+        return 1e3 * (time.perf_counter() - t0)
+
+    def cull(self, camera, draw: bool = False) -> MethodOutput:
+        """Draw and cull one frame from ``camera`` (the frame is drawn at the method's
+        resolution, shaded when ``draw``); returns the kept (= drawn) set."""
+        timings: dict[str, float] = {}
+        finish = self.glctx.finish
+        cfg = self.config
+        n = len(self.scene)
+
+        if not cfg.depth_test:  # frustum culling only: everything in the frustum, one draw
+            with stage(timings, "frustum"):
+                keep = self.alive.copy()
+                if cfg.frustum:
+                    keep &= aabbs_in_frustum(self.scene.aabbs, camera.planes)
+            timings["draw"] = self._draw(camera, np.flatnonzero(keep), color=draw, clear=True)
+            self.last_draws_ms = {"early draw": 0.0, "late draw": timings["draw"]}
+            self.next_set[:] = False
+            return MethodOutput(keep, int(self.alive.sum() - keep.sum()), 0, timings)
+
+        # Stage 1: last frame's set, minus what left the frustum or died.
+        with stage(timings, "frustum"):
+            early = np.flatnonzero(self.next_set & self.alive)
+            if cfg.frustum and len(early):
+                early = early[aabbs_in_frustum(self.scene.aabbs[early], camera.planes)]
+        early_ms = self._draw(camera, early, color=draw, clear=True)
+
+        # Stages 2-3: pyramid of the early depth, every object tested once.
+        with stage(timings, "pyramid", finish):
+            self.pyramid.build(self.renderer.depth)
+        with stage(timings, "test", finish):
+            codes = self.tester.classify(
+                self.pyramid, camera, self.geometry.boxes, self._all, frustum=cfg.frustum
+            )
+        passed = (codes == VISIBLE) & self.alive
+        drawn = np.zeros(n, bool)
+        drawn[early] = True
+
+        # Stage 4: the late pass, into the same depth.
+        late = np.flatnonzero(passed & ~drawn)
+        late_ms = self._draw(camera, late, color=draw, clear=False)
+        drawn[late] = True
+        self.last_draws_ms = {"early draw": early_ms, "late draw": late_ms}
+        timings["draw"] = early_ms + late_ms
+
+        # Stage 5: next frame's early set.
+        if self.next_from == "early":
+            self.next_set = passed
+        else:
+            # Only drawn objects can pass: the others failed against the early depth, which is
+            # nowhere nearer than the finished depth (the test is monotone in the pyramid).
+            inside = np.flatnonzero(drawn & (codes != OUTSIDE)).astype(np.uint32)
+            with stage(timings, "next pyramid", finish):
+                self.pyramid.build(self.renderer.depth)
+            with stage(timings, "next test", finish):
+                again = self.tester.test(self.pyramid, camera, self.geometry.boxes, inside)
+            self.next_set = np.zeros(n, bool)
+            self.next_set[inside[again]] = True
+
+        outside = int(((codes == OUTSIDE) & self.alive).sum())
+        return MethodOutput(drawn, outside, n - int((codes == OUTSIDE).sum()), timings)
