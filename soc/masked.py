@@ -367,6 +367,44 @@ def _update_subtile(mask, z0, z1, ty, tx, s, bits, zt):
     return 1
 
 
+@numba.njit(cache=True, inline="always")
+def _edge(x0, y0, x1, y1, margin):
+    """Edge from ``(x0, y0)`` to ``(x1, y1)`` of a counter-clockwise triangle as bounds on x
+    per row: ``(lx, lq, rx, rq)`` such that a point at height y is at least ``margin`` inside
+    the edge when ``lx + lq (y - y0) <= x <= rx + rq (y - y0)`` (one side is infinite).
+    Horizontal edges give two infinite bounds (they bound the rows, see :func:`_row_limits`)."""
+    dx, dy = x1 - x0, y1 - y0
+    length = math.sqrt(dx * dx + dy * dy)
+    nx, ny = -dy / length, dx / length  # inward unit normal
+    # nx (x - x0) + ny (y - y0) >= margin  ⇔  x >= or <= x0 + margin / nx - ny / nx (y - y0).
+    if nx > 0.0:
+        return x0 + margin / nx, -ny / nx, np.inf, 0.0
+    if nx < 0.0:
+        return -np.inf, 0.0, x0 + margin / nx, -ny / nx
+    return -np.inf, 0.0, np.inf, 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _row_limits(x0, y0, x1, y1, margin, y_lo, y_hi):
+    """Narrow the row range ``[y_lo, y_hi]`` by a horizontal edge (inside when
+    ``ny (y - y0) >= margin``); other edges leave it unchanged."""
+    if x1 > x0 and y1 == y0:  # normal (0, 1): y >= y0 + margin
+        return max(y_lo, y0 + margin), y_hi
+    if x1 < x0 and y1 == y0:  # normal (0, -1): y <= y0 - margin
+        return y_lo, min(y_hi, y0 - margin)
+    return y_lo, y_hi
+
+
+@numba.njit(cache=True, inline="always")
+def _byte(lo, hi, x0):
+    """Bits of the columns ``[lo, hi]`` (pixels) inside the 8 columns starting at ``x0``."""
+    c0 = max(lo - x0, 0)
+    c1 = min(hi - x0, SUB_W - 1)
+    if c0 > c1:
+        return 0
+    return ((1 << (c1 - c0 + 1)) - 1) << c0
+
+
 @numba.njit(cache=True)
 def rasterize(records, count, width, height, mask, z0, z1, margin):  # pragma: no cover
     """Rasterize ``records[:count]`` (:func:`setup_triangles`) in order into the buffer.
@@ -390,13 +428,7 @@ def rasterize(records, count, width, height, mask, z0, z1, margin):  # pragma: n
         Subtile updates (merges).
     """
     updates = 0
-    lo = np.empty(SUB_H, np.int64)
-    hi = np.empty(SUB_H, np.int64)
-    oy = np.empty(3)
-    lx = np.empty(3)
-    lq = np.empty(3)
-    rx = np.empty(3)
-    rq = np.empty(3)
+    span = np.empty((SUB_H, 2), np.int64)
     sub_rows = (height + SUB_H - 1) // SUB_H
     sub_cols = (width + SUB_W - 1) // SUB_W
     # Bits of the pixels outside the screen in the last subtile column / row (counted covered).
@@ -409,97 +441,96 @@ def rasterize(records, count, width, height, mask, z0, z1, margin):  # pragma: n
     row_pad = 0
     for r in range(SUB_H - extra_rows, SUB_H):
         row_pad |= 0xFF << (8 * r)
+    fw = float(width)
     for t in range(count):
-        rec = records[t]
-        ymin = min(rec[1], min(rec[3], rec[5]))
-        ymax = max(rec[1], max(rec[3], rec[5]))
-        xmin = min(rec[0], min(rec[2], rec[4]))
-        xmax = max(rec[0], max(rec[2], rec[4]))
-        j_lo = max(0, math.ceil(min(max(ymin - 0.5, -1.0), height)))
-        j_hi = min(height - 1, math.floor(min(max(ymax - 0.5, -1.0), height)))
-        i_min = max(0, math.ceil(min(max(xmin - 0.5, -1.0), width)))
-        i_max = min(width - 1, math.floor(min(max(xmax - 0.5, -1.0), width)))
+        x0, y0, x1, y1, x2, y2 = (
+            records[t, 0],
+            records[t, 1],
+            records[t, 2],
+            records[t, 3],
+            records[t, 4],
+            records[t, 5],
+        )
+        a, b, c, zvmax, zvmin = (
+            records[t, 6],
+            records[t, 7],
+            records[t, 8],
+            records[t, 9],
+            records[t, 10],
+        )
+        y_lo, y_hi = min(y0, min(y1, y2)), max(y0, max(y1, y2))
+        y_lo, y_hi = _row_limits(x0, y0, x1, y1, margin, y_lo, y_hi)
+        y_lo, y_hi = _row_limits(x1, y1, x2, y2, margin, y_lo, y_hi)
+        y_lo, y_hi = _row_limits(x2, y2, x0, y0, margin, y_lo, y_hi)
+        j_lo = max(0, math.ceil(min(max(y_lo - 0.5, -1.0), height)))
+        j_hi = min(height - 1, math.floor(min(max(y_hi - 0.5, -1.0), height)))
+        i_min = max(0, math.ceil(min(max(min(x0, min(x1, x2)) - 0.5, -1.0), fw)))
+        i_max = min(width - 1, math.floor(min(max(max(x0, max(x1, x2)) - 0.5, -1.0), fw)))
         if j_lo > j_hi or i_min > i_max:
             continue
-        # Edge e: nx (x - ox) + ny (y - oy) >= margin, i.e. on row y a bound on x of
-        # x_e(y) = ox + margin / nx - ny / nx (y - oy): a lower bound where nx > 0, an upper
-        # where nx < 0; edges with nx == 0 bound the rows instead.
-        y_lo, y_hi = ymin, ymax
-        for e in range(3):
-            f = (e + 1) % 3
-            ex, ey = rec[2 * e], rec[2 * e + 1]
-            dx, dy = rec[2 * f] - ex, rec[2 * f + 1] - ey
-            length = math.sqrt(dx * dx + dy * dy)
-            enx, eny = -dy / length, dx / length  # inward normal (counter-clockwise)
-            oy[e] = ey
-            if enx > 0.0:
-                lx[e], lq[e] = ex + margin / enx, -eny / enx
-                rx[e], rq[e] = np.inf, 0.0
-            elif enx < 0.0:
-                rx[e], rq[e] = ex + margin / enx, -eny / enx
-                lx[e], lq[e] = -np.inf, 0.0
-            else:
-                lx[e], lq[e], rx[e], rq[e] = -np.inf, 0.0, np.inf, 0.0
-                if eny > 0.0:
-                    y_lo = max(y_lo, ey + margin)
-                else:
-                    y_hi = min(y_hi, ey - margin)
-        j_lo = max(j_lo, math.ceil(min(max(y_lo - 0.5, -1.0), height)))
-        j_hi = min(j_hi, math.floor(min(max(y_hi - 0.5, -1.0), height)))
-        a, b, c, zvmax, zvmin = rec[6], rec[7], rec[8], rec[9], rec[10]
+        l0x, l0q, r0x, r0q = _edge(x0, y0, x1, y1, margin)
+        l1x, l1q, r1x, r1q = _edge(x1, y1, x2, y2, margin)
+        l2x, l2q, r2x, r2q = _edge(x2, y2, x0, y0, margin)
         for sr in range(j_lo // SUB_H, j_hi // SUB_H + 1):
+            ty, s_row = sr // 2, (sr % 2) * 4
+            # Coarse test (the library's per-tile one): skip the row when the triangle is behind
+            # the reference layer of every subtile under its bounding box (front-to-back order
+            # makes this common; measured 20 % of the raster on the castle).
+            alive = False
+            for sc in range(i_min // SUB_W, i_max // SUB_W + 1):
+                if zvmin <= z0[ty, sc // 4, s_row + sc % 4]:
+                    alive = True
+                    break
+            if not alive:
+                continue
             # Span of covered pixel centres on each of the subtile row's 4 pixel rows.
             c_lo, c_hi = width, -1
             for r in range(SUB_H):
                 j = sr * SUB_H + r
-                lo[r], hi[r] = 1, 0
-                if j < j_lo or j > j_hi:
-                    continue
                 yc = j + 0.5
-                left = max(
-                    max(lx[0] + lq[0] * (yc - oy[0]), lx[1] + lq[1] * (yc - oy[1])),
-                    lx[2] + lq[2] * (yc - oy[2]),
-                )
+                left = max(max(l0x + l0q * (yc - y0), l1x + l1q * (yc - y1)), l2x + l2q * (yc - y2))
                 right = min(
-                    min(rx[0] + rq[0] * (yc - oy[0]), rx[1] + rq[1] * (yc - oy[1])),
-                    rx[2] + rq[2] * (yc - oy[2]),
+                    min(r0x + r0q * (yc - y0), r1x + r1q * (yc - y1)), r2x + r2q * (yc - y2)
                 )
-                i0 = max(i_min, math.ceil(min(max(left - 0.5, -1.0), float(width))))
-                i1 = min(i_max, math.floor(min(max(right - 0.5, -1.0), float(width))))
+                i0 = max(i_min, math.ceil(min(max(left - 0.5, -1.0), fw)))
+                i1 = min(i_max, math.floor(min(max(right - 0.5, -1.0), fw)))
+                if j < j_lo or j > j_hi:
+                    i0, i1 = 1, 0
+                span[r, 0], span[r, 1] = i0, i1
                 if i0 <= i1:
-                    lo[r], hi[r] = i0, i1
                     c_lo = min(c_lo, i0)
                     c_hi = max(c_hi, i1)
             if c_lo > c_hi:
                 continue
-            ty, s_row = sr // 2, (sr % 2) * 4
+            # Rows of the triangle inside this subtile row (for its farthest depth below).
+            v_lo = max(sr * SUB_H, j_lo) + 0.5
+            v_hi = min(sr * SUB_H + SUB_H - 1, j_hi) + 0.5
+            y_far = v_hi if b > 0.0 else v_lo
+            s0, s1, s2, s3 = span[0, 0], span[1, 0], span[2, 0], span[3, 0]
+            e0, e1, e2, e3 = span[0, 1], span[1, 1], span[2, 1], span[3, 1]
             for sc in range(c_lo // SUB_W, c_hi // SUB_W + 1):
-                if zvmin > z0[ty, sc // 4, s_row + sc % 4]:
+                tx, s = sc // 4, s_row + sc % 4
+                if zvmin > z0[ty, tx, s]:
                     continue  # all of the triangle is behind the reference layer here
-                x0 = sc * SUB_W
-                bits = 0
-                u_lo, u_hi, v_lo, v_hi = SUB_W, -1, SUB_H, -1
-                for r in range(SUB_H):
-                    l0 = max(lo[r], x0) - x0
-                    l1 = min(hi[r], x0 + SUB_W - 1) - x0
-                    if l0 <= l1:
-                        bits |= (((1 << (l1 - l0 + 1)) - 1) << l0) << (8 * r)
-                        u_lo = min(u_lo, l0)
-                        u_hi = max(u_hi, l1)
-                        v_lo = min(v_lo, r)
-                        v_hi = max(v_hi, r)
+                xs = sc * SUB_W
+                bits = (
+                    _byte(s0, e0, xs)
+                    | (_byte(s1, e1, xs) << 8)
+                    | (_byte(s2, e2, xs) << 16)
+                    | (_byte(s3, e3, xs) << 24)
+                )
                 if bits == 0:
                     continue
-                # Farthest depth over the covered centres' bounding box, at most the farthest
-                # vertex (interpolation inside a triangle is a convex combination).
-                xf = x0 + (u_hi if a > 0.0 else u_lo) + 0.5
-                yf = sr * SUB_H + (v_hi if b > 0.0 else v_lo) + 0.5
-                zt = min(a * xf + b * yf + c, zvmax)
+                # Farthest depth over the covered centres' bounding box (the subtile's columns
+                # within the row's spans), at most the farthest vertex (interpolation inside a
+                # triangle is a convex combination of the vertex depths).
+                x_far = (min(xs + SUB_W - 1, c_hi) if a > 0.0 else max(xs, c_lo)) + 0.5
+                zt = min(a * x_far + b * y_far + c, zvmax)
                 if sc == sub_cols - 1:
                     bits |= col_pad
                 if sr == sub_rows - 1:
                     bits |= row_pad
-                updates += _update_subtile(mask, z0, z1, ty, sc // 4, s_row + sc % 4, bits, zt)
+                updates += _update_subtile(mask, z0, z1, ty, tx, s, bits, zt)
     return updates
 
 
