@@ -115,3 +115,64 @@ def test_geometry_cache_frees_a_scene_nobody_holds():
     del scene, geom
     gc.collect()
     assert ref() is None, "the context's geometry cache keeps the scene alive"
+    glctx.finish()  # the next entry releases the freed scene's buffers
+    assert not glctx._doomed
+
+
+@pytest.mark.parametrize("method", ["frustum", "queries", "hiz-gpu"])
+def test_resolution_over_the_gl_limit_says_so_and_the_next_cull_works(method):
+    """Too large a render target is refused before anything is allocated, naming the GL limit,
+    and leaves no GL error for the next call to report as its own."""
+    ctx = default_context()
+    limit = ctx.max_size["GL_MAX_TEXTURE_SIZE"]
+    s = soc.scenes.clutter(0)
+    cam = soc.Camera.look_at((0, 20, 60), (0, 0, 0), width=160, height=100)
+    with pytest.raises(ValueError, match=rf"GL_MAX_TEXTURE_SIZE = {limit}.*RENDERBUFFER"):
+        soc.Culler(s, method, resolution=(100000, 100000))
+    assert ctx.pop_errors() == []
+    with soc.Culler(s, method, resolution=(160, 100)) as culler:
+        assert culler.cull(cam).visible.any()
+    with soc.Culler(s, "frustum", resolution=(160, 100)) as culler:
+        culler.cull(cam)
+
+
+def test_oracle_and_renderer_check_their_target_size():
+    ctx = default_context()
+    limit = ctx.max_size["GL_MAX_RENDERBUFFER_SIZE"]
+    s = soc.scenes.clutter(0)
+    cam = soc.Camera.look_at((0, 20, 60), (0, 0, 0), width=160, height=100)
+    with soc.Oracle(s) as oracle:
+        with pytest.raises(ValueError, match=f"oracle resolution {limit + 1}×100 exceeds"):
+            oracle.visible(cam, (limit + 1, 100))
+        assert oracle.visible(cam).any()
+    with pytest.raises(ValueError, match="GL_MAX_TEXTURE_SIZE"):
+        Renderer(ctx.geometry(s), (100, 2 * limit))
+    assert ctx.pop_errors() == []
+
+
+def test_a_failed_call_leaves_no_gl_error_behind():
+    """An entry that raises after a GL error clears it: the next call does not report it."""
+    from soc.gl.context import uses_gl
+
+    @uses_gl
+    def broken(glctx):
+        glctx.raw.glBeginQuery(0xDEAD, 1)  # GL_INVALID_ENUM
+        raise RuntimeError("failed half-way")
+
+    ctx = default_context()
+    with pytest.raises(RuntimeError, match="half-way"):
+        broken(ctx)
+    assert ctx.pop_errors() == []
+
+
+def test_entries_leave_no_context_current_where_they_found_none():
+    """Run in a fresh process: nothing current before, nothing current after a cull."""
+    code = (
+        "import soc; from soc.gl.raw import egl\n"
+        "s = soc.scenes.clutter(0)\n"
+        "cam = soc.Camera.look_at((0, 20, 60), (0, 0, 0), width=64, height=48)\n"
+        "assert not egl().eglGetCurrentContext()\n"
+        "soc.Culler(s, 'queries', (64, 48)).cull(cam); soc.exact_visibility(s, cam)\n"
+        "assert not egl().eglGetCurrentContext(), 'vislod left its context current'\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)

@@ -18,6 +18,7 @@ context of the process, so ``threads`` can be chosen only once per process.
 
 from __future__ import annotations
 
+import ctypes
 import functools
 import inspect
 import os
@@ -26,7 +27,20 @@ from importlib import resources
 from typing import NamedTuple
 
 from soc.errors import GLError, GLUnavailableError
-from soc.gl.raw import EGL_DRAW, EGL_OPENGL_API, EGL_READ, RawGL, egl
+from soc.gl.raw import (
+    EGL_CONTEXT_MAJOR_VERSION,
+    EGL_CONTEXT_MINOR_VERSION,
+    EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+    EGL_CONTEXT_OPENGL_PROFILE_MASK,
+    EGL_DRAW,
+    EGL_EXTENSIONS,
+    EGL_NONE,
+    EGL_OPENGL_API,
+    EGL_PLATFORM_SURFACELESS_MESA,
+    EGL_READ,
+    RawGL,
+    egl,
+)
 
 APT_HINT = "apt-get install -y libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri"
 
@@ -90,6 +104,66 @@ class _Binding:
         self.glctx._unbind(self.saved)
 
 
+# OpenGL 4.5 core profile: what every shader of soc/shaders is written for.
+_CONTEXT_ATTRIBS = (ctypes.c_int * 7)(
+    EGL_CONTEXT_MAJOR_VERSION, 4,
+    EGL_CONTEXT_MINOR_VERSION, 5,
+    EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+    EGL_NONE,
+)  # fmt: skip
+_display: int | None = None
+
+
+def _vislod_display() -> int:
+    """vislod's own EGL display: Mesa's surfaceless platform (llvmpipe), initialized once.
+
+    Not the device-platform display that moderngl's and VTK's EGL code share: VTK terminates
+    that display when a render window closes, which destroys every context on it. Nobody
+    else gets this one, and vislod never terminates it (the process's exit does).
+    """
+    global _display
+    if _display is None:
+        e = egl()
+        extensions = (e.eglQueryString(None, EGL_EXTENSIONS) or b"").decode()
+        if "EGL_MESA_platform_surfaceless" not in extensions.split():
+            raise GLUnavailableError(
+                "this EGL has no EGL_MESA_platform_surfaceless (it is not Mesa's): vislod "
+                f"needs Mesa's EGL and llvmpipe: as root run `{APT_HINT}` (or `make setup`)"
+            )
+        dpy = e.eglGetPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, None, None)
+        if not dpy or not e.eglInitialize(dpy, None, None):
+            raise GLUnavailableError(
+                f"cannot open Mesa's surfaceless EGL display (EGL error 0x{e.eglGetError():x}): "
+                f"as root run `{APT_HINT}` (or `make setup`)"
+            )
+        _display = dpy
+    return _display
+
+
+class _Loader:
+    """What moderngl asks of a context it did not create: GL entry points, entering and
+    leaving (as :meth:`GLContext.current`), and releasing (destroys the EGL context)."""
+
+    def __init__(self, glctx: GLContext):
+        self.glctx = glctx
+        self._saved: list[EGLState | None] = []
+
+    def load(self, name: str) -> int:
+        return self.glctx._egl.eglGetProcAddress(name.encode()) or 0
+
+    def __enter__(self):
+        self._saved.append(self.glctx._bind())
+
+    def __exit__(self, *exc) -> None:
+        self.glctx._unbind(self._saved.pop() if self._saved else None)
+
+    def release(self) -> None:
+        g = self.glctx
+        if g._egl.eglGetCurrentContext() == g._handle:
+            g._egl.eglMakeCurrent(g._display, None, None, None)
+        g._egl.eglDestroyContext(g._display, g._handle)
+
+
 class GLContext:
     """A headless OpenGL 4.5 core context (moderngl over EGL) with shader and geometry caches.
 
@@ -121,17 +195,29 @@ class GLContext:
             os.environ["LP_NUM_THREADS"] = str(threads)  # read by Mesa at screen creation
         e = egl()
         caller = current_egl_state()
-        try:
-            # create_context makes the new context current and leaves it so.
-            mgl = moderngl.create_context(standalone=True, backend="egl", require=450)
-        except Exception as exc:  # moderngl raises plain Exception subclasses
+        self._display = _vislod_display()
+        self._egl = e
+        e.eglBindAPI(EGL_OPENGL_API)
+        self._handle = e.eglCreateContext(self._display, None, None, _CONTEXT_ATTRIBS)
+        if not self._handle or not e.eglMakeCurrent(self._display, None, None, self._handle):
+            code = e.eglGetError()
+            self._unbind(caller)
             raise GLUnavailableError(
-                f"no headless OpenGL 4.5 context through EGL ({exc}). vislod needs Mesa's EGL "
+                f"no OpenGL 4.5 core context from Mesa's EGL (EGL error 0x{code:x}). vislod "
+                f"needs Mesa's EGL and llvmpipe: as root run `{APT_HINT}` (or `make setup`)"
+            )
+        self._released = False
+        try:
+            mgl = moderngl.create_context(require=450, context=_Loader(self))
+        except Exception as exc:  # moderngl raises plain Exception subclasses
+            e.eglMakeCurrent(self._display, None, None, None)
+            e.eglDestroyContext(self._display, self._handle)
+            self._unbind(caller)
+            raise GLUnavailableError(
+                f"moderngl cannot use vislod's OpenGL context ({exc}). vislod needs Mesa's EGL "
                 f"and llvmpipe: as root run `{APT_HINT}` (or `make setup`)"
             ) from exc
         self._mgl = mgl
-        self._handle = e.eglGetCurrentContext()
-        self._display = e.eglGetCurrentDisplay()
         self._egl = e
         try:
             if _process_threads is None:
@@ -151,7 +237,6 @@ class GLContext:
             self._programs: dict[tuple[str, ...], object] = {}
             self._geometry: dict[int, tuple[weakref.ref, object]] = {}
             self._doomed: list = []  # geometries of freed scenes, released at the next entry
-            self._released = False
         finally:
             self._unbind(caller)
 
@@ -234,11 +319,8 @@ class GLContext:
             for p in self._programs.values():
                 p.release()
             self._programs.clear()
-            # The EGL context is destroyed once it is no longer current, i.e. on leaving.
-            self._mgl.release()
             self._released = True
-        if self._egl.eglGetCurrentContext() == self._handle:  # it was current before release()
-            self._egl.eglMakeCurrent(self._display, None, None, None)
+            self._mgl.release()  # _Loader.release: un-binds and destroys the EGL context
         if _default is self:
             _default = None
 

@@ -54,9 +54,21 @@ _SIGNATURES = {
 EGL_OPENGL_API = 0x30A2
 EGL_DRAW = 0x3059
 EGL_READ = 0x305A
+EGL_EXTENSIONS = 0x3055
+EGL_PLATFORM_SURFACELESS_MESA = 0x31DD
+EGL_CONTEXT_MAJOR_VERSION = 0x3098
+EGL_CONTEXT_MINOR_VERSION = 0x30FB
+EGL_CONTEXT_OPENGL_PROFILE_MASK = 0x30FD
+EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT = 0x0001
+EGL_NONE = 0x3038
 
 _EGL_SIGNATURES = {
     "eglGetProcAddress": (_p, [ctypes.c_char_p]),
+    "eglQueryString": (ctypes.c_char_p, [_p, _i]),
+    "eglGetPlatformDisplay": (_p, [_u, _p, _p]),
+    "eglInitialize": (_u, [_p, _p, _p]),
+    "eglCreateContext": (_p, [_p, _p, _p, _p]),
+    "eglDestroyContext": (_u, [_p, _p]),
     "eglGetCurrentContext": (_p, []),
     "eglGetCurrentDisplay": (_p, []),
     "eglGetCurrentSurface": (_p, [_i]),
