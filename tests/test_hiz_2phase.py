@@ -15,17 +15,25 @@ from soc.renderer import Renderer
 from soc.scenes.clutter import box_mesh
 from soc.scenes.dynamic import subset
 
-MODES = ["early", "final"]
+# Option sets (next set from the early or the finished depth; depth-only early pass; the
+# occluders drawn early too): every one must be conservative in every frame.
+MODES = [
+    {"next_from": "early"},
+    {"next_from": "final"},
+    {"early_pass": "depth"},
+    {"next_from": "final", "early_pass": "depth", "occluders": True},
+]
+MODE_IDS = ["early", "final", "depth", "final-depth-occluders"]
 
 
-def _run(scene, cameras, resolution, *, next_from="early", draw=False, resets=(), alive=None):
+def _run(scene, cameras, resolution, *, options=None, draw=False, resets=(), alive=None):
     """Cull ``cameras`` in order with one hiz-2phase culler, never resetting except before the
     frames in ``resets``; ``alive`` (F, N) bool switches objects per frame (dynamic scenes).
     Fails on any object the oracle sees and the method culls. Returns the kept counts."""
     kept = []
     with (
         soc.Oracle(scene) as oracle,
-        soc.Culler(scene, "hiz-2phase", resolution, next_from=next_from) as culler,
+        soc.Culler(scene, "hiz-2phase", resolution, **(options or {})) as culler,
     ):
         for i, cam in enumerate(cameras):
             if i in resets:
@@ -45,25 +53,25 @@ def _run(scene, cameras, resolution, *, next_from="early", draw=False, resets=()
     return kept
 
 
-@pytest.mark.parametrize("next_from", MODES)
+@pytest.mark.parametrize("options", MODES, ids=MODE_IDS)
 @pytest.mark.parametrize("resolution", [(320, 192), (333, 197)])
-def test_camera_cuts_over_clutter_scenes(clutter_scenes, resolution, next_from):
+def test_camera_cuts_over_clutter_scenes(clutter_scenes, resolution, options):
     """Unrelated random cameras one after the other (every frame a cut, 15 % inside a box,
     near planes 0.05–1), never reset: 4 scenes × 30 frames."""
     for k, scene in enumerate(clutter_scenes):
         cams = random_cameras(scene, 30, seed=200 + k, width=resolution[0], height=resolution[1])
-        _run(scene, cams, resolution, next_from=next_from)
+        _run(scene, cams, resolution, options=options, draw=k == 0)
 
 
-@pytest.mark.parametrize("next_from", MODES)
-def test_coherent_flight_with_cuts_and_a_reset(clutter_scenes, next_from):
+@pytest.mark.parametrize("options", MODES, ids=MODE_IDS)
+def test_coherent_flight_with_cuts_and_a_reset(clutter_scenes, options):
     """A flight, cut to random views and back, a reset() in the middle, at an odd size."""
     scene = clutter_scenes[1]
     res = (333, 197)
     path = flight(scene, frames=16, width=res[0], height=res[1])
     cuts = random_cameras(scene, 4, seed=9, width=res[0], height=res[1])
     cams = path[:6] + cuts[:2] + path[6:11] + cuts[2:] + path[11:]
-    _run(scene, cams, res, next_from=next_from, resets={10})
+    _run(scene, cams, res, options=options, resets={10})
 
 
 def test_first_frame_and_reset_draw_nothing_early(clutter_scenes):
@@ -82,7 +90,8 @@ def test_first_frame_and_reset_draw_nothing_early(clutter_scenes):
         assert not m.next_set.any()
 
 
-def test_camera_walks_into_a_room_and_through_a_beam():
+@pytest.mark.parametrize("options", MODES, ids=MODE_IDS)
+def test_camera_walks_into_a_room_and_through_a_beam(options):
     """A room whose box holds the camera, a wall inside it, a beam crossing the near plane:
     the camera walks from outside the room in, frames kept coherent (no reset)."""
     room = box_mesh((-10, 0, -10), (10, 10, 10))
@@ -94,11 +103,12 @@ def test_camera_walks_into_a_room_and_through_a_beam():
         soc.Camera.look_at((0, 3, z), (0, 3, z - 7), width=320, height=200, near=0.1, far=100)
         for z in np.linspace(20, 2, 10)
     ]
-    kept = _run(s, cams, (320, 200))
+    kept = _run(s, cams, (320, 200), options=options)
     assert kept[-1] >= 3  # room (camera inside its box), wall, beam (through the near plane)
 
 
-def test_objects_appearing_and_disappearing(clutter_scenes):
+@pytest.mark.parametrize("options", MODES, ids=MODE_IDS)
+def test_objects_appearing_and_disappearing(clutter_scenes, options):
     """A pool scene with objects switched on and off every frame (set_alive), as dynamic
     scenes do: new objects are not in the early set and must be caught by the late test."""
     scene = clutter_scenes[2]
@@ -106,7 +116,7 @@ def test_objects_appearing_and_disappearing(clutter_scenes):
     cams = flight(scene, frames=8, width=320, height=192)
     alive = rng.random((len(cams), len(scene))) < 0.7
     alive[:, scene.occluder] = rng.random((len(cams), int(scene.occluder.sum()))) < 0.8
-    _run(scene, cams, (320, 192), alive=alive)
+    _run(scene, cams, (320, 192), options=options, alive=alive)
 
 
 def test_bad_options_and_alive_are_clear_errors(clutter_scenes):
@@ -117,29 +127,34 @@ def test_bad_options_and_alive_are_clear_errors(clutter_scenes):
             c.method.set_alive(np.ones(3, bool))
 
 
-def test_it_culls_and_draws_the_frame_of_everything(small_market):
+@pytest.mark.parametrize("early_pass", ["shaded", "depth"])
+def test_it_culls_and_draws_the_frame_of_everything(small_market, early_pass):
     """On a coherent stretch of the market flight the kept set is a small part of the scene
     once settled (the first frame, with no early set, culls by the frustum only); the frame
     drawn with draw=True has exactly the depth of drawing every object, and the colour of
-    soc.Renderer drawing the same objects in the same order (early set first)."""
+    soc.Renderer drawing the same objects in the same order (early set first; with a
+    depth-only early pass, where no two objects' depths tie)."""
     res = (480, 270)
     cams = flight(small_market, frames=100, width=res[0], height=res[1])[20:30]
     n = len(small_market)
     reference = Renderer(soc.Culler(small_market, "none", res).geometry, res)
     kept = []
-    with soc.Culler(small_market, "hiz-2phase", res) as c:
+    with soc.Culler(small_market, "hiz-2phase", res, early_pass=early_pass) as c:
         for cam in cams:
-            early = np.flatnonzero(c.method.next_set)
             r = c.cull(cam, draw=True)
             assert r.stats.timings_ms["draw"] > 0 and "pyramid" in r.stats.timings_ms
             kept.append(int(r.visible.sum()))
             image, depth = c.method.renderer.image(), c.method.renderer.depth_image()
             reference.draw(cam, np.arange(n))
             assert np.array_equal(depth, reference.depth_image())
-            drawn = np.flatnonzero(r.visible)
-            in_early = np.isin(drawn, early)
-            reference.draw(cam, np.concatenate([drawn[in_early], drawn[~in_early]]))
-            assert np.array_equal(image, reference.image())
+            order = c.method.last_order
+            assert np.array_equal(np.sort(order), np.flatnonzero(r.visible))
+            reference.draw(cam, order)
+            same = (image == reference.image()).all(axis=2)
+            if early_pass == "shaded":
+                assert same.all()
+            else:  # "<=" over the early depth: the last of two equal depths wins, not the first
+                assert same.mean() > 0.999, same.mean()
     reference.release()
     # Frame 1 draws frame 0's frustum set early; from frame 2 on the sets are occlusion culled.
     assert kept[0] > 0.5 * n and max(kept[2:]) < 0.3 * n, kept

@@ -14,10 +14,18 @@ drawn into the method's own colour + depth target):
 4. **late draw** — the objects that pass and were not drawn early, into the same depth;
 5. **next set** — the objects kept next frame: with ``next_from="early"`` (niagara's choice,
    no extra work) those that passed stage 3, early ones included; with ``next_from="final"``
-   the pyramid is rebuilt from the finished frame's depth and the in-frustum objects are
-   tested again ("next pyramid", "next test"): a tighter set, for a second pyramid.
+   the pyramid is rebuilt from the finished frame's depth and the drawn objects are tested
+   again ("next pyramid", "next test"): a tighter set, for a second pyramid.
 
 The frame's kept set (``visible``) is everything drawn: early ∪ late.
+
+Two options change what is drawn where. ``early_pass="depth"`` draws the early set depth only
+(a z-prepass); the shaded pass then draws every object that passed stage 3, early ones
+included, with the ``<=`` depth test over that depth: objects of last frame's set that are now
+hidden are not shaded and not kept, and visible surfaces are shaded once (no overdraw), for one
+more geometry pass of the early set. ``occluders=True`` adds the scene's occluders in the
+frustum to the early set every frame (hiz-gpu's prepass, drawn as part of the frame): a
+pyramid that holds them even right after a camera cut, for drawing the hidden ones.
 
 **Conservative in every frame, whatever the previous frames were.** The early pass draws a
 subset S of the scene, so at every pixel the early depth is >= the finished frame's depth,
@@ -29,9 +37,14 @@ stage 3 and is drawn late. Nothing in that argument depends on which subset S is
 frame and :meth:`~TwoPhaseCulling.reset` (S empty: every object goes to the late pass, tested
 against a far-plane pyramid, i.e. frustum culling only), camera cuts (S from an unrelated view:
 fewer objects culled, never a visible one) and objects that appear in a dynamic scene (not in
-S: they are tested in stage 3) are all correct, only less efficient. Early depths are real
-drawn depths of meshes, so the HiZ semantics (nearest box corner vs the max of the pyramid)
-hold unchanged.
+S: they are tested in stage 3) are all correct, only less efficient. With the depth-only early
+pass the kept set is what passed stage 3, which by the same argument holds every object the
+oracle sees. Early depths are real drawn depths of meshes, so the HiZ semantics (nearest box
+corner vs the max of the pyramid) hold unchanged.
+
+Dynamic scenes (a pool of objects switched on and off, :mod:`soc.scenes.dynamic`) tell the
+method which objects exist with :meth:`TwoPhaseCulling.set_alive`: dead objects are never drawn,
+new ones go through stage 3.
 
 **Cull ms** (:attr:`soc.FrameStats.cull_ms`, everything but the ``"draw"`` key): the numpy
 frustum test of the early set, the pyramid(s) and the test dispatch(es) with their read-back.
@@ -42,6 +55,8 @@ frustum test of the early set, the pyramid(s) and the test dispatch(es) with the
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from soc.frustum import aabbs_in_frustum
@@ -49,6 +64,7 @@ from soc.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
 from soc.methods.base import CullMethod, MethodOutput, register, stage
 
 NEXT_FROM = ("early", "final")
+EARLY_PASSES = ("shaded", "depth")
 
 
 @register
@@ -68,8 +84,13 @@ class TwoPhaseCulling(CullMethod):
         Texels per axis read per box at its pyramid level, 2 (default) or 4.
     next_from : {"early", "final"}
         Which depth chooses next frame's early set: the early pass's pyramid (default, no extra
-        work) or the finished frame's (a second pyramid and test, fewer hidden objects drawn
-        early next frame).
+        work) or the finished frame's (a second pyramid and test of the drawn objects, fewer
+        hidden objects drawn early next frame).
+    early_pass : {"shaded", "depth"}
+        Draw the early set shaded (default; ``visible`` = early ∪ late) or depth only, then
+        every object that passed shaded with ``<=`` (``visible`` = the objects that passed).
+    occluders : bool
+        Also draw the scene's occluders in the frustum early, every frame (default False).
 
     Attributes
     ----------
@@ -78,7 +99,10 @@ class TwoPhaseCulling(CullMethod):
     alive : (N,) bool
         Objects that exist (dynamic scenes, :meth:`set_alive`); dead ones are never drawn.
     last_draws_ms : dict
-        ``{"early draw": ms, "late draw": ms}`` of the last frame.
+        ``{"early draw": ms, "late draw": ms}`` of the last frame (with the depth-only early
+        pass, "late draw" is the shaded pass).
+    last_order : (K,) int
+        The kept objects of the last frame in the order they were shaded.
     """
 
     name = "hiz-2phase"
@@ -87,14 +111,26 @@ class TwoPhaseCulling(CullMethod):
     draws_frame = True
 
     def __init__(
-        self, geometry, resolution, config, *, footprint: int = 2, next_from: str = "early"
+        self,
+        geometry,
+        resolution,
+        config,
+        *,
+        footprint: int = 2,
+        next_from: str = "early",
+        early_pass: str = "shaded",
+        occluders: bool = False,
     ):
         if next_from not in NEXT_FROM:
             raise ValueError(f"next_from must be one of {NEXT_FROM}, got {next_from!r}")
+        if early_pass not in EARLY_PASSES:
+            raise ValueError(f"early_pass must be one of {EARLY_PASSES}, got {early_pass!r}")
         super().__init__(geometry, resolution, config)
         from soc.renderer import Renderer
 
         self.next_from = next_from
+        self.early_pass = early_pass
+        self.occluders = bool(occluders)
         self.renderer = Renderer(geometry, resolution)
         self.depth_fbo = self.glctx.ctx.framebuffer(depth_attachment=self.renderer.depth)
         self.depth_program = self.glctx.program("mesh.vert", "depth_only.frag")
@@ -105,6 +141,7 @@ class TwoPhaseCulling(CullMethod):
         self.alive = np.ones(n, bool)
         self.next_set = np.zeros(n, bool)
         self.last_draws_ms: dict[str, float] = {}
+        self.last_order = np.zeros(0, np.int64)
 
     def release(self) -> None:
         self.tester.release()
@@ -131,30 +168,48 @@ class TwoPhaseCulling(CullMethod):
 
     # -- the frame ---------------------------------------------------------------------------
 
-    def _draw(self, camera, ids: np.ndarray, *, color: bool, clear: bool) -> float:
-        """Draw ``ids`` into the method's target (shaded or depth only); ms, finished."""
-        if color:
-            return self.renderer.draw(camera, ids, clear=clear)
-        import time
-
+    def _draw(
+        self,
+        camera,
+        ids: np.ndarray,
+        *,
+        color: bool,
+        clear: bool,
+        depth_func: str = "<",
+        clear_color: bool = False,
+    ) -> float:
+        """Draw ``ids`` into the method's target, shaded as :class:`soc.Renderer` draws
+        (``color``) or depth only, after clearing the depth (``clear``) and the colour
+        (``clear``, with ``color`` or ``clear_color``); ms, finished."""
         import moderngl
+
+        from soc.renderer import LIGHT_DIR, SKY
 
         ctx = self.glctx.ctx
         t0 = time.perf_counter()
-        self.depth_fbo.use()
-        self.depth_fbo.depth_mask = True
-        if clear:
+        if clear and (color or clear_color):
+            self.renderer.fbo.use()
+            self.renderer.fbo.depth_mask = True
+            self.renderer.fbo.clear(*SKY, 1.0, depth=1.0)
+        fbo = self.renderer.fbo if color else self.depth_fbo
+        fbo.use()
+        fbo.depth_mask = True
+        if clear and not (color or clear_color):
             self.glctx.raw.clear_depth(1.0)
         ctx.enable_only(moderngl.DEPTH_TEST)
-        ctx.depth_func = "<"
-        self.depth_program["view_proj"].write(camera.gl_bytes(camera.view_proj))
-        self.geometry.draw_objects(self.depth_program, ids)
+        ctx.depth_func = depth_func
+        program = self.renderer.program if color else self.depth_program
+        program["view_proj"].write(camera.gl_bytes(camera.view_proj))
+        if color:
+            program["light_dir"].value = LIGHT_DIR
+            program["eye"].value = tuple(camera.eye)
+        self.geometry.draw_objects(program, ids)
         ctx.finish()
         return 1e3 * (time.perf_counter() - t0)
 
     def cull(self, camera, draw: bool = False) -> MethodOutput:
         """Draw and cull one frame from ``camera`` (the frame is drawn at the method's
-        resolution, shaded when ``draw``); returns the kept (= drawn) set."""
+        resolution, shaded when ``draw``); returns the kept (= shaded) set."""
         timings: dict[str, float] = {}
         finish = self.glctx.finish
         cfg = self.config
@@ -170,12 +225,15 @@ class TwoPhaseCulling(CullMethod):
             self.next_set[:] = False
             return MethodOutput(keep, int(self.alive.sum() - keep.sum()), 0, timings)
 
-        # Stage 1: last frame's set, minus what left the frustum or died.
+        # Stage 1: last frame's set (and the occluders, if asked), minus what left the frustum
+        # or died.
         with stage(timings, "frustum"):
-            early = np.flatnonzero(self.next_set & self.alive)
+            first = self.next_set | self.scene.occluder if self.occluders else self.next_set
+            early = np.flatnonzero(first & self.alive)
             if cfg.frustum and len(early):
                 early = early[aabbs_in_frustum(self.scene.aabbs[early], camera.planes)]
-        early_ms = self._draw(camera, early, color=draw, clear=True)
+        shaded_early = draw and self.early_pass == "shaded"
+        early_ms = self._draw(camera, early, color=shaded_early, clear=True, clear_color=draw)
 
         # Stages 2-3: pyramid of the early depth, every object tested once.
         with stage(timings, "pyramid", finish):
@@ -185,13 +243,23 @@ class TwoPhaseCulling(CullMethod):
                 self.pyramid, camera, self.geometry.boxes, self._all, frustum=cfg.frustum
             )
         passed = (codes == VISIBLE) & self.alive
-        drawn = np.zeros(n, bool)
-        drawn[early] = True
+        in_early = np.zeros(n, bool)
+        in_early[early] = True
 
         # Stage 4: the late pass, into the same depth.
-        late = np.flatnonzero(passed & ~drawn)
-        late_ms = self._draw(camera, late, color=draw, clear=False)
-        drawn[late] = True
+        late = np.flatnonzero(passed & ~in_early)
+        if self.early_pass == "shaded":
+            late_ms = self._draw(camera, late, color=draw, clear=False)
+            drawn = in_early
+            drawn[late] = True
+        else:  # every object that passed, shaded over the early depth (equal depths pass)
+            order = np.concatenate([np.flatnonzero(passed & in_early), late])
+            if draw:
+                late_ms = self._draw(camera, order, color=True, clear=False, depth_func="<=")
+            else:
+                late_ms = self._draw(camera, late, color=False, clear=False)
+            drawn = passed
+        self.last_order = np.concatenate([early, late]) if self.early_pass == "shaded" else order
         self.last_draws_ms = {"early draw": early_ms, "late draw": late_ms}
         timings["draw"] = early_ms + late_ms
 
