@@ -1,4 +1,4 @@
-"""Hierarchical z-buffer on the CPU: a max-depth pyramid and vectorized AABB tests against it.
+"""Hierarchical z-buffer on the CPU: a max-depth pyramid and AABB tests against it (numpy, numba).
 
 The hierarchical z-buffer of Greene, Kass and Miller ("Hierarchical Z-buffer visibility",
 SIGGRAPH 1993) as used by Intel's Software Occlusion Culling framework (seed 000) behind its
@@ -25,15 +25,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 
 from soc.constants import QUERY_DEPTH_BIAS_NDC
-
-if TYPE_CHECKING:  # torch is imported where it is used: `import soc` stays torch-free
-    import torch
 
 # Box rectangles are grown by this many pixels on every side before taking the pixel centres
 # they contain: GL's sub-pixel snapping and float32 transform can move a box edge onto a
@@ -53,52 +49,51 @@ class Pyramid:
 
     Attributes
     ----------
-    flat : (S,) float32 tensor
+    flat : (S,) float32
         All levels, level 0 first, each row-major (row 0 at the bottom).
-    offsets : (L,) int64 tensor
+    offsets : (L,) int64
         Start of each level in ``flat``.
-    widths, heights : (L,) int64 tensors
+    widths, heights : (L,) int64
         Size of each level in texels; level ``k + 1`` is ``ceil(level k / 2)``.
     """
 
-    flat: torch.Tensor
-    offsets: torch.Tensor
-    widths: torch.Tensor
-    heights: torch.Tensor
+    flat: np.ndarray
+    offsets: np.ndarray
+    widths: np.ndarray
+    heights: np.ndarray
 
     @property
     def levels(self) -> int:
         return len(self.offsets)
 
-    def level(self, k: int) -> torch.Tensor:
+    def level(self, k: int) -> np.ndarray:
         """(h_k, w_k) float32 view of level ``k``."""
         h, w, o = int(self.heights[k]), int(self.widths[k]), int(self.offsets[k])
-        return self.flat[o : o + h * w].view(h, w)
+        return self.flat[o : o + h * w].reshape(h, w)
 
 
-def build_pyramid(depth: torch.Tensor) -> Pyramid:
+def build_pyramid(depth: np.ndarray) -> Pyramid:
     """Max pyramid of ``depth`` (H, W) float32 window depth, down to a single texel.
 
     Texel ``(y, x)`` of level ``k`` is >= every level-0 texel in rows ``y * 2**k ...`` and
     columns ``x * 2**k ...`` (equal to their max when no padding was needed).
     """
-    import torch
-
-    depth = torch.as_tensor(depth, dtype=torch.float32)
-    if depth.ndim != 2 or depth.numel() == 0:
-        raise ValueError(f"depth must be a non-empty (H, W) array, got shape {tuple(depth.shape)}")
-    levels = [depth.contiguous()]
+    depth = np.asarray(depth, dtype=np.float32)
+    if depth.ndim != 2 or depth.size == 0:
+        raise ValueError(f"depth must be a non-empty (H, W) array, got shape {depth.shape}")
+    levels = [np.ascontiguousarray(depth)]
     while levels[-1].shape[0] > 1 or levels[-1].shape[1] > 1:
         d = levels[-1]
         h, w = d.shape
-        pad = (0, w % 2, 0, h % 2)  # right, bottom (= top rows here) padding with far
-        d = torch.nn.functional.pad(d, pad, value=1.0)
-        levels.append(torch.nn.functional.max_pool2d(d[None, None], 2)[0, 0].contiguous())
-    heights = torch.tensor([lv.shape[0] for lv in levels])
-    widths = torch.tensor([lv.shape[1] for lv in levels])
+        if h % 2 or w % 2:  # pad the last row / column with far
+            d = np.pad(d, ((0, h % 2), (0, w % 2)), constant_values=1.0)
+        h2, w2 = d.shape[0] // 2, d.shape[1] // 2
+        levels.append(np.ascontiguousarray(d.reshape(h2, 2, w2, 2).max(axis=(1, 3))))
+    heights = np.array([lv.shape[0] for lv in levels], np.int64)
+    widths = np.array([lv.shape[1] for lv in levels], np.int64)
     sizes = heights * widths
-    offsets = torch.cumsum(sizes, 0) - sizes
-    return Pyramid(torch.cat([lv.reshape(-1) for lv in levels]), offsets, widths, heights)
+    offsets = np.cumsum(sizes) - sizes
+    return Pyramid(np.concatenate([lv.reshape(-1) for lv in levels]), offsets, widths, heights)
 
 
 def project_boxes(
@@ -182,25 +177,29 @@ def boxes_visible(pyramid: Pyramid, rect: np.ndarray, z_near: np.ndarray) -> np.
     A box is visible when its nearest depth is <= the max occluder depth over the (at most
     2×2) texels covering its rectangle at the finest level where it spans at most 2×2.
     """
-    import torch
+    rect = np.ascontiguousarray(rect, np.int64).reshape(-1, 4)
+    z_near = np.ascontiguousarray(z_near, np.float64).reshape(-1)
+    out = np.empty(len(rect), np.bool_)
+    _boxes_visible(pyramid.flat, pyramid.offsets, pyramid.widths, pyramid.levels, rect, z_near, out)
+    return out
 
-    rect = torch.as_tensor(np.asarray(rect, np.int64))
-    z = torch.as_tensor(np.asarray(z_near, np.float64))
-    x0, y0, x1, y1 = rect.unbind(1)
-    nonempty = (x0 <= x1) & (y0 <= y1)
-    x0, y0, x1, y1, z = x0[nonempty], y0[nonempty], x1[nonempty], y1[nonempty], z[nonempty]
-    # Finest level k with (x1 >> k) - (x0 >> k) <= 1 and likewise in y.
-    shifts = torch.arange(pyramid.levels)
-    fits = (((x1[:, None] >> shifts) - (x0[:, None] >> shifts)) <= 1) & (
-        ((y1[:, None] >> shifts) - (y0[:, None] >> shifts)) <= 1
-    )
-    k = fits.to(torch.int8).argmax(1)  # the top level (1×1) always fits
-    tx0, tx1, ty0, ty1 = x0 >> k, x1 >> k, y0 >> k, y1 >> k
-    base, wk = pyramid.offsets[k], pyramid.widths[k]
-    texels = torch.stack(
-        [base + ty * wk + tx for ty in (ty0, ty1) for tx in (tx0, tx1)], 1
-    )  # (K', 4) flat indices; repeated when the rectangle spans one texel
-    farthest = pyramid.flat[texels].amax(1).to(torch.float64)
-    visible = torch.zeros(len(rect), dtype=torch.bool)
-    visible[nonempty] = z <= farthest
-    return visible.numpy()
+
+@numba.njit(cache=True)
+def _boxes_visible(flat, offsets, widths, levels, rect, z_near, out):  # pragma: no cover
+    """:func:`boxes_visible`'s loop over boxes (numba)."""
+    for n in range(len(rect)):
+        x0, y0, x1, y1 = rect[n, 0], rect[n, 1], rect[n, 2], rect[n, 3]
+        if x0 > x1 or y0 > y1:
+            out[n] = False  # no pixel centre: nothing of the box can be seen
+            continue
+        # Finest level k where the rectangle spans at most 2×2 texels (the top one always does).
+        k = 0
+        while k < levels - 1 and ((x1 >> k) - (x0 >> k) > 1 or (y1 >> k) - (y0 >> k) > 1):
+            k += 1
+        base, wk = offsets[k], widths[k]
+        tx0, tx1, ty0, ty1 = x0 >> k, x1 >> k, y0 >> k, y1 >> k
+        farthest = max(
+            max(flat[base + ty0 * wk + tx0], flat[base + ty0 * wk + tx1]),
+            max(flat[base + ty1 * wk + tx0], flat[base + ty1 * wk + tx1]),
+        )
+        out[n] = z_near[n] <= farthest

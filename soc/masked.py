@@ -22,10 +22,11 @@ Stages of a frame, in the order :class:`MaskedBuffer` runs them:
 1. :func:`occluder_order` (numpy) — the occluders whose AABB is in the frustum, sorted front
    to back by their AABB's nearest view depth (the merge rule culls best when near occluders
    arrive first).
-2. :func:`setup_triangles` (numba) — transform (float64, with bounds on GL's float32 error),
-   clip against the near plane (a crossing triangle becomes one or two triangles, never
-   dropped), drop triangles outside one frustum plane, degenerate ones and back faces of closed
-   meshes, orient counter-clockwise, and compute the conservative depth plane.
+2. :func:`soc.software_raster.setup_triangles` (numba) — transform (float64, with bounds on
+   GL's float32 error), clip against the near plane (a crossing triangle becomes one or two
+   triangles, never dropped), drop triangles outside one frustum plane, degenerate ones and
+   back faces of closed meshes, orient counter-clockwise, and compute the conservative depth
+   plane.
 3. :func:`rasterize` (numba) — per triangle, per 8×4 subtile it touches: the coverage bits of
    the pixel centres lying :data:`EDGE_MARGIN_PX` inside all three edges, the triangle's
    farthest depth over those centres (its depth plane at the farthest covered corner, clamped
@@ -74,10 +75,12 @@ import numba
 import numpy as np
 
 from soc.software_raster import (
-    DEPTH_EPSILON,
     EDGE_MARGIN_PX,
-    FLOAT32_TRANSFORM_ULPS,
-    SNAP_SLOPE_PX,
+    RECORD,
+    _edge,
+    _row_limits,
+    occluder_triangles,
+    setup_triangles,
 )
 
 # Tile and subtile sizes, pixels (the library's AVX2 layout: a tile is 4×2 subtiles).
@@ -93,13 +96,8 @@ Z_FAR = 1.0
 # Working depth of an empty working layer: nearer than anything, so max() with it is a no-op.
 Z_EMPTY = -np.inf
 
-# Floats per triangle record of :func:`setup_triangles`: x0 y0 x1 y1 x2 y2 (window pixels,
-# counter-clockwise), a b c (depth plane, pushed farther), z_max (farthest vertex, pushed),
-# z_min (nearest vertex: the triangle is skipped where it is behind the reference layer).
-RECORD = 11
 
 FULL_MASK = 0xFFFFFFFF
-_U32 = 2.0**-24  # float32 unit roundoff
 
 
 @dataclass(frozen=True)
@@ -129,52 +127,6 @@ def buffer_shape(resolution: tuple[int, int]) -> tuple[int, int]:
     return -(-height // TILE_H), -(-width // TILE_W)
 
 
-def occluder_triangles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """World triangles of the scene's occluders, grouped by occluder.
-
-    Returns
-    -------
-    ids : (M,) int64
-        The occluder objects.
-    triangles : (T, 3, 3) float64
-        Their triangles, world units, occluder after occluder.
-    offsets : (M + 1,) int64
-        Occluder ``k``'s triangles are ``triangles[offsets[k]:offsets[k + 1]]``.
-    closed : (M,) bool
-        Meshes that are closed and consistently oriented (every directed edge's reverse occurs
-        exactly once): their back faces may be skipped, the front faces hide them.
-    """
-    ids = np.flatnonzero(scene.occluder)
-    fo = np.asarray(scene.face_offsets, np.int64)
-    counts = fo[ids + 1] - fo[ids]
-    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    owner = np.repeat(np.arange(len(ids)), counts)
-    faces = np.arange(offsets[-1]) - offsets[owner] + fo[ids][owner]
-    corners = (
-        scene.faces[faces].astype(np.int64) + np.asarray(scene.vertex_offsets)[ids][owner][:, None]
-    )
-    triangles = np.asarray(scene.vertices, np.float64)[corners].reshape(-1, 3, 3)
-    # Directed edges (owner, a, b) keyed by the local vertex ids; closed ⇔ each occurs once and
-    # its reverse occurs once.
-    a = corners.reshape(-1)
-    b = corners[:, [1, 2, 0]].reshape(-1)
-    own = np.repeat(owner, 3)
-    closed = np.ones(len(ids), bool)
-    if len(a):
-        span = int(max(a.max(), b.max())) + 1
-        key = (own * span + a) * span + b
-        rev = (own * span + b) * span + a
-        uniq, count = np.unique(key, return_counts=True)
-        dup = np.zeros(len(ids), bool)
-        dup[own[np.isin(key, uniq[count > 1])]] = True
-        missing = ~np.isin(rev, uniq)
-        open_ = np.zeros(len(ids), bool)
-        open_[own[missing]] = True
-        closed = ~(dup | open_)
-    closed[counts == 0] = False
-    return ids, triangles, offsets, closed
-
-
 def occluder_order(aabbs: np.ndarray, camera, in_frustum: np.ndarray) -> np.ndarray:
     """Indices into ``aabbs`` (M, 2, 3) of the boxes with ``in_frustum`` (M,) bool, sorted by
     the view depth of their nearest point (nearest first; world units along the view axis)."""
@@ -185,157 +137,6 @@ def occluder_order(aabbs: np.ndarray, camera, in_frustum: np.ndarray) -> np.ndar
     half = 0.5 * (boxes[:, 1] - boxes[:, 0])
     nearest = center @ axis - half @ np.abs(axis)
     return keep[np.argsort(nearest, kind="stable")]
-
-
-# -- stage 2: transform, clip, set up --------------------------------------------------------
-
-
-@numba.njit(cache=True, inline="always")
-def _emit(out, n, px, py, pz, width, height, backface):
-    """Append the window triangle ``(px, py, pz)`` (clip x/w, y/w, pushed window z) to ``out``;
-    returns the new count. Drops degenerate triangles and, with ``backface``, clockwise ones."""
-    x0 = (px[0] + 1.0) * 0.5 * width
-    x1 = (px[1] + 1.0) * 0.5 * width
-    x2 = (px[2] + 1.0) * 0.5 * width
-    y0 = (py[0] + 1.0) * 0.5 * height
-    y1 = (py[1] + 1.0) * 0.5 * height
-    y2 = (py[2] + 1.0) * 0.5 * height
-    z0, z1, z2 = pz[0], pz[1], pz[2]
-    area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)  # twice the signed area, px²
-    if abs(area) <= 1e-12 or (backface and area < 0.0):
-        return n
-    if area < 0.0:  # orient counter-clockwise
-        x1, x2 = x2, x1
-        y1, y2 = y2, y1
-        z1, z2 = z2, z1
-        area = -area
-    dx1, dx2, dy1, dy2 = x1 - x0, x2 - x0, y1 - y0, y2 - y0
-    dz1, dz2 = z1 - z0, z2 - z0
-    a = (dz1 * dy2 - dz2 * dy1) / area
-    b = (dx1 * dz2 - dx2 * dz1) / area
-    c = z0 - a * x0 - b * y0 + (abs(a) + abs(b)) * SNAP_SLOPE_PX + DEPTH_EPSILON
-    r = out[n]
-    r[0], r[1], r[2], r[3], r[4], r[5] = x0, y0, x1, y1, x2, y2
-    r[6], r[7], r[8] = a, b, c
-    r[9] = max(z0, max(z1, z2)) + DEPTH_EPSILON
-    r[10] = min(z0, min(z1, z2))
-    return n + 1
-
-
-@numba.njit(cache=True)
-def setup_triangles(
-    triangles, offsets, order, backface, view_proj, width, height, out
-):  # pragma: no cover - compiled
-    """Transform, near-clip and set up the triangles of the occluders ``order``, in order.
-
-    Parameters
-    ----------
-    triangles : (T, 3, 3) float64
-        World triangles grouped by occluder (:func:`occluder_triangles`).
-    offsets : (M + 1,) int64
-    order : (K,) int64
-        Occluders to draw, nearest first.
-    backface : (M,) bool
-        Skip clockwise (back-facing) triangles of these occluders.
-    view_proj : (4, 4) float64
-    width, height : int
-        Buffer resolution, pixels.
-    out : (2 T, RECORD) float64
-        Receives the triangle records (a triangle crossing the near plane can become two).
-
-    Returns
-    -------
-    int
-        Records written.
-    """
-    m = view_proj
-    am = np.abs(m)
-    n = 0
-    cx = np.empty(4)
-    cy = np.empty(4)
-    cz = np.empty(4)
-    cw = np.empty(4)
-    ez = np.empty(4)
-    ew = np.empty(4)
-    px = np.empty(3)
-    py = np.empty(3)
-    pz = np.empty(3)
-    # Clipped polygon (at most 4 vertices).
-    qx = np.empty(4)
-    qy = np.empty(4)
-    qz = np.empty(4)
-    qw = np.empty(4)
-    qez = np.empty(4)
-    qew = np.empty(4)
-    for oi in range(len(order)):
-        o = order[oi]
-        bf = backface[o]
-        for t in range(offsets[o], offsets[o + 1]):
-            for v in range(3):
-                p0, p1, p2 = triangles[t, v, 0], triangles[t, v, 1], triangles[t, v, 2]
-                cx[v] = m[0, 0] * p0 + m[0, 1] * p1 + m[0, 2] * p2 + m[0, 3]
-                cy[v] = m[1, 0] * p0 + m[1, 1] * p1 + m[1, 2] * p2 + m[1, 3]
-                cz[v] = m[2, 0] * p0 + m[2, 1] * p1 + m[2, 2] * p2 + m[2, 3]
-                cw[v] = m[3, 0] * p0 + m[3, 1] * p1 + m[3, 2] * p2 + m[3, 3]
-                a0, a1, a2 = abs(p0), abs(p1), abs(p2)
-                ez[v] = (
-                    FLOAT32_TRANSFORM_ULPS
-                    * _U32
-                    * (am[2, 0] * a0 + am[2, 1] * a1 + am[2, 2] * a2 + am[2, 3])
-                )
-                ew[v] = (
-                    FLOAT32_TRANSFORM_ULPS
-                    * _U32
-                    * (am[3, 0] * a0 + am[3, 1] * a1 + am[3, 2] * a2 + am[3, 3])
-                )
-            # Outside one frustum plane (other than near, clipped below) entirely: drop.
-            if (
-                (cx[0] < -cw[0] and cx[1] < -cw[1] and cx[2] < -cw[2])
-                or (cx[0] > cw[0] and cx[1] > cw[1] and cx[2] > cw[2])
-                or (cy[0] < -cw[0] and cy[1] < -cw[1] and cy[2] < -cw[2])
-                or (cy[0] > cw[0] and cy[1] > cw[1] and cy[2] > cw[2])
-                or (cz[0] > cw[0] and cz[1] > cw[1] and cz[2] > cw[2])
-            ):
-                continue
-            # Near plane z = -w: Sutherland–Hodgman on one plane (keep z + w >= 0).
-            k = 0
-            for v in range(3):
-                u = (v + 1) % 3
-                dv = cz[v] + cw[v]
-                du = cz[u] + cw[u]
-                if dv >= 0.0:
-                    qx[k], qy[k], qz[k], qw[k], qez[k], qew[k] = (
-                        cx[v],
-                        cy[v],
-                        cz[v],
-                        cw[v],
-                        ez[v],
-                        ew[v],
-                    )
-                    k += 1
-                if (dv >= 0.0) != (du >= 0.0):
-                    s = dv / (dv - du)
-                    qx[k] = cx[v] + s * (cx[u] - cx[v])
-                    qy[k] = cy[v] + s * (cy[u] - cy[v])
-                    qz[k] = cz[v] + s * (cz[u] - cz[v])
-                    qw[k] = cw[v] + s * (cw[u] - cw[v])
-                    qez[k] = ez[v] + s * (ez[u] - ez[v])
-                    qew[k] = ew[v] + s * (ew[u] - ew[v])
-                    k += 1
-            if k < 3:
-                continue
-            # Fan (0, 1, 2) and, for a quad, (0, 2, 3).
-            for f in range(k - 2):
-                for j in range(3):
-                    q = 0 if j == 0 else f + j
-                    w = qw[q]
-                    nz = qz[q] / w
-                    px[j] = qx[q] / w
-                    py[j] = qy[q] / w
-                    # Window depth pushed farther by GL's float32 error: (ez + |z/w| ew) / w.
-                    pz[j] = 0.5 * (nz + 1.0) + 0.5 * (qez[q] + abs(nz) * qew[q]) / w
-                n = _emit(out, n, px, py, pz, width, height, bf)
-    return n
 
 
 # -- stage 3: rasterize and merge ------------------------------------------------------------
@@ -365,34 +166,6 @@ def _update_subtile(mask, z0, z1, ty, tx, s, bits, zt):
         z1[ty, tx, s] = znew
         mask[ty, tx, s] = m
     return 1
-
-
-@numba.njit(cache=True, inline="always")
-def _edge(x0, y0, x1, y1, margin):
-    """Edge from ``(x0, y0)`` to ``(x1, y1)`` of a counter-clockwise triangle as bounds on x
-    per row: ``(lx, lq, rx, rq)`` such that a point at height y is at least ``margin`` inside
-    the edge when ``lx + lq (y - y0) <= x <= rx + rq (y - y0)`` (one side is infinite).
-    Horizontal edges give two infinite bounds (they bound the rows, see :func:`_row_limits`)."""
-    dx, dy = x1 - x0, y1 - y0
-    length = math.sqrt(dx * dx + dy * dy)
-    nx, ny = -dy / length, dx / length  # inward unit normal
-    # nx (x - x0) + ny (y - y0) >= margin  ⇔  x >= or <= x0 + margin / nx - ny / nx (y - y0).
-    if nx > 0.0:
-        return x0 + margin / nx, -ny / nx, np.inf, 0.0
-    if nx < 0.0:
-        return -np.inf, 0.0, x0 + margin / nx, -ny / nx
-    return -np.inf, 0.0, np.inf, 0.0
-
-
-@numba.njit(cache=True, inline="always")
-def _row_limits(x0, y0, x1, y1, margin, y_lo, y_hi):
-    """Narrow the row range ``[y_lo, y_hi]`` by a horizontal edge (inside when
-    ``ny (y - y0) >= margin``); other edges leave it unchanged."""
-    if x1 > x0 and y1 == y0:  # normal (0, 1): y >= y0 + margin
-        return max(y_lo, y0 + margin), y_hi
-    if x1 < x0 and y1 == y0:  # normal (0, -1): y <= y0 - margin
-        return y_lo, min(y_hi, y0 - margin)
-    return y_lo, y_hi
 
 
 @numba.njit(cache=True, inline="always")

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import torch
 from conftest import check_conservative
 
 import soc
@@ -25,12 +24,12 @@ def test_pyramid_texels_bound_the_pixels_they_stand_for(shape):
     it where the block lies wholly inside the buffer (no padding with 1.0 involved)."""
     rng = np.random.default_rng(sum(shape))
     depth = rng.uniform(0.2, 0.9, shape).astype(np.float32)
-    pyr = build_pyramid(torch.as_tensor(depth))
+    pyr = build_pyramid(depth)
     assert (int(pyr.heights[-1]), int(pyr.widths[-1])) == (1, 1)
     h, w = shape
     for k in range(pyr.levels):
         s = 2**k
-        level = pyr.level(k).numpy()
+        level = pyr.level(k)
         assert level.shape == (-(-h // s), -(-w // s))
         padded = np.full((level.shape[0] * s, level.shape[1] * s), -np.inf, np.float32)
         padded[:h, :w] = depth
@@ -43,7 +42,7 @@ def test_pyramid_texels_bound_the_pixels_they_stand_for(shape):
 
 def test_pyramid_rejects_a_bad_shape():
     with pytest.raises(ValueError, match="shape"):
-        build_pyramid(torch.zeros(3))
+        build_pyramid(np.zeros(3))
 
 
 # -- the box test --------------------------------------------------------------------------
@@ -54,7 +53,7 @@ def _wall_case(z_box_near: float, x=(-0.5, 0.5), y=(-0.5, 0.5)):
     cam = soc.Camera.look_at((0, 0, 0), (0, 0, -1), width=60, height=36, near=0.5, far=50)
     clip = cam.projection @ np.array([0, 0, -5.0, 1])
     wall = np.float32(0.5 * (clip[2] / clip[3] + 1))
-    pyr = build_pyramid(torch.full((36, 60), float(wall)))
+    pyr = build_pyramid(np.full((36, 60), wall, np.float32))
     box = np.array([[[x[0], y[0], -z_box_near - 1], [x[1], y[1], -z_box_near]]])
     rect, z = project_boxes(box, cam.view_proj, (60, 36))
     return boxes_visible(pyr, rect, z)[0]
@@ -133,7 +132,7 @@ def test_runs_at_every_abb8_resolution_on_the_full_market():
     scene = soc.scenes.market()
     cam = flight(scene, 5)[0]  # the start: most occluder triangles in view
     for res in ABB8_RESOLUTIONS:
-        with soc.Culler(scene, method="hiz-cpu", resolution=res, threads=2) as c:
+        with soc.Culler(scene, method="hiz-cpu", resolution=res) as c:
             r = c.cull(cam.with_resolution(res))
             assert c.method.last_depth.shape == (res[1], res[0])
         assert 0 < r.stats.models_visible < len(scene)
@@ -144,4 +143,20 @@ def test_import_soc_does_not_import_torch_through_this_method():
     import sys
 
     code = "import sys, soc; assert 'torch' not in sys.modules, 'torch imported'"
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_culls_without_torch_installed():
+    """hiz-cpu is numpy + numba only: it builds and culls with torch made unimportable."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; sys.modules['torch'] = None\n"
+        "import soc\n"
+        "scene = soc.scenes.clutter(0)\n"
+        "cam = soc.paths.random_cameras(scene, 1, seed=1, width=64, height=40)[0]\n"
+        "with soc.Culler(scene, method='hiz-cpu', resolution=(64, 40)) as c:\n"
+        "    assert c.cull(cam).stats.models_visible > 0\n"
+    )
     subprocess.run([sys.executable, "-c", code], check=True)

@@ -14,7 +14,6 @@ from soc.gl.context import default_context
 from soc.masked import (
     EDGE_MARGIN_PX,
     OCCLUDED,
-    RECORD,
     VIEW_CULLED,
     VISIBLE,
     Z_EMPTY,
@@ -22,10 +21,10 @@ from soc.masked import (
     MaskedBuffer,
     buffer_shape,
     rasterize,
-    setup_triangles,
 )
 from soc.paths import random_cameras
 from soc.scenes.clutter import box_mesh
+from soc.software_raster import RECORD, setup_triangles
 
 FULL = 0xFFFFFFFF
 # Bits of one 8×4 subtile: bit 8 r + c is row r, column c.

@@ -1,4 +1,4 @@
-"""The torch software depth rasterizer against GL's occluder depth prepass.
+"""The numba software depth rasterizer against GL's occluder depth prepass.
 
 The contract: at every pixel centre the software depth is never nearer than GL's (the
 conservative direction), and it agrees with GL everywhere outside the edge band. The band is
@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import torch
 
 import soc
 from soc.depth_prepass import DepthTarget, render_occluders
@@ -41,17 +40,17 @@ def compare_with_gl(scene: soc.Scene, cameras, resolution) -> list[dict]:
     glctx = default_context()
     geometry = glctx.geometry(scene)
     target = DepthTarget(glctx, resolution)
-    tris = torch.as_tensor(occluder_triangles(scene))
+    tris = occluder_triangles(scene)
     rows = []
     try:
         for cam in cameras:
             render_occluders(geometry, target, cam, np.flatnonzero(scene.occluder))
             gl = target.read()
             stats: dict[str, int] = {}
-            sw = rasterize_depth(tris, cam.view_proj, resolution, stats).numpy()
+            sw = rasterize_depth(tris, cam.view_proj, resolution, stats)
             grown = rasterize_depth(tris, cam.view_proj, resolution, margin_px=-BAND_PX)
             shrunk = rasterize_depth(tris, cam.view_proj, resolution, margin_px=BAND_PX)
-            band = (grown != shrunk).numpy()
+            band = grown != shrunk
             cov_gl, cov_sw = gl < 1, sw < 1
             both = cov_gl & cov_sw
             rows.append(
@@ -128,7 +127,7 @@ def test_a_screen_filling_quad_has_the_exact_depth():
     quad = np.array(
         [[[-9, -9, -2], [9, -9, -2], [9, 9, -2]], [[-9, -9, -2], [9, 9, -2], [-9, 9, -2]]]
     )
-    depth = rasterize_depth(quad.astype(np.float64), cam.view_proj, (37, 23)).numpy()
+    depth = rasterize_depth(quad.astype(np.float64), cam.view_proj, (37, 23))
     clip = cam.projection @ np.array([0, 0, -2, 1.0])
     expected = 0.5 * (clip[2] / clip[3] + 1)
     covered = depth < 1
