@@ -456,13 +456,21 @@ def figure_rows(out: Path, fig) -> list[Row] | None:
     return builder(summary)
 
 
-def image_lines(out: Path, pngs: Sequence[Path], key: str) -> list[str]:
-    """Markdown for a figure's PNGs (paths under ``out``) that resolves in a fresh clone: the
-    ones the README's gallery keeps (``docs/gallery/``, tracked) as images linked relative to
-    the report; the others (``results/`` is not tracked) named in plain text with the command
-    that draws them."""
+def image_lines(
+    out: Path, pngs: Sequence[Path], key: str, *, tracked_only: bool = True
+) -> list[str]:
+    """Markdown for a figure's PNGs (paths under ``out``).
+
+    ``tracked_only`` (the checkout's ``results/REPORT.md``, which git tracks while ``results/``
+    itself is not): only what resolves in a fresh clone is an image — the PNGs the README's
+    gallery keeps in ``docs/gallery/`` (tracked), linked relative to the report; the others
+    are named in plain text with the command that draws them. Otherwise (a report in any other
+    folder, beside its PNGs) every PNG is an image.
+    """
     from experiments.gallery import FOLDER, SHOTS
 
+    if not tracked_only:
+        return [f"![{Path(p).stem}]({Path(p).relative_to(out).as_posix()})" for p in pngs]
     by_source = {s.source: s for s in SHOTS}
     lines, untracked = [], []
     for png in pngs:
@@ -481,9 +489,18 @@ def image_lines(out: Path, pngs: Sequence[Path], key: str) -> list[str]:
     return lines
 
 
+def _is_tracked_report_folder(out: Path) -> bool:
+    """``out`` is the checkout's ``results/`` (whose REPORT.md git tracks)."""
+    from experiments.gallery import ROOT
+
+    results = (ROOT / "results").resolve()
+    return (ROOT / "pyproject.toml").is_file() and Path(out).resolve() == results
+
+
 def write_report(out: Path, figures: Sequence, *, quick: bool = False) -> Path:
     """Write ``out/REPORT.md`` from the summaries present; returns its path."""
     out = Path(out)
+    tracked_only = _is_tracked_report_folder(out)
     lines = [
         "# vislod — every figure beside its source document",
         "",
@@ -499,7 +516,8 @@ def write_report(out: Path, figures: Sequence, *, quick: bool = False) -> Path:
         if rows is None:
             lines += [f"_not run_ (`vislod figures --only {fig.key}`)", ""]
             continue
-        lines += image_lines(out, sorted(out.glob(fig.images)) if fig.images else [], fig.key)
+        pngs = sorted(out.glob(fig.images)) if fig.images else []
+        lines += image_lines(out, pngs, fig.key, tracked_only=tracked_only)
         lines += ["", "| item | document | ours | verdict | why |", "|---|---|---|---|---|"]
         for r in rows:
             counts[r.verdict] = counts.get(r.verdict, 0) + 1

@@ -153,3 +153,11 @@ def test_every_image_link_of_the_tracked_report_resolves():
     for link in links:
         assert (root / "results" / link).is_file(), link
         assert "docs/gallery/" in link, link
+
+
+def test_a_report_outside_the_checkouts_results_shows_every_png_beside_it(tmp_path, fakes):
+    """Only the tracked results/REPORT.md is limited to tracked images."""
+    figures.run_figures(tmp_path, only=["a"], progress=False)
+    (tmp_path / "a" / "plot.png").write_bytes(b"")
+    fig = report.write_report(tmp_path, [replace(figures.FIGURES[0], images="a/*.png")])
+    assert "![plot](a/plot.png)" in fig.read_text()
