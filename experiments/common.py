@@ -260,8 +260,15 @@ def castle_path(data: str | os.PathLike | None) -> Path:
 def check_writable(folder: str | os.PathLike) -> Path:
     """Create ``folder`` (with its parents) and write and delete a probe file in it, so that a
     results folder that cannot be written fails in a second, before the work, not minutes
-    later when the first file is saved. :class:`UsageError` (one line) otherwise."""
+    later when the first file is saved; :class:`UsageError` (one line) otherwise. The folders
+    it created are removed again, so that a mistake found after this check leaves nothing
+    behind (the command creates them when it writes)."""
     folder = Path(folder).expanduser()
+    created = []
+    missing = folder
+    while not missing.exists() and missing.parent != missing:
+        created.append(missing)
+        missing = missing.parent
     try:
         folder.mkdir(parents=True, exist_ok=True)
         fd, probe = tempfile.mkstemp(prefix=".vislod-probe-", dir=folder)
@@ -270,6 +277,12 @@ def check_writable(folder: str | os.PathLike) -> Path:
     except OSError as e:
         reason = e.strerror or type(e).__name__
         raise UsageError(f"cannot write to output folder {str(folder)!r}: {reason}") from None
+    finally:
+        for d in created:  # deepest first
+            try:
+                d.rmdir()
+            except OSError:
+                break
     return folder
 
 

@@ -65,12 +65,17 @@ def test_demo_to_proc_fails_in_well_under_5_seconds(capsys):
     assert time.perf_counter() - t0 < 5.0
 
 
-def test_a_writable_output_folder_is_created_and_left_clean(monkeypatch, tmp_path):
+def test_a_writable_output_folder_is_probed_and_left_as_it_was(monkeypatch, tmp_path):
+    """The probe creates the folder and a file, then removes both: a mistake found later
+    (e.g. by the command's own checks) leaves nothing behind."""
     ran = []
     monkeypatch.setitem(cli.COMMANDS, "grid", lambda args: ran.append(args.out) or 0)
     out = tmp_path / "new" / "folder"
     assert cli.main(["grid", "--quick", "--out", str(out)]) == 0
-    assert ran == [str(out)] and out.is_dir() and list(out.iterdir()) == []
+    assert ran == [str(out)] and list(tmp_path.iterdir()) == []
+    out.mkdir(parents=True)
+    assert cli.main(["grid", "--quick", "--out", str(out)]) == 0
+    assert out.is_dir() and list(out.iterdir()) == []
 
 
 @pytest.mark.parametrize("how", ["env", "flag"])

@@ -283,7 +283,7 @@ def _run_cli(argv: list[str]) -> int:
         ["cull", "--scene", "clutter", "--method", "queries", "--resolution", "0x10"],
         ["cull", "--scene", "atlantis", "--method", "queries"],
         ["cull", "--scene", "castle", "--method", "queries"],
-        ["cull", "--method", "queries"],
+        ["cull", "--scene", "clutter", "--method", "portals"],
         ["nonsense"],
     ],
 )
