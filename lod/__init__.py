@@ -10,6 +10,7 @@ import importlib
 
 _EXPORTS = {
     "build_chain": "lod.chain",
+    "load_mesh": "lod.chain",
     "LodChain": "lod.chain",
     "Level": "lod.chain",
     "ProgressiveMesh": "lod.progressive",
