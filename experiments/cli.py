@@ -108,8 +108,6 @@ def _installed(extra: str) -> bool:
 
 def _named_methods(args: argparse.Namespace) -> list[str]:
     """The culling methods a command will run, from its options (``all`` expanded)."""
-    import soc
-
     if args.command == "cull":
         return [args.method]
     if args.command == "state-sorting":
@@ -125,7 +123,11 @@ def _named_methods(args: argparse.Namespace) -> list[str]:
             from experiments.sweep import DEFAULT_METHODS
 
             return list(DEFAULT_METHODS)
-        return soc.method_names() if list(args.methods) == ["all"] else list(args.methods)
+        if list(args.methods) == ["all"]:
+            import soc
+
+            return soc.method_names()
+        return list(args.methods)
     return []
 
 
