@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from soc.camera import _resolution
@@ -218,79 +219,307 @@ def occluder_primitives(scene, ids: np.ndarray | None = None) -> OccluderPrimiti
 
 
 def _shader(name: str) -> str:
-    """Source of ``soc/shaders/<name>.glsl`` (the context's program cache takes no geometry
-    shaders, so this program is built and released here)."""
+    """Source of ``soc/shaders/<name>.glsl`` (built and released here, outside the context's
+    program cache, which caches by name for the whole process)."""
     from importlib import resources
 
     return resources.files("soc.shaders").joinpath(f"{name}.glsl").read_text()
 
 
+# Upward allowance added to every written depth bound: float32 rounding of the vertex depths
+# and of llvmpipe's depth interpolation between them (a few ulps of depths <= 1).
+DEPTH_ROUNDING = 4e-7
+
+# Most triangles an eroded polygon is drawn as: clipped to the near plane and the guard band a
+# primitive has <= 8 vertices, eroded inside the viewport rectangle <= 12, a fan of 10; a quad
+# that must be split makes two.
+_MAX_TRIANGLES = 20
+
+
+@numba.njit(cache=True)
+def _clip4(poly, n, p0, p1, p2, p3, out):
+    """Sutherland-Hodgman of the clip-space polygon ``poly[:n]`` (rows x y z w) against
+    ``p · v >= 0`` into ``out``; returns its vertex count."""
+    m = 0
+    for i in range(n):
+        j = (i + 1) % n
+        da = p0 * poly[i, 0] + p1 * poly[i, 1] + p2 * poly[i, 2] + p3 * poly[i, 3]
+        db = p0 * poly[j, 0] + p1 * poly[j, 1] + p2 * poly[j, 2] + p3 * poly[j, 3]
+        if da >= 0.0:
+            out[m] = poly[i]
+            m += 1
+        if (da >= 0.0) != (db >= 0.0):
+            f = da / (da - db)
+            for k in range(4):
+                out[m, k] = poly[i, k] + (poly[j, k] - poly[i, k]) * f
+            m += 1
+    return m
+
+
+@numba.njit(cache=True)
+def _clip2(poly, n, a, b, c, out):
+    """Sutherland-Hodgman of the 2D polygon ``poly[:n]`` against ``a x + b y + c >= 0`` into
+    ``out``; returns its vertex count."""
+    m = 0
+    for i in range(n):
+        j = (i + 1) % n
+        dp = a * poly[i, 0] + b * poly[i, 1] + c
+        dq = a * poly[j, 0] + b * poly[j, 1] + c
+        if dp >= 0.0:
+            out[m, 0], out[m, 1] = poly[i, 0], poly[i, 1]
+            m += 1
+        if (dp >= 0.0) != (dq >= 0.0):
+            f = dp / (dp - dq)
+            out[m, 0] = poly[i, 0] + (poly[j, 0] - poly[i, 0]) * f
+            out[m, 1] = poly[i, 1] + (poly[j, 1] - poly[i, 1]) * f
+            m += 1
+    return m
+
+
+@numba.njit(cache=True)
+def _det3(a0, a1, a2, b0, b1, b2, c0, c1, c2):
+    return a0 * (b1 * c2 - b2 * c1) - a1 * (b0 * c2 - b2 * c0) + a2 * (b0 * c1 - b1 * c0)
+
+
+@numba.njit(cache=True)
+def _depth_plane(a, b, c, half):
+    """Window depth ``(alpha, beta, gamma)`` over centred texel coordinates of the plane of
+    clip-space vertices a b c (4D null vector: no division by w), raised by half a texel's
+    slope in x and y (its max over a texel square centred there); ok=False when edge-on."""
+    n0 = _det3(a[1], a[2], a[3], b[1], b[2], b[3], c[1], c[2], c[3])
+    n1 = -_det3(a[0], a[2], a[3], b[0], b[2], b[3], c[0], c[2], c[3])
+    n2 = _det3(a[0], a[1], a[3], b[0], b[1], b[3], c[0], c[1], c[3])
+    n3 = -_det3(a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2])
+    if abs(n2) <= 1e-9 * np.sqrt(n0 * n0 + n1 * n1 + n2 * n2 + n3 * n3):
+        return False, 0.0, 0.0, 0.0
+    alpha = -0.5 * n0 / (n2 * half[0])
+    beta = -0.5 * n1 / (n2 * half[1])
+    gamma = 0.5 - 0.5 * n3 / n2 + 0.5 * (abs(alpha) + abs(beta))
+    return True, alpha, beta, gamma
+
+
+@numba.njit(cache=True)
+def _erode(poly, n, planes, n_planes, half, margin, guard, out, t, tmp, e, f):
+    """Clip the clip-space polygon ``poly[:n]`` (near plane, then the guard band), erode it by
+    a texel square (+ ``margin``) inside the viewport, and append it to ``out`` from triangle
+    ``t`` as a fan with the depth bound at each vertex; returns the new triangle count.
+    ``poly`` is overwritten; ``tmp`` (16, 4), ``e`` and ``f`` (24, 2) are scratch."""
+    n = _clip4(poly, n, 0.0, 0.0, 1.0, 1.0, tmp)
+    if n < 3:
+        return t
+    zmax = 0.0
+    for i in range(n):
+        zmax = max(zmax, 0.5 * tmp[i, 2] / tmp[i, 3] + 0.5)
+    n = _clip4(tmp, n, -1.0, 0.0, 0.0, guard, poly)
+    n = _clip4(poly, n, 1.0, 0.0, 0.0, guard, tmp)
+    n = _clip4(tmp, n, 0.0, -1.0, 0.0, guard, poly)
+    n = _clip4(poly, n, 0.0, 1.0, 0.0, guard, tmp)
+    if n < 3:
+        return t
+    area = 0.0
+    for i in range(n):  # project into f (window coordinates relative to the centre)
+        f[i, 0] = tmp[i, 0] / tmp[i, 3] * half[0]
+        f[i, 1] = tmp[i, 1] / tmp[i, 3] * half[1]
+    for i in range(n):
+        j = (i + 1) % n
+        area += f[i, 0] * f[j, 1] - f[i, 1] * f[j, 0]
+    if abs(area) < 1e-9:
+        return t
+    s = 1.0 if area > 0.0 else -1.0
+    for i in range(n):  # inward edge lines, moved in by half a texel in x and y + margin
+        j = (i + 1) % n
+        a = -s * (f[j, 1] - f[i, 1])
+        b = s * (f[j, 0] - f[i, 0])
+        tmp[i, 0], tmp[i, 1] = a, b
+        tmp[i, 2] = -(a * f[i, 0] + b * f[i, 1]) - (0.5 + margin) * (abs(a) + abs(b))
+    # The viewport rectangle cut by every moved edge: the texel centres inside are exactly
+    # those of the texels whose square fits inside the polygon.
+    e[0, 0], e[0, 1] = -half[0], -half[1]
+    e[1, 0], e[1, 1] = half[0], -half[1]
+    e[2, 0], e[2, 1] = half[0], half[1]
+    e[3, 0], e[3, 1] = -half[0], half[1]
+    m = 4
+    for i in range(n):
+        m = _clip2(e, m, tmp[i, 0], tmp[i, 1], tmp[i, 2], f)
+        if m < 3:
+            return t
+        e[:m] = f[:m]
+    for k in range(1, m - 1):
+        for v in range(3):
+            idx = 0 if v == 0 else k + v - 1
+            x, y = e[idx, 0], e[idx, 1]
+            z = zmax
+            if n_planes > 0:
+                z = -1e30
+                for pl in range(n_planes):
+                    z = max(z, planes[pl, 0] * x + planes[pl, 1] * y + planes[pl, 2])
+            out[t, v, 0] = x / half[0]
+            out[t, v, 1] = y / half[1]
+            out[t, v, 2] = 2.0 * (z + DEPTH_ROUNDING) - 1.0
+        t += 1
+    return t
+
+
+@numba.njit(cache=True)
+def _orient(a, b, c):
+    """Sine-like orientation of the projected triangle a b c (w > 0)."""
+    det = _det3(a[0], a[1], a[3], b[0], b[1], b[3], c[0], c[1], c[3])
+    na = np.sqrt(a[0] ** 2 + a[1] ** 2 + a[3] ** 2)
+    nb = np.sqrt(b[0] ** 2 + b[1] ** 2 + b[3] ** 2)
+    nc = np.sqrt(c[0] ** 2 + c[1] ** 2 + c[3] ** 2)
+    return det / max(na * nb * nc, 1e-300)
+
+
+@numba.njit(cache=True)
+def _setup(clip, prims, rows, half, margin, guard, out):
+    """Every primitive ``prims[rows]`` as eroded, depth-bounded triangles in ``out``
+    (T, 3, 3) NDC; returns T."""
+    t = 0
+    w2 = 2.0 * half
+    planes = np.empty((2, 4))
+    poly = np.empty((16, 4))
+    v = np.empty((4, 4))
+    tmp = np.empty((16, 4))
+    e = np.empty((24, 2))
+    f = np.empty((24, 2))
+    for r in rows:
+        quad = prims[r, 3] != prims[r, 2]
+        nv = 4 if quad else 3
+        front = True
+        lo0 = lo1 = 1e300
+        hi0 = hi1 = -1e300
+        for k in range(nv):
+            c = clip[prims[r, k]]
+            front = front and c[2] + c[3] > 0.0
+            if front:
+                x = (c[0] / c[3] + 1.0) * half[0]
+                y = (c[1] / c[3] + 1.0) * half[1]
+                lo0, hi0, lo1, hi1 = min(lo0, x), max(hi0, x), min(lo1, y), max(hi1, y)
+        if front:  # too small for a whole texel, or off screen: drop before any clipping
+            x0, x1 = max(np.ceil(lo0 + margin), 0.0), min(np.floor(hi0 - margin), w2[0])
+            y0, y1 = max(np.ceil(lo1 + margin), 0.0), min(np.floor(hi1 - margin), w2[1])
+            if x1 - x0 < 1.0 or y1 - y0 < 1.0:
+                continue
+        for k in range(4):
+            v[k] = clip[prims[r, k]]
+        if quad and front:
+            o0 = _orient(v[0], v[1], v[2])
+            o1 = _orient(v[1], v[2], v[3])
+            o2 = _orient(v[2], v[3], v[0])
+            o3 = _orient(v[3], v[0], v[1])
+            lo, hi = min(min(o0, o1), min(o2, o3)), max(max(o0, o1), max(o2, o3))
+            if lo > 1e-9 or hi < -1e-9:  # strictly convex: the union is this polygon
+                ok0, a0, b0, c0 = _depth_plane(v[0], v[1], v[2], half)
+                ok1, a1, b1, c1 = _depth_plane(v[0], v[2], v[3], half)
+                np_ = 2 if ok0 and ok1 else 0
+                planes[0] = (a0, b0, c0, 1.0)
+                planes[1] = (a1, b1, c1, 1.0)
+                poly[:4] = v
+                t = _erode(poly, 4, planes, np_, half, margin, guard, out, t, tmp, e, f)
+                continue
+        for tri in range(2 if quad else 1):
+            a, b, c = (v[0], v[1], v[2]) if tri == 0 else (v[0], v[2], v[3])
+            ok, al, be, ga = _depth_plane(a, b, c, half)
+            planes[0] = (al, be, ga, 1.0)
+            poly[0], poly[1], poly[2] = a, b, c
+            t = _erode(poly, 3, planes, 1 if ok else 0, half, margin, guard, out, t, tmp, e, f)
+    return t
+
+
 class ConservativeOccluders:
     """Inner-conservative occluder raster at any resolution (Hasselgren, Akenine-Möller &
-    Ohlsson, GPU Gems 2 ch. 42, the underestimating variant; one geometry shader).
+    Ohlsson, "Conservative Rasterization", GPU Gems 2 ch. 42, the underestimating variant).
 
-    :meth:`render` writes a texel of the target only when one primitive (a triangle, or a flat
-    quad of two, see :func:`occluder_primitives`) covers the texel's whole square, and writes
-    a depth no nearer than that primitive's farthest point over the square. Hence every texel
-    holds a depth >= the occluder depth that an ordinary render at *any* finer resolution has
-    at every pixel centre inside the texel (1.0 where no primitive covers it), and a max
-    pyramid built on it answers box tests conservatively for the display resolution
-    (:meth:`soc.hiz_gpu.HizTest.classify` with ``display``). Triangles crossing the near plane
-    are clipped to it first (the kept part's vertices bound the depth).
+    Stages of :meth:`render`:
+
+    1. :func:`_setup` (numba, float64) — per primitive (a triangle, or a flat quad of two, see
+       :func:`occluder_primitives`): drop it when its screen box cannot hold a whole texel;
+       clip it to the near plane and a guard band; *erode* it — move every edge inwards by
+       half a texel in x and y plus :data:`CONSERVATIVE_MARGIN` (the Minkowski difference with
+       the texel square), inside the viewport rectangle — so that a texel centre lies inside
+       the eroded polygon exactly when the texel's whole square lies inside the primitive; give
+       every eroded vertex the depth bound ``plane + half a texel's slope in x and in y``
+       (the max of the plane over a texel square centred there; the max of both planes for a
+       quad, whose linear interpolation is >= that convex function; the farthest near-clipped
+       vertex for an edge-on primitive).
+    2. One ordinary depth-only draw of the eroded triangles (``occluder_conservative.vert``),
+       depth test ``<``.
+
+    So a texel of the target is written only when one primitive covers its whole square, with
+    a depth no nearer than that primitive's farthest point over the square: every texel holds
+    a depth >= the occluder depth that an ordinary render at *any* finer resolution has at
+    every pixel centre inside the texel (1.0 where no primitive covers it), and a max pyramid
+    built on it answers box tests conservatively for the display resolution
+    (:meth:`soc.hiz_gpu.HizTest.classify` with ``display``). A geometry shader doing the same
+    per fragment ran 5-10x slower than the whole ordinary prepass on llvmpipe (even when it
+    emitted nothing), a compute-shader setup with a per-fragment edge test 10x.
+
+    Parameters
+    ----------
+    geometry : SceneGeometry
+    ids : (K,) int, optional
+        The objects it can draw; default every occluder.
     """
 
     def __init__(self, geometry, ids: np.ndarray | None = None):
-        import moderngl
-
         self.geometry = geometry
         self.glctx = geometry.glctx
         self.primitives = occluder_primitives(geometry.scene, ids)
+        # Only the vertices the primitives use are transformed each frame.
+        used, compact = np.unique(self.primitives.indices, return_inverse=True)
+        self._positions = geometry.scene.vertices[used].astype(np.float64)
+        self._prims = compact.reshape(-1, 4).astype(np.int64)
+        self._out = np.empty((0, 3, 3), np.float32)
         ctx = self.glctx.ctx
         self.program = ctx.program(
             vertex_shader=_shader("occluder_conservative.vert"),
-            geometry_shader=_shader("occluder_conservative.geom"),
-            fragment_shader=_shader("occluder_conservative.frag"),
+            fragment_shader=_shader("depth_only.frag"),
         )
-        self.program["margin"].value = CONSERVATIVE_MARGIN
-        self.program["guard"].value = CONSERVATIVE_GUARD
-        indices = self.primitives.indices
-        self.ibo = ctx.buffer(indices if len(indices) else np.zeros((1, 4), np.uint32))
-        self.vao = ctx.vertex_array(
-            self.program,
-            [(geometry.vbo, "3f", "in_position")],
-            index_buffer=self.ibo,
-            index_element_size=4,
-        )
-        self.indirect = ctx.buffer(reserve=20 * max(len(self.primitives.count), 1), dynamic=True)
-        self._mode = moderngl.LINES_ADJACENCY
+        self.vbo = ctx.buffer(reserve=1024, dynamic=True)
+        self.vao = ctx.vertex_array(self.program, [(self.vbo, "3f", "in_position")])
 
     def release(self) -> None:
-        self.vao.release()
-        self.program.release()
-        self.ibo.release()
-        self.indirect.release()
+        for obj in (self.vao, self.program, self.vbo):
+            obj.release()
+
+    def _primitive_rows(self, ids: np.ndarray) -> np.ndarray:
+        """(P,) int64 rows of :attr:`primitives` ``.indices`` of the objects ``ids``."""
+        count = self.primitives.count[ids]
+        before = np.cumsum(count) - count
+        return np.repeat(self.primitives.first[ids] - before, count) + np.arange(int(count.sum()))
+
+    def setup(self, camera, resolution: tuple[int, int], occluder_ids: np.ndarray) -> np.ndarray:
+        """Stage 1: (T, 3, 3) float32 NDC triangles (x, y, depth bound) of the eroded
+        primitives of ``occluder_ids`` for a target of ``resolution`` texels."""
+        ids = np.asarray(occluder_ids, np.int64)
+        rows = self._primitive_rows(ids)
+        need = _MAX_TRIANGLES * len(rows)
+        if len(self._out) < need:
+            self._out = np.empty((max(need, 2 * len(self._out)), 3, 3), np.float32)
+        m = np.asarray(camera.view_proj, np.float64)
+        clip = self._positions @ m[:3, :3].T + m[:3, 3]
+        clip = np.ascontiguousarray(np.column_stack([clip, self._positions @ m[3, :3] + m[3, 3]]))
+        half = np.array([0.5 * resolution[0], 0.5 * resolution[1]])
+        t = _setup(
+            clip, self._prims, rows, half, CONSERVATIVE_MARGIN, CONSERVATIVE_GUARD, self._out
+        )
+        return self._out[:t]
 
     def render(self, target: DepthTarget, camera, occluder_ids: np.ndarray) -> int:
         """Clear ``target`` and write the conservative depth of the occluders ``occluder_ids``
         (K,) seen by ``camera`` (its projection; ``target`` may have any resolution).
-        Returns the number of draw commands issued."""
+        Returns the number of eroded triangles drawn."""
         import moderngl
 
-        ids = np.asarray(occluder_ids, np.int64)
-        ids = ids[self.primitives.count[ids] > 0]
+        tris = self.setup(camera, target.resolution, occluder_ids)
         target.clear()
-        if len(ids) == 0:
+        if len(tris) == 0:
             return 0
-        glctx = self.glctx
-        glctx.ctx.enable_only(moderngl.DEPTH_TEST)
-        glctx.ctx.depth_func = "<"
-        w, h = target.resolution
-        self.program["view_proj"].write(camera.gl_bytes(camera.view_proj))
-        self.program["half_size"].value = (0.5 * w, 0.5 * h)
-        cmds = np.zeros((len(ids), 5), np.uint32)
-        cmds[:, 0] = 4 * self.primitives.count[ids]
-        cmds[:, 1] = 1
-        cmds[:, 2] = 4 * self.primitives.first[ids]
-        self.indirect.write(cmds)
-        self.vao.render_indirect(self.indirect, mode=self._mode, count=len(ids))
-        return len(ids)
+        if tris.nbytes > self.vbo.size:
+            self.vbo.orphan(2 * tris.nbytes)
+        self.vbo.write(tris)
+        ctx = self.glctx.ctx
+        ctx.enable_only(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        self.vao.render(moderngl.TRIANGLES, vertices=3 * len(tris))
+        return len(tris)

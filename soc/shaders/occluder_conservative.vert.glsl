@@ -1,11 +1,8 @@
 #version 450
-// Inner-conservative occluder raster, stage 1: occluder vertices to clip space. The geometry
-// shader sees each primitive whole (lines_adjacency: a quad, or a triangle with its last
-// vertex repeated) and does the rest (soc/depth_prepass.py).
+// Inner-conservative occluder raster: the eroded polygons soc/depth_prepass.py set up, already
+// in NDC with their depth bound as z; drawn depth-only (depth_only.frag).
 in vec3 in_position;
 
-uniform mat4 view_proj;
-
 void main() {
-    gl_Position = view_proj * vec4(in_position, 1.0);
+    gl_Position = vec4(in_position, 1.0);
 }
