@@ -81,19 +81,39 @@ def build_pyramid(depth: np.ndarray) -> Pyramid:
     depth = np.asarray(depth, dtype=np.float32)
     if depth.ndim != 2 or depth.size == 0:
         raise ValueError(f"depth must be a non-empty (H, W) array, got shape {depth.shape}")
-    levels = [np.ascontiguousarray(depth)]
-    while levels[-1].shape[0] > 1 or levels[-1].shape[1] > 1:
-        d = levels[-1]
-        h, w = d.shape
-        if h % 2 or w % 2:  # pad the last row / column with far
-            d = np.pad(d, ((0, h % 2), (0, w % 2)), constant_values=1.0)
-        h2, w2 = d.shape[0] // 2, d.shape[1] // 2
-        levels.append(np.ascontiguousarray(d.reshape(h2, 2, w2, 2).max(axis=(1, 3))))
-    heights = np.array([lv.shape[0] for lv in levels], np.int64)
-    widths = np.array([lv.shape[1] for lv in levels], np.int64)
+    h, w = depth.shape
+    heights, widths = [h], [w]
+    while heights[-1] > 1 or widths[-1] > 1:
+        heights.append(-(-heights[-1] // 2))
+        widths.append(-(-widths[-1] // 2))
+    heights, widths = np.array(heights, np.int64), np.array(widths, np.int64)
     sizes = heights * widths
     offsets = np.cumsum(sizes) - sizes
-    return Pyramid(np.concatenate([lv.reshape(-1) for lv in levels]), offsets, widths, heights)
+    flat = np.empty(int(sizes.sum()), np.float32)
+    flat[: h * w] = depth.reshape(-1)
+    _reduce_levels(flat, offsets, widths, heights)
+    return Pyramid(flat, offsets, widths, heights)
+
+
+@numba.njit(cache=True)
+def _reduce_levels(flat, offsets, widths, heights):  # pragma: no cover - compiled
+    """Fill levels 1.. of ``flat`` from level 0: each texel the max of its 2×2 texels below,
+    with texels past an odd edge counting as 1.0 (far)."""
+    for k in range(1, len(offsets)):
+        src, dst = offsets[k - 1], offsets[k]
+        sw, sh, dw, dh = widths[k - 1], heights[k - 1], widths[k], heights[k]
+        for y in range(dh):
+            y0, y1 = 2 * y, 2 * y + 1
+            for x in range(dw):
+                x0, x1 = 2 * x, 2 * x + 1
+                v = flat[src + y0 * sw + x0]
+                v = max(v, flat[src + y0 * sw + x1] if x1 < sw else np.float32(1.0))
+                if y1 < sh:
+                    v = max(v, flat[src + y1 * sw + x0])
+                    v = max(v, flat[src + y1 * sw + x1] if x1 < sw else np.float32(1.0))
+                else:
+                    v = max(v, np.float32(1.0))
+                flat[dst + y * dw + x] = v
 
 
 def project_boxes(
@@ -127,39 +147,51 @@ def project_boxes(
     return rect, z_near
 
 
+@numba.njit(cache=True, inline="always")
+def project_box(box, m, am, width, height):  # pragma: no cover - compiled
+    """One box of :func:`project_boxes` (numba, for kernels that test boxes one by one).
+
+    ``box`` (2, 3) float, ``m`` the (4, 4) float64 view-projection and ``am`` its absolute
+    values; returns ``x0, y0, x1, y1, z_near`` as :func:`project_boxes` does.
+    """
+    xlo, ylo, zlo = np.inf, np.inf, np.inf
+    xhi, yhi = -np.inf, -np.inf
+    for corner in range(8):
+        p0 = np.float64(box[corner & 1, 0])
+        p1 = np.float64(box[(corner >> 1) & 1, 1])
+        p2 = np.float64(box[(corner >> 2) & 1, 2])
+        w = m[3, 0] * p0 + m[3, 1] * p1 + m[3, 2] * p2 + m[3, 3]
+        inv = 1.0 / w
+        nx = (m[0, 0] * p0 + m[0, 1] * p1 + m[0, 2] * p2 + m[0, 3]) * inv
+        ny = (m[1, 0] * p0 + m[1, 1] * p1 + m[1, 2] * p2 + m[1, 3]) * inv
+        nz = (m[2, 0] * p0 + m[2, 1] * p1 + m[2, 2] * p2 + m[2, 3]) * inv
+        a0, a1, a2 = abs(p0), abs(p1), abs(p2)
+        mag = (am[2, 0] + am[3, 0]) * a0 + (am[2, 1] + am[3, 1]) * a1
+        mag += (am[2, 2] + am[3, 2]) * a2 + am[2, 3] + am[3, 3]
+        err = FLOAT32_TRANSFORM_ULPS * _U32 * mag * (1.0 + abs(nz))
+        x = (nx + 1.0) * (0.5 * width)
+        y = (ny + 1.0) * (0.5 * height)
+        z = 0.5 * (nz + 1.0) - 0.5 * err * inv
+        xlo, xhi = min(xlo, x), max(xhi, x)
+        ylo, yhi = min(ylo, y), max(yhi, y)
+        zlo = min(zlo, z)
+    # Pixel centres c + 0.5 in [lo - margin, hi + margin], clamped to [0, n - 1].
+    x0 = max(0, math.ceil(min(max(xlo - RECT_MARGIN_PX - 0.5, -1.0), width)))
+    y0 = max(0, math.ceil(min(max(ylo - RECT_MARGIN_PX - 0.5, -1.0), height)))
+    x1 = min(width - 1, math.floor(min(max(xhi + RECT_MARGIN_PX - 0.5, -1.0), width)))
+    y1 = min(height - 1, math.floor(min(max(yhi + RECT_MARGIN_PX - 0.5, -1.0), height)))
+    return x0, y0, x1, y1, zlo - 0.5 * QUERY_DEPTH_BIAS_NDC
+
+
 @numba.njit(cache=True)
 def _project_boxes(boxes, m, width, height, rect, z_near):  # pragma: no cover - compiled
-    """:func:`project_boxes`' loop over boxes and their 8 corners (numba: numpy's BLAS takes
-    ~60 ms for the thin (8K, 3) @ (3, 4) product of 24,000 boxes on this machine, this ~1 ms)."""
+    """:func:`project_boxes`' loop over boxes (numba: numpy's BLAS takes ~60 ms for the thin
+    (8K, 3) @ (3, 4) product of 24,000 boxes on this machine, this ~1 ms)."""
     am = np.abs(m)
     for k in range(len(boxes)):
-        xlo, ylo, zlo = np.inf, np.inf, np.inf
-        xhi, yhi = -np.inf, -np.inf
-        for corner in range(8):
-            p0 = boxes[k, corner & 1, 0]
-            p1 = boxes[k, (corner >> 1) & 1, 1]
-            p2 = boxes[k, (corner >> 2) & 1, 2]
-            w = m[3, 0] * p0 + m[3, 1] * p1 + m[3, 2] * p2 + m[3, 3]
-            inv = 1.0 / w
-            nx = (m[0, 0] * p0 + m[0, 1] * p1 + m[0, 2] * p2 + m[0, 3]) * inv
-            ny = (m[1, 0] * p0 + m[1, 1] * p1 + m[1, 2] * p2 + m[1, 3]) * inv
-            nz = (m[2, 0] * p0 + m[2, 1] * p1 + m[2, 2] * p2 + m[2, 3]) * inv
-            a0, a1, a2 = abs(p0), abs(p1), abs(p2)
-            mag = (am[2, 0] + am[3, 0]) * a0 + (am[2, 1] + am[3, 1]) * a1
-            mag += (am[2, 2] + am[3, 2]) * a2 + am[2, 3] + am[3, 3]
-            err = FLOAT32_TRANSFORM_ULPS * _U32 * mag * (1.0 + abs(nz))
-            x = (nx + 1.0) * (0.5 * width)
-            y = (ny + 1.0) * (0.5 * height)
-            z = 0.5 * (nz + 1.0) - 0.5 * err * inv
-            xlo, xhi = min(xlo, x), max(xhi, x)
-            ylo, yhi = min(ylo, y), max(yhi, y)
-            zlo = min(zlo, z)
-        z_near[k] = zlo - 0.5 * QUERY_DEPTH_BIAS_NDC
-        # Pixel centres c + 0.5 in [lo - margin, hi + margin], clamped to [0, n - 1].
-        rect[k, 0] = max(0, math.ceil(min(max(xlo - RECT_MARGIN_PX - 0.5, -1.0), width)))
-        rect[k, 1] = max(0, math.ceil(min(max(ylo - RECT_MARGIN_PX - 0.5, -1.0), height)))
-        rect[k, 2] = min(width - 1, math.floor(min(max(xhi + RECT_MARGIN_PX - 0.5, -1.0), width)))
-        rect[k, 3] = min(height - 1, math.floor(min(max(yhi + RECT_MARGIN_PX - 0.5, -1.0), height)))
+        x0, y0, x1, y1, z = project_box(boxes[k], m, am, width, height)
+        rect[k, 0], rect[k, 1], rect[k, 2], rect[k, 3] = x0, y0, x1, y1
+        z_near[k] = z
 
 
 def boxes_visible(pyramid: Pyramid, rect: np.ndarray, z_near: np.ndarray) -> np.ndarray:

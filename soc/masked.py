@@ -74,6 +74,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from soc.constants import FRUSTUM_SLACK, NEAR_PLANE_MARGIN
+from soc.hiz_cpu import project_box
 from soc.software_raster import (
     EDGE_MARGIN_PX,
     RECORD,
@@ -310,9 +312,35 @@ def rasterize(records, count, width, height, mask, z0, z1, margin):  # pragma: n
 # -- stage 4: test boxes ---------------------------------------------------------------------
 
 
+@numba.njit(cache=True, inline="always")
+def _test_rect(x0, y0, x1, y1, zn, mask, z0, z1):  # pragma: no cover - compiled
+    """:data:`OCCLUDED` or :data:`VISIBLE` for one inclusive pixel-centre rectangle at nearest
+    depth ``zn``: visible as soon as one subtile under it does not hide it."""
+    if x0 > x1 or y0 > y1:
+        return OCCLUDED  # no pixel centre: nothing of the box can be seen
+    for sr in range(y0 // SUB_H, y1 // SUB_H + 1):
+        r0 = max(y0 - sr * SUB_H, 0)
+        r1 = min(y1 - sr * SUB_H, SUB_H - 1)
+        row_bits = ((1 << (8 * (r1 - r0 + 1))) - 1) << (8 * r0)
+        ty, s_row = sr // 2, (sr % 2) * 4
+        for sc in range(x0 // SUB_W, x1 // SUB_W + 1):
+            tx, s = sc // 4, s_row + sc % 4
+            if zn > z0[ty, tx, s]:
+                continue  # behind the reference layer
+            m = np.int64(mask[ty, tx, s])
+            if m != 0 and zn > z1[ty, tx, s]:
+                c0 = max(x0 - sc * SUB_W, 0)
+                c1 = min(x1 - sc * SUB_W, SUB_W - 1)
+                cols = (((1 << (c1 - c0 + 1)) - 1) << c0) * 0x01010101  # the column bits, 4 rows
+                if (row_bits & cols & ~m) == 0:
+                    continue  # the rectangle's pixels here are all in the working mask
+            return VISIBLE
+    return OCCLUDED
+
+
 @numba.njit(cache=True)
 def test_boxes(rects, z_near, mask, z0, z1, out):  # pragma: no cover - compiled
-    """Test boxes against the masked buffer.
+    """Test boxes given as rectangles against the masked buffer.
 
     Parameters
     ----------
@@ -324,46 +352,80 @@ def test_boxes(rects, z_near, mask, z0, z1, out):  # pragma: no cover - compiled
     mask, z0, z1 : the buffer (:func:`rasterize`).
     out : (K,) uint8
         Receives :data:`OCCLUDED` or :data:`VISIBLE`.
+    """
+    for k in range(len(rects)):
+        out[k] = _test_rect(
+            rects[k, 0], rects[k, 1], rects[k, 2], rects[k, 3], z_near[k], mask, z0, z1
+        )
+
+
+@numba.njit(cache=True)
+def classify_objects(
+    aabbs, boxes, planes, frustum, forward, eye_depth, min_depth, m, width, height,
+    mask, z0, z1, out,
+):  # pragma: no cover - compiled  # fmt: skip
+    """Frustum test, near-plane test, projection and masked test of every object, in one pass.
+
+    Parameters
+    ----------
+    aabbs : (N, 2, 3) float
+        The objects' AABBs (frustum test, as :func:`soc.frustum.aabbs_in_frustum`: outside
+        when the box's most-inside corner is behind a plane by more than ``FRUSTUM_SLACK``
+        relative to its size).
+    boxes : (N, 2, 3) float32
+        The grown query boxes (near-plane test as :func:`soc.queries.near_plane_straddlers`,
+        projection as :func:`soc.hiz_cpu.project_boxes`).
+    planes : (6, 4) float64
+        Inward frustum planes; ``frustum`` False skips the frustum test.
+    forward : (3,) float64
+        The view direction; ``eye_depth`` its dot product with the eye, ``min_depth`` the view
+        depth below which a box counts as crossing the near plane (kept untested).
+    m : (4, 4) float64
+        View-projection; ``width``, ``height`` the buffer resolution.
+    mask, z0, z1 : the buffer (:func:`rasterize`).
+    out : (N,) uint8
+        Receives :data:`VIEW_CULLED`, :data:`VISIBLE` or :data:`OCCLUDED`.
 
     Returns
     -------
     int
-        Subtiles read.
+        Boxes tested against the buffer.
     """
-    reads = 0
-    for k in range(len(rects)):
-        x0, y0, x1, y1 = rects[k, 0], rects[k, 1], rects[k, 2], rects[k, 3]
-        zn = z_near[k]
-        result = OCCLUDED
-        if x0 <= x1 and y0 <= y1:
-            for sr in range(y0 // SUB_H, y1 // SUB_H + 1):
-                r0 = max(y0 - sr * SUB_H, 0)
-                r1 = min(y1 - sr * SUB_H, SUB_H - 1)
-                row_bits = 0
-                for r in range(r0, r1 + 1):
-                    row_bits |= 0xFF << (8 * r)
-                ty, s_row = sr // 2, (sr % 2) * 4
-                for sc in range(x0 // SUB_W, x1 // SUB_W + 1):
-                    reads += 1
-                    tx, s = sc // 4, s_row + sc % 4
-                    if zn > z0[ty, tx, s]:
-                        continue  # behind the reference layer
-                    m = np.int64(mask[ty, tx, s])
-                    if m != 0 and zn > z1[ty, tx, s]:
-                        c0 = max(x0 - sc * SUB_W, 0)
-                        c1 = min(x1 - sc * SUB_W, SUB_W - 1)
-                        col_bits = ((1 << (c1 - c0 + 1)) - 1) << c0
-                        cols = 0
-                        for r in range(SUB_H):
-                            cols |= col_bits << (8 * r)
-                        if (row_bits & cols & ~m) == 0:
-                            continue  # the rectangle's pixels here are all in the working mask
-                    result = VISIBLE
+    am = np.abs(m)
+    tested = 0
+    for k in range(len(aabbs)):
+        if frustum:
+            hx = 0.5 * (np.float64(aabbs[k, 1, 0]) - np.float64(aabbs[k, 0, 0]))
+            hy = 0.5 * (np.float64(aabbs[k, 1, 1]) - np.float64(aabbs[k, 0, 1]))
+            hz = 0.5 * (np.float64(aabbs[k, 1, 2]) - np.float64(aabbs[k, 0, 2]))
+            cx = 0.5 * (np.float64(aabbs[k, 0, 0]) + np.float64(aabbs[k, 1, 0]))
+            cy = 0.5 * (np.float64(aabbs[k, 0, 1]) + np.float64(aabbs[k, 1, 1]))
+            cz = 0.5 * (np.float64(aabbs[k, 0, 2]) + np.float64(aabbs[k, 1, 2]))
+            slack = FRUSTUM_SLACK * (1.0 + math.sqrt(hx * hx + hy * hy + hz * hz))
+            outside = False
+            for p in range(6):
+                nx, ny, nz = planes[p, 0], planes[p, 1], planes[p, 2]
+                dist = cx * nx + cy * ny + cz * nz + planes[p, 3]
+                dist += hx * abs(nx) + hy * abs(ny) + hz * abs(nz)
+                if dist < -slack:
+                    outside = True
                     break
-                if result == VISIBLE:
-                    break
-        out[k] = result
-    return reads
+            if outside:
+                out[k] = VIEW_CULLED
+                continue
+        lo, hi = boxes[k, 0], boxes[k, 1]
+        nearest = 0.0
+        for i in range(3):
+            c = 0.5 * (np.float64(lo[i]) + np.float64(hi[i]))
+            h = 0.5 * (np.float64(hi[i]) - np.float64(lo[i]))
+            nearest += c * forward[i] - h * abs(forward[i])
+        if nearest - eye_depth < min_depth:
+            out[k] = VISIBLE  # crosses the near plane: kept untested
+            continue
+        x0, y0, x1, y1, zn = project_box(boxes[k], m, am, width, height)
+        out[k] = _test_rect(x0, y0, x1, y1, zn, mask, z0, z1)
+        tested += 1
+    return tested
 
 
 # -- the buffer ------------------------------------------------------------------------------
@@ -392,6 +454,7 @@ class MaskedBuffer:
         self.aabbs = np.asarray(scene.aabbs, np.float64)[self.ids]
         self._records = np.empty((2 * len(self.triangles), RECORD))
         self.last_stats = MaskedStats(0, 0, 0)
+        self.last_tested = 0  # boxes tested by the last classify_objects
         _warm_up()
 
     def clear(self) -> None:
@@ -444,6 +507,41 @@ class MaskedBuffer:
         test_boxes(rects, z_near, self.mask, self.z0, self.z1, out)
         return out
 
+    def classify_objects(self, camera, aabbs, boxes, frustum: bool = True) -> np.ndarray:
+        """Codes of every object of a scene against the frame drawn by :meth:`render`.
+
+        Parameters
+        ----------
+        camera : Camera
+            The frame's camera (its ``view_proj``, ``planes``, ``view``, ``eye``, ``near``).
+        aabbs : (N, 2, 3) float
+            The objects' AABBs, for the frustum test (``frustum=False`` skips it).
+        boxes : (N, 2, 3) float32
+            Their grown query boxes, for the near-plane test and the masked test.
+
+        Returns
+        -------
+        codes : (N,) uint8
+            :data:`VIEW_CULLED` outside the frustum; :data:`VISIBLE` for boxes that cross the
+            near plane (``near · (1 + NEAR_PLANE_MARGIN)``) or that some subtile does not
+            hide; else :data:`OCCLUDED`.
+        """
+        aabbs = np.asarray(aabbs)
+        boxes = np.asarray(boxes, np.float32)
+        if aabbs.shape != boxes.shape or aabbs.shape[1:] != (2, 3):
+            raise ValueError(f"aabbs {aabbs.shape} and boxes {boxes.shape} must both be (N, 2, 3)")
+        forward = -np.asarray(camera.view, np.float64)[2, :3]
+        out = np.empty(len(aabbs), np.uint8)
+        width, height = self.resolution
+        self.last_tested = classify_objects(
+            aabbs, boxes, np.ascontiguousarray(camera.planes, np.float64), bool(frustum),
+            forward, float(forward @ np.asarray(camera.eye, np.float64)),
+            camera.near * (1.0 + NEAR_PLANE_MARGIN),
+            np.ascontiguousarray(camera.view_proj, np.float64), width, height,
+            self.mask, self.z0, self.z1, out,
+        )  # fmt: skip
+        return out
+
     def depth(self) -> np.ndarray:
         """(H, W) float64 per-pixel conservative occluder depth (``z1`` where the working mask
         holds the pixel, else ``z0``), row 0 at the bottom; a debug read-back for tests."""
@@ -479,4 +577,11 @@ def _warm_up() -> None:
     z0, z1 = np.full((1, 1, 8), Z_FAR), np.full((1, 1, 8), Z_EMPTY)
     rasterize(rec, n, 8, 4, mask, z0, z1, EDGE_MARGIN_PX)
     test_boxes(np.zeros((1, 4), np.int64), np.zeros(1), mask, z0, z1, np.empty(1, np.uint8))
+    aabbs = np.zeros((1, 2, 3), np.float32)
+    aabbs.flags.writeable = False  # as Scene.aabbs (numba compiles read-only arrays apart)
+    planes = np.zeros((6, 4))
+    classify_objects(
+        aabbs, np.zeros((1, 2, 3), np.float32), planes, True, np.array([0.0, 0.0, -1.0]), 0.0,
+        0.1, vp, 8, 4, mask, z0, z1, np.empty(1, np.uint8),
+    )  # fmt: skip
     _WARM = True

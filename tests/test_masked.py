@@ -309,3 +309,30 @@ def test_codes_and_counts_agree_and_it_culls_about_what_hiz_gpu_culls(clutter_sc
             hiz_culled += hiz.cull(cam).stats.occlusion_culled
     assert hiz_culled > 0
     assert masked_culled >= 0.8 * hiz_culled, (masked_culled, hiz_culled)
+
+
+def test_one_pass_frustum_and_near_tests_match_the_numpy_ones(clutter_scenes):
+    """classify_objects' frustum codes are exactly soc.frustum.aabbs_in_frustum's outside set,
+    and boxes crossing the near plane (soc.queries.near_plane_straddlers) are kept untested."""
+    from soc.frustum import aabbs_in_frustum
+    from soc.gl.geometry import grown_aabbs
+    from soc.queries import near_plane_straddlers
+
+    scene = clutter_scenes[3]
+    diagonal = float(np.linalg.norm(scene.aabbs[:, 1].max(0) - scene.aabbs[:, 0].min(0)))
+    boxes = grown_aabbs(scene.aabbs, diagonal)
+    buf = MaskedBuffer(scene, (160, 96))
+    outside_total = near_total = 0
+    for cam in random_cameras(scene, 30, seed=12, width=160, height=96, inside_fraction=0.3):
+        buf.render(cam)
+        codes = buf.classify_objects(cam, scene.aabbs, boxes)
+        outside = ~aabbs_in_frustum(scene.aabbs, cam.planes)
+        np.testing.assert_array_equal(codes == VIEW_CULLED, outside)
+        near = near_plane_straddlers(boxes, cam) & ~outside
+        assert (codes[near] == VISIBLE).all()
+        assert buf.last_tested == int((~outside & ~near).sum())
+        no_frustum = buf.classify_objects(cam, scene.aabbs, boxes, frustum=False)
+        assert not (no_frustum == VIEW_CULLED).any()
+        outside_total += int(outside.sum())
+        near_total += int(near.sum())
+    assert outside_total > 0 and near_total > 0

@@ -1,23 +1,24 @@
 """``masked``: Masked Software Occlusion Culling on the CPU (Hasselgren, Andersson &
 Akenine-Möller, HPG 2016; Intel's MaskedOcclusionCulling), see :mod:`soc.masked`.
 
-Per frame: frustum test of every AABB (numpy) → the occluders inside, sorted front to back
-(``sort``) → their triangles transformed, near-clipped and set up (``transform``, numba) →
-rasterized into 32×8 tiles of coverage masks with two depth layers per 8×4 subtile
-(``raster``, numba) → every box inside the frustum that lies beyond the near plane projected
-to a pixel rectangle and nearest depth and scanned over the subtiles under it (``test``,
-numpy + numba). Boxes crossing the near plane are kept untested. No GL at all. Conservative at
-the resolution it runs at (the proof is in :mod:`soc.masked`). The first frame in a fresh
-environment compiles the kernels (numba, cached on disk); building the method warms them up.
+Per frame: frustum test of the occluders' AABBs (``frustum``, numpy) → those occluders sorted
+front to back (``sort``) → their triangles transformed, near-clipped and set up
+(``transform``, numba) → rasterized into 32×8 tiles of coverage masks with two depth layers
+per 8×4 subtile (``raster``, numba) → one pass over every object (``test``, numba): frustum
+test of its AABB, near-plane test of its grown box (crossing boxes are kept untested),
+projection to a pixel rectangle and nearest depth, and the scan of the subtiles under it. No
+GL at all. Conservative at the resolution it runs at (the proof is in :mod:`soc.masked`).
+The first frame in a fresh environment compiles the kernels (numba, cached on disk); building
+the method warms them up.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from soc.frustum import aabbs_in_frustum
 from soc.masked import OCCLUDED, VIEW_CULLED, VISIBLE, MaskedBuffer
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
-from soc.queries import near_plane_straddlers
 
 
 @register
@@ -44,27 +45,26 @@ class MaskedCulling(CullMethod):
         self.last_codes = np.zeros(len(self.scene), np.uint8)
 
     def cull(self, camera) -> MethodOutput:
-        from soc.hiz_cpu import project_boxes
-
         timings: dict[str, float] = {}
-        in_frustum = frustum_stage(self, camera, timings)
-        frustum_culled = int((~in_frustum).sum())
-        codes = np.where(in_frustum, VISIBLE, VIEW_CULLED).astype(np.uint8)
         if not self.config.depth_test:
-            self.last_codes = codes
-            return MethodOutput(in_frustum, frustum_culled, 0, timings)
+            in_frustum = frustum_stage(self, camera, timings)
+            self.last_codes = np.where(in_frustum, VISIBLE, VIEW_CULLED).astype(np.uint8)
+            return MethodOutput(in_frustum, int((~in_frustum).sum()), 0, timings)
 
         buffer = self.buffer
-        buffer.render(camera, in_frustum[buffer.ids], timings)
+        # Only the occluders are frustum-tested here; every object's test runs in the test pass.
+        with stage(timings, "frustum"):
+            occluders_in = np.ones(len(buffer.ids), bool)
+            if self.config.frustum:
+                occluders_in = aabbs_in_frustum(buffer.aabbs, camera.planes)
+        buffer.render(camera, occluders_in, timings)
         with stage(timings, "test"):
-            candidates = np.flatnonzero(in_frustum)
-            boxes = self.geometry.query_boxes[candidates]
-            at_near = near_plane_straddlers(boxes, camera)
-            tested = candidates[~at_near]
-            rect, z_near = project_boxes(boxes[~at_near], camera.view_proj, self.resolution)
-            codes[tested] = buffer.classify(rect, z_near)
+            codes = buffer.classify_objects(
+                camera, self.scene.aabbs, self.geometry.query_boxes, self.config.frustum
+            )
         self.last_codes = codes
-        return MethodOutput(codes == VISIBLE, frustum_culled, len(tested), timings)
+        outside = int((codes == VIEW_CULLED).sum())
+        return MethodOutput(codes == VISIBLE, outside, buffer.last_tested, timings)
 
 
 __all__ = ["OCCLUDED", "VIEW_CULLED", "VISIBLE", "MaskedCulling"]
