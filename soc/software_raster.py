@@ -360,8 +360,7 @@ def rasterize_records(records, count, depth, margin):  # pragma: no cover - comp
             zrow = b * yc + c
             for i in range(i0, i1 + 1):
                 z = np.float32(min(a * (i + 0.5) + zrow, zvmax))
-                if z < depth[j, i]:
-                    depth[j, i] = z
+                depth[j, i] = min(depth[j, i], z)  # branch-free: vectorizes
             fragments += max(0, i1 - i0 + 1)
     return fragments
 
