@@ -42,11 +42,14 @@ Stages of a frame, in the order :class:`MaskedBuffer` runs them:
    - when the mask is full, the working layer becomes the reference layer:
      ``z0 = z1``, the mask is cleared and ``z1`` emptied.
 
-4. :func:`test_boxes` (numba) — per box, its rectangle of pixel centres and nearest depth (as
-   :func:`soc.hiz_cpu.project_boxes`), scanned subtile by subtile: a subtile hides the box when
-   the box's nearest depth is behind its ``z0``, or behind ``z1`` when every pixel of the
-   rectangle inside the subtile is in the working mask. The box is :data:`OCCLUDED` only when
-   every subtile under it hides it (the library's ``TestRect``, refined by the mask).
+4. :func:`classify_objects` (numba, one pass over the scene) — per object the frustum test of
+   its AABB (:data:`VIEW_CULLED`), the near-plane test of its grown box (crossing boxes are
+   kept), then its rectangle of pixel centres and nearest depth (as
+   :func:`soc.hiz_cpu.project_boxes`; :func:`test_boxes` starts here for given rectangles),
+   scanned subtile by subtile: a subtile hides the box when the box's nearest depth is behind
+   its ``z0``, or behind ``z1`` when every pixel of the rectangle inside the subtile is in the
+   working mask. The box is :data:`OCCLUDED` only when every subtile under it hides it (the
+   library's ``TestRect``, refined by the mask).
 
 Why it is conservative (an object the oracle's GL render sees is never reported hidden):
 ``z0`` only ever takes the value ``far`` or a ``z1`` whose mask had become full; ``z1`` is the
