@@ -158,3 +158,24 @@ def test_it_culls_and_draws_the_frame_of_everything(small_market, early_pass):
     reference.release()
     # Frame 1 draws frame 0's frustum set early; from frame 2 on the sets are occlusion culled.
     assert kept[0] > 0.5 * n and max(kept[2:]) < 0.3 * n, kept
+
+
+def test_stage_switches(clutter_scenes):
+    """CullConfig: without the depth test the kept set is the frustum test's; without the
+    frustum test the method is still conservative (boxes outside go through the HiZ test)."""
+    from soc.frustum import aabbs_in_frustum
+    from soc.methods import CullConfig
+
+    scene = clutter_scenes[3]
+    res = (320, 192)
+    cams = random_cameras(scene, 8, seed=21, width=res[0], height=res[1])
+    with soc.Culler(scene, "hiz-2phase", res, config=CullConfig(depth_test=False)) as c:
+        for cam in cams:
+            assert np.array_equal(c.cull(cam).visible, aabbs_in_frustum(scene.aabbs, cam))
+    with (
+        soc.Oracle(scene) as oracle,
+        soc.Culler(scene, "hiz-2phase", res, config=CullConfig(frustum=False)) as c,
+    ):
+        for i, cam in enumerate(cams):
+            truth = oracle.visible(cam, res)
+            assert_conservative(c.cull(cam).visible, truth, f"no frustum test, camera {i}")
