@@ -63,6 +63,7 @@ from experiments.common import (
     write_csv,
     write_json,
 )
+from soc.gl.context import uses_gl
 
 DOCUMENT = {
     "source": "seed 004 (004_bba2ab22d18288ab.txt), section 5, Figs. 3-5",
@@ -153,6 +154,7 @@ def make_setup(
 # -- the oracle of a pool scene ----------------------------------------------------------------
 
 
+@uses_gl
 class AliveOracle:
     """Exact visibility of the *alive* objects of a pool scene: :class:`soc.Oracle`'s id render
     (full meshes, depth test, no back-face culling) restricted to ``ids``.

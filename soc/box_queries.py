@@ -20,6 +20,7 @@ import numpy as np
 
 from soc.constants import QUERY_DEPTH_BIAS_NDC
 from soc.gl import raw as glraw
+from soc.gl.context import uses_gl
 from soc.gl.geometry import BOX_TRIANGLES, grown_aabbs
 from soc.queries import near_plane_straddlers
 
@@ -72,6 +73,7 @@ class QueryBatch:
         return self._results
 
 
+@uses_gl
 class BoxQueries:
     """Issue occlusion queries for arbitrary world-space boxes on a GL context.
 

@@ -53,6 +53,7 @@ import numpy as np
 
 from soc.camera import Camera
 from soc.constants import FRUSTUM_SLACK, NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
+from soc.gl.context import uses_gl
 from soc.gl.geometry import grown_aabbs
 
 # Pixels added on every side of a box's projected rectangle before choosing the pixel centres
@@ -125,6 +126,7 @@ def atlas_layout(sizes: list[tuple[int, int]]) -> tuple[list[tuple[int, int]], t
     return corners, (width, max(y, sizes[3][1]))
 
 
+@uses_gl
 class DepthPyramid:
     """Max-depth pyramid of a ``resolution = (W, H)`` depth texture, built on the GPU.
 
@@ -245,6 +247,7 @@ class DepthPyramid:
         return atlas[y : y + h, x : x + w].copy()
 
 
+@uses_gl
 class HizTest:
     """Test many world-space boxes against a :class:`DepthPyramid` in one compute dispatch.
 

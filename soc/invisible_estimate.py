@@ -39,6 +39,7 @@ import numpy as np
 from soc.box_queries import BoxQueries
 from soc.depth_prepass import DepthTarget, render_occluders
 from soc.frustum import aabbs_in_frustum
+from soc.gl.context import uses_gl
 
 # Table 2's budgets (nodes checked), also the default sweep.
 TABLE2_NODES_CHECKED = (10, 20, 30, 100, 300, 1000, 2000, 10000)
@@ -78,6 +79,7 @@ class InvisibleEstimate:
     ms_prepass: float
 
 
+@uses_gl
 class InvisibleEstimator:
     """Estimates invisible objects of an :class:`~soc.octree.Octree` over an uploaded scene.
 

@@ -47,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from soc.frustum import aabbs_in_frustum, as_aabbs
+from soc.gl.context import uses_gl
 
 DEFAULT_MAX_DEPTH = 8
 # Objects per leaf before it splits: one multi-draw call per node should draw many objects,
@@ -630,6 +631,7 @@ class Octree:
         return full[aabbs_in_frustum(self._bounds[full], camera.planes)]
 
 
+@uses_gl
 class NodeBuffers:
     """GL copies of an :class:`Octree`'s per-node command arrays, and drawing by node.
 
@@ -815,6 +817,7 @@ class NodeBuffers:
         return np.frombuffer(raw, np.uint32).reshape(k, 5)
 
 
+@uses_gl
 class ObjectCommands:
     """Mode 1's single command buffer for comparison: the commands of the given objects
     gathered and uploaded every frame (T_buf(S)), drawn with one multi-draw call."""
@@ -847,6 +850,7 @@ class ObjectCommands:
         return self._count
 
 
+@uses_gl
 def outline_boxes(
     renderer, camera, boxes, color=(1.0, 0.0, 0.0, 1.0), *, depth_test: bool = True
 ) -> None:
