@@ -6,7 +6,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 # Every extra (pyproject.toml): the test suite exercises all of them.
-EXTRAS ?= test,fit,sweep,viz,notebooks,cpu
+EXTRAS ?= test,fit,sweep,viz,notebooks
 comma := ,
 STAMP := $(VENV)/.installed-$(subst $(comma),-,$(EXTRAS))
 PYTEST_ARGS ?=
@@ -19,9 +19,9 @@ setup: gl $(STAMP)
 gl:
 	@bash scripts/ensure_gl.sh
 
-# Re-install only when the dependency list or the pins change. torch (the `cpu` extra) is
-# pinned through constraints.txt (the CPU build kept on this machine), never in pyproject's
-# bounds: constraints.txt is for `make` only, not for users of the wheel.
+# Re-install only when the dependency list or the pins change. constraints.txt (for `make`
+# only, not for users of the wheel) pins torch to the CPU build kept on this machine, should
+# anything pull it in: vislod itself no longer depends on it.
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --disable-pip-version-check -c constraints.txt -e '.[$(EXTRAS)]'

@@ -64,7 +64,6 @@ EXIT_ENVIRONMENT = 1
 
 # Extra (pyproject.toml's optional-dependencies) → modules whose presence says it is installed.
 EXTRA_MODULES: dict[str, tuple[str, ...]] = {
-    "cpu": ("torch",),
     "fit": ("jax", "optimistix"),
     "sweep": ("dask", "distributed"),
     "viz": ("pyvista", "vtk"),
@@ -89,7 +88,6 @@ COMMAND_EXTRAS: dict[str, tuple[str, ...]] = {
 }
 # Culling method → the extras it needs, for the commands that take methods.
 METHOD_EXTRAS: dict[str, tuple[str, ...]] = {
-    "hiz-cpu": ("cpu",),  # the software rasterizer is torch
     "adaptive": ("fit",),  # fits the query-count model with JAX/optimistix
 }
 # What a method that cannot cull an ordinary scene needs instead (soc.Culler's supports()).

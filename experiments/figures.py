@@ -182,7 +182,7 @@ FIGURES: tuple[Figure, ...] = (
         40.0,
         "seed000_abb*.png",
         module="experiments.seed000_demo",
-        extras=("cpu", "fit"),  # every method: hiz-cpu (torch), adaptive (JAX)
+        extras=("fit",),  # every method, the adaptive one (JAX) included
         uses_data=True,
         check=_seed000_scene,
     ),

@@ -30,7 +30,7 @@ except ImportError:  # Python 3.10
 ROOT = Path(__file__).resolve().parents[1]
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
 # Every module an extra provides: blocked in the subprocess tests ("installed without extras").
-BLOCKED = sorted({m for mods in cli.EXTRA_MODULES.values() for m in mods} | {"optax"})
+BLOCKED = sorted({m for mods in cli.EXTRA_MODULES.values() for m in mods} | {"optax", "torch"})
 
 
 def _subcommands() -> set[str]:
@@ -61,12 +61,15 @@ def test_method_extras_name_registered_methods():
     assert set(cli.METHOD_EXTRAS) <= set(soc.method_names())
 
 
-def test_torch_is_an_extra_and_the_core_has_what_the_core_imports():
-    core = " ".join(PYPROJECT["project"]["dependencies"])
-    assert "torch" not in core
+def test_torch_is_no_dependency_and_the_core_has_what_the_core_imports():
+    """hiz-cpu, torch's only user, is numba now: torch is neither core nor an extra."""
+    deps = PYPROJECT["project"]["dependencies"]
+    extras = PYPROJECT["project"]["optional-dependencies"]
+    every = [d for group in [deps, *extras.values()] for d in group]
+    assert not [d for d in every if d.startswith("torch")]
+    core = " ".join(deps)
     for name in ("numba", "pandas", "platformdirs", "scipy", "numpy", "moderngl"):
         assert name in core
-    assert "torch" in " ".join(PYPROJECT["project"]["optional-dependencies"]["cpu"])
 
 
 def _missing(monkeypatch, *modules: str) -> None:
@@ -94,15 +97,26 @@ def _never(args):
             "vislod sweep needs the 'sweep' extra: pip install 'vislod[sweep]'",
         ),
         (
-            ["cull", "--method", "hiz-cpu"],
-            ("torch",),
-            "vislod cull needs the 'cpu' extra (for method 'hiz-cpu'): pip install 'vislod[cpu]'",
+            ["cull", "--method", "adaptive"],
+            ("optimistix",),
+            "vislod cull needs the 'fit' extra (for method 'adaptive'): pip install 'vislod[fit]'",
+        ),
+        (
+            ["demo", "--methods", "all", "--quick"],
+            ("jax",),
+            "vislod demo needs the 'fit' extra (for method 'adaptive'): pip install 'vislod[fit]'",
+        ),
+        (
+            ["sweep", "--quick", "--methods", "adaptive"],
+            ("jax", "distributed"),
+            "vislod sweep needs the 'sweep' and 'fit' extras (for method 'adaptive'): "
+            "pip install 'vislod[sweep,fit]'",
         ),
         (
             ["figures", "--quick"],
-            ("torch", "jax"),
-            "vislod figures needs the 'cpu' and 'fit' extras (for figure 'seed000'): "
-            "pip install 'vislod[cpu,fit]'",
+            ("jax",),
+            "vislod figures needs the 'fit' extra (for figure 'seed000'): "
+            "pip install 'vislod[fit]'",
         ),
     ],
 )
@@ -120,9 +134,9 @@ def test_a_missing_extra_is_one_line_before_any_work(
 
 
 def test_figures_need_only_what_the_chosen_figures_need(monkeypatch):
-    _missing(monkeypatch, "torch", "jax")
+    _missing(monkeypatch, "jax")
     args = cli.build_parser().parse_args(["figures", "--only", "seed001-portals", "seed003"])
-    cli.check_extras(args)  # no error: neither needs torch or JAX
+    cli.check_extras(args)  # no error: neither needs JAX
     args = cli.build_parser().parse_args(["figures", "--list"])
     cli.check_extras(args)
 
@@ -148,10 +162,10 @@ def _without_extras(code: str, tmp_path: Path) -> subprocess.CompletedProcess:
 def test_the_core_imports_and_names_the_extras_without_any_extra(tmp_path):
     code = (
         "import soc, lod, experiments.cli as cli\n"
-        "assert 'hiz-cpu' in soc.method_names()\n"
+        "assert {'hiz-cpu', 'adaptive', 'masked'} <= set(soc.method_names())\n"
         "rc = [cli.main([c, '--quick', '--out', 'o']) for c in "
         "('seed004-model', 'seed004-adaptive', 'sweep')]\n"
-        "rc.append(cli.main(['cull', '--method', 'hiz-cpu']))\n"
+        "rc.append(cli.main(['cull', '--method', 'adaptive']))\n"
         "sys.exit(0 if rc == [2, 2, 2, 2] else 1)\n"
     )
     r = _without_extras(code, tmp_path)
@@ -159,7 +173,7 @@ def test_the_core_imports_and_names_the_extras_without_any_extra(tmp_path):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 4 and all(line.startswith("vislod: error: vislod ") for line in lines)
     assert "pip install 'vislod[fit]'" in lines[0] and "vislod[sweep]" in lines[2]
-    assert "vislod[cpu]" in lines[3]
+    assert "(for method 'adaptive')" in lines[3]
     assert not (tmp_path / "o").exists()
 
 
