@@ -86,6 +86,32 @@ _QUADS_UNIT = 1
 _ATLAS_UNIT = 2
 
 
+# Display resolutions one box test can judge at besides the pyramid's own (hiz_test.comp).
+MAX_DISPLAYS = 2
+
+
+def _displays(display, own: tuple[int, int]) -> list[tuple[int, int]]:
+    """``display`` of :meth:`HizTest.classify` as exactly :data:`MAX_DISPLAYS` resolutions
+    (padded with ``own``), each checked to be at least ``own`` in both axes."""
+    if display is None:
+        items: list = []
+    elif len(display) == 2 and all(np.isscalar(v) for v in display):
+        items = [display]
+    else:
+        items = list(display)
+    if len(items) > MAX_DISPLAYS:
+        raise ValueError(f"at most {MAX_DISPLAYS} display resolutions, got {display!r}")
+    out = []
+    for d in items:
+        d = (int(d[0]), int(d[1]))
+        if d[0] < own[0] or d[1] < own[1]:
+            raise ValueError(
+                f"display {d} must be at least the pyramid's resolution {own} in both axes"
+            )
+        out.append(d)
+    return out + [tuple(own)] * (MAX_DISPLAYS - len(out))
+
+
 def pyramid_sizes(resolution: tuple[int, int]) -> list[tuple[int, int]]:
     """(width, height) of every level, level 0 = ``resolution``, halving with ceil to 1×1."""
     w, h = int(resolution[0]), int(resolution[1])
@@ -292,7 +318,7 @@ class HizTest:
         boxes,
         ids: np.ndarray,
         frustum: bool = True,
-        display: tuple[int, int] | None = None,
+        display=None,
     ) -> np.ndarray:
         """Frustum and occlusion test of the boxes ``ids`` in one dispatch.
 
@@ -310,12 +336,13 @@ class HizTest:
             Rows of ``boxes`` to test.
         frustum : bool
             Report boxes entirely outside one frustum plane as :data:`OUTSIDE`.
-        display : (int, int), optional
-            The resolution (width, height) pixels visibility is judged at; default the
-            pyramid's. A coarser pyramid must hold, in each texel, a depth >= the occluder
-            depth at every display pixel centre inside it (as
+        display : (int, int) or list of up to two of them, optional
+            Resolutions (width, height) visibility is judged at, besides the pyramid's own
+            (the default, alone). A pyramid coarser than a display must hold, in each texel,
+            a depth >= the occluder depth at every display pixel centre inside it (as
             :class:`soc.depth_prepass.ConservativeOccluders` writes); the test then reads the
-            texels holding the display pixel centres the box may cover.
+            texels holding the pixel centres the box may cover at every one of these
+            resolutions.
 
         Returns
         -------
@@ -337,13 +364,8 @@ class HizTest:
         prog["level_info"].write(info.tobytes())
         prog["levels"].value = len(pyramid)
         prog["size"].value = pyramid.resolution
-        display = pyramid.resolution if display is None else (int(display[0]), int(display[1]))
-        if display[0] < pyramid.resolution[0] or display[1] < pyramid.resolution[1]:
-            raise ValueError(
-                f"display {display} must be at least the pyramid's resolution "
-                f"{pyramid.resolution} in both axes"
-            )
-        prog["display"].value = display
+        displays = _displays(display, pyramid.resolution)
+        prog["displays"].write(np.array(displays, np.int32).tobytes())
         prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
         prog["frustum"].value = bool(frustum)
         prog["planes"].write(np.ascontiguousarray(camera.planes, np.float32).tobytes())
@@ -368,7 +390,7 @@ class HizTest:
         camera: Camera,
         boxes,
         ids: np.ndarray,
-        display: tuple[int, int] | None = None,
+        display=None,
     ) -> np.ndarray:
         """Which of the boxes ``ids`` may be visible: (K,) bool, :meth:`classify` without the
         frustum test (False only for :data:`OCCLUDED`)."""
@@ -380,7 +402,7 @@ class HizTest:
         camera: Camera,
         boxes: np.ndarray,
         diagonal: float,
-        display: tuple[int, int] | None = None,
+        display=None,
     ) -> np.ndarray:
         """Like :meth:`test` for arbitrary boxes (packets, nodes, cells).
 

@@ -232,3 +232,21 @@ def test_the_coarse_ordinary_raster_is_what_culls_visible_objects(clutter_scenes
 def test_occluder_resolution_above_the_display_is_refused(clutter_scenes):
     with pytest.raises(ValueError, match=r"\(400, 200\)"):
         soc.Culler(clutter_scenes[0], "hiz-gpu", (320, 200), occluder_resolution=(400, 200))
+
+
+def test_coarse_culler_resolution_with_conservative_is_conservative_at_the_cameras(
+    clutter_scenes,
+):
+    """Seed 000's sweep form: the culler at the coarse depth resolution, cameras (and the
+    oracle) at the display; ``conservative=True`` makes it safe for the display."""
+    scene = clutter_scenes[2]
+    display = (333, 197)
+    oracle = soc.Oracle(scene)
+    try:
+        with soc.Culler(scene, "hiz-gpu", (97, 53), conservative=True) as culler:
+            for i, cam in enumerate(random_cameras(scene, 15, seed=21, width=333, height=197)):
+                truth = oracle.visible(cam, display)
+                missed = np.flatnonzero(truth & ~culler.cull(cam).visible)
+                assert len(missed) == 0, f"camera {i}: culled visible {missed[:10].tolist()}"
+    finally:
+        oracle.close()

@@ -8,6 +8,12 @@ pyramid level where its screen rectangle spans at most ``footprint``² texels �
 of a code per object (occluded / visible / outside the frustum, the last counted as frustum
 culled). No per-object draw, query or GL call. Conservative at the resolution it runs at (the
 proof is in :mod:`soc.hiz_gpu`).
+
+With ``conservative=True`` (or an ``occluder_resolution`` coarser than the culler's) the
+occluder depth is rasterized inner-conservatively (Hasselgren, Akenine-Möller & Ohlsson, GPU
+Gems 2 ch. 42; :class:`soc.depth_prepass.ConservativeOccluders`) at the coarse resolution, and
+the test reads the texels holding the finer resolution's pixel centres: conservative at the
+display resolution, at a fraction of the prepass cost.
 """
 
 from __future__ import annotations
@@ -31,16 +37,19 @@ class GpuHizCulling(CullMethod):
         Texels per axis read per box at its pyramid level, 2 (default) or 4 (one level finer:
         tighter, up to 16 reads).
     occluder_resolution : (int, int), optional
-        (width, height) of the occluder depth buffer and pyramid, at most the display
-        resolution in each axis; default the display resolution. Visibility is still judged
-        at the display resolution.
+        (width, height) of the occluder depth buffer and pyramid, at most the culler's
+        resolution in each axis; default the culler's resolution.
     conservative : bool, optional
         Rasterize the occluders inner-conservatively
-        (:class:`soc.depth_prepass.ConservativeOccluders`): no false cull at the display
-        resolution whatever ``occluder_resolution``. Default: exactly when
-        ``occluder_resolution`` differs from the display resolution (at the display
-        resolution the ordinary raster is exact and holds more). ``conservative=False`` at a
-        lower resolution is seed 000's coarse depth buffer, which culls visible objects.
+        (:class:`soc.depth_prepass.ConservativeOccluders`) and judge visibility at the
+        culler's resolution *and* at the camera's (when at least as fine as the occluder
+        depth in both axes): no false cull at either, whatever the occluder resolution. So
+        ``Culler(scene, "hiz-gpu", (480, 270), conservative=True)`` with 1920×1080 cameras
+        is seed 000's coarse depth buffer without its false culls.
+        Default: exactly when ``occluder_resolution`` is given and differs from the culler's
+        resolution (at equal resolutions the ordinary raster is exact and holds more).
+        ``conservative=False`` at a coarse resolution is seed 000's coarse depth buffer,
+        which culls visible objects of the finer display.
     """
 
     name = "hiz-gpu"
@@ -61,7 +70,7 @@ class GpuHizCulling(CullMethod):
         occ = display if occluder_resolution is None else _resolution(*occluder_resolution)
         if occ[0] > display[0] or occ[1] > display[1]:
             raise ValueError(
-                f"occluder_resolution {occ} must not exceed the display resolution {display}"
+                f"occluder_resolution {occ} must not exceed the culler's resolution {display}"
             )
         self.display = display
         self.conservative = occ != display if conservative is None else bool(conservative)
@@ -80,6 +89,17 @@ class GpuHizCulling(CullMethod):
         self.tester.release()
         self.pyramid.release()
         self.target.release()
+
+    def _display(self, camera) -> list[tuple[int, int]]:
+        """Resolutions the box test judges pixel centres at (besides the pyramid's own): the
+        culler's, and with the conservative raster the camera's too when it is at least as
+        fine in both axes."""
+        cam = (camera.width, camera.height)
+        out = [self.display]
+        if self.conservative and cam != self.display:
+            if cam[0] >= self.target.resolution[0] and cam[1] >= self.target.resolution[1]:
+                out.append(cam)
+        return out
 
     def cull(self, camera) -> MethodOutput:
         timings: dict[str, float] = {}
@@ -110,7 +130,7 @@ class GpuHizCulling(CullMethod):
                 self.geometry.boxes,
                 self._all,
                 frustum=self.config.frustum,
-                display=self.display,
+                display=self._display(camera),
             )
         outside = int((codes == OUTSIDE).sum())
         # Boxes tested against the pyramid: every box inside the frustum (one dispatch).

@@ -25,7 +25,7 @@ uniform float plane_rounding;  // relative float32 rounding allowance of the pla
 uniform mat4 view_proj;
 uniform uint count;         // K
 uniform ivec2 size;         // level 0, texels
-uniform ivec2 display;      // the resolution visibility is judged at (pixel centres), >= size
+uniform ivec2 displays[2]; // resolutions visibility is judged at (pixel centres), >= size
 uniform float min_w;        // corners with clip w below this: keep the box untested
 uniform float depth_bias;   // NDC units, pulls the box towards the camera
 uniform float pixel_margin; // pixels added around the projected rectangle
@@ -41,6 +41,17 @@ float texel(int k, int x, int y) {
         return max(max(q.x, q.y), max(q.z, q.w));
     }
     return texelFetch(atlas, level_info[k].xy + ivec2(x, y), 0).r;
+}
+
+// Pixels (i, j) of a `res` grid whose centres lie inside the NDC rectangle [rmin, rmax]
+// widened by `pixel_margin` pixels: [c0, c1] per axis; false when there is none.
+bool centres(vec2 rmin, vec2 rmax, ivec2 res, out ivec2 c0, out ivec2 c1) {
+    vec2 wsize = vec2(res);
+    vec2 pmin = clamp((rmin * 0.5 + 0.5) * wsize, vec2(-2.0), wsize + 2.0) - pixel_margin;
+    vec2 pmax = clamp((rmax * 0.5 + 0.5) * wsize, vec2(-2.0), wsize + 2.0) + pixel_margin;
+    c0 = max(ivec2(ceil(pmin - 0.5)), ivec2(0));
+    c1 = min(ivec2(floor(pmax - 0.5)), res - 1);
+    return all(lessThanEqual(c0, c1));
 }
 
 void main() {
@@ -84,23 +95,30 @@ void main() {
         return;
     }
 
-    // Display pixel centres (i + 0.5, j + 0.5) inside the rectangle, widened by the margin;
-    // the rectangle is clamped first so the float -> int conversion cannot overflow.
-    vec2 wsize = vec2(display);
-    vec2 pmin = clamp((rmin * 0.5 + 0.5) * wsize, vec2(-2.0), wsize + 2.0) - pixel_margin;
-    vec2 pmax = clamp((rmax * 0.5 + 0.5) * wsize, vec2(-2.0), wsize + 2.0) + pixel_margin;
-    ivec2 i0 = max(ivec2(ceil(pmin - 0.5)), ivec2(0));
-    ivec2 i1 = min(ivec2(floor(pmax - 0.5)), display - 1);
-    if (any(greaterThan(i0, i1))) {  // covers no pixel centre
+    // Pixel centres (i + 0.5, j + 0.5) inside the rectangle widened by the margin, at level
+    // 0's own resolution and at each display resolution; the level-0 texels holding any of
+    // them are read (their index ranges joined per axis). A display centre i lies in texel
+    // floor((i + 0.5) s), s = size / display; one within 1e-3 texel of a texel border takes
+    // both. At size == display both ranges are the same.
+    ivec2 p0, p1;
+    bool any_centre = centres(rmin, rmax, size, p0, p1);
+    if (!any_centre) {
+        p0 = size;
+        p1 = ivec2(-1);
+    }
+    for (int d = 0; d < 2; ++d) {
+        ivec2 i0, i1;
+        if (centres(rmin, rmax, displays[d], i0, i1)) {
+            vec2 s = vec2(size) / vec2(displays[d]);
+            p0 = min(p0, max(ivec2(floor((vec2(i0) + 0.5) * s - 1e-3)), ivec2(0)));
+            p1 = max(p1, min(ivec2(floor((vec2(i1) + 0.5) * s + 1e-3)), size - 1));
+            any_centre = true;
+        }
+    }
+    if (!any_centre) {  // covers no pixel centre at any of the resolutions
         visible[k] = 0u;
         return;
     }
-    // The level-0 texels holding those centres (centre i lies in texel floor((i + 0.5) s),
-    // s = size / display); a centre within 1e-3 texel of a texel border takes both texels.
-    // At size == display this is p = i.
-    vec2 s = vec2(size) / wsize;
-    ivec2 p0 = max(ivec2(floor((vec2(i0) + 0.5) * s - 1e-3)), ivec2(0));
-    ivec2 p1 = min(ivec2(floor((vec2(i1) + 0.5) * s + 1e-3)), size - 1);
 
     // The finest level at which the pixel range spans at most `footprint` texels per axis.
     int lvl = 0;
