@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.camera import Camera
+from soc.camera import Camera, _resolution
 from soc.constants import FRUSTUM_SLACK, NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
 from soc.gl.context import uses_gl
 from soc.gl.geometry import grown_aabbs
@@ -92,7 +92,7 @@ MAX_DISPLAYS = 2
 
 def _displays(display, own: tuple[int, int]) -> list[tuple[int, int]]:
     """``display`` of :meth:`HizTest.classify` as exactly :data:`MAX_DISPLAYS` resolutions
-    (padded with ``own``), each checked to be at least ``own`` in both axes."""
+    (padded with ``own``)."""
     if display is None:
         items: list = []
     elif len(display) == 2 and all(np.isscalar(v) for v in display):
@@ -101,14 +101,7 @@ def _displays(display, own: tuple[int, int]) -> list[tuple[int, int]]:
         items = list(display)
     if len(items) > MAX_DISPLAYS:
         raise ValueError(f"at most {MAX_DISPLAYS} display resolutions, got {display!r}")
-    out = []
-    for d in items:
-        d = (int(d[0]), int(d[1]))
-        if d[0] < own[0] or d[1] < own[1]:
-            raise ValueError(
-                f"display {d} must be at least the pyramid's resolution {own} in both axes"
-            )
-        out.append(d)
+    out = [_resolution(*d) for d in items]
     return out + [tuple(own)] * (MAX_DISPLAYS - len(out))
 
 
@@ -338,8 +331,8 @@ class HizTest:
             Report boxes entirely outside one frustum plane as :data:`OUTSIDE`.
         display : (int, int) or list of up to two of them, optional
             Resolutions (width, height) visibility is judged at, besides the pyramid's own
-            (the default, alone). A pyramid coarser than a display must hold, in each texel,
-            a depth >= the occluder depth at every display pixel centre inside it (as
+            (the default, alone). For a display other than its own the pyramid must hold, in
+            each texel, a depth >= the occluder depth at every point inside it (as
             :class:`soc.depth_prepass.ConservativeOccluders` writes); the test then reads the
             texels holding the pixel centres the box may cover at every one of these
             resolutions.

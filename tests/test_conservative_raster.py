@@ -234,16 +234,15 @@ def test_occluder_resolution_above_the_display_is_refused(clutter_scenes):
         soc.Culler(clutter_scenes[0], "hiz-gpu", (320, 200), occluder_resolution=(400, 200))
 
 
-def test_coarse_culler_resolution_with_conservative_is_conservative_at_the_cameras(
-    clutter_scenes,
-):
-    """Seed 000's sweep form: the culler at the coarse depth resolution, cameras (and the
-    oracle) at the display; ``conservative=True`` makes it safe for the display."""
+@pytest.mark.parametrize("depth", [(97, 53), (666, 394)])
+def test_culler_resolution_with_conservative_is_conservative_at_the_cameras(clutter_scenes, depth):
+    """Seed 000's sweep form: the culler at a coarser (or finer) depth resolution, cameras
+    (and the oracle) at the display; ``conservative=True`` makes it safe for the display."""
     scene = clutter_scenes[2]
     display = (333, 197)
     oracle = soc.Oracle(scene)
     try:
-        with soc.Culler(scene, "hiz-gpu", (97, 53), conservative=True) as culler:
+        with soc.Culler(scene, "hiz-gpu", depth, conservative=True) as culler:
             for i, cam in enumerate(random_cameras(scene, 15, seed=21, width=333, height=197)):
                 truth = oracle.visible(cam, display)
                 missed = np.flatnonzero(truth & ~culler.cull(cam).visible)

@@ -42,8 +42,8 @@ class GpuHizCulling(CullMethod):
     conservative : bool, optional
         Rasterize the occluders inner-conservatively
         (:class:`soc.depth_prepass.ConservativeOccluders`) and judge visibility at the
-        culler's resolution *and* at the camera's (when at least as fine as the occluder
-        depth in both axes): no false cull at either, whatever the occluder resolution. So
+        culler's resolution *and* at the camera's: no false cull at either, whatever the
+        occluder resolution. So
         ``Culler(scene, "hiz-gpu", (480, 270), conservative=True)`` with 1920×1080 cameras
         is seed 000's coarse depth buffer without its false culls.
         Default: exactly when ``occluder_resolution`` is given and differs from the culler's
@@ -92,14 +92,11 @@ class GpuHizCulling(CullMethod):
 
     def _display(self, camera) -> list[tuple[int, int]]:
         """Resolutions the box test judges pixel centres at (besides the pyramid's own): the
-        culler's, and with the conservative raster the camera's too when it is at least as
-        fine in both axes."""
+        culler's, and with the conservative raster the camera's too."""
         cam = (camera.width, camera.height)
-        out = [self.display]
         if self.conservative and cam != self.display:
-            if cam[0] >= self.target.resolution[0] and cam[1] >= self.target.resolution[1]:
-                out.append(cam)
-        return out
+            return [self.display, cam]
+        return [self.display]
 
     def cull(self, camera) -> MethodOutput:
         timings: dict[str, float] = {}
