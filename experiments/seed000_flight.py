@@ -38,6 +38,8 @@ class RunSpec:
         Stage switches (:class:`soc.CullConfig`), seed 000's Abb. 9.
     draw : bool
         Also draw the kept set at the display resolution and time it (Abb. 10 needs it).
+    options : tuple of (name, value)
+        Method options (:class:`soc.Culler` keywords), e.g. ``(("conservative", True),)``.
     """
 
     method: str
@@ -45,11 +47,13 @@ class RunSpec:
     frustum: bool = True
     depth_test: bool = True
     draw: bool = False
+    options: tuple = ()
 
     @property
     def key(self) -> tuple:
-        """Identity of the run (everything but ``draw``)."""
-        return (self.method, tuple(self.resolution), self.frustum, self.depth_test)
+        """Identity of the run (everything but ``draw``; ``options`` only when given)."""
+        key = (self.method, tuple(self.resolution), self.frustum, self.depth_test)
+        return key + (tuple(self.options),) if self.options else key
 
     @property
     def label(self) -> str:
@@ -57,8 +61,10 @@ class RunSpec:
         off = [
             n for n, on in (("frustum", self.frustum), ("depth test", self.depth_test)) if not on
         ]
-        return f"{self.method} {res_str(self.resolution)}" + (
-            f" [{', '.join(n + ' off' for n in off)}]" if off else ""
+        return (
+            f"{self.method} {res_str(self.resolution)}"
+            + (f" [{', '.join(n + ' off' for n in off)}]" if off else "")
+            + "".join(f" {k}={v}" for k, v in self.options)
         )
 
 
@@ -96,10 +102,15 @@ class FlightRuns:
     runs: dict[tuple, list[dict[str, Any]]] = field(default_factory=dict)
 
     def get(
-        self, method: str, resolution: Sequence[int], frustum: bool = True, depth_test: bool = True
+        self,
+        method: str,
+        resolution: Sequence[int],
+        frustum: bool = True,
+        depth_test: bool = True,
+        options: tuple = (),
     ) -> list[dict[str, Any]]:
         """The rows of one run; ``KeyError`` naming the run when it was not flown."""
-        key = (method, tuple(resolution), frustum, depth_test)
+        key = RunSpec(method, tuple(resolution), frustum, depth_test, options=options).key
         if key not in self.runs:
             raise KeyError(f"run {key} was not part of this flight; flown: {list(self.runs)}")
         return self.runs[key]
@@ -179,7 +190,11 @@ class FlightRun:
         self.spec = spec
         config = soc.CullConfig(frustum=spec.frustum, depth_test=spec.depth_test)
         self.culler = soc.Culler(
-            scene, method=spec.method, resolution=spec.resolution, config=config
+            scene,
+            method=spec.method,
+            resolution=spec.resolution,
+            config=config,
+            **dict(spec.options),
         )
         self.labels = {
             "run": spec.label,

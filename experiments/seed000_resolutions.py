@@ -5,6 +5,10 @@ resolutions (right, and the table of averages), and by every culling method at 1
 Beyond the document: every frame's false culls (objects visible in the exact id render at the
 display resolution but culled) and false keeps (hidden but kept). A depth buffer coarser than
 the display closes small gaps between occluders, which culls more — and culls visible objects.
+A second curve beside the document's method: ``hiz-gpu`` on an inner-conservative occluder
+depth at the same resolutions (Hasselgren, Akenine-Möller & Ohlsson, GPU Gems 2 ch. 42;
+:class:`soc.depth_prepass.ConservativeOccluders`), which culls less at coarse resolutions but
+never a visible object.
 """
 
 from __future__ import annotations
@@ -28,6 +32,10 @@ from experiments.common import (
 from experiments.seed000_flight import FlightRuns, RunSpec
 
 QUERY_METHOD = "queries"  # seed 000's "OGL" method
+# The second curve: conservative at the display whatever the depth resolution.
+CONSERVATIVE_METHOD = "hiz-gpu"
+CONSERVATIVE_OPTIONS = (("conservative", True),)
+CONSERVATIVE_COLUMNS = ("triangles_culled_pct", "false_culls", "false_keeps", "ms_cull")
 COLUMNS = (
     "triangles_culled_pct",
     "draw_calls",
@@ -48,8 +56,16 @@ def specs(setup: Setup, methods: list[str] | None = None) -> list[RunSpec]:
 
     methods = soc.method_names() if methods is None else list(methods)
     right = [RunSpec(QUERY_METHOD, r, draw=True) for r in setup.resolutions]
+    right += [
+        RunSpec(CONSERVATIVE_METHOD, r, draw=True, options=CONSERVATIVE_OPTIONS)
+        for r in setup.resolutions
+    ]
     left = [RunSpec(m, setup.display, draw=True) for m in methods]
     return right + left
+
+
+def _conservative_rows(runs: FlightRuns, r) -> list[dict[str, Any]]:
+    return runs.get(CONSERVATIVE_METHOD, r, options=CONSERVATIVE_OPTIONS)
 
 
 def summarize(runs: FlightRuns, setup: Setup) -> list[dict[str, Any]]:
@@ -58,7 +74,9 @@ def summarize(runs: FlightRuns, setup: Setup) -> list[dict[str, Any]]:
     Returns one dict per resolution with ``depth_resolution``, ``document_resolution`` (the
     document's column it lines up with, or ``""``), ``<quantity>`` (ours, mean) and
     ``doc_<quantity>`` for the four quantities of the document, plus our ``false_culls``,
-    ``false_keeps`` (means), ``frames_with_false_culls``, ``ms_cull`` and ``ms_draw`` (means).
+    ``false_keeps`` (means), ``frames_with_false_culls``, ``ms_cull`` and ``ms_draw`` (means),
+    and the conservative curve's ``conservative_<quantity>`` (means of
+    :data:`CONSERVATIVE_COLUMNS`).
     """
     out = []
     for r in setup.resolutions:
@@ -75,6 +93,9 @@ def summarize(runs: FlightRuns, setup: Setup) -> list[dict[str, Any]]:
             row[f"doc_{q}"] = d.get(q)
         row["frames_with_false_culls"] = sum(1 for x in rows if (x.get("false_culls") or 0) > 0)
         row["frames"] = len(rows)
+        cons = _conservative_rows(runs, r)
+        for q in CONSERVATIVE_COLUMNS:
+            row[f"conservative_{q}"] = mean(cons, q)
         out.append(row)
     return out
 
@@ -127,6 +148,9 @@ def format_summary(summary: list[dict[str, Any]], runs: FlightRuns) -> str:
     }
     for q, label in labels.items():
         rows.append([label] + [_pair(s[q], s.get(f"doc_{q}")) for s in summary])
+    for q in CONSERVATIVE_COLUMNS:
+        label = f"{CONSERVATIVE_METHOD} conservative: {labels.get(q, q)}"
+        rows.append([label] + [fmt(s[f"conservative_{q}"], 2) for s in summary])
     info = runs.scene
     title = (
         f"Abb. 8 — '{QUERY_METHOD}' method, averages over {runs.frames} frames, display "
@@ -230,6 +254,13 @@ def plot_right(runs: FlightRuns, setup: Setup, summary: list[dict[str, Any]]):
             fontsize=8,
             color="tab:blue",
         )
+    ax2.plot(
+        x,
+        [s["conservative_triangles_culled_pct"] for s in summary],
+        "^-",
+        color="tab:green",
+        label=f"{CONSERVATIVE_METHOD}, conservative occluder depth (0 false culls)",
+    )
     ideal = mean(runs.oracle, "triangles_culled_pct")
     ax2.axhline(ideal, color="k", ls="--", lw=1.2, label=f"oracle, ours (ideal): {ideal:.2f}")
     ax2.set_xticks(list(x), [s["depth_resolution"] for s in summary], rotation=30, fontsize=8)
@@ -242,6 +273,16 @@ def plot_right(runs: FlightRuns, setup: Setup, summary: list[dict[str, Any]]):
     ax2.legend(fontsize=8, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.22))
     ax2.grid(alpha=0.3)
 
+    cons = [_conservative_rows(runs, r) for r in setup.resolutions]
+    worst = [max((x["false_culls"] or 0) for x in frame) for frame in zip(*cons, strict=True)]
+    ax3.plot(
+        [x["frame"] for x in cons[0]],
+        worst,
+        color="tab:green",
+        ls="--",
+        lw=1.6,
+        label=f"{CONSERVATIVE_METHOD} conservative, worst resolution ({max(worst, default=0)})",
+    )
     ax3.set(
         title=f"false culls per frame (visible at {res_str(runs.display)} but culled)",
         xlabel="frame",
@@ -323,6 +364,7 @@ def write(
     summary = summarize(runs, setup)
     msum = methods_summary(runs, setup, methods)
     frames = [row for r in setup.resolutions for row in runs.get(QUERY_METHOD, r)]
+    frames += [row for r in setup.resolutions for row in _conservative_rows(runs, r)]
     frames += [row for m in methods for row in runs.get(m, setup.display)]
     files = [
         write_csv(out / "seed000_abb8_frames.csv", _unique_rows(frames) + runs.oracle),

@@ -12,6 +12,7 @@ import pytest
 import soc
 from experiments import cli, seed000_demo, seed000_pictures
 from experiments import seed000_document as doc
+from experiments import seed000_resolutions as resolutions
 from experiments.common import (
     UsageError,
     atomic_write,
@@ -324,3 +325,18 @@ def test_notebook_is_committed_without_outputs():
     for c in code:
         assert c["outputs"] == [] and c["execution_count"] is None
     assert "VISLOD_QUICK" in json.dumps(nb) or "env_quick" in json.dumps(nb)
+
+
+def test_abb8_conservative_curve_never_culls_a_visible_object(demo_run, setup):
+    """The second Abb. 8 curve (hiz-gpu on a conservative occluder depth) at every depth
+    resolution: no false culls at the display, and its columns are in the table."""
+    out, result = demo_run
+    for r in setup.resolutions:
+        rows = result["runs"].get(
+            resolutions.CONSERVATIVE_METHOD, r, options=resolutions.CONSERVATIVE_OPTIONS
+        )
+        assert len(rows) == FRAMES
+        assert all(x["false_culls"] == 0 for x in rows), res_str(r)
+    table = read_csv(out / "seed000_abb8_table.csv")
+    assert all(_num(t["conservative_false_culls"]) == 0 for t in table)
+    assert all(0 <= _num(t["conservative_triangles_culled_pct"]) <= 100 for t in table)
