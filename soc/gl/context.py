@@ -11,9 +11,11 @@ itself, so every public entry that touches GL runs inside :meth:`GLContext.curre
 the :func:`uses_gl` decorator): it saves the caller's EGL state (display, draw and read
 surfaces, context — possibly none), makes vislod's context current, and gives the caller's
 state back on return. Nested entries find vislod's context current and cost one EGL call.
+vislod's contexts live on a display of their own (Mesa's surfaceless platform), because VTK
+terminates the device display it shares with moderngl's EGL backend when a plot closes.
 
-llvmpipe's rasterizer thread count is fixed when Mesa's screen is created, i.e. by the first
-context of the process, so ``threads`` can be chosen only once per process.
+llvmpipe's rasterizer thread count is fixed when Mesa's screen is created, i.e. when vislod's
+display is first initialized, so ``threads`` can be chosen only once per process.
 """
 
 from __future__ import annotations
