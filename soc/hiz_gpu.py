@@ -65,6 +65,10 @@ HIZ_PIXEL_MARGIN = 1.0 / 32.0
 # or 4 (≤ 16 reads, one level finer, tighter for boxes that straddle texel borders).
 FOOTPRINTS = (2, 4)
 
+# Most refinement levels (:class:`HizTest` ``refine``): each level finer reads up to 4x more
+# texels per refined box; beyond 3 a box reads up to 1024.
+MAX_REFINE = 3
+
 # Compute work-group size of hiz_test.comp (must match its ``local_size``).
 TEST_GROUP = 64  # boxes
 
@@ -275,13 +279,20 @@ class HizTest:
     glctx : GLContext
     footprint : int
         Texels per axis read at the chosen level, one of :data:`FOOTPRINTS`.
+    refine : int
+        Levels a box that is not occluded at its level is re-read one level finer (up to
+        ``(2 footprint)²`` reads each); 0 (default) is the classic single read. Tighter
+        (a finer level's maxima are no larger), never looser, equally conservative.
     """
 
-    def __init__(self, glctx, footprint: int = 2):
+    def __init__(self, glctx, footprint: int = 2, refine: int = 0):
         if footprint not in FOOTPRINTS:
             raise ValueError(f"footprint must be one of {FOOTPRINTS}, got {footprint!r}")
+        if not (isinstance(refine, int | np.integer) and 0 <= refine <= MAX_REFINE):
+            raise ValueError(f"refine must be an integer in [0, {MAX_REFINE}], got {refine!r}")
         self.glctx = glctx
         self.footprint = footprint
+        self.refine = int(refine)
         self.program = glctx.compute("hiz_test.comp")
         self._ids = None  # (K,) uint32 candidate ids, grown on demand
         self._out = None  # (K,) uint32 results
@@ -369,6 +380,7 @@ class HizTest:
         prog["depth_bias"].value = QUERY_DEPTH_BIAS_NDC
         prog["pixel_margin"].value = HIZ_PIXEL_MARGIN
         prog["footprint"].value = self.footprint
+        prog["refine"].value = self.refine
         pyramid.bind(prog)
         boxes.bind_to_storage_buffer(0)
         self._ids.bind_to_storage_buffer(1)

@@ -196,10 +196,12 @@ def test_hiz_gpu_on_coarse_conservative_depth_never_culls_a_visible_object(
 
 def test_hiz_gpu_coarse_conservative_on_the_small_market(small_market):
     """Random and flight cameras over the market, occluder depth at 1/3 and 1/8 of the
-    display, footprints 2 and 4."""
+    display, footprints 2 (refined twice) and 4."""
     cams = random_cameras(small_market, 12, seed=4, width=333, height=197, inside_fraction=0.2)
-    for coarse, footprint in (((111, 66), 2), ((41, 25), 4)):
-        options = {"hiz-gpu": {"occluder_resolution": coarse, "footprint": footprint}}
+    for coarse, footprint, refine in (((111, 66), 2, 2), ((41, 25), 4, 0)):
+        options = {
+            "hiz-gpu": {"occluder_resolution": coarse, "footprint": footprint, "refine": refine}
+        }
         check_conservative(small_market, cams, (333, 197), ["hiz-gpu"], **options)
     cams = flight(small_market, frames=30, width=960, height=540)[::6]
     check_conservative(

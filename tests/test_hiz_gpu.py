@@ -87,6 +87,34 @@ def test_random_cameras_over_clutter_scenes(clutter_scenes, resolution):
     assert culled_something > 100  # the scenes really exercise culling
 
 
+@pytest.mark.parametrize(("footprint", "refine"), [(2, 1), (2, 3), (4, 2)])
+def test_refined_tests_over_clutter_scenes(clutter_scenes, footprint, refine):
+    """Re-reading visible boxes at finer levels stays conservative (3 scenes × 15 cameras at
+    an odd resolution) and keeps no more than the classic test on the same cameras."""
+    resolution = (333, 197)
+    options = {"footprint": footprint, "refine": refine}
+    oracle_kept = classic_kept = refined_kept = 0
+    for k, scene in enumerate(clutter_scenes[:3]):
+        cams = random_cameras(scene, 15, seed=300 + k, width=333, height=197)
+        check_conservative(scene, cams, resolution, HIZ, **{"hiz-gpu": options})
+        oracle = soc.Oracle(scene)
+        with (
+            soc.Culler(scene, "hiz-gpu", resolution, footprint=footprint) as classic,
+            soc.Culler(scene, "hiz-gpu", resolution, **options) as refined,
+        ):
+            for cam in cams:
+                oracle_kept += int(oracle.visible(cam, resolution).sum())
+                classic_kept += int(classic.cull(cam).visible.sum())
+                refined_kept += int(refined.cull(cam).visible.sum())
+        oracle.close()
+    assert oracle_kept <= refined_kept < classic_kept
+
+
+def test_refine_option_is_checked():
+    with pytest.raises(ValueError, match="refine"):
+        HizTest(default_context(), refine=-1)
+
+
 def test_clutter_at_a_large_odd_resolution(clutter_scenes):
     scene = clutter_scenes[1]
     cams = random_cameras(scene, 6, seed=31, width=2432, height=1440)

@@ -36,6 +36,9 @@ class GpuHizCulling(CullMethod):
     footprint : int
         Texels per axis read per box at its pyramid level, 2 (default) or 4 (one level finer:
         tighter, up to 16 reads).
+    refine : int
+        Levels a box not occluded at its level is re-read one level finer
+        (:class:`soc.hiz_gpu.HizTest`); 0 = the classic test.
     occluder_resolution : (int, int), optional
         (width, height) of the occluder depth buffer and pyramid, at most the culler's
         resolution in each axis; default the culler's resolution.
@@ -62,6 +65,7 @@ class GpuHizCulling(CullMethod):
         config,
         *,
         footprint: int = 2,
+        refine: int = 0,
         occluder_resolution: tuple[int, int] | None = None,
         conservative: bool | None = None,
     ):
@@ -76,7 +80,7 @@ class GpuHizCulling(CullMethod):
         self.conservative = occ != display if conservative is None else bool(conservative)
         self.target = DepthTarget(self.glctx, occ)
         self.pyramid = DepthPyramid(self.glctx, self.target.resolution)
-        self.tester = HizTest(self.glctx, footprint)
+        self.tester = HizTest(self.glctx, footprint, refine)
         self.raster = ConservativeOccluders(geometry) if self.conservative else None
         self._occluders = np.flatnonzero(self.scene.occluder)
         aabbs = self.scene.aabbs[self._occluders].astype(np.float64)

@@ -30,6 +30,7 @@ uniform float min_w;        // corners with clip w below this: keep the box unte
 uniform float depth_bias;   // NDC units, pulls the box towards the camera
 uniform float pixel_margin; // pixels added around the projected rectangle
 uniform int footprint;      // texels per axis at the chosen level (2 or 4)
+uniform int refine;         // levels a box still visible is re-read one finer (0 = classic)
 uniform int levels;         // number of levels including level 0
 uniform ivec4 level_info[24];  // per level: corner in `atlas` (levels 0-2: unused), width, height
 
@@ -41,6 +42,18 @@ float texel(int k, int x, int y) {
         return max(max(q.x, q.y), max(q.z, q.w));
     }
     return texelFetch(atlas, level_info[k].xy + ivec2(x, y), 0).r;
+}
+
+// Max of level `lvl` over the texels holding the level-0 texels [p0, p1].
+float range_max(int lvl, ivec2 p0, ivec2 p1) {
+    ivec2 t0 = p0 >> lvl, t1 = p1 >> lvl;
+    float m = 0.0;
+    for (int y = t0.y; y <= t1.y; ++y) {
+        for (int x = t0.x; x <= t1.x; ++x) {
+            m = max(m, texel(lvl, x, y));
+        }
+    }
+    return m;
 }
 
 // Pixels (i, j) of a `res` grid whose centres lie inside the NDC rectangle [rmin, rmax]
@@ -126,13 +139,14 @@ void main() {
            any(greaterThanEqual((p1 >> lvl) - (p0 >> lvl), ivec2(footprint)))) {
         ++lvl;
     }
-    ivec2 t0 = p0 >> lvl, t1 = p1 >> lvl;
-    float occluder = 0.0;
-    for (int y = t0.y; y <= t1.y; ++y) {
-        for (int x = t0.x; x <= t1.x; ++x) {
-            occluder = max(occluder, texel(lvl, x, y));
-        }
-    }
     float nearest = 0.5 * (zmin - depth_bias) + 0.5;  // window depth of the nearest corner
+    float occluder = range_max(lvl, p0, p1);
+    // Refinement: a box not behind the max at this level is read again one level finer (up to
+    // `refine` times, <= (2 footprint)^2 reads each). A finer level's texels cover the same
+    // pixels with maxima no larger, so this only turns boxes occluded, never the other way.
+    for (int r = 0; r < refine && nearest <= occluder && lvl > 0; ++r) {
+        --lvl;
+        occluder = range_max(lvl, p0, p1);
+    }
     visible[k] = nearest <= occluder ? 1u : 0u;
 }
