@@ -99,7 +99,7 @@ def test_refined_tests_over_clutter_scenes(clutter_scenes, footprint, refine):
         check_conservative(scene, cams, resolution, HIZ, **{"hiz-gpu": options})
         oracle = soc.Oracle(scene)
         with (
-            soc.Culler(scene, "hiz-gpu", resolution, footprint=footprint) as classic,
+            soc.Culler(scene, "hiz-gpu", resolution, footprint=footprint, refine=0) as classic,
             soc.Culler(scene, "hiz-gpu", resolution, **options) as refined,
         ):
             for cam in cams:

@@ -38,7 +38,10 @@ class GpuHizCulling(CullMethod):
         tighter, up to 16 reads).
     refine : int
         Levels a box not occluded at its level is re-read one level finer
-        (:class:`soc.hiz_gpu.HizTest`); 0 = the classic test.
+        (:class:`soc.hiz_gpu.HizTest`); 0 = the classic test. Default 1: on 12 castle flight
+        frames at 1920×1080 it kept 255 instead of 282 hidden objects a frame for 1.11× the
+        test stage (≈ 0.1 ms); on the market 1 % fewer at the same cost (2 keeps 220 on the
+        castle for 1.6×, 3 keeps 193 for 3×; measured 2026-11-25, same run, interleaved).
     occluder_resolution : (int, int), optional
         (width, height) of the occluder depth buffer and pyramid, at most the culler's
         resolution in each axis; default the culler's resolution.
@@ -65,7 +68,7 @@ class GpuHizCulling(CullMethod):
         config,
         *,
         footprint: int = 2,
-        refine: int = 0,
+        refine: int = 1,
         occluder_resolution: tuple[int, int] | None = None,
         conservative: bool | None = None,
     ):
