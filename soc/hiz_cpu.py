@@ -29,7 +29,11 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from soc.constants import QUERY_DEPTH_BIAS_NDC
+from soc.constants import FRUSTUM_SLACK, NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
+
+# Results per box of :func:`classify_objects` (the codes of :mod:`soc.hiz_gpu` and
+# :mod:`soc.masked`, MaskedOcclusionCulling's OCCLUDED / VISIBLE / VIEW_CULLED).
+OCCLUDED, VISIBLE, VIEW_CULLED = 0, 1, 2
 
 # Box rectangles are grown by this many pixels on every side before taking the pixel centres
 # they contain: GL's sub-pixel snapping and float32 transform can move a box edge onto a
@@ -148,6 +152,40 @@ def project_boxes(
 
 
 @numba.njit(cache=True, inline="always")
+def outside_frustum(aabb, planes):  # pragma: no cover - compiled
+    """Whether the box ``aabb`` (2, 3) lies outside one of ``planes`` (6, 4) float64: the same
+    test as :func:`soc.frustum.aabbs_in_frustum` (most-inside corner behind a plane by more
+    than ``FRUSTUM_SLACK`` relative to the box size), for kernels testing boxes one by one."""
+    hx = 0.5 * (np.float64(aabb[1, 0]) - np.float64(aabb[0, 0]))
+    hy = 0.5 * (np.float64(aabb[1, 1]) - np.float64(aabb[0, 1]))
+    hz = 0.5 * (np.float64(aabb[1, 2]) - np.float64(aabb[0, 2]))
+    cx = 0.5 * (np.float64(aabb[0, 0]) + np.float64(aabb[1, 0]))
+    cy = 0.5 * (np.float64(aabb[0, 1]) + np.float64(aabb[1, 1]))
+    cz = 0.5 * (np.float64(aabb[0, 2]) + np.float64(aabb[1, 2]))
+    slack = FRUSTUM_SLACK * (1.0 + math.sqrt(hx * hx + hy * hy + hz * hz))
+    for p in range(6):
+        nx, ny, nz = planes[p, 0], planes[p, 1], planes[p, 2]
+        dist = cx * nx + cy * ny + cz * nz + planes[p, 3]
+        dist += hx * abs(nx) + hy * abs(ny) + hz * abs(nz)
+        if dist < -slack:
+            return True
+    return False
+
+
+@numba.njit(cache=True, inline="always")
+def crosses_near_plane(box, forward, eye_depth, min_depth):  # pragma: no cover - compiled
+    """Whether the box (2, 3) reaches nearer than ``min_depth`` along the view direction
+    ``forward`` (3,) float64 (``eye_depth`` = forward · eye): the test of
+    :func:`soc.queries.near_plane_straddlers` with ``min_depth = near (1 + NEAR_PLANE_MARGIN)``."""
+    nearest = 0.0
+    for i in range(3):
+        c = 0.5 * (np.float64(box[0, i]) + np.float64(box[1, i]))
+        h = 0.5 * (np.float64(box[1, i]) - np.float64(box[0, i]))
+        nearest += c * forward[i] - h * abs(forward[i])
+    return nearest - eye_depth < min_depth
+
+
+@numba.njit(cache=True, inline="always")
 def project_box(box, m, am, width, height):  # pragma: no cover - compiled
     """One box of :func:`project_boxes` (numba, for kernels that test boxes one by one).
 
@@ -216,22 +254,92 @@ def boxes_visible(pyramid: Pyramid, rect: np.ndarray, z_near: np.ndarray) -> np.
     return out
 
 
+@numba.njit(cache=True, inline="always")
+def _pyramid_test(x0, y0, x1, y1, zn, flat, offsets, widths, levels):  # pragma: no cover
+    """Whether a rectangle at nearest depth ``zn`` may be visible (:func:`boxes_visible`)."""
+    if x0 > x1 or y0 > y1:
+        return False  # no pixel centre: nothing of the box can be seen
+    # Finest level k where the rectangle spans at most 2×2 texels (the top one always does).
+    k = 0
+    while k < levels - 1 and ((x1 >> k) - (x0 >> k) > 1 or (y1 >> k) - (y0 >> k) > 1):
+        k += 1
+    base, wk = offsets[k], widths[k]
+    tx0, tx1, ty0, ty1 = x0 >> k, x1 >> k, y0 >> k, y1 >> k
+    farthest = max(
+        max(flat[base + ty0 * wk + tx0], flat[base + ty0 * wk + tx1]),
+        max(flat[base + ty1 * wk + tx0], flat[base + ty1 * wk + tx1]),
+    )
+    return zn <= farthest
+
+
 @numba.njit(cache=True)
 def _boxes_visible(flat, offsets, widths, levels, rect, z_near, out):  # pragma: no cover
     """:func:`boxes_visible`'s loop over boxes (numba)."""
     for n in range(len(rect)):
-        x0, y0, x1, y1 = rect[n, 0], rect[n, 1], rect[n, 2], rect[n, 3]
-        if x0 > x1 or y0 > y1:
-            out[n] = False  # no pixel centre: nothing of the box can be seen
-            continue
-        # Finest level k where the rectangle spans at most 2×2 texels (the top one always does).
-        k = 0
-        while k < levels - 1 and ((x1 >> k) - (x0 >> k) > 1 or (y1 >> k) - (y0 >> k) > 1):
-            k += 1
-        base, wk = offsets[k], widths[k]
-        tx0, tx1, ty0, ty1 = x0 >> k, x1 >> k, y0 >> k, y1 >> k
-        farthest = max(
-            max(flat[base + ty0 * wk + tx0], flat[base + ty0 * wk + tx1]),
-            max(flat[base + ty1 * wk + tx0], flat[base + ty1 * wk + tx1]),
-        )
-        out[n] = z_near[n] <= farthest
+        out[n] = _pyramid_test(
+            rect[n, 0], rect[n, 1], rect[n, 2], rect[n, 3], z_near[n], flat, offsets, widths,
+            levels,
+        )  # fmt: skip
+
+
+@numba.njit(cache=True)
+def _classify_objects(
+    aabbs, boxes, planes, frustum, forward, eye_depth, min_depth, m, width, height,
+    flat, offsets, widths, levels, out,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:func:`classify_objects`' loop over objects (numba)."""
+    am = np.abs(m)
+    tested = 0
+    for k in range(len(aabbs)):
+        if frustum and outside_frustum(aabbs[k], planes):
+            out[k] = VIEW_CULLED
+        elif crosses_near_plane(boxes[k], forward, eye_depth, min_depth):
+            out[k] = VISIBLE
+        else:
+            x0, y0, x1, y1, zn = project_box(boxes[k], m, am, width, height)
+            visible = _pyramid_test(x0, y0, x1, y1, zn, flat, offsets, widths, levels)
+            out[k] = VISIBLE if visible else OCCLUDED
+            tested += 1
+    return tested
+
+
+def classify_objects(
+    pyramid: Pyramid, camera, aabbs: np.ndarray, boxes: np.ndarray, frustum: bool = True
+) -> tuple[np.ndarray, int]:
+    """Frustum test, near-plane test, projection and pyramid test of every object in one pass.
+
+    Parameters
+    ----------
+    pyramid : Pyramid
+        Of the frame's conservative occluder depth, at the resolution of level 0.
+    camera : Camera
+    aabbs : (N, 2, 3) float
+        The objects' AABBs, for the frustum test (as :func:`soc.frustum.aabbs_in_frustum`;
+        ``frustum=False`` skips it).
+    boxes : (N, 2, 3) float32
+        Their grown query boxes, for the near-plane test (as
+        :func:`soc.queries.near_plane_straddlers`: crossing boxes are kept untested) and the
+        pyramid test (:func:`project_boxes`, :func:`boxes_visible`).
+
+    Returns
+    -------
+    codes : (N,) uint8
+        :data:`VIEW_CULLED`, :data:`VISIBLE` or :data:`OCCLUDED` (the hidden ones).
+    tested : int
+        Boxes tested against the pyramid.
+    """
+    aabbs = np.asarray(aabbs)
+    boxes = np.asarray(boxes, np.float32)
+    if aabbs.shape != boxes.shape or aabbs.shape[1:] != (2, 3):
+        raise ValueError(f"aabbs {aabbs.shape} and boxes {boxes.shape} must both be (N, 2, 3)")
+    forward = -np.asarray(camera.view, np.float64)[2, :3]
+    out = np.empty(len(aabbs), np.uint8)
+    width, height = int(pyramid.widths[0]), int(pyramid.heights[0])
+    tested = _classify_objects(
+        aabbs, boxes, np.ascontiguousarray(camera.planes, np.float64), bool(frustum), forward,
+        float(forward @ np.asarray(camera.eye, np.float64)),
+        camera.near * (1.0 + NEAR_PLANE_MARGIN),
+        np.ascontiguousarray(camera.view_proj, np.float64), width, height,
+        pyramid.flat, pyramid.offsets, pyramid.widths, pyramid.levels, out,
+    )  # fmt: skip
+    return out, int(tested)

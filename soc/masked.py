@@ -77,8 +77,15 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from soc.constants import FRUSTUM_SLACK, NEAR_PLANE_MARGIN
-from soc.hiz_cpu import project_box
+from soc.constants import NEAR_PLANE_MARGIN
+from soc.hiz_cpu import (  # the result codes are shared: OCCLUDED, VISIBLE, VIEW_CULLED
+    OCCLUDED,
+    VIEW_CULLED,
+    VISIBLE,
+    crosses_near_plane,
+    outside_frustum,
+    project_box,
+)
 from soc.software_raster import (
     EDGE_MARGIN_PX,
     RECORD,
@@ -92,8 +99,6 @@ from soc.software_raster import (
 TILE_W, TILE_H = 32, 8
 SUB_W, SUB_H = 8, 4
 
-# Results per box (the library's ``CullingResult``), the same codes as :mod:`soc.hiz_gpu`.
-OCCLUDED, VISIBLE, VIEW_CULLED = 0, 1, 2
 
 # Reference depth of an empty subtile: the far plane (a box inside the frustum is never behind it).
 Z_FAR = 1.0
@@ -397,33 +402,11 @@ def classify_objects(
     am = np.abs(m)
     tested = 0
     for k in range(len(aabbs)):
-        if frustum:
-            hx = 0.5 * (np.float64(aabbs[k, 1, 0]) - np.float64(aabbs[k, 0, 0]))
-            hy = 0.5 * (np.float64(aabbs[k, 1, 1]) - np.float64(aabbs[k, 0, 1]))
-            hz = 0.5 * (np.float64(aabbs[k, 1, 2]) - np.float64(aabbs[k, 0, 2]))
-            cx = 0.5 * (np.float64(aabbs[k, 0, 0]) + np.float64(aabbs[k, 1, 0]))
-            cy = 0.5 * (np.float64(aabbs[k, 0, 1]) + np.float64(aabbs[k, 1, 1]))
-            cz = 0.5 * (np.float64(aabbs[k, 0, 2]) + np.float64(aabbs[k, 1, 2]))
-            slack = FRUSTUM_SLACK * (1.0 + math.sqrt(hx * hx + hy * hy + hz * hz))
-            outside = False
-            for p in range(6):
-                nx, ny, nz = planes[p, 0], planes[p, 1], planes[p, 2]
-                dist = cx * nx + cy * ny + cz * nz + planes[p, 3]
-                dist += hx * abs(nx) + hy * abs(ny) + hz * abs(nz)
-                if dist < -slack:
-                    outside = True
-                    break
-            if outside:
-                out[k] = VIEW_CULLED
-                continue
-        lo, hi = boxes[k, 0], boxes[k, 1]
-        nearest = 0.0
-        for i in range(3):
-            c = 0.5 * (np.float64(lo[i]) + np.float64(hi[i]))
-            h = 0.5 * (np.float64(hi[i]) - np.float64(lo[i]))
-            nearest += c * forward[i] - h * abs(forward[i])
-        if nearest - eye_depth < min_depth:
-            out[k] = VISIBLE  # crosses the near plane: kept untested
+        if frustum and outside_frustum(aabbs[k], planes):
+            out[k] = VIEW_CULLED
+            continue
+        if crosses_near_plane(boxes[k], forward, eye_depth, min_depth):
+            out[k] = VISIBLE  # kept untested
             continue
         x0, y0, x1, y1, zn = project_box(boxes[k], m, am, width, height)
         out[k] = _test_rect(x0, y0, x1, y1, zn, mask, z0, z1)

@@ -160,3 +160,27 @@ def test_culls_without_torch_installed():
         "    assert c.cull(cam).stats.models_visible > 0\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_one_pass_codes_match_the_numpy_frustum_and_near_tests(clutter_scenes):
+    """classify_objects: VIEW_CULLED exactly where soc.frustum culls, boxes crossing the near
+    plane kept untested, the rest as project_boxes + boxes_visible say."""
+    from soc.frustum import aabbs_in_frustum
+    from soc.gl.geometry import grown_aabbs
+    from soc.hiz_cpu import VIEW_CULLED, VISIBLE, classify_objects
+    from soc.queries import near_plane_straddlers
+
+    scene = clutter_scenes[2]
+    diagonal = float(np.linalg.norm(scene.aabbs[:, 1].max(0) - scene.aabbs[:, 0].min(0)))
+    boxes = grown_aabbs(scene.aabbs, diagonal)
+    rng = np.random.default_rng(4)
+    for cam in random_cameras(scene, 20, seed=21, width=96, height=64, inside_fraction=0.3):
+        pyr = build_pyramid(rng.uniform(0.9, 1.0, (64, 96)).astype(np.float32))
+        codes, tested = classify_objects(pyr, cam, scene.aabbs, boxes)
+        outside = ~aabbs_in_frustum(scene.aabbs, cam.planes)
+        near = near_plane_straddlers(boxes, cam) & ~outside
+        rest = ~outside & ~near
+        np.testing.assert_array_equal(codes == VIEW_CULLED, outside)
+        assert (codes[near] == VISIBLE).all() and tested == int(rest.sum())
+        rect, z = project_boxes(boxes[rest], cam.view_proj, (96, 64))
+        np.testing.assert_array_equal(codes[rest] == VISIBLE, boxes_visible(pyr, rect, z))

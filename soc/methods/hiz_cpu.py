@@ -3,11 +3,13 @@ for the occluders, a max-depth pyramid and AABB tests, all on the CPU (numpy + n
 
 This stands for the scalar/SSE/AVX software rasterizers with a hierarchical z-buffer of
 Intel's Software Occlusion Culling framework (seed 000; Greene, Kass and Miller 1993 for the
-pyramid). Stages of one frame: ``frustum`` (AABBs, numpy), ``transform`` (the frustum-surviving
-occluders' triangles transformed, near-clipped and set up, :mod:`soc.software_raster`),
-``raster`` (their spans into a per-pixel depth buffer), ``pyramid`` and ``test``
-(:mod:`soc.hiz_cpu`). Boxes that reach the near plane are kept without a test. No torch (the
-method used torch's scatter_reduce until the raster became a numba kernel, ~10× faster).
+pyramid). Stages of one frame: ``frustum`` (the occluders' AABBs, numpy), ``transform`` (the
+frustum-surviving occluders' triangles transformed, near-clipped and set up,
+:mod:`soc.software_raster`), ``raster`` (their spans into a per-pixel depth buffer),
+``pyramid`` and ``test`` (:mod:`soc.hiz_cpu`: one pass over every object — frustum test,
+near-plane test, projection, pyramid test). Boxes that reach the near plane are kept
+untested. No torch (the method used torch's scatter_reduce until the raster became a numba
+kernel, ~10× faster).
 
 Conservative at the depth resolution it runs at: the software depth buffer is never nearer
 than GL's occluder depth at any pixel centre, and the box test only hides a box whose every
@@ -19,7 +21,6 @@ from __future__ import annotations
 import numpy as np
 
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
-from soc.queries import near_plane_straddlers
 
 
 @register
@@ -46,23 +47,28 @@ class HiZCpuCulling(CullMethod):
         super().__init__(geometry, resolution, config)
         self._ids, self._triangles, self._offsets, closed = occluder_triangles(self.scene)
         self._backface = closed & bool(backface)
+        self._aabbs = np.asarray(self.scene.aabbs, np.float64)[self._ids]
         self._records = np.empty((2 * len(self._triangles), RECORD))
         self.last_depth: np.ndarray | None = None
         self.last_stats: dict[str, int] = {}
 
     def cull(self, camera) -> MethodOutput:
-        from soc.hiz_cpu import boxes_visible, build_pyramid, project_boxes
+        from soc.frustum import aabbs_in_frustum
+        from soc.hiz_cpu import VIEW_CULLED, VISIBLE, build_pyramid, classify_objects
         from soc.software_raster import EDGE_MARGIN_PX, rasterize_records, setup_triangles
 
         timings: dict[str, float] = {}
-        in_frustum = frustum_stage(self, camera, timings)
-        frustum_culled = int((~in_frustum).sum())
         if not self.config.depth_test:
-            return MethodOutput(in_frustum, frustum_culled, 0, timings)
+            in_frustum = frustum_stage(self, camera, timings)
+            return MethodOutput(in_frustum, int((~in_frustum).sum()), 0, timings)
 
         width, height = self.resolution
+        # Only the occluders are frustum-tested here; every object's test runs in the test pass.
+        with stage(timings, "frustum"):
+            order = np.arange(len(self._ids))
+            if self.config.frustum:
+                order = np.flatnonzero(aabbs_in_frustum(self._aabbs, camera.planes))
         with stage(timings, "transform"):
-            order = np.flatnonzero(in_frustum[self._ids])
             vp = np.ascontiguousarray(camera.view_proj, np.float64)
             n = setup_triangles(
                 self._triangles, self._offsets, order, self._backface, vp, width, height,
@@ -74,15 +80,10 @@ class HiZCpuCulling(CullMethod):
         with stage(timings, "pyramid"):
             pyramid = build_pyramid(depth)
         with stage(timings, "test"):
-            candidates = np.flatnonzero(in_frustum)
-            boxes = self.geometry.query_boxes[candidates]
-            at_near = near_plane_straddlers(boxes, camera)
-            tested = candidates[~at_near]
-            rect, z_near = project_boxes(boxes[~at_near], camera.view_proj, self.resolution)
-            passed = boxes_visible(pyramid, rect, z_near)
+            codes, tested = classify_objects(
+                pyramid, camera, self.scene.aabbs, self.geometry.query_boxes, self.config.frustum
+            )
         self.last_depth = depth
         self.last_stats = {"triangles": int(n), "fragments": int(fragments)}
-        visible = np.zeros(len(self.scene), bool)
-        visible[candidates[at_near]] = True
-        visible[tested[passed]] = True
-        return MethodOutput(visible, frustum_culled, len(tested), timings)
+        outside = int((codes == VIEW_CULLED).sum())
+        return MethodOutput(codes == VISIBLE, outside, tested, timings)
