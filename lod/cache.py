@@ -20,22 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
-# Environment variable naming the cache root (where things are, never how they behave).
-ENV = "VISLOD_CACHE"
+from soc import user_cache as _user_cache
+
+ENV = _user_cache.ENV  # VISLOD_CACHE
+cache_root = _user_cache.cache_root  # $VISLOD_CACHE, else the user's cache folder
 # Bump when the stored layout or the chain algorithm changes: old entries are then ignored.
 FORMAT_VERSION = "lod-chain-1"
-
-
-def cache_root() -> Path:
-    """The root of vislod's caches: ``$VISLOD_CACHE`` when set (and not empty), else
-    ``platformdirs.user_cache_dir("vislod")``. Read at every call, so a test or a user can
-    move it without re-importing."""
-    env = os.environ.get(ENV, "").strip()
-    if env:
-        return Path(env).expanduser()
-    import platformdirs
-
-    return Path(platformdirs.user_cache_dir("vislod", appauthor=False))
 
 
 def default_dir(kind: str = "lod") -> Path:

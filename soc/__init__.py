@@ -4,6 +4,10 @@ Importing ``soc`` does not touch OpenGL: the EGL context is created by the first
 :class:`Culler` or :func:`exact_visibility` call.
 """
 
+# isort: off
+from soc import user_cache  # noqa: F401  (first: numba's kernel cache folder, before any kernel)
+
+# isort: on
 from soc import paths, scenes
 from soc.camera import Camera
 from soc.culler import Culler, method_names

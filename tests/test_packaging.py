@@ -242,3 +242,26 @@ def test_the_wheel_holds_the_code_and_shaders_and_nothing_else(wheel):
     assert not [n for n in names if n.startswith(("tests/", "data/", "results/", "notebooks/"))]
     entry = next(n for n in names if n.endswith("entry_points.txt"))
     assert "vislod = experiments.cli:main" in wheel.read(entry).decode()
+
+
+def test_numba_kernels_are_cached_in_the_user_cache_not_beside_the_source(tmp_path):
+    """numba's cache=True writes beside the source by default: inside site-packages when
+    installed. `import soc` points it at <cache>/numba first."""
+    mod = tmp_path / "src" / "kernel_mod.py"
+    mod.parent.mkdir()
+    mod.write_text("import numba\n@numba.njit(cache=True)\ndef f(x):\n    return x + 1\n")
+    code = (
+        "import soc, numba, sys\n"
+        f"sys.path.insert(0, {str(mod.parent)!r})\n"
+        "import kernel_mod\n"
+        "assert kernel_mod.f(1) == 2\n"
+        "print(numba.config.CACHE_DIR)\n"
+    )
+    env = {"VISLOD_CACHE": str(tmp_path / "cache"), "PATH": "/usr/bin:/bin", "HOME": str(tmp_path)}
+    r = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == str(tmp_path / "cache" / "numba")
+    assert list((tmp_path / "cache" / "numba").rglob("*.nbi"))
+    assert not list(mod.parent.rglob("*.nbi"))
