@@ -304,18 +304,25 @@ def _erode(poly, n, planes, n_planes, half, margin, guard, out, t, tmp, e, f):
     a texel square (+ ``margin``) inside the viewport, and append it to ``out`` from triangle
     ``t`` as a fan with the depth bound at each vertex; returns the new triangle count.
     ``poly`` is overwritten; ``tmp`` (16, 4), ``e`` and ``f`` (24, 2) are scratch."""
-    n = _clip4(poly, n, 0.0, 0.0, 1.0, 1.0, tmp)
-    if n < 3:
-        return t
+    # Near plane first (z >= -w): the depths of what is left are finite, their max bounds the
+    # polygon's depth; then the guard band. One call site of _clip4 (numba compiles it once).
+    src, dst = poly, tmp
     zmax = 0.0
-    for i in range(n):
-        zmax = max(zmax, 0.5 * tmp[i, 2] / tmp[i, 3] + 0.5)
-    n = _clip4(tmp, n, -1.0, 0.0, 0.0, guard, poly)
-    n = _clip4(poly, n, 1.0, 0.0, 0.0, guard, tmp)
-    n = _clip4(tmp, n, 0.0, -1.0, 0.0, guard, poly)
-    n = _clip4(poly, n, 0.0, 1.0, 0.0, guard, tmp)
-    if n < 3:
-        return t
+    for k in range(5):
+        if k == 0:
+            p0, p1, p2, p3 = 0.0, 0.0, 1.0, 1.0
+        else:
+            p0 = (-1.0, 1.0, 0.0, 0.0)[k - 1]
+            p1 = (0.0, 0.0, -1.0, 1.0)[k - 1]
+            p2, p3 = 0.0, guard
+        n = _clip4(src, n, p0, p1, p2, p3, dst)
+        src, dst = dst, src
+        if n < 3:
+            return t
+        if k == 0:
+            for i in range(n):
+                zmax = max(zmax, 0.5 * src[i, 2] / src[i, 3] + 0.5)
+    # Five clips from ``poly``: the polygon ends in ``tmp``.
     area = 0.0
     for i in range(n):  # project into f (window coordinates relative to the centre)
         f[i, 0] = tmp[i, 0] / tmp[i, 3] * half[0]
@@ -380,6 +387,7 @@ def _setup(clip, prims, rows, half, margin, guard, out):
     poly = np.empty((16, 4))
     v = np.empty((4, 4))
     tmp = np.empty((16, 4))
+    one = np.empty((1, 4))
     e = np.empty((24, 2))
     f = np.empty((24, 2))
     for r in rows:
@@ -402,27 +410,39 @@ def _setup(clip, prims, rows, half, margin, guard, out):
                 continue
         for k in range(4):
             v[k] = clip[prims[r, k]]
+        # The planes of the triangles (v0, v1, v2) and, for a quad, (v0, v2, v3).
+        ok = True
+        for tri in range(2 if quad else 1):
+            good, al, be, ga = _depth_plane(v[0], v[1 + tri], v[2 + tri], half)
+            ok = ok and good
+            planes[tri, 0], planes[tri, 1], planes[tri, 2] = al, be, ga
+            planes[tri, 3] = 1.0 if good else 0.0
+        # One polygon (a strictly convex quad in front of the near plane, whose union is that
+        # polygon) or one per triangle; one call site of _erode keeps numba's compile short.
+        whole = False
         if quad and front:
             o0 = _orient(v[0], v[1], v[2])
             o1 = _orient(v[1], v[2], v[3])
             o2 = _orient(v[2], v[3], v[0])
             o3 = _orient(v[3], v[0], v[1])
             lo, hi = min(min(o0, o1), min(o2, o3)), max(max(o0, o1), max(o2, o3))
-            if lo > 1e-9 or hi < -1e-9:  # strictly convex: the union is this polygon
-                ok0, a0, b0, c0 = _depth_plane(v[0], v[1], v[2], half)
-                ok1, a1, b1, c1 = _depth_plane(v[0], v[2], v[3], half)
-                np_ = 2 if ok0 and ok1 else 0
-                planes[0] = (a0, b0, c0, 1.0)
-                planes[1] = (a1, b1, c1, 1.0)
-                poly[:4] = v
-                t = _erode(poly, 4, planes, np_, half, margin, guard, out, t, tmp, e, f)
-                continue
-        for tri in range(2 if quad else 1):
-            a, b, c = (v[0], v[1], v[2]) if tri == 0 else (v[0], v[2], v[3])
-            ok, al, be, ga = _depth_plane(a, b, c, half)
-            planes[0] = (al, be, ga, 1.0)
-            poly[0], poly[1], poly[2] = a, b, c
-            t = _erode(poly, 3, planes, 1 if ok else 0, half, margin, guard, out, t, tmp, e, f)
+            whole = lo > 1e-9 or hi < -1e-9
+        jobs = 1 if whole or not quad else 2
+        for job in range(jobs):
+            if whole:
+                n, n_planes = 4, 2 if ok else 0
+                for k in range(4):
+                    for j in range(4):
+                        poly[k, j] = v[k, j]
+            else:
+                n = 3
+                for j in range(4):
+                    poly[0, j], poly[1, j], poly[2, j] = v[0, j], v[1 + job, j], v[2 + job, j]
+                    one[0, j] = planes[job, j]
+                n_planes = 1 if planes[job, 3] > 0.0 else 0
+            t = _erode(
+                poly, n, planes if whole else one, n_planes, half, margin, guard, out, t, tmp, e, f
+            )
     return t
 
 
