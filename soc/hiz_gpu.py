@@ -45,6 +45,14 @@ Why the test is conservative (an object the exact id render sees is never report
   absorbs the 24-bit quantisation of the depth buffer). Being visible, ``d`` is not behind
   the occluder depth at its pixel, which is <= the max over the pyramid texels covering the
   pixel range. So ``nearest - bias <= max`` whenever a sample is visible: the box is kept.
+* Judged at another (display) resolution than the pyramid's (``display`` of
+  :meth:`HizTest.classify`): the test reads the level-0 texels holding the display pixel
+  centres inside the rectangle. That is conservative when every texel holds a depth >= the
+  occluder depth at every point of its square, which the inner-conservative raster of
+  :class:`soc.depth_prepass.ConservativeOccluders` guarantees at any pair of resolutions.
+* Refinement (``refine``) re-reads a box that is not occluded one level finer: those texels
+  stand for the same pixels and each is <= the coarser texel holding it, so the answer only
+  tightens, with the same argument.
 """
 
 from __future__ import annotations
