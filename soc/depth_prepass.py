@@ -13,6 +13,7 @@ import numba
 import numpy as np
 
 from soc.camera import _resolution
+from soc.gl.context import uses_gl
 
 
 class DepthTarget:
@@ -446,6 +447,7 @@ def _setup(clip, prims, rows, half, margin, guard, out):
     return t
 
 
+@uses_gl
 class ConservativeOccluders:
     """Inner-conservative occluder raster at any resolution (Hasselgren, Akenine-Möller &
     Ohlsson, "Conservative Rasterization", GPU Gems 2 ch. 42, the underestimating variant).
