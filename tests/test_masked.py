@@ -22,7 +22,7 @@ from soc.masked import (
     buffer_shape,
     rasterize,
 )
-from soc.paths import random_cameras
+from soc.paths import flight, random_cameras
 from soc.scenes.clutter import box_mesh
 from soc.software_raster import RECORD, setup_triangles
 
@@ -286,6 +286,23 @@ def test_clutter_at_a_large_odd_resolution(clutter_scenes):
     scene = clutter_scenes[2]
     cams = random_cameras(scene, 4, seed=33, width=1283, height=725)
     check_conservative(scene, cams, (1283, 725), ["masked"])
+
+
+@pytest.mark.heavy
+def test_random_cameras_and_flight_over_small_market(small_market):
+    cams = random_cameras(small_market, 30, seed=8, width=480, height=270, inside_fraction=0.2)
+    check_conservative(small_market, cams, (480, 270), ["masked"])
+    check_conservative(small_market, flight(small_market, frames=40)[::8], (1920, 1080), ["masked"])
+
+
+@pytest.mark.castle
+def test_random_cameras_and_flight_over_the_castle(data_dir):
+    if data_dir is None:
+        pytest.skip("VISLOD_DATA does not point at the castle files")
+    scene = soc.scenes.castle(data_dir)
+    cams = random_cameras(scene, 24, seed=6, width=480, height=270)
+    cams += flight(scene, frames=10, width=480, height=270)
+    assert check_conservative(scene, cams, (480, 270), ["masked"]) > 10
 
 
 def test_codes_and_counts_agree_and_it_culls_about_what_hiz_gpu_culls(clutter_scenes):
