@@ -31,9 +31,11 @@ def _scene(name: str, data: str | None):
         return soc.scenes.market(seed=0)
     if name == "castle":
         return soc.scenes.castle(data, refill_market=True)
+    if name == "castle-2114":
+        return soc.scenes.castle(data, refill_market=False)
     if name == "clutter":
         return soc.scenes.clutter(0, objects=2000)
-    raise SystemExit(f"unknown scene {name!r}: use market, castle or clutter")
+    raise SystemExit(f"unknown scene {name!r}: use market, castle, castle-2114 or clutter")
 
 
 def bench_foundation(scene, frames: int) -> tuple[str, dict]:
@@ -225,18 +227,48 @@ def replace_section(path: Path, name: str, body: str) -> str:
     return text
 
 
+def bench_floor_section(scene, args, out: Path) -> str:
+    """Run :func:`experiments.bench_floor.run_floor`, write its CSVs to ``out`` and its
+    ``floor-<scene>`` section of BENCHMARKS.md; returns the file's text."""
+    from experiments import bench_floor
+
+    specs = [s.strip() for s in args.methods.split(";") if s.strip()] if args.methods else None
+    result = bench_floor.run_floor(scene, args.frames, specs, label=args.scene)
+    result.frames.to_csv(out / f"floor-{args.scene}.csv", index=False)
+    result.floor.to_csv(out / f"floor-{args.scene}-items.csv", index=False)
+    command = (
+        f"python -m experiments.bench --only floor --scene {args.scene} --frames {args.frames}"
+    )
+    if args.methods:
+        command += f" --methods '{args.methods}'"
+    return replace_section(
+        out / "BENCHMARKS.md",
+        f"floor-{args.scene}",
+        bench_floor.markdown(result, command, note=args.note or ""),
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scene", default="market", choices=["market", "castle", "clutter"])
+    ap.add_argument(
+        "--scene", default="market", choices=["market", "castle", "castle-2114", "clutter"]
+    )
     ap.add_argument("--data", default=None, help="castle data folder (default: $VISLOD_DATA)")
     ap.add_argument("--frames", type=int, default=100)
     ap.add_argument("--out", default="results")
     ap.add_argument(
         "--only",
-        choices=["foundation", "methods", "lod", "adaptive"],
+        choices=["foundation", "methods", "floor", "lod", "adaptive"],
         default=None,
         help="run one benchmark section (default: all)",
     )
+    ap.add_argument(
+        "--methods",
+        default=None,
+        help="floor section: ';'-separated method specs, e.g. "
+        "'masked;hiz-gpu(footprint=4)' (default: every method, see experiments.bench_floor)",
+    )
+    ap.add_argument("--note", default=None, help="floor section: a remark on the run")
     args = ap.parse_args(argv)
 
     out = Path(args.out)
@@ -268,6 +300,11 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     scene = _scene(args.scene, args.data)
     load_s = time.perf_counter() - t0
+    if args.only in (None, "floor"):
+        text = bench_floor_section(scene, args, out)
+        if args.only == "floor":
+            print(text)
+            return 0
     if args.only in (None, "methods"):
         text = replace_section(
             out / "BENCHMARKS.md",
