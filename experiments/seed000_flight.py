@@ -214,8 +214,11 @@ class FlightRun:
         self.close()
 
     def warm_up(self, camera) -> None:
-        """One untimed frame (allocations, programs, the renderer)."""
+        """One untimed frame (allocations, programs, the renderer); then what a temporal
+        method (``chc``, ``hiz-2phase``, …) kept from it is forgotten, so the flight's first
+        frame starts cold instead of from a perfect guess of itself."""
         self.culler.cull(camera, draw=self.spec.draw)
+        self.culler.reset()
 
     def frame(self, i: int, camera, truth: np.ndarray | None = None) -> dict[str, Any]:
         """Row of frame ``i``: the run's labels, ``frame`` and :meth:`soc.FrameStats.as_row`."""

@@ -179,6 +179,9 @@ def test_abb10_summary(demo_run, setup, scene):
     ideal = next(r for r in table if r["group"] == "ideal")
     assert _num(ideal["ms_cull_mean"]) == 0.0
     assert {c["claim"] for c in result["abb10"]["claims"]} <= set(doc.CLAIMS.values())
+    # seed 000's MOC-vs-HiZ claim, measured with masked and hiz-gpu (beyond the document)
+    moc = next(c for c in result["abb10"]["claims"] if c["claim"] == doc.CLAIMS["moc_vs_hiz"])
+    assert doc.MOC_COMPARISON_MISSING in moc["document"] and "masked culls" in moc["measured"]
 
 
 def test_summary_json(demo_run, scene):
