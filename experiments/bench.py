@@ -244,7 +244,13 @@ def bench_floor_section(scene, args, out: Path) -> str:
     return replace_section(
         out / "BENCHMARKS.md",
         f"floor-{args.scene}",
-        bench_floor.markdown(result, command, note=args.note or ""),
+        bench_floor.markdown(
+            result,
+            command,
+            note=(args.note + " " if args.note else "")
+            + f"Per-frame rows: `{out.name}/floor-{args.scene}.csv` (frame × method) and "
+            f"`{out.name}/floor-{args.scene}-items.csv` (floor items), not committed.",
+        ),
     )
 
 

@@ -9,7 +9,10 @@ import pytest
 import soc
 from experiments import bench, bench_floor
 
-SPECS = ["frustum", "queries", "hiz-gpu", "hiz-gpu(footprint=4)"]
+# a method that draws the frame itself (draws_frame) too, when registered
+SPECS = ["frustum", "queries", "hiz-gpu", "hiz-gpu(footprint=4)"] + [
+    m for m in ("hiz-2phase",) if m in soc.method_names()
+]
 
 
 @pytest.fixture(scope="module")
@@ -35,6 +38,7 @@ def test_frames_dataframe_has_one_row_per_frame_and_method(result):
     # conservative methods cull nothing the oracle sees
     assert (df.loc[df["conservative"], "false_culls"] == 0).all()
     assert (df["total_ms"] == df["cull_ms"] + df["draw_ms"]).all()
+    assert (df["draw_ms"] > 0).all() and (df["cull_ms"] >= 0).all()
     assert set(result.floor["item"]) >= {
         "empty draw call",
         "HiZ pyramid build (DepthPyramid.build)",
