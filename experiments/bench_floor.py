@@ -230,7 +230,11 @@ def run_floor(
                     ctx, lambda: pyramid.build(renderer.depth)
                 )
             floor_rows += [{"frame": i, "item": k, "ms": v} for k, v in floor.items()]
-            for spec, c in cullers.items():
+            # The order rotates from frame to frame, so that no method always runs right after
+            # the big 'everything' draw (caches, llvmpipe's threads) or always last.
+            names = list(cullers)
+            for spec in np.roll(names, -i).tolist():
+                c = cullers[spec]
                 if getattr(c.method, "draws_frame", False):
                     r = c.cull(cam, truth=truth, draw=True)
                     draw_ms = float(r.stats.timings_ms.get("draw", math.nan))
