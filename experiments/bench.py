@@ -4,6 +4,12 @@ Absolute times on llvmpipe are noisy, so every figure that matters is a ratio of
 quantities measured in the same run, frame by frame, on the same cameras.
 
     python -m experiments.bench [--scene market] [--frames 100] [--out results]
+    python -m experiments.bench --only floor --scene castle-2114 --frames 60 \
+        [--methods 'masked;hiz-gpu(footprint=4)']
+
+Scenes: market (generated, 27,025 objects), castle (Intel's castle with the market refilled,
+27,025), castle-2114 (Intel's castle as shipped, 2,114), clutter. The floor section
+(:mod:`experiments.bench_floor`) puts every method beside the machine's floor.
 """
 
 from __future__ import annotations
