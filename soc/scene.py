@@ -214,8 +214,10 @@ class Scene:
         return len(self.triangle_counts)
 
     def __repr__(self) -> str:
+        rule = self.meta.get("occluder_rule")
+        by = f" ({rule})" if rule else ""
         return (
-            f"Scene({len(self)} objects, {int(self.occluder.sum())} occluders, "
+            f"Scene({len(self)} objects, {int(self.occluder.sum())} occluders{by}, "
             f"{int(self.triangle_counts.sum()):,} triangles)"
         )
 

@@ -62,7 +62,10 @@ def test_two_boxes_become_two_objects_in_world_space(tmp_path: Path, ext: str):
     assert scene.triangle_counts.tolist() == [12, 12]
     np.testing.assert_allclose(scene.aabbs[0], [[4.5, -1, -1.5], [5.5, 1, 1.5]], atol=1e-6)
     np.testing.assert_allclose(scene.aabbs[1], [[-0.5, -0.5, -0.5], [0.5, 0.5, 0.5]], atol=1e-6)
-    assert not scene.occluder.any()
+    # The default rule: both boxes' diagonals (3.7, 1.7) are ≥ 5 % of the scene's (7.0).
+    assert scene.occluder.all() and scene.meta["occluder_rule"].startswith("box diagonal")
+    assert "occluders (box diagonal" in repr(scene)
+    assert not load(path, occluder=None).occluder.any()
     assert scene.meta["source"] == str(path) and scene.meta["format"] == ext[1:]
 
 
@@ -153,3 +156,97 @@ def test_single_meshes(meshes_dir: Path, name: str, triangles: int):
     scene = load(meshes_dir / name, occluder=np.array([True]))
     assert len(scene) == 1 and int(scene.triangle_counts[0]) == triangles
     assert scene.occluder.tolist() == [True] and np.isfinite(scene.vertices).all()
+
+
+# -- merged meshes split into objects -------------------------------------------------------
+
+
+def merged_town() -> tuple[trimesh.Trimesh, list[int]]:
+    """One mesh: a long wall (the occluder) and 5 × 4 small crates on both of its sides, none
+    touching. Returns the mesh and each part's triangle count in the order written."""
+    parts = [trimesh.creation.box(extents=(40, 6, 1))]  # wall at z = 0
+    for i in range(5):
+        for j in range(4):
+            crate = trimesh.creation.box(extents=(1, 1 + 0.2 * j, 1))
+            crate.apply_translation((-16 + 8 * i, 0, -9 + 6 * j))
+            parts.append(crate)
+    return trimesh.util.concatenate(parts), [len(p.faces) for p in parts]
+
+
+@pytest.mark.parametrize("ext", [".obj", ".ply"])
+def test_merged_mesh_splits_into_its_components(tmp_path: Path, ext: str):
+    mesh, counts = merged_town()
+    path = tmp_path / f"town{ext}"
+    mesh.export(path)
+    assert len(load(path, split="nodes")) == 1  # the file's own structure: useless for culling
+    scene = load(path, split="components")
+    assert len(scene) == 21 and scene.triangle_counts.tolist() == counts
+    assert scene.names[:2] == ("component_0", "component_1")
+    np.testing.assert_allclose(scene.aabbs[0], [[-20, -3, -0.5], [20, 3, 0.5]], atol=1e-5)
+    # The size rule picks the wall (diagonal 40.5 of the scene's ~42) and no crate (≤ 2.2).
+    assert scene.occluder.tolist() == [True] + [False] * 20
+    assert repr(scene).startswith("Scene(21 objects, 1 occluders (box diagonal ≥ 5 %")
+    assert scene.meta["split"] == "components"
+
+
+def test_positions_repeated_per_face_are_welded_into_one_component(tmp_path: Path):
+    """A PLY/OBJ that repeats every vertex per triangle still gives one object per box."""
+    mesh, counts = merged_town()
+    soup = trimesh.Trimesh(
+        mesh.vertices[mesh.faces].reshape(-1, 3),
+        np.arange(3 * len(mesh.faces)).reshape(-1, 3),
+        process=False,
+    )
+    from soc.scenes.split import split_components
+
+    objects = split_components(soup.vertices, soup.faces)
+    assert [len(f) for _, _, f in objects] == counts
+    assert all(len(v) == len(f) * 3 for _, v, f in objects)  # nothing welded away locally
+
+
+def test_grid_split_covers_every_triangle_once(tmp_path: Path):
+    mesh = trimesh.creation.icosphere(subdivisions=4)  # one component
+    path = tmp_path / "sphere.ply"
+    mesh.export(path)
+    scene = load(path, split="grid", grid_cells=4)
+    assert len(scene) > 8 and int(scene.triangle_counts.sum()) == len(mesh.faces)
+    # Every object's triangles have their centroid inside its cell (cells of 2 / 4 = 0.5).
+    lo = scene.vertices.min(0)
+    for name, view in zip(scene.names, scene.meshes, strict=True):
+        i, j, k = (int(x) for x in name.split("_")[1:])
+        c = view.vertices[view.faces].mean(axis=1)
+        cell = np.minimum(((c - lo) / 0.5).astype(int), 3)
+        assert (cell == [i, j, k]).all(), name
+    with pytest.raises(ValueError, match="cells must be >= 1"):
+        load(path, split="grid", grid_cells=0)
+
+
+def test_unknown_split_names_the_choices(tmp_path: Path):
+    path = tmp_path / "boxes.glb"
+    two_boxes().export(path)
+    with pytest.raises(ValueError, match="nodes, components, grid"):
+        load(path, split="triangles")
+
+
+def test_every_conservative_method_keeps_what_the_oracle_sees_on_a_split_scene(tmp_path):
+    from conftest import check_conservative
+    from test_culling_conservative import STRICT_OPTIONS, every_conservative_method
+
+    from soc.paths import random_cameras
+
+    mesh, _ = merged_town()
+    path = tmp_path / "town.obj"
+    mesh.export(path)
+    scene = load(path, split="components")
+    cams = random_cameras(scene, 20, seed=11, width=333, height=197)
+    methods = every_conservative_method(scene)
+    assert {"queries", "hiz-gpu", "masked"} <= set(methods)
+    culled = check_conservative(scene, cams, (333, 197), methods, **STRICT_OPTIONS)
+    assert culled > 0  # the wall hides crates from some cameras
+
+
+@pytest.mark.parametrize(("name", "parts"), [("spot_6k.obj", 1), ("fandisk_13k.obj", 1)])
+def test_real_meshes_split_by_components(meshes_dir: Path, name: str, parts: int):
+    scene = load(meshes_dir / name, split="components")
+    assert len(scene) >= parts and int(scene.triangle_counts.sum()) > 5_000
+    assert scene.occluder.any()

@@ -1,10 +1,11 @@
 """Scenes from mesh files (glTF, GLB, OBJ, PLY) read through trimesh's scene graph.
 
-Every node of the file's scene graph that carries triangles becomes one scene object (for OBJ,
-every ``o`` object), placed in world space by the node's world transform (trimesh's
-column-vector 4×4 matrices). Points, lines and empty meshes are skipped. Coordinates are the
-file's own (glTF is right-handed, y up, as vislod's world; OBJ and PLY carry no convention and
-are taken as they are).
+By default every node of the file's scene graph that carries triangles becomes one scene
+object (for OBJ, every ``o`` object), placed in world space by the node's world transform
+(trimesh's column-vector 4×4 matrices); a file that is one merged mesh can instead be split
+by connected component or by a spatial grid (:mod:`soc.scenes.split`). Points, lines and
+empty meshes are skipped. Coordinates are the file's own (glTF is right-handed, y up, as
+vislod's world; OBJ and PLY carry no convention and are taken as they are).
 """
 
 from __future__ import annotations
@@ -23,6 +24,9 @@ from soc.scene import Scene
 SUPPORTED = (".gltf", ".glb", ".obj", ".ply")
 
 OccluderRule = Callable[[str, np.ndarray, np.ndarray], bool]
+
+#: ``split`` values of :func:`load`.
+SPLITS = ("nodes", "components", "grid")
 
 
 def _objects(graph_scene: Any) -> list[tuple[str, np.ndarray, np.ndarray]]:
@@ -50,17 +54,26 @@ def _objects(graph_scene: Any) -> list[tuple[str, np.ndarray, np.ndarray]]:
 
 
 def _occluder_mask(
-    occluder: np.ndarray | OccluderRule | None,
+    occluder: np.ndarray | OccluderRule | str | None,
     objects: list[tuple[str, np.ndarray, np.ndarray]],
-) -> np.ndarray:
-    """The (N,) bool occluder mask from ``load``'s ``occluder`` argument."""
+) -> tuple[np.ndarray, str]:
+    """The (N,) bool occluder mask from ``load``'s ``occluder`` argument, and its rule in
+    words."""
+    from soc.scenes.split import occluders_by_size
+
     n = len(objects)
     if occluder is None:
-        return np.zeros(n, bool)
+        return np.zeros(n, bool), "none"
+    if isinstance(occluder, str):
+        if occluder != "size":
+            raise ValueError(
+                f"occluder rule must be 'size', a mask or a callable, got {occluder!r}"
+            )
+        aabbs = np.stack([np.stack([v.min(0), v.max(0)]) for _, v, _ in objects])
+        return occluders_by_size(aabbs)
     if callable(occluder):
-        return np.array(
-            [bool(occluder(name, v.astype(np.float32), f)) for name, v, f in objects], dtype=bool
-        )
+        flags = [bool(occluder(name, v.astype(np.float32), f)) for name, v, f in objects]
+        return np.array(flags, dtype=bool), "the caller's rule"
     mask = np.asarray(occluder)
     if mask.shape != (n,) or mask.dtype != bool:
         raise SceneError(
@@ -68,13 +81,15 @@ def _occluder_mask(
             f"bool mask (one flag per object with triangles); got shape {mask.shape}, "
             f"dtype {mask.dtype}"
         )
-    return mask.copy()
+    return mask.copy(), "the caller's mask"
 
 
 def load(
     path: str | os.PathLike,
     *,
-    occluder: np.ndarray | OccluderRule | None = None,
+    split: str = "nodes",
+    occluder: np.ndarray | OccluderRule | str | None = "size",
+    grid_cells: int = 16,
     meta: Mapping[str, Any] | None = None,
 ) -> Scene:
     """Load a glTF, GLB, OBJ or PLY file as a :class:`~soc.scene.Scene`.
@@ -83,19 +98,31 @@ def load(
     ----------
     path : file path
         A ``.gltf``, ``.glb``, ``.obj`` or ``.ply`` file.
-    occluder : None, (N,) bool, or callable, optional
-        Which objects are occluders: None (none of them), a mask with one flag per object in
-        object order (node names sorted; nodes without triangles excluded), or
-        ``occluder(name, vertices, faces) -> bool`` called once per object with its node
-        name, world-space ``vertices (n, 3) float32`` and ``faces (m, 3) int64``.
+    split : {"nodes", "components", "grid"}
+        What becomes one object: a scene-graph node with triangles (the file's own objects);
+        a connected component of the whole file merged into one mesh (equal vertex positions
+        welded; Crytek Sponza's single mesh gives about 6,500 objects); or a cell of a uniform
+        grid by triangle centroid, for a mesh that is one component (scans, terrain).
+    occluder : "size", None, (N,) bool, or callable, optional
+        Which objects are occluders. ``"size"`` (default): objects whose AABB diagonal is at
+        least 5 % of the scene's (walls, floors, columns: the large surfaces an engine marks
+        as occluders; :func:`soc.scenes.split.occluders_by_size`). None: none of them. A mask
+        with one flag per object in object order, or ``occluder(name, vertices, faces) ->
+        bool`` called once per object with its name, world-space ``vertices (n, 3) float32``
+        and ``faces (m, 3) int64``. The rule used is in ``meta["occluder_rule"]`` and the
+        scene's repr.
+    grid_cells : int
+        ``split="grid"``: cells along the scene's longest extent (cubic cells).
     meta : mapping, optional
         Merged into the scene's ``meta`` after ``"source"`` (the path) and ``"format"``.
 
     Returns
     -------
     Scene
-        One object per scene-graph node with triangles (an OBJ: per ``o`` object), world
-        space, named after its node, in sorted name order.
+        World space. ``split="nodes"``: one object per scene-graph node with triangles (an
+        OBJ: per ``o`` object), named after its node, in sorted name order;
+        ``"components"``: ``component_<k>`` in order of first triangle; ``"grid"``:
+        ``cell_<i>_<j>_<k>``.
 
     Raises
     ------
@@ -106,6 +133,8 @@ def load(
     """
     import trimesh  # imported here so that ``import soc`` stays fast
 
+    if split not in SPLITS:
+        raise ValueError(f"split must be one of {', '.join(SPLITS)}; got {split!r}")
     path = Path(path).expanduser()
     ext = path.suffix.lower()
     if ext not in SUPPORTED:
@@ -133,7 +162,15 @@ def load(
             f"{path} holds no triangles (only points, lines or empty meshes): a scene needs at "
             "least one triangle mesh"
         )
-    mask = _occluder_mask(occluder, objects)
+    if split != "nodes":
+        from soc.scenes.split import merge, split_components, split_grid
+
+        vertices, faces = merge(objects)
+        if split == "components":
+            objects = split_components(vertices, faces)
+        else:
+            objects = split_grid(vertices, faces, grid_cells)
+    mask, rule = _occluder_mask(occluder, objects)
     return Scene(
         np.concatenate([v for _, v, _ in objects]).astype(np.float32),
         np.concatenate([f for _, _, f in objects]),
@@ -141,5 +178,11 @@ def load(
         [len(f) for _, _, f in objects],
         mask,
         names=[name for name, _, _ in objects],
-        meta={"source": str(path), "format": ext[1:], **dict(meta or {})},
+        meta={
+            "source": str(path),
+            "format": ext[1:],
+            "split": split,
+            "occluder_rule": rule,
+            **dict(meta or {}),
+        },
     )
