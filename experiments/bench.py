@@ -26,7 +26,7 @@ from tqdm import tqdm
 
 import soc
 import soc.gl.context
-from soc.renderer import Renderer
+from soc.rendering.renderer import Renderer
 
 DISPLAY = (1920, 1080)
 BASELINE_METHODS = ["frustum", "queries"]
@@ -46,7 +46,7 @@ def _scene(name: str, data: str | None):
 
 def bench_foundation(scene, frames: int) -> tuple[str, dict]:
     """Per-stage cull times of ``frustum`` and ``queries`` and frame times of the drawn sets."""
-    cams = soc.paths.flight(scene, frames=frames, width=DISPLAY[0], height=DISPLAY[1])
+    cams = soc.scenes.paths.flight(scene, frames=frames, width=DISPLAY[0], height=DISPLAY[1])
     oracle = soc.Oracle(scene)
     cullers = {m: soc.Culler(scene, method=m, resolution=DISPLAY) for m in BASELINE_METHODS}
     renderer = Renderer(soc.gl.context.default_context().geometry(scene), DISPLAY)
@@ -131,7 +131,7 @@ def bench_methods(scene, frames: int, methods: list[str] | None = None) -> str:
     method's cull (all stages but drawing) and the draw of its kept set. Temporal methods see
     the frames in order, as in a real flight.
     """
-    cams = soc.paths.flight(scene, frames=frames, width=DISPLAY[0], height=DISPLAY[1])
+    cams = soc.scenes.paths.flight(scene, frames=frames, width=DISPLAY[0], height=DISPLAY[1])
     methods = [m for m in (methods or soc.method_names(scene)) if m != "none"]
     oracle = soc.Oracle(scene)
     renderer = Renderer(soc.gl.context.default_context().geometry(scene), DISPLAY)

@@ -8,7 +8,7 @@ and interleaved frame by frame (so machine load hits every method alike):
    the frame itself, ``draws_frame`` such as ``hiz-2phase``, is asked to draw and its own
    ``"draw"`` stage is its draw time); 'everything' and 'ideal' (the oracle's set) are drawn;
 3. the floor: a colour + depth clear, an empty draw call, the HiZ pyramid build alone
-   (:meth:`soc.hiz_gpu.DepthPyramid.build` on the frame's 1080p depth) — the ideal draw is
+   (:meth:`soc.culling.hiz_gpu.DepthPyramid.build` on the frame's 1080p depth) — the ideal draw is
    the floor of a whole frame.
 
 Every GL time is wall time around ``ctx.finish()`` (``time.perf_counter``), never GL timer
@@ -32,9 +32,9 @@ from tqdm import tqdm
 
 import soc
 import soc.gl.context
-from soc.hiz_gpu import DepthPyramid
+from soc.culling.hiz_gpu import DepthPyramid
 from soc.methods import METHODS
-from soc.renderer import Renderer
+from soc.rendering.renderer import Renderer
 
 DISPLAY = (1920, 1080)
 # Extra rows beside every registered method: options issue 10 asks to compare (a finer box
@@ -173,7 +173,9 @@ def run_floor(
     specs = list(specs or default_specs(scene, resolution))
     parsed = {s: parse_spec(s) for s in specs}
     if cameras is None:
-        cameras = soc.paths.flight(scene, frames=frames, width=resolution[0], height=resolution[1])
+        cameras = soc.scenes.paths.flight(
+            scene, frames=frames, width=resolution[0], height=resolution[1]
+        )
     cameras = list(cameras)[:frames]
     glctx = soc.gl.context.default_context()
     oracle = soc.Oracle(scene)

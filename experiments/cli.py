@@ -497,7 +497,7 @@ def cmd_cull(args: argparse.Namespace) -> int:
     resolution = args.resolution or display
     scene = load_scene(args.scene, seed=args.seed, quick=args.quick, data=args.data)
     _check_method_culls(args.method, args.scene, scene)
-    cams = soc.paths.flight(scene, frames=frames, width=display[0], height=display[1])
+    cams = soc.scenes.paths.flight(scene, frames=frames, width=display[0], height=display[1])
     rows: list[dict[str, Any]] = []
     oracle = soc.Oracle(scene) if args.oracle else None
     try:

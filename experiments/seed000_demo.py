@@ -101,7 +101,7 @@ def demo(
         print(f"skipping methods that cannot cull this scene: {', '.join(skipped)}")
     methods = [m for m in methods if m in runnable]
     info = scene_info(scene, scene_name)
-    cams = soc.paths.flight(
+    cams = soc.scenes.paths.flight(
         scene, frames=setup.frames, width=setup.display[0], height=setup.display[1]
     )
     specs = merge_specs(

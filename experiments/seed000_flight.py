@@ -129,7 +129,7 @@ class IdealFrames:
 
     def __init__(self, scene, display: tuple[int, int], *, draw: bool = True):
         import soc
-        from soc.renderer import Renderer
+        from soc.rendering.renderer import Renderer
 
         self.scene = scene
         self.oracle = soc.Oracle(scene)

@@ -38,7 +38,7 @@ def telling_frame(rows: Sequence[dict[str, Any]]) -> int:
 
 def _renderer(scene, resolution):
     from soc.gl.context import default_context
-    from soc.renderer import Renderer
+    from soc.rendering.renderer import Renderer
 
     return Renderer(default_context().geometry(scene), resolution)
 
@@ -129,7 +129,7 @@ def occluder_depth(scene, camera, resolution: tuple[int, int] | None = None) -> 
     """(H, W) float64 eye distance (world units) in the occluder depth buffer, top row first;
     NaN where no occluder was drawn. Resolution: the camera's unless given."""
     import soc
-    from soc.depth_prepass import DepthTarget, render_occluders
+    from soc.culling.depth_prepass import DepthTarget, render_occluders
     from soc.gl.context import default_context
 
     glctx = default_context()

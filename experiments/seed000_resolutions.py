@@ -7,7 +7,8 @@ display resolution but culled) and false keeps (hidden but kept). A depth buffer
 the display closes small gaps between occluders, which culls more — and culls visible objects.
 A second curve beside the document's method: ``hiz-gpu`` on an inner-conservative occluder
 depth at the same resolutions (Hasselgren, Akenine-Möller & Ohlsson, GPU Gems 2 ch. 42;
-:class:`soc.depth_prepass.ConservativeOccluders`), which culls less at coarse resolutions but
+:class:`soc.culling.depth_prepass.ConservativeOccluders`), which culls less at coarse resolutions
+but
 never a visible object.
 """
 

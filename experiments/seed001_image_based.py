@@ -18,7 +18,7 @@ market objects move): holes, pixels showing the wrong object (by id) and colour 
 warped right eye against a true render, versus eye separation; the same for frames warped
 k frames ahead along the flight (with and without per-object transforms), versus k and the
 splat size; the time of a warp against a full render (both warp engines of
-:class:`soc.warping.Warper`, ratios measured in one run); and whether z-compositing four
+:class:`soc.rendering.warping.Warper`, ratios measured in one run); and whether z-compositing four
 random object subsets reproduces the full render.
 
 Stages: :func:`make_setup` → :func:`build` (scene, flight, moving objects) →
@@ -201,7 +201,7 @@ def build(setup: ImageSetup) -> World:
         else soc.scenes.market(seed=setup.seed)
     )
     w, h = setup.display
-    cams = soc.paths.flight(scene, frames=setup.flight_frames, width=w, height=h)
+    cams = soc.scenes.paths.flight(scene, frames=setup.flight_frames, width=w, height=h)
     rng = np.random.default_rng(setup.seed + 1001)
     occludees = np.flatnonzero(~scene.occluder)
     # From the larger half (carts, stalls rather than cups): movers a few pixels wide say little.
@@ -242,11 +242,12 @@ def eye_depth(depth: np.ndarray, camera) -> np.ndarray:
 
 
 def metrics(warped, truth, outside: np.ndarray, movers: np.ndarray) -> dict[str, Any]:
-    """:func:`soc.warping.compare`'s row plus holes split into border holes (the surface lay
+    """:func:`soc.rendering.warping.compare`'s row plus holes split into border holes (the surface
+    lay
     outside the source camera's view, ``outside``) and interior ones (disoccluded or
     undersampled), and the share of moving objects' true pixels the warp gets wrong (a
     hole or another id)."""
-    from soc.warping import HOLE, compare
+    from soc.rendering.warping import HOLE, compare
 
     holes = warped.ids == HOLE
     on_movers = np.isin(truth.ids, movers)
@@ -266,7 +267,7 @@ def metrics(warped, truth, outside: np.ndarray, movers: np.ndarray) -> dict[str,
 
 @dataclass
 class Pictures:
-    """Frames kept for the figures (each a :class:`soc.warping.Frame`)."""
+    """Frames kept for the figures (each a :class:`soc.rendering.warping.Frame`)."""
 
     stereo: dict[str, Any] = field(default_factory=dict)
     warp: dict[str, Any] = field(default_factory=dict)
@@ -286,8 +287,8 @@ def busiest(world: World, frames: Sequence[int], gl) -> int:
 def stereo_sweep(world: World, setup: ImageSetup, gl, pics: Pictures, bar=None) -> list[dict]:
     """Per view and eye separation: warp the left eye to the right eye by disparity and
     compare with a true render of the right eye (splat size 1, point engine)."""
-    from soc.oracle import NO_OBJECT
-    from soc.warping import focal_length_px, outside_source_view, stereo_camera
+    from soc.culling.oracle import NO_OBJECT
+    from soc.rendering.warping import focal_length_px, outside_source_view, stereo_camera
 
     rows = []
     frames = view_frames(setup)
@@ -329,7 +330,7 @@ def age_sweep(world: World, setup: ImageSetup, gl, pics: Pictures, bar=None) -> 
     """Per target frame t, age k and splat size: warp frame t - k (its camera and object
     transforms) to camera t with the transforms of t, and compare with the true render of t.
     Also once per (t, k) at splat size 1 ignoring object motion (old transforms kept)."""
-    from soc.warping import outside_source_view
+    from soc.rendering.warping import outside_source_view
 
     targets = view_frames(setup, lead=max(setup.ages))
     truths = {}
@@ -414,7 +415,7 @@ def composite_check(world: World, setup: ImageSetup, gl, pics: Pictures) -> dict
     """Render ``COMPOSITE_PARTS`` random object subsets separately, z-composite them and count
     the pixels where the composite differs from the full render (colour, id). The view is
     the stereo picture's (run :func:`stereo_sweep` first), else the first view."""
-    from soc.compositing import composite_subsets
+    from soc.rendering.compositing import composite_subsets
 
     i = pics.stereo.get("frame", view_frames(setup)[0])  # the stereo picture's view
     cam, t = world.cameras[i], world.transforms(i)
@@ -640,7 +641,7 @@ def format_claims(claims: Sequence[dict[str, str]]) -> str:
 
 def _error_map(warped, truth) -> np.ndarray:
     """RGB: holes red, wrong object yellow, right grey (the warped image dimmed)."""
-    from soc.warping import HOLE
+    from soc.rendering.warping import HOLE
 
     img = (0.35 * warped.color + 0.65 * 40).astype(np.uint8)
     holes = warped.ids == HOLE
@@ -664,7 +665,7 @@ def plots(summary: dict, stereo: list[dict], pics: Pictures, setup: ImageSetup, 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    from soc.warping import compare
+    from soc.rendering.warping import compare
 
     figs = {}
     res = res_str(setup.display)
@@ -786,7 +787,7 @@ class _GL:
     """The renderers and warpers of one run (released together)."""
 
     def __init__(self, scene, display: tuple[int, int]):
-        from soc.warping import FrameRenderer, Warper
+        from soc.rendering.warping import FrameRenderer, Warper
 
         self.source = FrameRenderer(scene, display)
         self.truth = FrameRenderer(scene, display)

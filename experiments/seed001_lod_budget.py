@@ -163,7 +163,7 @@ def prepare(
     """Build the LOD scene, upload it, calibrate the cost model (or load it from the cache)."""
     from lod import calibration, lod_scene
     from soc.gl.context import default_context
-    from soc.renderer import Renderer
+    from soc.rendering.renderer import Renderer
 
     t0 = time.perf_counter()
     config = lod_scene.QUICK if setup.quick else lod_scene.FULL

@@ -285,7 +285,7 @@ def render_picture(
     with the toolkit's flat-shaded renderer (soc) from the same camera."""
     import soc
     from soc.gl.context import default_context
-    from soc.renderer import Renderer
+    from soc.rendering.renderer import Renderer
 
     v = np.asarray(mesh.vertices, np.float64)
     centre = (v.min(axis=0) + v.max(axis=0)) / 2

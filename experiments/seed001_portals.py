@@ -4,7 +4,7 @@ Seed 001 (Zachmann's VR lecture) sketches portal culling: split the building int
 (rooms), precompute which cells see which through the portals (doors), and from a viewpoint
 even less is visible. It gives no numbers. We walk a camera through ``soc.scenes.rooms`` and
 measure, per frame, the fraction of objects culled by ``portals`` (frustum + cell/portal
-traversal with screen-space portal narrowing, :mod:`soc.portals`) and by ``frustum`` alone,
+traversal with screen-space portal narrowing, :mod:`soc.culling.portals`) and by ``frustum`` alone,
 their cull time, and false culls against the oracle (an exact per-object id render at the
 display resolution): portal culling is conservative, so there must be none.
 

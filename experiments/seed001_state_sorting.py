@@ -10,13 +10,14 @@ Bounded-Waste, Random-Choice, Round-Robin) with the offline optimum by their num
 - "Round-Robin ist sehr gut (obwohl sehr einfach)"; "Worst-Case sagt sehr wenig über prakt.
   Perf." (the worst case says little about practical performance).
 
-We measure colour changes per buffer size k (1 … 64) for every strategy (:mod:`soc.state_sorting`)
+We measure colour changes per buffer size k (1 … 64) for every strategy
+(:mod:`soc.rendering.state_sorting`)
 and the empirical competitive ratio online / offline on
 
 - synthetic streams: ``uniform`` (8 materials, i.i.d.), ``zipf`` (64 materials, popularity
   ∝ 1/rank^1.2), ``bursty`` (a working set of 6 of 48 materials that slides by one every 100
   draws: spatially coherent draw orders), ``adversarial`` (LRU's worst case built for each k:
-  :func:`soc.state_sorting.lru_adversary` with m the largest even number with m² <= k);
+  :func:`soc.rendering.state_sorting.lru_adversary` with m the largest even number with m² <= k);
 - the real draw stream: per frame of the seed-000 flight over the generated market, the
   objects that culling keeps (``hiz-gpu`` by default), in the renderer's order (object
   index), each drawn with its material. Materials come from the scene: an object's mesh family,
@@ -26,7 +27,7 @@ and the empirical competitive ratio online / offline on
   frame; changes summed over the flight).
 
 The optimum is out of reach on these streams, so ratios are taken to a *reference*: the
-fewest changes of any strategy at that k, in practice :func:`soc.state_sorting.simulate`'s
+fewest changes of any strategy at that k, in practice :func:`soc.rendering.state_sorting.simulate`'s
 ``"offline"`` (best of two lookahead rules and, on streams of at most ``BEAM_MAX_COLOURS``
 materials, a beam search) except where Bounded-Waste does better. Every output counted is
 one a buffer of k allows, so the reference bounds the optimum from above and our ratios
@@ -67,7 +68,7 @@ from experiments.common import (
     write_csv,
     write_json,
 )
-from soc.state_sorting import (
+from soc.rendering.state_sorting import (
     ONLINE,
     colour_changes,
     lru_adversary,
@@ -237,7 +238,7 @@ def draw_stream(setup: SortingSetup) -> tuple[list[np.ndarray], dict[str, Any]]:
     scene = soc.scenes.market(seed=setup.seed)
     mats, names = material_ids(scene.names)
     w, h = setup.display
-    cams = soc.paths.flight(scene, frames=setup.frames, width=w, height=h)
+    cams = soc.scenes.paths.flight(scene, frames=setup.frames, width=w, height=h)
     frames = []
     with soc.Culler(scene, method=setup.method, resolution=setup.display) as culler:
         for cam in cams:

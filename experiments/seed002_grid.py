@@ -156,7 +156,7 @@ def segments(setup: GridSetup) -> list[Segment]:
         if setup.quick
         else soc.scenes.market(seed=setup.seed)
     )
-    flight = soc.paths.flight(market, frames=2 * n, width=w, height=h)
+    flight = soc.scenes.paths.flight(market, frames=2 * n, width=w, height=h)
     start = n // 2
     rooms = soc.scenes.rooms(setup.seed, rooms=ROOMS)
     walk = soc.scenes.rooms_walk(rooms, n, seed=setup.seed, width=w, height=h)

@@ -6,7 +6,7 @@ The lecture ("Drei Rendering Algorithmen", seed 003) bounds forward rasterizatio
 O(V · VP · L) in the worst case (every triangle's fragments lit by every light before the depth
 test), and deferred shading by O(V · VP + L · VP) (lighting after the depth test, per pixel);
 its g-buffer (depth 24 bit, normal 2 × 32 bit, diffuse 3 × 32 bit, material 16 bit) takes
-≈ 25 MB at 1024 × 1024. Here both paths (:mod:`soc.shading`) render a stack of tessellated
+≈ 25 MB at 1024 × 1024. Here both paths (:mod:`soc.rendering.shading`) render a stack of tessellated
 spheres in front of a wall on this machine's GL context:
 
 - the L sweep: L = 1 … 256 at a few viewports, drawn back to front (every fragment passes the
@@ -250,7 +250,7 @@ def measure(
     """
     from tqdm.auto import tqdm
 
-    from soc.shading import ShadingRenderer, random_lights
+    from soc.rendering.shading import ShadingRenderer, random_lights
 
     t0 = time.perf_counter()
     points = _points(setup)
@@ -332,7 +332,7 @@ def _row(p, path, scene, ids, fragments, runs) -> dict[str, Any]:
 
 def _pictures(r, cam, ids, setup: ComplexitySetup) -> dict[str, Any]:
     """Forward and deferred images at the reference setting, their difference, the g-buffer."""
-    from soc.shading import random_lights
+    from soc.rendering.shading import random_lights
 
     r.set_lights(random_lights(light_box(setup), setup.reference[1], seed=setup.seed,
                                intensity=6.0))  # fmt: skip
@@ -362,7 +362,13 @@ def _to_uint8(img: np.ndarray) -> np.ndarray:
 def gbuffer_memory(setup: ComplexitySetup) -> dict[str, Any]:
     """The g-buffer at ``gbuffer_side``²: bytes per texture computed from the formats and read
     back from the allocated textures (``glGetTextureLevelParameteriv``), beside the lecture."""
-    from soc.shading import GBUFFER, LECTURE_GBUFFER_MB, MIB, ShadingRenderer, gbuffer_bytes
+    from soc.rendering.shading import (
+        GBUFFER,
+        LECTURE_GBUFFER_MB,
+        MIB,
+        ShadingRenderer,
+        gbuffer_bytes,
+    )
 
     size = (setup.gbuffer_side, setup.gbuffer_side)
     computed = gbuffer_bytes(size)
@@ -802,7 +808,7 @@ def format_crossovers(cross: Sequence[dict[str, Any]]) -> str:
 
 
 def format_gbuffer(g: dict[str, Any]) -> str:
-    from soc.shading import MIB
+    from soc.rendering.shading import MIB
 
     rows = [
         [t["texture"], t["lecture"], t["format"], t["bits"], t["bits_read"],
@@ -961,7 +967,7 @@ def plot_stages(ref: Sequence[dict[str, Any]], setup: ComplexitySetup):
 
 def plot_images(images: dict[str, Any], setup: ComplexitySetup):
     """Forward and deferred images, their difference, and the four g-buffer textures."""
-    from soc.shading import SKY_MATERIAL, oct_decode
+    from soc.rendering.shading import SKY_MATERIAL, oct_decode
 
     plt = _plt()
     g = images["gbuffer"]
@@ -1117,7 +1123,8 @@ lit by every light before the depth test) and deferred shading by O(V · VP + L 
 depth test first, into a g-buffer; then the lights over pixels), with a g-buffer of depth
 24 bit, normal 2 × 32 bit, diffuse 3 × 32 bit and material 16 bit: ≈ 25 MB at 1024 × 1024.
 
-Here both paths (`soc.shading`) render a stack of tessellated spheres in front of a wall on
+Here both paths (`soc.rendering.shading`) render a stack of tessellated spheres in front of a wall
+on
 this machine's GL context (Mesa llvmpipe), timed stage by stage with `ctx.finish()`, in
 wall time and in CPU time of all threads (the work; robust when other jobs share the cores). All the
 work is done by `experiments/seed003_complexity.py` (`python -m experiments.seed003_complexity`);

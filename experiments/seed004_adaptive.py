@@ -180,7 +180,7 @@ class AliveOracle:
         """(N,) bool: objects among ``ids`` with a pixel from ``camera``."""
         import moderngl
 
-        from soc.oracle import NO_OBJECT
+        from soc.culling.oracle import NO_OBJECT
 
         self.fbo.use()
         self.fbo.depth_mask = True
@@ -298,7 +298,7 @@ def sweep(dyn, setup: AdaptiveSetup, renderer, *, bar=None) -> dict[str, Any]:
     """At the last frame: a forced mode-3 method (same-frame queries, the planner choosing q)
     renders the last camera ``sweep_frames`` times; then q = 0, n_0 and q* are timed."""
     import soc
-    from soc.query_model import best_query_count, fit_query_model
+    from soc.models.query_model import best_query_count, fit_query_model
 
     last = dyn.frames - 1
     cam = dyn.cameras(*setup.resolution)[last]
@@ -374,7 +374,7 @@ def sweep(dyn, setup: AdaptiveSetup, renderer, *, bar=None) -> dict[str, Any]:
 
 def run_scene(name: str, setup: AdaptiveSetup, glctx, *, bar=None) -> dict[str, Any]:
     """Generate one dynamic scene, animate it with the three methods, sweep q at its end."""
-    from soc.renderer import Renderer
+    from soc.rendering.renderer import Renderer
     from soc.scenes.dynamic import dynamic_scene
 
     t = time.perf_counter()
@@ -585,7 +585,7 @@ def figure_frametimes(rows: Sequence[dict], summary: Sequence[dict], crit: Seque
 
 def figure_regression(sweeps: Sequence[dict]):
     """c(q), s(q), e(q): measured points and the fitted formulas (8)–(10); T(q) of (7)."""
-    from soc.query_model import QueryModel
+    from soc.models.query_model import QueryModel
 
     plt = _plt()
     fig, axes = plt.subplots(len(sweeps), 4, figsize=(15, 3.2 * len(sweeps)), squeeze=False)
@@ -841,8 +841,8 @@ def run(
     """
     from tqdm.auto import tqdm
 
-    from soc.adaptive import warm_up_fit
     from soc.gl.context import default_context
+    from soc.models.adaptive import warm_up_fit
 
     setup = setup or make_setup(quick)
     out = Path(out) if out is not None else default_out(setup.quick) / "seed004_adaptive"

@@ -6,18 +6,18 @@ actually allocated, and the re-fit time of the query-count regression (formulas 
 Seed 004 (``004_bba2ab22d18288ab.txt``, Table 1) renders scenes of 10 … 300,000 random boxes,
 measures the frame time and predicts it with formula (2) from per-material constants measured
 on calibration draws; its model errs by 1.1-9.5 %. We do the same on llvmpipe: the constants
-of :mod:`soc.perf_model` are measured on calibration geometry only (full-screen triangles,
+of :mod:`soc.models.perf_model` are measured on calibration geometry only (full-screen triangles,
 patches of equal triangles, tiny triangles, node queries), never on a Table 1 scene, so
 every row is a held-back prediction. Every timed batch (calibration and Table 1 frames) is
-interleaved round by round (:func:`soc.perf_model.run_interleaved`), so load from other
+interleaved round by round (:func:`soc.models.perf_model.run_interleaved`), so load from other
 processes falls on all alike; a frame is "draw everything with one multi-draw indirect",
 clear and ``finish`` included, its minimum over the rounds (the least disturbed run: steady
 on a busy machine; ``--statistic median`` for medians, see
-:func:`soc.perf_model.typical_ms`).
+:func:`soc.models.perf_model.typical_ms`).
 
 Our prediction is formula (2) with the llvmpipe reading of its stages (``overlap="sum"``: the
 CPU rasterizer does not pipeline them) and T_vert + T_frag summed per triangle from the
-measured cost curve t(E) of a triangle's footprint (see :mod:`soc.perf_model`); the paper's
+measured cost curve t(E) of a triangle's footprint (see :mod:`soc.models.perf_model`); the paper's
 form (``max``; T_vert = N_Δ·T_Δ, T_frag = f·T_frag from the full-screen triangle) is
 reported beside it. Dense scenes (boxes as large as their spacing, most fragments
 rejected by the depth test) are run as a stated limitation: the model prices every fragment
@@ -74,7 +74,7 @@ DENSE_SIZES = (1000, 10000)  # the limitation check, full runs
 QUICK_DENSE_SIZES = (1000,)
 DENSE_SIZE_RANGE = (0.3, 1.5)  # edges as long as the spacing: depth complexity ~5-18
 TARGET_ERROR_PCT = 15.0  # the issue's target on held-back sizes
-OVERLAP = "sum"  # our reading of (2) on llvmpipe (see soc.perf_model.frame_time)
+OVERLAP = "sum"  # our reading of (2) on llvmpipe (see soc.models.perf_model.frame_time)
 REFIT_FRAMES = 200  # frames of statistics per query-model re-fit
 REFIT_REPEATS = 20
 
@@ -94,12 +94,12 @@ class ModelSetup:
     repeats : int
         Interleaved rounds.
     scale : float
-        Batch scale of the calibration (:class:`soc.perf_model.CalibrationSetup`).
+        Batch scale of the calibration (:class:`soc.models.perf_model.CalibrationSetup`).
     seed : int
     quick : bool
     statistic : {"median", "min"}
         What stands for repeated timings, calibration and frames alike
-        (:func:`soc.perf_model.typical_ms`).
+        (:func:`soc.models.perf_model.typical_ms`).
     """
 
     sizes: tuple[int, ...]
@@ -185,8 +185,8 @@ def prepare(setup: ModelSetup, *, bar=None) -> list[Case]:
     """
     from soc.gl.context import default_context
     from soc.gl.geometry import SceneGeometry
-    from soc.perf_model import count_fragments, scene_workload
-    from soc.renderer import Renderer
+    from soc.models.perf_model import count_fragments, scene_workload
+    from soc.rendering.renderer import Renderer
     from soc.scenes.random_boxes import overview_camera, random_boxes
 
     glctx = default_context()
@@ -219,7 +219,7 @@ def measure(
 ) -> tuple[Any, dict[str, list[float]]]:
     """Time the calibration batches and every case's frame, interleaved; returns the
     constants and the per-case frame times (ms, every round)."""
-    from soc.perf_model import run_interleaved
+    from soc.models.perf_model import run_interleaved
 
     tasks = dict(calibration.tasks)
     tasks.update({c.name: c.draw for c in cases})
@@ -241,7 +241,7 @@ def table_rows(
     """One row per scene: measured frame time (``statistic`` over the rounds, and the
     quartiles), our prediction and its error, the paper's form and its error, the terms of
     (2), counts, and the document's row when the size is one of Table 1's."""
-    from soc.perf_model import frame_time, typical_ms
+    from soc.models.perf_model import frame_time, typical_ms
 
     paper_constants = constants.paper_only()
     doc = {n: i for i, n in enumerate(DOC_OBJECTS)}
@@ -297,7 +297,7 @@ def held_back(rows: Sequence[dict]) -> dict[str, Any]:
 def memory_rows(cases: Sequence[Case]) -> list[dict]:
     """Formula (1) from the scene's counts beside the bytes of the GL buffers and render
     targets actually allocated, per scene."""
-    from soc.perf_model import allocated_memory, geometry_memory
+    from soc.models.perf_model import allocated_memory, geometry_memory
 
     rows = []
     for c in cases:
@@ -321,7 +321,7 @@ def refit_timing(constants, seed: int = 0) -> dict[str, Any]:
     """Compile once, then time re-fits of formulas (8)-(10) on :data:`REFIT_FRAMES` frames
     of synthetic statistics (a model with this context's unit times; the statistics of a real
     renderer come with the adaptive method). Reports the recovered coefficients too."""
-    from soc.query_model import (
+    from soc.models.query_model import (
         QueryModel,
         best_query_count,
         fit_query_model,
@@ -551,7 +551,7 @@ def run(
         ``rows``, ``memory``, ``constants`` (dict), ``held_back``, ``refit``, ``files``,
         ``seconds``.
     """
-    from soc.perf_model import Calibration, CalibrationSetup
+    from soc.models.perf_model import Calibration, CalibrationSetup
 
     setup = setup or make_setup(quick)
     out = Path(out) if out is not None else default_out(setup.quick) / "seed004_model"

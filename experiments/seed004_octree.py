@@ -176,8 +176,8 @@ def replay(dyn, glctx, renderer, *, bar=None) -> tuple[list[dict], dict[str, Any
 
     Returns per-frame rows and the last frame's layout comparison.
     """
-    from soc.frustum import aabbs_in_frustum
-    from soc.octree import NodeBuffers, ObjectCommands, Octree
+    from soc.culling.frustum import aabbs_in_frustum
+    from soc.culling.octree import NodeBuffers, ObjectCommands, Octree
 
     scene = dyn.scene
     geom = glctx.geometry(scene)
@@ -237,8 +237,8 @@ def replay(dyn, glctx, renderer, *, bar=None) -> tuple[list[dict], dict[str, Any
 def compare_layouts(octree, geom, renderer, cam, shared, flat) -> dict[str, Any]:
     """At the last frame: re-record everything, and draw the frustum's nodes from both GPU
     layouts and as one flat multi-draw (medians of 3)."""
-    from soc.frustum import aabbs_in_frustum
-    from soc.octree import NodeBuffers
+    from soc.culling.frustum import aabbs_in_frustum
+    from soc.culling.octree import NodeBuffers
 
     out: dict[str, Any] = {"nodes": int((octree.own_counts > 0).sum())}
     per_node = NodeBuffers(octree, geom, layout="per-node")
@@ -272,7 +272,7 @@ def compare_layouts(octree, geom, renderer, cam, shared, flat) -> dict[str, Any]
 
 def table2_cameras(dyn, count: int, resolution: tuple[int, int]):
     """``count`` elevated cameras outside the city, looking across it at its centre."""
-    from soc.camera import Camera
+    from soc.scenes.camera import Camera
 
     lo, hi = dyn.scene.bounds.astype(np.float64)
     half = 0.5 * float(hi[0] - lo[0]) - 20.0  # the ground reaches 20 m past the city
@@ -290,9 +290,9 @@ def table2_cameras(dyn, count: int, resolution: tuple[int, int]):
 def table2(setup: OctreeSetup, glctx, *, bar=None) -> dict[str, Any]:
     """The estimate on a ``table2_objects``-object scene for every budget and threshold."""
     import soc
-    from soc.frustum import aabbs_in_frustum
-    from soc.invisible_estimate import InvisibleEstimator
-    from soc.octree import Octree
+    from soc.culling.frustum import aabbs_in_frustum
+    from soc.culling.invisible_estimate import InvisibleEstimator
+    from soc.culling.octree import Octree
     from soc.scenes.dynamic import scene3
 
     t0 = time.perf_counter()
@@ -466,8 +466,8 @@ def picture(glctx, scene, octree, pictures: Sequence[dict], resolution):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from soc.octree import outline_boxes
-    from soc.renderer import Renderer
+    from soc.culling.octree import outline_boxes
+    from soc.rendering.renderer import Renderer
 
     cam, e = pictures[0]["camera"], pictures[0]["estimate"]
     r = Renderer(glctx.geometry(scene), resolution)
@@ -658,7 +658,7 @@ def run(
     from tqdm.auto import tqdm
 
     from soc.gl.context import default_context
-    from soc.renderer import Renderer
+    from soc.rendering.renderer import Renderer
     from soc.scenes.dynamic import dynamic_scene
 
     setup = setup or make_setup(quick)

@@ -1,7 +1,8 @@
 """One task of a ``vislod sweep``: what it is (:class:`SceneSpec`, :class:`SweepTask`), the key
 that names its result, and how a worker process runs it (:func:`run_task`).
 
-Issue 6, part 5. A task culls one chunk of the seed-000 flight (``soc.paths.flight``) over one
+Issue 6, part 5. A task culls one chunk of the seed-000 flight (``soc.scenes.paths.flight``) over
+one
 scene with one method at one depth resolution and one display resolution, and returns one row
 per frame (:meth:`soc.FrameStats.as_row` plus the task's parameters). Its key is a hash of
 those parameters and the code version, so the same task always has the same key, in every
@@ -313,7 +314,7 @@ def run_task(
     scene = loaded.scene
     if task.oracle and loaded.oracle is None:
         loaded.oracle = soc.Oracle(scene, glctx)
-    cams = soc.paths.flight(
+    cams = soc.scenes.paths.flight(
         scene, frames=task.frames, width=task.display[0], height=task.display[1]
     )
     common = {

@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from soc.camera import Camera
+from soc.scenes.camera import Camera
 
 # -- constants ------------------------------------------------------------------------------
 

@@ -171,7 +171,7 @@ class Calibration:
         ``{variant: {"model": {...}, "train": {...}, "held_out": {...}}}`` for every variant.
     samples : Samples
     device : str
-        GL renderer and thread count (:meth:`soc.renderer.Renderer.device`).
+        GL renderer and thread count (:meth:`soc.rendering.renderer.Renderer.device`).
     resolution : (int, int)
     seconds : float
         Time the measurement took (0 when loaded from the cache).
@@ -263,7 +263,7 @@ def calibrate(
         tqdm bar over the samples.
     """
     from soc.gl.context import default_context
-    from soc.renderer import Renderer
+    from soc.rendering.renderer import Renderer
 
     if variant is not None and variant not in VARIANTS:
         raise ValueError(f"variant must be one of {tuple(VARIANTS)} or None, got {variant!r}")
@@ -378,8 +378,8 @@ class _Stacks:
 
     @classmethod
     def of(cls, chains) -> _Stacks:
-        from soc.scene import Scene
         from soc.scenes import primitives as prim
+        from soc.scenes.scene import Scene
 
         direction = np.asarray(VIEW_DIRECTION, np.float64)
         direction /= np.linalg.norm(direction)
@@ -440,7 +440,7 @@ def measure(
     from tqdm.auto import tqdm
 
     from lod.screen_size import projected_area
-    from soc.camera import Camera
+    from soc.scenes.camera import Camera
 
     if repeats < 1 or not target_ms > 0:
         raise ValueError(f"need repeats >= 1 and target_ms > 0, got {repeats}, {target_ms}")

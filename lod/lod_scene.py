@@ -28,9 +28,9 @@ from pathlib import Path
 import numpy as np
 
 from lod.chain import LodChain, build_chain, load_mesh
-from soc.camera import Camera
-from soc.scene import Scene
 from soc.scenes import primitives as prim
+from soc.scenes.camera import Camera
+from soc.scenes.scene import Scene
 
 # -- configuration --------------------------------------------------------------------------
 

@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.camera import Camera
+from soc.scenes.camera import Camera
 
 # -- constants ------------------------------------------------------------------------------
 

@@ -8,16 +8,17 @@ Importing ``soc`` does not touch OpenGL: the EGL context is created by the first
 from soc import user_cache  # noqa: F401  (first: numba's kernel cache folder, before any kernel)
 
 # isort: on
-from soc import paths, scenes
-from soc.camera import Camera
+from soc import scenes
 from soc.culler import Culler, method_names
+from soc.culling.frustum import aabbs_in_frustum
+from soc.culling.oracle import Oracle, exact_visibility
 from soc.errors import GLError, GLUnavailableError, SceneError, SceneFormatError
 from soc.fly import fly
-from soc.frustum import aabbs_in_frustum
 from soc.methods import CullConfig
 from soc.metrics import CullResult, FrameStats
-from soc.oracle import Oracle, exact_visibility
-from soc.scene import MeshView, Scene
+from soc.scenes import paths
+from soc.scenes.camera import Camera
+from soc.scenes.scene import MeshView, Scene
 
 __all__ = [
     "Camera",

@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.camera import Camera, _resolution
 from soc.gl.context import uses_gl
 from soc.methods import METHODS, CullConfig
 from soc.methods.base import MethodOutput
 from soc.metrics import CullResult, frame_stats
+from soc.scenes.camera import Camera, _resolution
 
 
 def method_names(scene=None) -> list[str]:
@@ -118,7 +118,7 @@ class Culler:
     @uses_gl
     def renderer(self, resolution: tuple[int, int]):
         """The renderer used by ``cull(draw=True)`` (display resolution)."""
-        from soc.renderer import Renderer
+        from soc.rendering.renderer import Renderer
 
         if self._renderer is None or self._renderer.resolution != tuple(resolution):
             if self._renderer is not None:

@@ -50,7 +50,7 @@ def fly(
     Examples
     --------
     >>> with soc.Culler(scene, "hiz-gpu") as c:                       # doctest: +SKIP
-    ...     df = soc.fly(c, soc.paths.flight(scene, 50), truth="oracle")
+    ...     df = soc.fly(c, soc.scenes.paths.flight(scene, 50), truth="oracle")
     >>> df[["ms_cull", "false_culls"]].describe()                      # doctest: +SKIP
     """
     import pandas as pd
@@ -90,7 +90,7 @@ def _truth_source(culler, cameras, truth):
             raise ValueError(
                 f"truth must be None, 'oracle', a sequence or a callable, got {truth!r}"
             )
-        from soc.oracle import Oracle
+        from soc.culling.oracle import Oracle
 
         oracle = Oracle(culler.scene, glctx=culler.glctx)
 

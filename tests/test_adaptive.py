@@ -10,7 +10,7 @@ import pytest
 from conftest import check_conservative
 
 import soc
-from soc.adaptive import (
+from soc.models.adaptive import (
     LinearCost,
     ModeCosts,
     QueryPlanner,
@@ -18,8 +18,8 @@ from soc.adaptive import (
     condition5,
     condition6,
 )
-from soc.paths import random_cameras
-from soc.query_model import QueryModel, synthetic_statistics
+from soc.models.query_model import QueryModel, synthetic_statistics
+from soc.scenes.paths import random_cameras
 
 RES = (320, 192)
 
@@ -255,7 +255,7 @@ def test_apply_rejects_events_that_contradict_the_alive_set(small_dynamic):
 
 
 def test_render_draws_the_same_set_as_cull(small_dynamic):
-    from soc.renderer import Renderer
+    from soc.rendering.renderer import Renderer
 
     dyn = small_dynamic
     res = (160, 90)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 import soc
-from soc.box_queries import BoxQueries
-from soc.depth_prepass import DepthTarget, render_occluders
+from soc.culling.box_queries import BoxQueries
+from soc.culling.depth_prepass import DepthTarget, render_occluders
 from soc.gl.context import default_context
 from soc.scenes.clutter import box_mesh
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import soc
-from soc.bvh import build
+from soc.culling.bvh import build
 
 
 def _random_boxes(n: int, seed: int) -> np.ndarray:

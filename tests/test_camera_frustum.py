@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import soc
-from soc.frustum import aabbs_in_frustum
+from soc.culling.frustum import aabbs_in_frustum
 
 
 def test_look_at_maps_target_to_screen_centre():

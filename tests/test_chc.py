@@ -8,7 +8,7 @@ import pytest
 from conftest import check_conservative
 
 import soc
-from soc.paths import flight, random_cameras
+from soc.scenes.paths import flight, random_cameras
 
 METHOD = "chc"
 STRICT = {METHOD: {"temporal": False, "leaf_size": 2, "batch_size": 4}}

@@ -1,4 +1,5 @@
-"""Z-compositing (soc.compositing): renders of disjoint object subsets, combined per pixel by
+"""Z-compositing (soc.rendering.compositing): renders of disjoint object subsets, combined per
+pixel by
 depth, equal the render of all objects — colour and ids bit for bit, depth up to the last
 bit of its float32 conversion — including pixels where two objects tie in depth."""
 
@@ -8,10 +9,10 @@ import numpy as np
 import pytest
 
 import soc
-from soc.compositing import Compositor, composite_subsets
-from soc.oracle import NO_OBJECT
+from soc.culling.oracle import NO_OBJECT
+from soc.rendering.compositing import Compositor, composite_subsets
+from soc.rendering.warping import Frame, FrameRenderer
 from soc.scenes.clutter import box_mesh, quad
-from soc.warping import Frame, FrameRenderer
 
 RES = (160, 120)
 

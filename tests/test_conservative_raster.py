@@ -1,4 +1,5 @@
-"""The inner-conservative occluder raster (:class:`soc.depth_prepass.ConservativeOccluders`):
+"""The inner-conservative occluder raster
+(:class:`soc.culling.depth_prepass.ConservativeOccluders`):
 exactly the texels a quad covers whole, with its farthest depth over each; never nearer than
 an ordinary render at any finer resolution; and ``hiz-gpu`` on a coarse conservative occluder
 depth never culls what the oracle sees at the display resolution (the coarse ordinary raster
@@ -11,14 +12,14 @@ import pytest
 from conftest import check_conservative
 
 import soc
-from soc.depth_prepass import (
+from soc.culling.depth_prepass import (
     ConservativeOccluders,
     DepthTarget,
     occluder_primitives,
     render_occluders,
 )
 from soc.gl.context import default_context
-from soc.paths import flight, random_cameras
+from soc.scenes.paths import flight, random_cameras
 
 # The depth texture keeps 24 bits: a written depth may sit this far below the float value.
 DEPTH_STORAGE = 2.0**-24

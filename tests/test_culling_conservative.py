@@ -13,8 +13,8 @@ import pytest
 from conftest import check_conservative
 
 import soc
-from soc.paths import flight, random_cameras
 from soc.scenes.clutter import box_mesh
+from soc.scenes.paths import flight, random_cameras
 
 # Seed 000's methods; each later method runs the random-camera checks in its own test file.
 CONSERVATIVE = ["none", "frustum", "queries"]

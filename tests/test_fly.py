@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import soc
-from soc.paths import random_cameras
+from soc.scenes.paths import random_cameras
 
 
 @pytest.fixture(scope="module")

@@ -25,7 +25,7 @@ import numpy as np
 import soc
 from soc.gl.context import GLContext, current_egl_state
 from soc.gl.raw import egl
-from soc.paths import random_cameras
+from soc.scenes.paths import random_cameras
 
 scenario = sys.argv[1]
 RES = (160, 100)

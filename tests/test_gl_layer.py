@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import soc
-from soc.depth_prepass import DepthTarget, render_occluders
+from soc.culling.depth_prepass import DepthTarget, render_occluders
 from soc.gl.context import default_context
-from soc.renderer import Renderer
+from soc.rendering.renderer import Renderer
 from soc.scenes.clutter import box_mesh, quad
 
 
@@ -87,7 +87,7 @@ def test_renderer_draws_only_the_given_objects_and_times_it():
 
 def test_culler_reports_stage_timings_and_counts():
     s = soc.scenes.clutter(2)
-    cam = soc.paths.flight(s, frames=5, width=320, height=180)[1]
+    cam = soc.scenes.paths.flight(s, frames=5, width=320, height=180)[1]
     with soc.Culler(s, method="queries", resolution=(320, 180)) as c:
         r = c.cull(cam, draw=True)
     st = r.stats

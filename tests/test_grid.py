@@ -8,8 +8,8 @@ import pytest
 from conftest import check_conservative
 
 import soc
-from soc.grid import FRUSTUM_EDGES, build_grid, frustum_corners
-from soc.paths import flight, random_cameras
+from soc.culling.grid import FRUSTUM_EDGES, build_grid, frustum_corners
+from soc.scenes.paths import flight, random_cameras
 from soc.scenes.rooms import rooms, rooms_walk
 
 WAIT = {"grid": {"temporal": False, "grid_size": 8}}

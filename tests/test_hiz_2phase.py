@@ -10,10 +10,10 @@ import pytest
 from conftest import assert_conservative
 
 import soc
-from soc.paths import flight, random_cameras
-from soc.renderer import Renderer
+from soc.rendering.renderer import Renderer
 from soc.scenes.clutter import box_mesh
 from soc.scenes.dynamic import subset
+from soc.scenes.paths import flight, random_cameras
 
 # Option sets (next set from the early or the finished depth; depth-only early pass; the
 # occluders drawn early too): every one must be conservative in every frame.
@@ -163,7 +163,7 @@ def test_it_culls_and_draws_the_frame_of_everything(small_market, early_pass):
 def test_stage_switches(clutter_scenes):
     """CullConfig: without the depth test the kept set is the frustum test's; without the
     frustum test the method is still conservative (boxes outside go through the HiZ test)."""
-    from soc.frustum import aabbs_in_frustum
+    from soc.culling.frustum import aabbs_in_frustum
     from soc.methods import CullConfig
 
     scene = clutter_scenes[3]

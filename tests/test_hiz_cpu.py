@@ -9,8 +9,8 @@ import pytest
 from conftest import check_conservative
 
 import soc
-from soc.hiz_cpu import boxes_visible, build_pyramid, project_boxes
-from soc.paths import flight, random_cameras
+from soc.culling.hiz_cpu import boxes_visible, build_pyramid, project_boxes
+from soc.scenes.paths import flight, random_cameras
 
 ABB8_RESOLUTIONS = [(320, 192), (640, 360), (1280, 720), (1920, 1080), (2432, 1440), (3840, 2160)]
 
@@ -155,7 +155,7 @@ def test_culls_without_torch_installed():
         "import sys; sys.modules['torch'] = None\n"
         "import soc\n"
         "scene = soc.scenes.clutter(0)\n"
-        "cam = soc.paths.random_cameras(scene, 1, seed=1, width=64, height=40)[0]\n"
+        "cam = soc.scenes.paths.random_cameras(scene, 1, seed=1, width=64, height=40)[0]\n"
         "with soc.Culler(scene, method='hiz-cpu', resolution=(64, 40)) as c:\n"
         "    assert c.cull(cam).stats.models_visible > 0\n"
     )
@@ -163,12 +163,13 @@ def test_culls_without_torch_installed():
 
 
 def test_one_pass_codes_match_the_numpy_frustum_and_near_tests(clutter_scenes):
-    """classify_objects: VIEW_CULLED exactly where soc.frustum culls, boxes crossing the near
+    """classify_objects: VIEW_CULLED exactly where soc.culling.frustum culls, boxes crossing the
+    near
     plane kept untested, the rest as project_boxes + boxes_visible say."""
-    from soc.frustum import aabbs_in_frustum
+    from soc.culling.frustum import aabbs_in_frustum
+    from soc.culling.hiz_cpu import VIEW_CULLED, VISIBLE, classify_objects
+    from soc.culling.queries import near_plane_straddlers
     from soc.gl.geometry import grown_aabbs
-    from soc.hiz_cpu import VIEW_CULLED, VISIBLE, classify_objects
-    from soc.queries import near_plane_straddlers
 
     scene = clutter_scenes[2]
     diagonal = float(np.linalg.norm(scene.aabbs[:, 1].max(0) - scene.aabbs[:, 0].min(0)))

@@ -9,10 +9,10 @@ import pytest
 from conftest import check_conservative
 
 import soc
-from soc.depth_prepass import DepthTarget
+from soc.culling.depth_prepass import DepthTarget
+from soc.culling.hiz_gpu import DepthPyramid, HizTest, pyramid_sizes, reference_pyramid
 from soc.gl.context import default_context
-from soc.hiz_gpu import DepthPyramid, HizTest, pyramid_sizes, reference_pyramid
-from soc.paths import flight, random_cameras
+from soc.scenes.paths import flight, random_cameras
 
 HIZ = ["hiz-gpu"]
 
@@ -169,9 +169,9 @@ def test_box_covering_no_pixel_centre_is_culled_and_one_covering_a_centre_is_kep
 
 def test_shader_frustum_test_culls_only_what_the_numpy_test_culls(clutter_scenes):
     """The test shader's OUTSIDE code (grown boxes, float32 with a rounding allowance) is a
-    subset of :func:`soc.frustum.aabbs_in_frustum`'s outside set, and misses almost none."""
-    from soc.frustum import aabbs_in_frustum
-    from soc.hiz_gpu import OUTSIDE
+    subset of :func:`soc.culling.frustum.aabbs_in_frustum`'s outside set, and misses almost none."""
+    from soc.culling.frustum import aabbs_in_frustum
+    from soc.culling.hiz_gpu import OUTSIDE
 
     glctx = default_context()
     scene = clutter_scenes[0]

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 import soc
-from soc.invisible_estimate import TABLE2_NODES_CHECKED, InvisibleEstimator
-from soc.octree import Octree
-from soc.paths import random_cameras
+from soc.culling.invisible_estimate import TABLE2_NODES_CHECKED, InvisibleEstimator
+from soc.culling.octree import Octree
 from soc.scenes.dynamic import dynamic_scene
+from soc.scenes.paths import random_cameras
 from soc.scenes.primitives import box
 
 RES = (240, 136)
@@ -121,8 +121,8 @@ def test_a_node_is_judged_by_its_whole_subtree_not_its_own_objects():
     """A large object stays high in the octree, hidden behind a wall, while small objects of
     the same node's subtree stand beside the wall in view: testing the node's own box would
     count them as invisible."""
+    from soc.culling.octree import object_commands
     from soc.gl.context import default_context
-    from soc.octree import object_commands
 
     meshes = [box((-20, 0, 9), (20, 20, 10)), box((-18, 0, -15), (18, 10, 0))]  # wall, big
     rng = np.random.default_rng(1)

@@ -13,7 +13,7 @@ import soc
 from lod import lod_scene
 from lod.lod_scene import LodSceneConfig
 from soc.gl.context import default_context
-from soc.renderer import Renderer
+from soc.rendering.renderer import Renderer
 
 TINY = LodSceneConfig(instances=12, area=40.0, detail=3, scale=(1.0, 2.0), seed=3)
 

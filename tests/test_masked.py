@@ -9,9 +9,8 @@ import pytest
 from conftest import check_conservative
 
 import soc
-from soc.depth_prepass import DepthTarget, render_occluders
-from soc.gl.context import default_context
-from soc.masked import (
+from soc.culling.depth_prepass import DepthTarget, render_occluders
+from soc.culling.masked import (
     EDGE_MARGIN_PX,
     OCCLUDED,
     VIEW_CULLED,
@@ -22,9 +21,10 @@ from soc.masked import (
     buffer_shape,
     rasterize,
 )
-from soc.paths import flight, random_cameras
+from soc.culling.software_raster import RECORD, setup_triangles
+from soc.gl.context import default_context
 from soc.scenes.clutter import box_mesh
-from soc.software_raster import RECORD, setup_triangles
+from soc.scenes.paths import flight, random_cameras
 
 FULL = 0xFFFFFFFF
 # Bits of one 8×4 subtile: bit 8 r + c is row r, column c.
@@ -329,11 +329,13 @@ def test_codes_and_counts_agree_and_it_culls_about_what_hiz_gpu_culls(clutter_sc
 
 
 def test_one_pass_frustum_and_near_tests_match_the_numpy_ones(clutter_scenes):
-    """classify_objects' frustum codes are exactly soc.frustum.aabbs_in_frustum's outside set,
-    and boxes crossing the near plane (soc.queries.near_plane_straddlers) are kept untested."""
-    from soc.frustum import aabbs_in_frustum
+    """classify_objects' frustum codes are exactly soc.culling.frustum.aabbs_in_frustum's outside
+    set,
+    and boxes crossing the near plane (soc.culling.queries.near_plane_straddlers) are kept
+    untested."""
+    from soc.culling.frustum import aabbs_in_frustum
+    from soc.culling.queries import near_plane_straddlers
     from soc.gl.geometry import grown_aabbs
-    from soc.queries import near_plane_straddlers
 
     scene = clutter_scenes[3]
     diagonal = float(np.linalg.norm(scene.aabbs[:, 1].max(0) - scene.aabbs[:, 0].min(0)))

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import soc
-from soc.frustum import aabbs_in_frustum
-from soc.octree import NodeBuffers, ObjectCommands, Octree, object_commands
+from soc.culling.frustum import aabbs_in_frustum
+from soc.culling.octree import NodeBuffers, ObjectCommands, Octree, object_commands
 from soc.scenes.dynamic import dynamic_scene
 
 BOUNDS = np.array([[-100.0, 0.0, -100.0], [100.0, 40.0, 100.0]])
@@ -289,7 +289,7 @@ def test_node_buffers_hold_and_draw_exactly_the_alive_objects(small_dynamic, lay
     """Uploaded commands read back equal the recorded ones, frame after frame; drawing every
     node gives the same depth image as drawing the alive objects one command each."""
     from soc.gl.context import default_context
-    from soc.renderer import Renderer
+    from soc.rendering.renderer import Renderer
 
     dyn = small_dynamic
     scene = dyn.scene

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from experiments import cli
-from soc.query_model import FIT_EXTRA
+from soc.models.query_model import FIT_EXTRA
 
 try:
     import tomllib
@@ -179,7 +179,7 @@ def test_the_core_imports_and_names_the_extras_without_any_extra(tmp_path):
 
 def test_query_model_fit_without_jax_names_the_extra(tmp_path):
     code = (
-        "from soc import query_model\n"
+        "from soc.models import query_model\n"
         "try:\n"
         "    query_model._compiled_fit()\n"
         "except ImportError as e:\n"

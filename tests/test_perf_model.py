@@ -1,4 +1,4 @@
-"""Seed 004's performance model (soc.perf_model) and its random-box scenes
+"""Seed 004's performance model (soc.models.perf_model) and its random-box scenes
 (soc.scenes.random_boxes): formula (1) against the bytes GL allocated, formula (2) against hand
 arithmetic, screen areas against GL's own fragment count, the calibration's timing helpers,
 and clear errors for bad input. The prediction-vs-measurement check is in
@@ -12,7 +12,7 @@ import pytest
 import soc
 from soc.gl.context import default_context
 from soc.gl.geometry import SceneGeometry
-from soc.perf_model import (
+from soc.models.perf_model import (
     CalibrationSetup,
     PerfConstants,
     Workload,
@@ -28,9 +28,9 @@ from soc.perf_model import (
     triangle_areas,
     triangle_grid_scene,
 )
-from soc.renderer import Renderer
-from soc.scene import Scene
+from soc.rendering.renderer import Renderer
 from soc.scenes.random_boxes import overview_camera, random_boxes
+from soc.scenes.scene import Scene
 
 RES = (320, 180)
 
@@ -195,7 +195,7 @@ def test_triangle_cost_curve():
 
 def test_footprint_of_screen_triangles():
     """A + 4·(w + h): a right triangle with legs 40 and 30 px has footprint 600 + 280."""
-    from soc.perf_model import calibration_camera, footprint, screen_triangles
+    from soc.models.perf_model import calibration_camera, footprint, screen_triangles
 
     cam = calibration_camera(RES)
     wpp = 2 * 10 * np.tan(np.radians(30)) / RES[1]
@@ -237,7 +237,7 @@ def test_bad_model_input():
 def test_triangle_areas_by_hand():
     """A triangle in the plane the calibration camera looks at, legs of 40 and 30 pixels:
     600 px²; one crossing the near plane counts as the whole viewport."""
-    from soc.perf_model import calibration_camera
+    from soc.models.perf_model import calibration_camera
 
     cam = calibration_camera(RES)
     wpp = 2 * 10 * np.tan(np.radians(30)) / RES[1]  # world units per pixel at z = 0
@@ -266,7 +266,7 @@ def test_triangle_areas_match_gl_fragment_count(uploaded):
 def test_triangle_grid_scene_covers_what_it_says():
     """Equal right triangles of legs 4 px: each 8 px² (up to 1 %: nearer layers are a little
     larger), GL counts the same fragments, none rejected; spread over the whole screen."""
-    from soc.perf_model import calibration_camera
+    from soc.models.perf_model import calibration_camera
 
     scene = triangle_grid_scene(4.0, 2000, RES)
     cam = calibration_camera(RES)

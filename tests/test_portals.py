@@ -8,8 +8,8 @@ import pytest
 from conftest import check_conservative
 
 import soc
-from soc.paths import random_cameras
-from soc.portals import CellGraph, narrowed_planes
+from soc.culling.portals import CellGraph, narrowed_planes
+from soc.scenes.paths import random_cameras
 from soc.scenes.rooms import rooms, rooms_walk
 
 

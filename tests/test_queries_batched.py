@@ -8,7 +8,7 @@ import pytest
 from conftest import check_conservative
 
 import soc
-from soc.paths import flight, random_cameras
+from soc.scenes.paths import flight, random_cameras
 
 METHOD = "queries-batched"
 # Small packets and leaves so the tiny test scenes have several hierarchy levels.

@@ -1,4 +1,4 @@
-"""Formulas (7)-(11) of seed 004 (soc.query_model): q* against a brute-force minimum over the
+"""Formulas (7)-(11) of seed 004 (soc.models.query_model): q* against a brute-force minimum over the
 integers, the counts against hand computation, the JAX regression against known coefficients,
 and clear errors for bad input."""
 
@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from soc.query_model import (
+from soc.models.query_model import (
     QueryModel,
     QueryStatistics,
     best_query_count,
@@ -163,7 +163,7 @@ def test_regression_recovers_coefficients_from_noisy_statistics(seed):
 def test_refits_reuse_the_compiled_solver():
     """Histories of 70 and 120 frames share one padded length, so one compilation serves
     both (re-fitting every few frames costs no compile)."""
-    from soc.query_model import _compiled_fit
+    from soc.models.query_model import _compiled_fit
 
     m = QueryModel(**BASE)
     rng = np.random.default_rng(3)
@@ -175,7 +175,7 @@ def test_refits_reuse_the_compiled_solver():
 
 
 def test_import_soc_does_not_import_jax():
-    code = "import soc, soc.query_model, sys; print('jax' in sys.modules)"
+    code = "import soc, soc.models.query_model, sys; print('jax' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 

@@ -54,7 +54,7 @@ def test_counts_and_meta(building):
     assert (oc[building.occluder] == -1).all() and (oc[~building.occluder] >= 0).all()
     # a spanning tree per storey at least: 2 × (20 − 1) doors
     assert len(building.meta["portals"]) >= 38
-    assert len(soc.paths.flight(building, frames=5)) == 5
+    assert len(soc.scenes.paths.flight(building, frames=5)) == 5
 
 
 def test_cells_tile_the_building(building):

@@ -232,7 +232,7 @@ def test_every_conservative_method_keeps_what_the_oracle_sees_on_a_split_scene(t
     from conftest import check_conservative
     from test_culling_conservative import STRICT_OPTIONS, every_conservative_method
 
-    from soc.paths import random_cameras
+    from soc.scenes.paths import random_cameras
 
     mesh, _ = merged_town()
     path = tmp_path / "town.obj"

@@ -13,7 +13,7 @@ import pytest
 import soc
 from experiments import seed001_state_sorting as exp
 from experiments.common import read_csv
-from soc.state_sorting import colour_changes, simulate
+from soc.rendering.state_sorting import colour_changes, simulate
 
 FILES = [
     "seed001_state_sorting.csv",
@@ -109,7 +109,7 @@ def test_draw_stream_is_what_the_culler_keeps():
     frames, info = exp.draw_stream(setup)
     scene = soc.scenes.market(seed=0)
     mats, names = exp.material_ids(scene.names)
-    cams = soc.paths.flight(scene, frames=2, width=160, height=90)
+    cams = soc.scenes.paths.flight(scene, frames=2, width=160, height=90)
     for cam, f in zip(cams, frames, strict=True):
         inside = soc.aabbs_in_frustum(scene.aabbs, cam)
         np.testing.assert_array_equal(f, mats[np.flatnonzero(inside)])

@@ -1,4 +1,5 @@
-"""Forward and deferred shading (soc.shading, seed 003): the two paths give the same image,
+"""Forward and deferred shading (soc.rendering.shading, seed 003): the two paths give the same
+image,
 the lighting model matches a numpy re-implementation of it on flat quads, ambient-only frames
 match the object colours the oracle's id buffer says each pixel shows, the g-buffer's memory
 read back from GL equals the one computed from its formats, and fragment counts are exact."""
@@ -9,11 +10,10 @@ import numpy as np
 import pytest
 
 import soc
+from soc.culling.oracle import NO_OBJECT
 from soc.gl.geometry import object_colors
-from soc.oracle import NO_OBJECT
-from soc.renderer import SKY
-from soc.scenes.clutter import quad
-from soc.shading import (
+from soc.rendering.renderer import SKY
+from soc.rendering.shading import (
     AMBIENT,
     GBUFFER,
     MATERIALS,
@@ -26,6 +26,7 @@ from soc.shading import (
     oct_decode,
     random_lights,
 )
+from soc.scenes.clutter import quad
 
 RES = (160, 120)
 

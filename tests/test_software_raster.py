@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 import soc
-from soc.depth_prepass import DepthTarget, render_occluders
+from soc.culling.depth_prepass import DepthTarget, render_occluders
+from soc.culling.software_raster import rasterize_depth
 from soc.gl.context import default_context
-from soc.paths import flight, random_cameras
 from soc.scenes.clutter import box_mesh
-from soc.software_raster import rasterize_depth
+from soc.scenes.paths import flight, random_cameras
 
 NEARER_TOLERANCE = 1e-6  # window depth: the software buffer may not be nearer than GL by more
 # Window depth: "same depth" outside the edge band. The raster pushes depth farther by

@@ -9,7 +9,7 @@ from functools import cache
 import numpy as np
 import pytest
 
-from soc.state_sorting import (
+from soc.rendering.state_sorting import (
     ONLINE,
     STRATEGIES,
     colour_changes,

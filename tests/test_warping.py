@@ -1,4 +1,4 @@
-"""Image warping (soc.warping): stereo by disparity and the decoupled warping renderer.
+"""Image warping (soc.rendering.warping): stereo by disparity and the decoupled warping renderer.
 
 Oracles: the frame itself (identity motion), a hand-computed pixel shift (a fronto-parallel
 plane of tiles seen by a camera moved sideways, an object moved sideways), the true render of
@@ -15,9 +15,8 @@ import numpy as np
 import pytest
 
 import soc
-from soc.oracle import NO_OBJECT
-from soc.scenes.clutter import quad
-from soc.warping import (
+from soc.culling.oracle import NO_OBJECT
+from soc.rendering.warping import (
     HOLE,
     FrameRenderer,
     Warper,
@@ -27,6 +26,7 @@ from soc.warping import (
     stereo_camera,
     warp_matrices,
 )
+from soc.scenes.clutter import quad
 
 RES = (160, 120)
 ENGINES = Warper.ENGINES

@@ -49,7 +49,8 @@ def grown_aabbs(aabbs: np.ndarray, diagonal: float) -> np.ndarray:
 
 @uses_gl
 class SceneGeometry:
-    """GPU copy of a :class:`~soc.scene.Scene`, owned by a :class:`~soc.gl.context.GLContext`.
+    """GPU copy of a :class:`~soc.scenes.scene.Scene`, owned by a
+    :class:`~soc.gl.context.GLContext`.
 
     Attributes
     ----------
@@ -93,7 +94,7 @@ class SceneGeometry:
 
     @property
     def scene(self):
-        """The :class:`~soc.scene.Scene` this geometry was uploaded from."""
+        """The :class:`~soc.scenes.scene.Scene` this geometry was uploaded from."""
         if not self._weak:
             return self._scene
         scene = self._scene()

@@ -2,8 +2,8 @@
 modes, chosen by the performance model from statistics gathered while rendering.
 
 Gonakhchyan, "Adaptive rendering of dynamic 3D scenes" (seed 004, ``004_bba2ab22d18288ab.txt``,
-section 4; decisions in :mod:`soc.adaptive`, octree in :mod:`soc.octree`, estimate in
-:mod:`soc.invisible_estimate`, query count in :mod:`soc.query_model`). Modes:
+section 4; decisions in :mod:`soc.models.adaptive`, octree in :mod:`soc.culling.octree`, estimate in
+:mod:`soc.culling.invisible_estimate`, query count in :mod:`soc.models.query_model`). Modes:
 
 1. ``rebuild`` — the alive objects' AABBs frustum-tested (numpy), the survivors' indirect
    commands gathered and uploaded afresh (T_fc(S), T_buf(S)), drawn with one multi-draw.
@@ -19,7 +19,7 @@ section 4; decisions in :mod:`soc.adaptive`, octree in :mod:`soc.octree`, estima
    ``experiments.seed004_adaptive``). ``temporal=False``: the alive occluders in the frustum
    are rendered into a depth prepass, the queries test it and are waited for in the same
    frame — **conservative** at the depth resolution (node boxes contain their objects' AABBs;
-   :class:`soc.box_queries.BoxQueries` grows and biases boxes, keeps near-plane straddlers).
+   :class:`soc.culling.box_queries.BoxQueries` grows and biases boxes, keeps near-plane straddlers).
 
 Modes 1 and 2 are conservative (a node's box contains its objects' boxes, so node culling
 keeps every object the per-object test keeps).
@@ -28,13 +28,13 @@ Each frame, top-down: ``collect`` (mode 3, temporal: read the results issued ``l
 frames ago) → ``buf`` and ``fc`` (the mode's recording and frustum test) → ``prepass`` and
 ``queries`` (mode 3, same frame) → ``draw`` → ``queries`` (mode 3, temporal: issued against
 the frame's depth). Every frame's timings update the unit costs
-(:class:`soc.adaptive.UnitCosts`). At frame ``FIRST_DECISION`` and every ``DECIDE_EVERY``
+(:class:`soc.models.adaptive.UnitCosts`). At frame ``FIRST_DECISION`` and every ``DECIDE_EVERY``
 frames, ``decide``: the octree is brought up to date (mode 1 applies the frames' events in one
 batch), the invisible objects are estimated in modes 1 and 2 when due (``estimate``; every
 ``estimate_every`` frames or less often: the interval doubles while estimates do not lead to
 mode 3, and the estimate takes at most ``ESTIMATE_SHARE`` of the frame time), the terms of
 (5) and (6) are predicted for every mode and the next mode chosen
-(:func:`soc.adaptive.choose_mode`; mode 3 is tried without the margin when predicted faster
+(:func:`soc.models.adaptive.choose_mode`; mode 3 is tried without the margin when predicted faster
 at all, since outside mode 3 its prediction rests on the conservative estimate). In mode 3
 with ``queries="auto"`` the query count is re-fitted every ``REFIT_EVERY`` frames (``fit``,
 formulas (7)-(11)). Every stage is part of the frame's time.
@@ -42,7 +42,7 @@ formulas (7)-(11)). Every stage is part of the frame's time.
 Dynamic scenes: build the method over the pool scene with ``alive`` (the objects alive
 before the first frame, usually none) and call :meth:`AdaptiveCulling.apply` with each
 :class:`soc.scenes.dynamic.FrameState` before culling that frame. :meth:`AdaptiveCulling.render`
-culls and draws a frame shaded into a :class:`soc.renderer.Renderer` (with the mode's own
+culls and draws a frame shaded into a :class:`soc.rendering.renderer.Renderer` (with the mode's own
 command buffers: the frame time of seed 004's Figs. 3-5); :meth:`cull` (``soc.Culler``) draws
 depth only into the method's own target.
 """
@@ -55,7 +55,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from soc.adaptive import (
+from soc.culling.frustum import aabbs_in_frustum
+from soc.methods.base import CullMethod, MethodOutput, register, stage
+from soc.models.adaptive import (
     DEFAULT_MARGIN,
     MODE_NAMES,
     MODES,
@@ -64,8 +66,6 @@ from soc.adaptive import (
     UnitCosts,
     choose_mode,
 )
-from soc.frustum import aabbs_in_frustum
-from soc.methods.base import CullMethod, MethodOutput, register, stage
 
 DEFAULT_LATENCY = 2  # frames between issuing a node query and using its result (temporal)
 DEFAULT_LEAF_CAPACITY = 64  # objects per octree leaf before it splits (fewer, fuller nodes:
@@ -155,7 +155,8 @@ class AdaptiveOutput(MethodOutput):
 
 
 class _DepthCanvas:
-    """Depth-only drawing into a :class:`~soc.depth_prepass.DepthTarget` (``soc.Culler`` use)."""
+    """Depth-only drawing into a :class:`~soc.culling.depth_prepass.DepthTarget` (``soc.Culler``
+    use)."""
 
     def __init__(self, glctx, target):
         self.glctx, self.target, self.fbo = glctx, target, target.fbo
@@ -174,7 +175,8 @@ class _DepthCanvas:
 
 
 class _ShadedCanvas:
-    """Shaded drawing into a :class:`~soc.renderer.Renderer`'s target, as ``Renderer.draw``."""
+    """Shaded drawing into a :class:`~soc.rendering.renderer.Renderer`'s target, as
+    ``Renderer.draw``."""
 
     def __init__(self, renderer):
         self.glctx, self.fbo = renderer.glctx, renderer.fbo
@@ -183,7 +185,7 @@ class _ShadedCanvas:
     def begin(self, camera) -> None:
         import moderngl
 
-        from soc.renderer import LIGHT_DIR, SKY
+        from soc.rendering.renderer import LIGHT_DIR, SKY
 
         self.fbo.use()
         self.fbo.depth_mask = True
@@ -220,7 +222,7 @@ class AdaptiveCulling(CullMethod):
     alive : (N,) bool, optional
         Objects that exist before the first :meth:`apply` (default: all, a static scene).
     leaf_capacity, max_depth : int
-        Octree parameters (:class:`soc.octree.Octree`).
+        Octree parameters (:class:`soc.culling.octree.Octree`).
     margin : float
         Relative gain a mode must promise before the method switches to it.
     dwell : int
@@ -301,7 +303,7 @@ class AdaptiveCulling(CullMethod):
         # Mode 1 alone needs no octree (the baseline pays nothing for one).
         self.octree = None
         if mode != 1:
-            from soc.octree import Octree
+            from soc.culling.octree import Octree
 
             self.octree = Octree.for_scene(
                 self.scene, leaf_capacity=leaf_capacity, max_depth=max_depth
@@ -361,21 +363,21 @@ class AdaptiveCulling(CullMethod):
 
     def _flat_buffer(self):
         if self._flat is None:
-            from soc.octree import ObjectCommands
+            from soc.culling.octree import ObjectCommands
 
             self._flat = ObjectCommands(self.geometry)
         return self._flat
 
     def _node_buffers(self):
         if self._nodes is None:
-            from soc.octree import NodeBuffers
+            from soc.culling.octree import NodeBuffers
 
             self._nodes = NodeBuffers(self.octree, self.geometry)
         return self._nodes
 
     def _queries(self):
         if self._box_queries is None:
-            from soc.box_queries import BoxQueries
+            from soc.culling.box_queries import BoxQueries
 
             diagonal = float(np.linalg.norm(np.subtract(*self.scene.bounds[::-1])))
             self._box_queries = BoxQueries(self.glctx, diagonal)
@@ -383,14 +385,14 @@ class AdaptiveCulling(CullMethod):
 
     def _prepass_target(self):
         if self._prepass is None:
-            from soc.depth_prepass import DepthTarget
+            from soc.culling.depth_prepass import DepthTarget
 
             self._prepass = DepthTarget(self.glctx, self.resolution)
         return self._prepass
 
     def _invisible_estimator(self):
         if self._estimator is None:
-            from soc.invisible_estimate import InvisibleEstimator
+            from soc.culling.invisible_estimate import InvisibleEstimator
 
             self._estimator = InvisibleEstimator(
                 self.octree, self.geometry, self.resolution, nodes_checked=self.nodes_checked
@@ -466,7 +468,7 @@ class AdaptiveCulling(CullMethod):
         """One frame through ``soc.Culler``: culled and drawn depth-only into the method's own
         target (its depth is what temporal node queries test)."""
         if self._canvas_target is None:
-            from soc.depth_prepass import DepthTarget
+            from soc.culling.depth_prepass import DepthTarget
 
             self._canvas_target = DepthTarget(self.glctx, self.resolution)
         f = self._frame(camera, _DepthCanvas(self.glctx, self._canvas_target))
@@ -652,7 +654,7 @@ class AdaptiveCulling(CullMethod):
     def _same_frame_queries(self, camera, chosen: np.ndarray, timings) -> np.ndarray:
         """Strict mode 3: occluder prepass, queries on ``chosen`` nodes, waited for. Returns
         the nodes found occluded."""
-        from soc.depth_prepass import render_occluders
+        from soc.culling.depth_prepass import render_occluders
 
         target = self._prepass_target()
         with stage(timings, "prepass", self.glctx.finish):
@@ -687,7 +689,8 @@ class AdaptiveCulling(CullMethod):
     def fit_queries(self):
         """Re-fit the query-count model now from the statistics of the frames rendered in
         mode 3 and the current unit costs; returns the
-        :class:`~soc.query_model.QueryChoice` (None when the fit failed or is not trusted)."""
+        :class:`~soc.models.query_model.QueryChoice` (None when the fit failed or is not
+        trusted)."""
         if self.octree is None:
             return None
         return self._refit()

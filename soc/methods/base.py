@@ -105,7 +105,7 @@ def stage(
 
 def frustum_stage(method: CullMethod, camera, timings: dict[str, float]) -> np.ndarray:
     """(N,) bool after the optional frustum test (all True when the switch is off)."""
-    from soc.frustum import aabbs_in_frustum
+    from soc.culling.frustum import aabbs_in_frustum
 
     with stage(timings, "frustum"):
         if method.config.frustum:
@@ -117,7 +117,7 @@ def prepass_stage(
     method: CullMethod, camera, in_frustum: np.ndarray, target, timings: dict[str, float]
 ) -> None:
     """Render the frustum-surviving occluders into ``target``'s depth (timed as "prepass")."""
-    from soc.depth_prepass import render_occluders
+    from soc.culling.depth_prepass import render_occluders
 
     with stage(timings, "prepass", method.glctx.finish):
         occluders = np.flatnonzero(in_frustum & method.scene.occluder)

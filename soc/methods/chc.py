@@ -7,7 +7,7 @@ randomized revisits of visible leaves, tight per-frame node bounds).
 
 Stages of one frame:
 
-1. frustum: per-object AABB test; the BVH (:mod:`soc.bvh`) is refitted to the survivors, so
+1. frustum: per-object AABB test; the BVH (:mod:`soc.culling.bvh`) is refitted to the survivors, so
    every node box is the exact union of its surviving members (CHC++'s tighter bounds), and
    node distances to the eye are computed for all nodes at once;
 2. traverse: front-to-back traversal of the BVH with a priority queue on node distance.
@@ -42,9 +42,9 @@ from collections import deque
 
 import numpy as np
 
-from soc.box_queries import BoxQueries
-from soc.bvh import box_distance, build
-from soc.depth_prepass import DepthTarget
+from soc.culling.box_queries import BoxQueries
+from soc.culling.bvh import box_distance, build
+from soc.culling.depth_prepass import DepthTarget
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, prepass_stage, register, stage
 
 # Nodes per query batch (CHC++ "multiqueries"/i-queue). Larger batches mean fewer depth

@@ -1,7 +1,7 @@
 """``grid``: seed 002's method — hardware occlusion queries on uniform-grid cells, visited front
 to back by the frustum "rasterized" through the grid, results read in the next frame.
 
-Stages of one frame, top-down (see :mod:`soc.grid` for the grid and the traversal):
+Stages of one frame, top-down (see :mod:`soc.culling.grid` for the grid and the traversal):
 
 1. ``frustum`` — all object AABBs against the six planes (numpy).
 2. ``collect`` — (temporal mode) read last frame's query results; they were issued a whole
@@ -19,7 +19,7 @@ Which result decides a cell:
 
 - ``temporal=False``: the queries of this frame, waited for (a stall). Cells beyond the cap
   are drawn. **Conservative** at the depth resolution (cell boxes contain their objects'
-  AABBs; ``soc.box_queries`` grows and biases boxes and keeps near-plane straddlers).
+  AABBs; ``soc.culling.box_queries`` grows and biases boxes and keeps near-plane straddlers).
 - ``temporal=True`` (default, the thesis): the result of the last query of that cell, issued
   in an earlier frame from an earlier camera; never-queried cells are drawn. Cells beyond the
   cap keep their last known result however old it is (the thesis's cap; a lower cap means
@@ -36,10 +36,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.box_queries import BoxQueries
-from soc.depth_prepass import DepthTarget
-from soc.frustum import aabbs_in_frustum
-from soc.grid import DEFAULT_GRID_SIZE, build_grid
+from soc.culling.box_queries import BoxQueries
+from soc.culling.depth_prepass import DepthTarget
+from soc.culling.frustum import aabbs_in_frustum
+from soc.culling.grid import DEFAULT_GRID_SIZE, build_grid
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, prepass_stage, register, stage
 
 UNKNOWN, OCCLUDED, VISIBLE = -1, 0, 1  # a cell's last known query result

@@ -8,9 +8,9 @@ drawn into the method's own colour + depth target):
 
 1. **early draw** — the objects kept last frame (:attr:`TwoPhaseCulling.next_set`) that are
    still in the view frustum (numpy box test) are drawn, no occlusion test;
-2. **pyramid** — the max-depth pyramid of that depth (:class:`soc.hiz_gpu.DepthPyramid`);
+2. **pyramid** — the max-depth pyramid of that depth (:class:`soc.culling.hiz_gpu.DepthPyramid`);
 3. **test** — every object's grown box against the frustum and that pyramid in one compute
-   dispatch (:class:`soc.hiz_gpu.HizTest`);
+   dispatch (:class:`soc.culling.hiz_gpu.HizTest`);
 4. **late draw** — the objects that pass and were not drawn early, into the same depth;
 5. **next set** — the objects kept next frame: with ``next_from="early"`` (niagara's choice,
    no extra work) those that passed stage 3, early ones included; with ``next_from="final"``
@@ -31,7 +31,7 @@ pyramid that holds them even right after a camera cut, for drawing the hidden on
 subset S of the scene, so at every pixel the early depth is >= the finished frame's depth,
 which is >= the depth of any object sample that the oracle sees there (the oracle's image is
 the nearest sample per pixel, the same ``<`` depth test). The HiZ test keeps every box with a
-sample not behind the depth it is tested against (proof in :mod:`soc.hiz_gpu`; boxes through
+sample not behind the depth it is tested against (proof in :mod:`soc.culling.hiz_gpu`; boxes through
 the near plane are kept untested), so an object the oracle sees is either in S or passes
 stage 3 and is drawn late. Nothing in that argument depends on which subset S is: the first
 frame and :meth:`~TwoPhaseCulling.reset` (S empty: every object goes to the late pass, tested
@@ -59,8 +59,8 @@ import time
 
 import numpy as np
 
-from soc.frustum import aabbs_in_frustum
-from soc.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
+from soc.culling.frustum import aabbs_in_frustum
+from soc.culling.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
 from soc.methods.base import CullMethod, MethodOutput, register, stage
 
 NEXT_FROM = ("early", "final")
@@ -126,7 +126,7 @@ class TwoPhaseCulling(CullMethod):
         if early_pass not in EARLY_PASSES:
             raise ValueError(f"early_pass must be one of {EARLY_PASSES}, got {early_pass!r}")
         super().__init__(geometry, resolution, config)
-        from soc.renderer import Renderer
+        from soc.rendering.renderer import Renderer
 
         self.next_from = next_from
         self.early_pass = early_pass
@@ -183,7 +183,7 @@ class TwoPhaseCulling(CullMethod):
         (``clear``, with ``color`` or ``clear_color``); ms, finished."""
         import moderngl
 
-        from soc.renderer import LIGHT_DIR, SKY
+        from soc.rendering.renderer import LIGHT_DIR, SKY
 
         ctx = self.glctx.ctx
         t0 = time.perf_counter()

@@ -5,8 +5,8 @@ This stands for the scalar/SSE/AVX software rasterizers with a hierarchical z-bu
 Intel's Software Occlusion Culling framework (seed 000; Greene, Kass and Miller 1993 for the
 pyramid). Stages of one frame: ``frustum`` (the occluders' AABBs, numpy), ``transform`` (the
 frustum-surviving occluders' triangles transformed, near-clipped and set up,
-:mod:`soc.software_raster`), ``raster`` (their spans into a per-pixel depth buffer),
-``pyramid`` and ``test`` (:mod:`soc.hiz_cpu`: one pass over every object — frustum test,
+:mod:`soc.culling.software_raster`), ``raster`` (their spans into a per-pixel depth buffer),
+``pyramid`` and ``test`` (:mod:`soc.culling.hiz_cpu`: one pass over every object — frustum test,
 near-plane test, projection, pyramid test). Boxes that reach the near plane are kept
 untested. No torch (the method used torch's scatter_reduce until the raster became a numba
 kernel, ~10× faster).
@@ -42,7 +42,7 @@ class HiZCpuCulling(CullMethod):
     temporal = False
 
     def __init__(self, geometry, resolution, config, *, backface: bool = True):
-        from soc.software_raster import RECORD, occluder_triangles
+        from soc.culling.software_raster import RECORD, occluder_triangles
 
         super().__init__(geometry, resolution, config)
         self._ids, self._triangles, self._offsets, closed = occluder_triangles(self.scene)
@@ -53,9 +53,9 @@ class HiZCpuCulling(CullMethod):
         self.last_stats: dict[str, int] = {}
 
     def cull(self, camera) -> MethodOutput:
-        from soc.frustum import aabbs_in_frustum
-        from soc.hiz_cpu import VIEW_CULLED, VISIBLE, build_pyramid, classify_objects
-        from soc.software_raster import EDGE_MARGIN_PX, rasterize_records, setup_triangles
+        from soc.culling.frustum import aabbs_in_frustum
+        from soc.culling.hiz_cpu import VIEW_CULLED, VISIBLE, build_pyramid, classify_objects
+        from soc.culling.software_raster import EDGE_MARGIN_PX, rasterize_records, setup_triangles
 
         timings: dict[str, float] = {}
         if not self.config.depth_test:

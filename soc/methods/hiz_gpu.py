@@ -1,5 +1,5 @@
 """``hiz-gpu``: hierarchical-z culling on the GPU, a fragment-shader pyramid and a compute test
-(Greene et al. 1993, as GPU culling in Rákos 2010 and niagara; see :mod:`soc.hiz_gpu`).
+(Greene et al. 1993, as GPU culling in Rákos 2010 and niagara; see :mod:`soc.culling.hiz_gpu`).
 
 Per frame: frustum test of the occluders' AABBs (numpy) → those occluder meshes into a depth
 buffer at the method's resolution → max-depth pyramid (one full-viewport triangle per level)
@@ -7,11 +7,12 @@ buffer at the method's resolution → max-depth pyramid (one full-viewport trian
 pyramid level where its screen rectangle spans at most ``footprint``² texels → one read-back
 of a code per object (occluded / visible / outside the frustum, the last counted as frustum
 culled). No per-object draw, query or GL call. Conservative at the resolution it runs at (the
-proof is in :mod:`soc.hiz_gpu`).
+proof is in :mod:`soc.culling.hiz_gpu`).
 
 With ``conservative=True`` (or an ``occluder_resolution`` coarser than the culler's) the
 occluder depth is rasterized inner-conservatively (Hasselgren, Akenine-Möller & Ohlsson, GPU
-Gems 2 ch. 42; :class:`soc.depth_prepass.ConservativeOccluders`) at the coarse resolution, and
+Gems 2 ch. 42; :class:`soc.culling.depth_prepass.ConservativeOccluders`) at the coarse resolution,
+and
 the test reads the texels holding the finer resolution's pixel centres: conservative at the
 display resolution, at a fraction of the prepass cost.
 """
@@ -20,11 +21,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.camera import _resolution
-from soc.depth_prepass import ConservativeOccluders, DepthTarget, render_occluders
-from soc.frustum import aabbs_in_frustum
-from soc.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
+from soc.culling.depth_prepass import ConservativeOccluders, DepthTarget, render_occluders
+from soc.culling.frustum import aabbs_in_frustum
+from soc.culling.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
+from soc.scenes.camera import _resolution
 
 
 @register
@@ -38,7 +39,7 @@ class GpuHizCulling(CullMethod):
         tighter, up to 16 reads).
     refine : int
         Levels a box not occluded at its level is re-read one level finer
-        (:class:`soc.hiz_gpu.HizTest`); 0 = the classic test. Default 1: on 12 castle flight
+        (:class:`soc.culling.hiz_gpu.HizTest`); 0 = the classic test. Default 1: on 12 castle flight
         frames at 1920×1080 it kept 255 instead of 282 hidden objects a frame for 1.11× the
         test stage (≈ 0.1 ms); on the market 1 % fewer at the same cost (2 keeps 220 on the
         castle for 1.6×, 3 keeps 193 for 3×; measured 2026-11-25, same run, interleaved).
@@ -47,7 +48,7 @@ class GpuHizCulling(CullMethod):
         resolution in each axis; default the culler's resolution.
     conservative : bool, optional
         Rasterize the occluders inner-conservatively
-        (:class:`soc.depth_prepass.ConservativeOccluders`) and judge visibility at the
+        (:class:`soc.culling.depth_prepass.ConservativeOccluders`) and judge visibility at the
         culler's resolution *and* at the camera's: no false cull at either, whatever the
         occluder resolution. So
         ``Culler(scene, "hiz-gpu", (480, 270), conservative=True)`` with 1920×1080 cameras

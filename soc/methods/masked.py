@@ -1,5 +1,5 @@
 """``masked``: Masked Software Occlusion Culling on the CPU (Hasselgren, Andersson &
-Akenine-Möller, HPG 2016; Intel's MaskedOcclusionCulling), see :mod:`soc.masked`.
+Akenine-Möller, HPG 2016; Intel's MaskedOcclusionCulling), see :mod:`soc.culling.masked`.
 
 Per frame: frustum test of the occluders' AABBs (``frustum``, numpy) → those occluders sorted
 front to back (``sort``) → their triangles transformed, near-clipped and set up
@@ -7,7 +7,7 @@ front to back (``sort``) → their triangles transformed, near-clipped and set u
 per 8×4 subtile (``raster``, numba) → one pass over every object (``test``, numba): frustum
 test of its AABB, near-plane test of its grown box (crossing boxes are kept untested),
 projection to a pixel rectangle and nearest depth, and the scan of the subtiles under it. No
-GL at all. Conservative at the resolution it runs at (the proof is in :mod:`soc.masked`).
+GL at all. Conservative at the resolution it runs at (the proof is in :mod:`soc.culling.masked`).
 The first frame in a fresh environment compiles the kernels (numba, cached on disk); building
 the method warms them up.
 """
@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.frustum import aabbs_in_frustum
-from soc.masked import OCCLUDED, VIEW_CULLED, VISIBLE, MaskedBuffer
+from soc.culling.frustum import aabbs_in_frustum
+from soc.culling.masked import OCCLUDED, VIEW_CULLED, VISIBLE, MaskedBuffer
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
 
 
@@ -31,7 +31,8 @@ class MaskedCulling(CullMethod):
         Skip back-facing triangles of closed, consistently oriented occluder meshes (default
         True; open meshes are always drawn two-sided).
 
-    After :meth:`cull`, :attr:`last_codes` holds one code per object (:data:`soc.masked.OCCLUDED`,
+    After :meth:`cull`, :attr:`last_codes` holds one code per object
+    (:data:`soc.culling.masked.OCCLUDED`,
     ``VISIBLE`` or ``VIEW_CULLED``) and :attr:`buffer` the frame's masked buffer.
     """
 

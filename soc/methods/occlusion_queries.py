@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.depth_prepass import DepthTarget
+from soc.culling.depth_prepass import DepthTarget
+from soc.culling.queries import OcclusionQueries, near_plane_straddlers
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, prepass_stage, register, stage
-from soc.queries import OcclusionQueries, near_plane_straddlers
 
 
 @register

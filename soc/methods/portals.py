@@ -1,14 +1,14 @@
 """``portals``: seed 001's portal culling — traverse the cell graph from the camera's cell
 through the portals, narrowing the view at each, and keep the objects of the reached cells
-that pass their narrowed frustum (:mod:`soc.portals`). Conservative (proof in
-:mod:`soc.portals`); no GL work. Needs a scene with ``meta["cells"]``/``meta["portals"]``
+that pass their narrowed frustum (:mod:`soc.culling.portals`). Conservative (proof in
+:mod:`soc.culling.portals`); no GL work. Needs a scene with ``meta["cells"]``/``meta["portals"]``
 (``soc.scenes.rooms``); with the camera outside the cells it is frustum culling.
 """
 
 from __future__ import annotations
 
+from soc.culling.portals import cell_graph
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
-from soc.portals import cell_graph
 
 
 @register

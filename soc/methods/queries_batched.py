@@ -1,7 +1,7 @@
 """``queries-batched``: seed 000's future work ("pack occludees into packets to need fewer
 queries") done conservatively — hierarchical occlusion queries on spatially coherent packets.
 
-Packets are the nodes of a BVH over the object AABBs (:mod:`soc.bvh`) holding about
+Packets are the nodes of a BVH over the object AABBs (:mod:`soc.culling.bvh`) holding about
 ``packet_size`` objects. Per frame:
 
 1. frustum: per-object AABB test (as ``queries``);
@@ -37,9 +37,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.box_queries import BoxQueries
-from soc.bvh import box_distance, build
-from soc.depth_prepass import DepthTarget
+from soc.culling.box_queries import BoxQueries
+from soc.culling.bvh import box_distance, build
+from soc.culling.depth_prepass import DepthTarget
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, prepass_stage, register, stage
 
 # Objects per packet (the first query level). Larger packets: fewer top-level queries but

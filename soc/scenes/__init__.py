@@ -1,4 +1,7 @@
-"""Scene sources: the generated default town (``market``), Intel's castle (``castle``), mesh
+"""Scenes and cameras: :class:`~soc.scenes.scene.Scene` (objects, occluder flags, AABBs),
+:class:`~soc.scenes.camera.Camera`, camera paths (:mod:`~soc.scenes.paths`: flights, random
+and inside cameras), and the scene sources: the generated default town (``market``), Intel's castle
+(``castle``), mesh
 files through trimesh (``load``), indoor rooms joined by portals (``rooms``) and a small scene
 of culling's hard cases for tests (``clutter``), and scenes that change over time
 (``dynamic_scene``: seed 004's growing scenes)."""

@@ -25,7 +25,7 @@ The scene (stages, in order):
 5. with ``refill_market=True``, :func:`_refill_market` stands synthetic market stalls on free
    ground until the scene holds the sample's 27,025 objects (the sample's full
    ``marketStalls.set`` is missing from every public copy), and labels them in ``meta``;
-6. the :class:`~soc.scene.Scene` is built once, from everything above.
+6. the :class:`~soc.scenes.scene.Scene` is built once, from everything above.
 
 Occluders are ``castleLargeOccluders`` + ``ground`` (115 objects, 48,700 triangles); every
 object is an occludee. The sky dome is not loaded. Lengths are the files' units (≈ metres).
@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from soc.errors import SceneError, SceneFormatError
-from soc.scene import Scene
+from soc.scenes.scene import Scene
 
 # -- configuration (every tunable is one commented constant) ---------------------------------
 
@@ -904,7 +904,7 @@ def _view_camera() -> dict[str, Any]:
 def castle(
     path: str | os.PathLike | None = None, *, refill_market: bool = False, seed: int = 0
 ) -> Scene:
-    """Load Intel's castle as a :class:`~soc.scene.Scene` (right-handed, y up, ≈ metres).
+    """Load Intel's castle as a :class:`~soc.scenes.scene.Scene` (right-handed, y up, ≈ metres).
 
     Parameters
     ----------

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.scene import Scene
+from soc.scenes.scene import Scene
 
 _BOX_FACES = np.array(
     [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],

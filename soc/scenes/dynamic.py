@@ -16,7 +16,7 @@ llvmpipe on two cores draws in a few hundred ms (1280×720): **objects × 1/4
   details, trees, cars, lamps, courtyard furniture) among tall box buildings (occluders):
   dense occlusion, the scene where occlusion queries pay off.
 
-**How change is represented.** A :class:`~soc.scene.Scene`'s GL buffers are uploaded once, so
+**How change is represented.** A :class:`~soc.scenes.scene.Scene`'s GL buffers are uploaded once, so
 a dynamic scene is a *pool*: one static scene holding every object that ever exists during the
 animation, and per object the frames it is alive, ``born <= frame < dies``. Adding and removing
 is switching objects on and off. A *move* is a pool object retired and a pre-placed copy of it
@@ -38,10 +38,10 @@ from typing import Any
 
 import numpy as np
 
-from soc.camera import Camera
 from soc.gl.geometry import object_colors
-from soc.scene import Scene
 from soc.scenes import primitives as pr
+from soc.scenes.camera import Camera
+from soc.scenes.scene import Scene
 
 OBJECT_SCALE = 0.25  # our objects per paper object
 TRIANGLE_SCALE = 0.05  # our triangles per paper triangle

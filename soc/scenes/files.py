@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from soc.errors import SceneError, SceneFormatError
-from soc.scene import Scene
+from soc.scenes.scene import Scene
 
 #: File extensions :func:`load` reads (lower case, with the dot).
 SUPPORTED = (".gltf", ".glb", ".obj", ".ply")
@@ -92,7 +92,7 @@ def load(
     grid_cells: int = 16,
     meta: Mapping[str, Any] | None = None,
 ) -> Scene:
-    """Load a glTF, GLB, OBJ or PLY file as a :class:`~soc.scene.Scene`.
+    """Load a glTF, GLB, OBJ or PLY file as a :class:`~soc.scenes.scene.Scene`.
 
     Parameters
     ----------

@@ -27,9 +27,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from soc.scene import Scene
 from soc.scenes import primitives as pr
 from soc.scenes.primitives import Mesh
+from soc.scenes.scene import Scene
 
 # -- seed 000's counts (Intel's castle + market) -----------------------------------------------
 

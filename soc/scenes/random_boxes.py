@@ -13,9 +13,9 @@ import math
 
 import numpy as np
 
-from soc.camera import Camera
-from soc.scene import Scene
+from soc.scenes.camera import Camera
 from soc.scenes.primitives import box, instance, trs
+from soc.scenes.scene import Scene
 
 # Edge lengths of a box, in units of the mean spacing between box positions. Small against the
 # spacing, so the view stays sparse (depth complexity ~1-2 at every size): Table 1 then

@@ -16,7 +16,7 @@ Geometry (metres, y up, right-handed; the building's corner at the origin):
   centre line and slab centre to slab centre (the outer cells reach the building's outer
   faces). Every shared face between two cells therefore lies *inside* a solid wall or slab,
   except in the door openings, which are exactly the portal rectangles. This is what makes
-  portal culling conservative (see :mod:`soc.portals`).
+  portal culling conservative (see :mod:`soc.culling.portals`).
 - Doors join horizontally neighbouring rooms of one storey: a random spanning tree of the
   rooms (every room reachable) plus ``EXTRA_DOORS`` of the remaining shared walls. A wall
   with a door is three boxes (left, right, lintel) around the opening. Storeys are not
@@ -30,10 +30,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.camera import Camera
-from soc.scene import Scene
 from soc.scenes import primitives as pr
+from soc.scenes.camera import Camera
 from soc.scenes.primitives import Mesh
+from soc.scenes.scene import Scene
 
 # -- the plan (metres) -------------------------------------------------------------------------
 
@@ -273,7 +273,7 @@ def rooms(seed: int = 0, *, rooms: tuple[int, int] = (6, 4), floors: int = 1) ->
             The room each piece of furniture or clutter stands in; -1 for walls and slabs
             (they belong to two cells: methods must use geometry, not this label, for them).
         ``focus``, ``focus_outward``, ``town_bounds``, ``up``
-            So that :func:`soc.paths.flight` circles the building.
+            So that :func:`soc.scenes.paths.flight` circles the building.
         ``floor_heights`` : (floors,) float
             The floor tops, for cameras.
     """

@@ -1,4 +1,4 @@
-// Point lights and the per-material Blinn–Phong model, included (soc/shading.py pastes this
+// Point lights and the per-material Blinn–Phong model, included (soc/rendering/shading.py pastes this
 // file over the include line) by the forward fragment shader and both deferred lighting
 // shaders: one definition, so the two paths differ only in *when* they light (per fragment,
 // or per pixel after the depth test).

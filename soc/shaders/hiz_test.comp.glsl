@@ -2,10 +2,10 @@
 // Frustum and hierarchical-z test of many AABBs at once: one invocation per candidate box.
 //
 // result[k] = 2 when frustum testing is on and the box lies entirely outside one frustum
-// plane (p-vertex test, as soc/frustum.py, with a slack that absorbs float32 rounding);
+// plane (p-vertex test, as soc/culling/frustum.py, with a slack that absorbs float32 rounding);
 // otherwise 1 unless the box (grown, as drawn by occlusion queries) certainly covers no
 // pixel centre of the depth buffer, or is farther than the occluder depth at every pixel
-// centre it may cover. Conservative (proof in soc/hiz_gpu.py): every mesh sample of the object
+// centre it may cover. Conservative (proof in soc/culling/hiz_gpu.py): every mesh sample of the object
 // lies inside the box, so its pixel lies inside the box's projected rectangle and its depth
 // is at least the box's nearest corner depth.
 layout(local_size_x = 64) in;

@@ -1,11 +1,11 @@
-// Where a pixel of the source frame lands in the new view: pasted (soc/warping.py) over the
+// Where a pixel of the source frame lands in the new view: pasted (soc/rendering/warping.py) over the
 // include line of warp_splat.vert.glsl and warp_scatter.comp.glsl, so the point-splat and the
 // compute-scatter warps move pixels by one definition.
 //
 // General 3D warp (Zachmann's decoupled warping renderer): the pixel centre and its window
 // depth, in normalized device coordinates of the source camera, times the 4x4 matrix of the
 // object the pixel shows (new image <- new camera <- world <- object at t2, object <- world
-// <- old camera <- old image at t1; precomputed per object, soc.warping.warp_matrices).
+// <- old camera <- old image at t1; precomputed per object, soc.rendering.warping.warp_matrices).
 //
 // Parallel stereo (the lecture's "Stereo ohne 2x rendern"): the pixel moves along its
 // scanline by its disparity f * b / z (focal length f in pixels, eye separation b and

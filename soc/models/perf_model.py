@@ -45,7 +45,7 @@ T_state    per state change: a uniform write (``light_dir``) then a separate dra
 T_vis      per occlusion query on a BVH node of a random-box scene of 30,000 objects,
            issue and read-back (the paper: "queries of hierarchy nodes in a big scene")
 T_buf      per command: gather the rows with numpy and upload them
-T_fc       per box: numpy frustum test (:func:`soc.frustum.aabbs_in_frustum`). Its
+T_fc       per box: numpy frustum test (:func:`soc.culling.frustum.aabbs_in_frustum`). Its
            matrix product runs on OpenBLAS threads, which fight llvmpipe's: measured
            between GL frames it is ~0.1 µs per box undisturbed, up to ~1 µs otherwise
 T_frame    per frame (our addition, not in (2)): clear, program and uniforms, one
@@ -70,9 +70,9 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from soc.camera import Camera
 from soc.gl.context import uses_gl
-from soc.scene import Scene
+from soc.scenes.camera import Camera
+from soc.scenes.scene import Scene
 
 MATERIAL = ("mesh.vert", "shade.frag")  # the renderer's material: all our objects use it
 OVERLAPS = ("max", "llvmpipe", "sum")
@@ -162,7 +162,7 @@ def scene_memory(
 def geometry_memory(scene: Scene, resolution: tuple[int, int] | None = None) -> MemoryEstimate:
     """Formula (1) for ``scene`` in the layout of :class:`soc.gl.geometry.SceneGeometry`
     (and, with ``resolution``, the RGBA8 colour and float32 depth targets of a
-    :class:`soc.renderer.Renderer`), from the scene's counts alone.
+    :class:`soc.rendering.renderer.Renderer`), from the scene's counts alone.
 
     Descriptors (GL object names) have no size we can read on llvmpipe: counted as 0 bytes.
     """
@@ -858,7 +858,7 @@ class Calibration:
         return g
 
     def _renderer(self, scene: Scene):
-        from soc.renderer import Renderer
+        from soc.rendering.renderer import Renderer
 
         r = Renderer(self._geometry(scene), self.resolution)
         self._owned.append(r)
@@ -938,8 +938,8 @@ class Calibration:
         self._pair("t_state", run, n)
 
     def _vis(self) -> None:
-        from soc.box_queries import BoxQueries
-        from soc.bvh import build
+        from soc.culling.box_queries import BoxQueries
+        from soc.culling.bvh import build
         from soc.scenes.random_boxes import overview_camera, random_boxes
 
         objects = max(1000, int(VIS_SCENE_OBJECTS * self.setup.scale))
@@ -977,7 +977,7 @@ class Calibration:
         self._pair("t_buf", run, n)
 
     def _fc(self) -> None:
-        from soc.frustum import aabbs_in_frustum
+        from soc.culling.frustum import aabbs_in_frustum
 
         n = self.setup.batch(TESTED_BOXES)
         rng = np.random.default_rng(self.setup.seed)

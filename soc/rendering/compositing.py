@@ -3,7 +3,8 @@
 G. Zachmann, VR lecture, real-time rendering (seed 001, "Image composition"): each part of
 the scene is rendered separately (in practice: a few subsets of the objects, each on its own
 PC and graphics card) into colour and depth, and an image compositor combines the images by
-comparing z per pixel. Here every part is a :class:`soc.warping.FrameRenderer` frame (colour,
+comparing z per pixel. Here every part is a :class:`soc.rendering.warping.FrameRenderer` frame
+(colour,
 window depth and object id, on the GL), folded into one image by a compute shader
 (``composite_z.comp.glsl``), one dispatch per part.
 
@@ -23,9 +24,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from soc.camera import _resolution
 from soc.gl.context import uses_gl
-from soc.warping import Frame
+from soc.rendering.warping import Frame
+from soc.scenes.camera import _resolution
 
 # Compute work-group side of composite_z.comp (its ``local_size``).
 GROUP = 8
@@ -75,7 +76,8 @@ class Compositor:
 
     def composite(self, parts: Sequence) -> float:
         """Combine ``parts`` (each with ``color``, ``depth`` and ``ids`` textures of
-        :attr:`resolution`, e.g. :class:`soc.warping.FrameRenderer` after a render) by per-pixel
+        :attr:`resolution`, e.g. :class:`soc.rendering.warping.FrameRenderer` after a render) by
+        per-pixel
         depth, ties to the smaller object id. Returns the wall time in ms (finished).
         """
         if len(parts) == 0:
@@ -138,7 +140,7 @@ def composite_subsets(
     parts : list of Frame
         Each part's own render.
     """
-    from soc.warping import FrameRenderer
+    from soc.rendering.warping import FrameRenderer
 
     renderers = [FrameRenderer(scene, camera.resolution) for _ in subsets]
     try:

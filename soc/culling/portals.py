@@ -42,9 +42,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.camera import Camera
-from soc.frustum import aabbs_in_frustum, as_aabbs
-from soc.grid import frustum_corners
+from soc.culling.frustum import aabbs_in_frustum, as_aabbs
+from soc.culling.grid import frustum_corners
+from soc.scenes.camera import Camera
 
 # Portal rectangles are grown by this much on every side, NDC units (a pixel is 2 / width):
 # the GPU transforms in float32, numpy in float64.

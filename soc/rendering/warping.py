@@ -12,7 +12,8 @@ is seen. Pixels nothing lands on are holes ("Löcher!").
 Stages, in the order a frame runs them:
 
 1. :meth:`FrameRenderer.render` — the application frame (client): every object's mesh moved
-   by its world <- object transform, shaded as :class:`soc.renderer.Renderer` shades, into a
+   by its world <- object transform, shaded as :class:`soc.rendering.renderer.Renderer` shades,
+   into a
    colour, a depth and an object-id texture (``warp_gbuffer.*.glsl``). It remembers the camera
    and transforms, as the lecture's client stores ``T_{t1,cam<-img}``, ``T_{t1,wld<-cam}``
    and every ``T^i_{t1,wld<-obj}``.
@@ -47,11 +48,11 @@ from typing import Any
 
 import numpy as np
 
-from soc.camera import Camera, _resolution
+from soc.culling.oracle import NO_OBJECT
 from soc.gl.context import uses_gl
 from soc.gl.raw import GL_COLOR
-from soc.oracle import NO_OBJECT
-from soc.renderer import LIGHT_DIR, SKY
+from soc.rendering.renderer import LIGHT_DIR, SKY
+from soc.scenes.camera import Camera, _resolution
 
 # Object id of a warped pixel that no splat reached (the id texture is cleared to it).
 HOLE = 0xFFFFFFFE
@@ -349,7 +350,8 @@ class FrameRenderer:
     """The application frame of the warping renderer: colour, depth and object id of a scene.
 
     Objects are drawn in ascending id order with depth test LESS (the first fragment at the
-    nearest depth wins), shaded like :class:`soc.renderer.Renderer`, each moved by its world
+    nearest depth wins), shaded like :class:`soc.rendering.renderer.Renderer`, each moved by its
+    world
     <- object transform.
 
     Parameters

@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from soc.camera import Camera
-from soc.frustum import aabbs_in_frustum, as_aabbs
+from soc.culling.frustum import aabbs_in_frustum, as_aabbs
+from soc.scenes.camera import Camera
 
 # Corner index = x_bit | y_bit << 1 | z_bit << 2 with x: left/right, y: bottom/top,
 # z: near/far, i.e. the planes (x_bit, 2 + y_bit, 4 + z_bit) of Camera.planes meet there.

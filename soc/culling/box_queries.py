@@ -1,14 +1,14 @@
 """Occlusion queries on arbitrary boxes (packets, hierarchy nodes, grid cells), issued as a batch
 and read back later, blocking or not.
 
-``soc.queries`` queries the scene's own object boxes; methods that test groups of objects
+``soc.culling.queries`` queries the scene's own object boxes; methods that test groups of objects
 (packets, BVH nodes, grid cells) have boxes that change per frame. :class:`BoxQueries` uploads
 them, draws each inside a ``GL_ANY_SAMPLES_PASSED`` query against a depth target, and returns
 a :class:`QueryBatch` whose results can be polled without stalling
 (``GL_QUERY_RESULT_AVAILABLE``) — what coherent methods (CHC, grid traversal) need to use a
 result in a later frame.
 
-Conservative like ``soc.queries``: boxes are grown and depth-biased towards the camera, and
+Conservative like ``soc.culling.queries``: boxes are grown and depth-biased towards the camera, and
 boxes reaching the near plane are not drawn but reported visible.
 """
 
@@ -19,10 +19,10 @@ import ctypes
 import numpy as np
 
 from soc.constants import QUERY_DEPTH_BIAS_NDC
+from soc.culling.queries import near_plane_straddlers
 from soc.gl import raw as glraw
 from soc.gl.context import uses_gl
 from soc.gl.geometry import BOX_TRIANGLES, grown_aabbs
-from soc.queries import near_plane_straddlers
 
 
 class QueryBatch:

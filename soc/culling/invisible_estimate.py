@@ -17,7 +17,7 @@ Stages of :meth:`InvisibleEstimator.estimate`, top-down:
    the frustum (they are frustum-culled anyway; not counted), the biggest subtrees first, cut
    to the nodes-checked budget left.
 3. ``queries`` — one ``GL_ANY_SAMPLES_PASSED`` query per frontier node on its subtree box
-   (:class:`soc.box_queries.BoxQueries`: grown, depth-biased, near-plane boxes reported
+   (:class:`soc.culling.box_queries.BoxQueries`: grown, depth-biased, near-plane boxes reported
    visible), read at the end of the round (one GL stall per round).
 4. The estimate is the number of objects in the subtrees of the nodes found occluded.
 
@@ -36,9 +36,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from soc.box_queries import BoxQueries
-from soc.depth_prepass import DepthTarget, render_occluders
-from soc.frustum import aabbs_in_frustum
+from soc.culling.box_queries import BoxQueries
+from soc.culling.depth_prepass import DepthTarget, render_occluders
+from soc.culling.frustum import aabbs_in_frustum
 from soc.gl.context import uses_gl
 
 # Table 2's budgets (nodes checked), also the default sweep.
@@ -81,7 +81,7 @@ class InvisibleEstimate:
 
 @uses_gl
 class InvisibleEstimator:
-    """Estimates invisible objects of an :class:`~soc.octree.Octree` over an uploaded scene.
+    """Estimates invisible objects of an :class:`~soc.culling.octree.Octree` over an uploaded scene.
 
     Parameters
     ----------

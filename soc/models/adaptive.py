@@ -12,8 +12,8 @@ section 4). Three modes:
 
 Switch 1 → 2 when (5) ``T_buf(S) + T_fc(S) >= T_buf(H) + T_fc(H)`` and 2 → 3 when
 (6) ``T(S) >= T(S_vis) + T_vis(H)``, with ``T(S_vis)`` from the conservative invisible-object
-estimate (:mod:`soc.invisible_estimate`). The number of queries comes from formulas (7)-(11)
-(:mod:`soc.query_model`).
+estimate (:mod:`soc.culling.invisible_estimate`). The number of queries comes from formulas (7)-(11)
+(:mod:`soc.models.query_model`).
 
 Stages, top-down:
 
@@ -310,9 +310,10 @@ class QueryPlanner:
     and what makes ``e``, the elements on the limiting stage: on llvmpipe the triangles drawn,
     plus per command drawn and per query issued their time in triangles (the ratios of the
     unit costs at the time of the fit, so ``e`` stays in one unit). Every ``refit_every``
-    frames the coefficients of (8)-(10) are regressed (:func:`soc.query_model.fit_query_model`,
+    frames the coefficients of (8)-(10) are regressed
+    (:func:`soc.models.query_model.fit_query_model`,
     jit-compiled) and the best count is chosen among T(0), T(n_0) and T(q*)
-    (:func:`soc.query_model.best_query_count`).
+    (:func:`soc.models.query_model.best_query_count`).
     Before the first trusted fit, counts cycle through :data:`EXPLORE_FRACTIONS` of the
     candidates; afterwards every ``probe_every``-th frame tries half or double the choice.
 
@@ -381,9 +382,9 @@ class QueryPlanner:
             del self.rows[0]
 
     def statistics(self, per_command: float = 0.0, per_query: float = 0.0):
-        """The recorded frames as :class:`soc.query_model.QueryStatistics`, elements =
+        """The recorded frames as :class:`soc.models.query_model.QueryStatistics`, elements =
         triangles + ``per_command`` × commands drawn + ``per_query`` × queries issued."""
-        from soc.query_model import QueryStatistics
+        from soc.models.query_model import QueryStatistics
 
         a = np.array(self.rows, np.float64).reshape(-1, 9)
         s = a[:, 2]
@@ -415,9 +416,9 @@ class QueryPlanner:
         """Regress (8)-(10), build (7) with the unit times (ms per command recorded, per
         buffer submitted, per element) and choose the count for ``n_nodes`` candidates.
         ``per_command``, ``per_query``: elements per command drawn and per query issued (see
-        :meth:`statistics`). Returns the :class:`~soc.query_model.QueryChoice`, or None when
+        :meth:`statistics`). Returns the :class:`~soc.models.query_model.QueryChoice`, or None when
         the fit failed or is not trusted (the previous one is kept)."""
-        from soc.query_model import best_query_count, fit_query_model
+        from soc.models.query_model import best_query_count, fit_query_model
 
         self.per_command, self.per_query = float(per_command), float(per_query)
         try:
@@ -452,7 +453,7 @@ class QueryPlanner:
 def warm_up_fit(window: int = QUERY_WINDOW) -> None:
     """Compile the jitted regression for every padded length a :class:`QueryPlanner` of
     ``window`` frames can hit (so no frame pays JAX's first-call compile; ~1 s per length)."""
-    from soc.query_model import (
+    from soc.models.query_model import (
         MIN_CAPACITY,
         QueryModel,
         fit_capacity,

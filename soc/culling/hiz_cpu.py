@@ -14,11 +14,12 @@ software rasterizers: every level holds, per texel, the *farthest* occluder dept
    texels, and the comparison of its nearest depth with the max of those texels.
 
 Conservativeness promise: given an occluder depth buffer never nearer than GL's (as
-:mod:`soc.software_raster` makes it), a box is reported hidden only when, at every pixel
+:mod:`soc.culling.software_raster` makes it), a box is reported hidden only when, at every pixel
 centre its projection can cover, the occluder depth is nearer than the box's nearest point
 (minus the depth bias). A rectangle that contains no pixel centre is hidden: the mesh inside
 the box covers a subset of the box's samples. Boxes must lie in front of the near plane
-(callers keep near-plane straddlers without a test, :func:`soc.queries.near_plane_straddlers`).
+(callers keep near-plane straddlers without a test,
+:func:`soc.culling.queries.near_plane_straddlers`).
 """
 
 from __future__ import annotations
@@ -31,8 +32,8 @@ import numpy as np
 
 from soc.constants import FRUSTUM_SLACK, NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
 
-# Results per box of :func:`classify_objects` (the codes of :mod:`soc.hiz_gpu` and
-# :mod:`soc.masked`, MaskedOcclusionCulling's OCCLUDED / VISIBLE / VIEW_CULLED).
+# Results per box of :func:`classify_objects` (the codes of :mod:`soc.culling.hiz_gpu` and
+# :mod:`soc.culling.masked`, MaskedOcclusionCulling's OCCLUDED / VISIBLE / VIEW_CULLED).
 OCCLUDED, VISIBLE, VIEW_CULLED = 0, 1, 2
 
 # Box rectangles are grown by this many pixels on every side before taking the pixel centres
@@ -41,7 +42,7 @@ OCCLUDED, VISIBLE, VIEW_CULLED = 0, 1, 2
 RECT_MARGIN_PX = 1.0 / 64.0
 
 # The box depth is pulled nearer by the float32 error of GL's vertex transform, in multiples
-# of the unit roundoff times the sum of the absolute terms (as in soc.software_raster).
+# of the unit roundoff times the sum of the absolute terms (as in soc.culling.software_raster).
 FLOAT32_TRANSFORM_ULPS = 8.0
 
 _U32 = 2.0**-24
@@ -154,7 +155,7 @@ def project_boxes(
 @numba.njit(cache=True, inline="always")
 def outside_frustum(aabb, planes):  # pragma: no cover - compiled
     """Whether the box ``aabb`` (2, 3) lies outside one of ``planes`` (6, 4) float64: the same
-    test as :func:`soc.frustum.aabbs_in_frustum` (most-inside corner behind a plane by more
+    test as :func:`soc.culling.frustum.aabbs_in_frustum` (most-inside corner behind a plane by more
     than ``FRUSTUM_SLACK`` relative to the box size), for kernels testing boxes one by one."""
     hx = 0.5 * (np.float64(aabb[1, 0]) - np.float64(aabb[0, 0]))
     hy = 0.5 * (np.float64(aabb[1, 1]) - np.float64(aabb[0, 1]))
@@ -176,7 +177,8 @@ def outside_frustum(aabb, planes):  # pragma: no cover - compiled
 def crosses_near_plane(box, forward, eye_depth, min_depth):  # pragma: no cover - compiled
     """Whether the box (2, 3) reaches nearer than ``min_depth`` along the view direction
     ``forward`` (3,) float64 (``eye_depth`` = forward · eye): the test of
-    :func:`soc.queries.near_plane_straddlers` with ``min_depth = near (1 + NEAR_PLANE_MARGIN)``."""
+    :func:`soc.culling.queries.near_plane_straddlers` with ``min_depth = near (1 +
+    NEAR_PLANE_MARGIN)``."""
     nearest = 0.0
     for i in range(3):
         c = 0.5 * (np.float64(box[0, i]) + np.float64(box[1, i]))
@@ -314,11 +316,11 @@ def classify_objects(
         Of the frame's conservative occluder depth, at the resolution of level 0.
     camera : Camera
     aabbs : (N, 2, 3) float
-        The objects' AABBs, for the frustum test (as :func:`soc.frustum.aabbs_in_frustum`;
+        The objects' AABBs, for the frustum test (as :func:`soc.culling.frustum.aabbs_in_frustum`;
         ``frustum=False`` skips it).
     boxes : (N, 2, 3) float32
         Their grown query boxes, for the near-plane test (as
-        :func:`soc.queries.near_plane_straddlers`: crossing boxes are kept untested) and the
+        :func:`soc.culling.queries.near_plane_straddlers`: crossing boxes are kept untested) and the
         pyramid test (:func:`project_boxes`, :func:`boxes_visible`).
 
     Returns

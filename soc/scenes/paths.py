@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.camera import Camera
+from soc.scenes.camera import Camera
 
 ARC_DEGREES = 75.0  # how far round the town the approach starts, from the gate's direction
 START_DISTANCE = 0.8  # start distance from the centre, in town radii (half xz diagonals)

@@ -21,7 +21,8 @@ Stages, in the order a frame runs them:
    >= 3 are rectangles of one R32F texture (:func:`atlas_layout`), so the test shader can
    pick any level per box.
 2. :meth:`HizTest.classify` — one invocation per candidate box (``hiz_test.comp.glsl``):
-   outside the frustum (the p-vertex test of :mod:`soc.frustum` on the grown box, with a slack
+   outside the frustum (the p-vertex test of :mod:`soc.culling.frustum` on the grown box, with a
+   slack
    for float32 rounding), else occluded or visible; results in a uint SSBO read back once
    after ``memory_barrier()``.
 
@@ -49,7 +50,7 @@ Why the test is conservative (an object the exact id render sees is never report
   :meth:`HizTest.classify`): the test reads the level-0 texels holding the display pixel
   centres inside the rectangle. That is conservative when every texel holds a depth >= the
   occluder depth at every point of its square, which the inner-conservative raster of
-  :class:`soc.depth_prepass.ConservativeOccluders` guarantees at any pair of resolutions.
+  :class:`soc.culling.depth_prepass.ConservativeOccluders` guarantees at any pair of resolutions.
 * Refinement (``refine``) re-reads a box that is not occluded one level finer: those texels
   stand for the same pixels and each is <= the coarser texel holding it, so the answer only
   tightens, with the same argument.
@@ -59,10 +60,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.camera import Camera, _resolution
 from soc.constants import FRUSTUM_SLACK, NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
 from soc.gl.context import uses_gl
 from soc.gl.geometry import grown_aabbs
+from soc.scenes.camera import Camera, _resolution
 
 # Pixels added on every side of a box's projected rectangle before choosing the pixel centres
 # it may cover: float32 rounding of the corner projection is ~1e-4 px at 4K, llvmpipe snaps
@@ -352,7 +353,8 @@ class HizTest:
             Resolutions (width, height) visibility is judged at, besides the pyramid's own
             (the default, alone). For a display other than its own the pyramid must hold, in
             each texel, a depth >= the occluder depth at every point inside it (as
-            :class:`soc.depth_prepass.ConservativeOccluders` writes); the test then reads the
+            :class:`soc.culling.depth_prepass.ConservativeOccluders` writes); the test then reads
+            the
             texels holding the pixel centres the box may cover at every one of these
             resolutions.
 

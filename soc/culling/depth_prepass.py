@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from soc.camera import _resolution
 from soc.gl.context import uses_gl
+from soc.scenes.camera import _resolution
 
 
 class DepthTarget:
@@ -472,7 +472,8 @@ class ConservativeOccluders:
     a depth >= the occluder depth that an ordinary render at *any* finer resolution has at
     every pixel centre inside the texel (1.0 where no primitive covers it), and a max pyramid
     built on it answers box tests conservatively for the display resolution
-    (:meth:`soc.hiz_gpu.HizTest.classify` with ``display``). A geometry shader doing the same
+    (:meth:`soc.culling.hiz_gpu.HizTest.classify` with ``display``). A geometry shader doing the
+    same
     per fragment ran 5-10x slower than the whole ordinary prepass on llvmpipe (even when it
     emitted nothing), a compute-shader setup with a per-fragment edge test 10x.
 

@@ -1,5 +1,6 @@
 """Conservative software rasterization of occluder triangles on the CPU (numba): the triangle
-setup shared by :mod:`soc.masked` and a per-pixel depth buffer for :mod:`soc.hiz_cpu`.
+setup shared by :mod:`soc.culling.masked` and a per-pixel depth buffer for
+:mod:`soc.culling.hiz_cpu`.
 
 This stands for the scalar/SSE/AVX software rasterizers of Intel's Software Occlusion Culling
 framework (Intel, "Software Occlusion Culling", 2013; seed 000), which render the occluders
@@ -20,7 +21,7 @@ rasterization", SIGGRAPH 1988), evaluated as one span of pixel centres per row. 
    depth buffer with a ``min``.
 
 Conservativeness promise (the point of this module). The depth buffer is never *nearer* than
-the GL depth prepass (:func:`soc.depth_prepass.render_occluders`) at any pixel centre of the
+the GL depth prepass (:func:`soc.culling.depth_prepass.render_occluders`) at any pixel centre of the
 same camera and resolution: coverage is shrunk (a pixel centre counts only when it lies
 :data:`EDGE_MARGIN_PX` inside all three edges, so pixels that GL's fill rule or its sub-pixel
 snapping may or may not cover are left at the far value 1.0), and depth is pushed farther by
@@ -391,7 +392,7 @@ def rasterize_depth(
     -------
     depth : (H, W) float32
         Window depth in [0, 1] (1.0 = nothing), row 0 at the bottom like
-        :meth:`soc.depth_prepass.DepthTarget.read`. Never nearer than the GL prepass of the
+        :meth:`soc.culling.depth_prepass.DepthTarget.read`. Never nearer than the GL prepass of the
         same triangles at any pixel centre (see the module docstring).
     """
     width, height = _resolution(resolution)

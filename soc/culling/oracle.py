@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.camera import Camera, _resolution
 from soc.gl.context import uses_gl
+from soc.scenes.camera import Camera, _resolution
 
 NO_OBJECT = 0xFFFFFFFF
 

@@ -7,8 +7,8 @@ import time
 
 import numpy as np
 
-from soc.camera import _resolution
 from soc.gl.context import uses_gl
+from soc.scenes.camera import _resolution
 
 LIGHT_DIR = (0.4, 0.8, 0.3)
 SKY = (0.80, 0.86, 0.93)

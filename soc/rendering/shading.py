@@ -38,10 +38,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from soc.camera import Camera, _resolution
 from soc.gl.context import uses_gl
 from soc.gl.raw import GL_QUERY_RESULT, GL_SAMPLES_PASSED
-from soc.renderer import SKY
+from soc.rendering.renderer import SKY
+from soc.scenes.camera import Camera, _resolution
 
 PATHS = ("forward", "deferred-loop", "deferred-passes")
 
@@ -425,7 +425,9 @@ class ShadingRenderer:
     def set_lights(self, lights: Lights) -> None:
         """Upload ``lights`` (any number, including none) for the following frames."""
         if not isinstance(lights, Lights):
-            raise ValueError(f"lights must be a soc.shading.Lights, got {type(lights).__name__}")
+            raise ValueError(
+                f"lights must be a soc.rendering.shading.Lights, got {type(lights).__name__}"
+            )
         data = lights.packed()
         if data.nbytes > self._light_buffer.size:
             self._light_buffer.orphan(data.nbytes)

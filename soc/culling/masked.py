@@ -22,7 +22,7 @@ Stages of a frame, in the order :class:`MaskedBuffer` runs them:
 1. :func:`occluder_order` (numpy) — the occluders whose AABB is in the frustum, sorted front
    to back by their AABB's nearest view depth (the merge rule culls best when near occluders
    arrive first).
-2. :func:`soc.software_raster.setup_triangles` (numba) — transform (float64, with bounds on
+2. :func:`soc.culling.software_raster.setup_triangles` (numba) — transform (float64, with bounds on
    GL's float32 error), clip against the near plane (a crossing triangle becomes one or two
    triangles, never dropped), drop triangles outside one frustum plane, degenerate ones and
    back faces of closed meshes, orient counter-clockwise, and compute the conservative depth
@@ -45,7 +45,7 @@ Stages of a frame, in the order :class:`MaskedBuffer` runs them:
 4. :func:`classify_objects` (numba, one pass over the scene) — per object the frustum test of
    its AABB (:data:`VIEW_CULLED`), the near-plane test of its grown box (crossing boxes are
    kept), then its rectangle of pixel centres and nearest depth (as
-   :func:`soc.hiz_cpu.project_boxes`; :func:`test_boxes` starts here for given rectangles),
+   :func:`soc.culling.hiz_cpu.project_boxes`; :func:`test_boxes` starts here for given rectangles),
    scanned subtile by subtile: a subtile hides the box when the box's nearest depth is behind
    its ``z0``, or behind ``z1`` when every pixel of the rectangle inside the subtile is in the
    working mask. The box is :data:`OCCLUDED` only when every subtile under it hides it (the
@@ -56,10 +56,10 @@ Why it is conservative (an object the oracle's GL render sees is never reported 
 maximum of the depths of triangles whose bits are in the mask; a triangle's bit is set only for
 a pixel centre inside it by a margin wider than GL's snapping and rounding (so GL covers that
 centre too), and its depth there is at most the value merged (the plane is pushed farther by
-the bounds of :mod:`soc.software_raster`; it is evaluated at the covered centres' farthest
+the bounds of :mod:`soc.culling.software_raster`; it is evaluated at the covered centres' farthest
 corner, or bounded by the farthest vertex since interpolation is convex). So at every pixel
 centre, ``z0`` (and ``z1`` where the bit is set) is never nearer than GL's occluder depth; the
-box test is then the proof of :mod:`soc.hiz_gpu` with subtiles for pyramid texels. Skipped
+box test is then the proof of :mod:`soc.culling.hiz_gpu` with subtiles for pyramid texels. Skipped
 triangles (back faces, degenerate, dead subtiles) and discarded working layers only lose
 culling. Partial tiles at the right and top borders are handled by counting pixels outside the
 screen as covered by every triangle that touches their subtile (no box ever reads them).
@@ -78,7 +78,7 @@ import numba
 import numpy as np
 
 from soc.constants import NEAR_PLANE_MARGIN
-from soc.hiz_cpu import (  # the result codes are shared: OCCLUDED, VISIBLE, VIEW_CULLED
+from soc.culling.hiz_cpu import (  # the result codes are shared: OCCLUDED, VISIBLE, VIEW_CULLED
     OCCLUDED,
     VIEW_CULLED,
     VISIBLE,
@@ -86,7 +86,7 @@ from soc.hiz_cpu import (  # the result codes are shared: OCCLUDED, VISIBLE, VIE
     outside_frustum,
     project_box,
 )
-from soc.software_raster import (
+from soc.culling.software_raster import (
     EDGE_MARGIN_PX,
     RECORD,
     _edge,
@@ -354,7 +354,7 @@ def test_boxes(rects, z_near, mask, z0, z1, out):  # pragma: no cover - compiled
     ----------
     rects : (K, 4) int64
         Inclusive pixel-centre rectangles ``x0, y0, x1, y1`` clamped to the screen
-        (:func:`soc.hiz_cpu.project_boxes`); empty when ``x0 > x1`` or ``y0 > y1``.
+        (:func:`soc.culling.hiz_cpu.project_boxes`); empty when ``x0 > x1`` or ``y0 > y1``.
     z_near : (K,) float64
         Nearest window depth of each box, biases applied.
     mask, z0, z1 : the buffer (:func:`rasterize`).
@@ -377,12 +377,12 @@ def classify_objects(
     Parameters
     ----------
     aabbs : (N, 2, 3) float
-        The objects' AABBs (frustum test, as :func:`soc.frustum.aabbs_in_frustum`: outside
+        The objects' AABBs (frustum test, as :func:`soc.culling.frustum.aabbs_in_frustum`: outside
         when the box's most-inside corner is behind a plane by more than ``FRUSTUM_SLACK``
         relative to its size).
     boxes : (N, 2, 3) float32
-        The grown query boxes (near-plane test as :func:`soc.queries.near_plane_straddlers`,
-        projection as :func:`soc.hiz_cpu.project_boxes`).
+        The grown query boxes (near-plane test as :func:`soc.culling.queries.near_plane_straddlers`,
+        projection as :func:`soc.culling.hiz_cpu.project_boxes`).
     planes : (6, 4) float64
         Inward frustum planes; ``frustum`` False skips the frustum test.
     forward : (3,) float64
@@ -484,7 +484,7 @@ class MaskedBuffer:
 
     def classify(self, rects: np.ndarray, z_near: np.ndarray) -> np.ndarray:
         """(K,) uint8 :data:`OCCLUDED` / :data:`VISIBLE` of boxes given as pixel rectangles
-        (K, 4) int64 and nearest depths (K,) float64 (:func:`soc.hiz_cpu.project_boxes`)."""
+        (K, 4) int64 and nearest depths (K,) float64 (:func:`soc.culling.hiz_cpu.project_boxes`)."""
         rects = np.ascontiguousarray(rects, np.int64).reshape(-1, 4)
         z_near = np.ascontiguousarray(z_near, np.float64).reshape(-1)
         if len(rects) != len(z_near):

@@ -46,7 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from soc.frustum import aabbs_in_frustum, as_aabbs
+from soc.culling.frustum import aabbs_in_frustum, as_aabbs
 from soc.gl.context import uses_gl
 
 DEFAULT_MAX_DEPTH = 8
@@ -787,7 +787,7 @@ class NodeBuffers:
         for objects. Returns ``(ms, commands, calls)``, the time finished."""
         import moderngl
 
-        from soc.renderer import LIGHT_DIR, SKY
+        from soc.rendering.renderer import LIGHT_DIR, SKY
 
         ctx = self.glctx.ctx
         t0 = time.perf_counter()

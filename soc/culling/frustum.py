@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.camera import Camera
 from soc.constants import FRUSTUM_SLACK
+from soc.scenes.camera import Camera
 
 
 def as_aabbs(aabbs) -> np.ndarray:
