@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from experiments import seed004_adaptive, seed004_model, seed004_octree
+from experiments.commands import add_parsers, run_command
 from experiments.common import (
     DISPLAY,
     SCENES,
@@ -55,6 +56,7 @@ from experiments.common import (
     res_str,
     scaled,
 )
+from experiments.harness import Experiment
 from experiments.sweep import add_sweep_parser, cmd_sweep
 
 EXIT_USAGE = 2
@@ -96,6 +98,10 @@ METHOD_NEEDS: dict[str, str] = {
 }
 
 
+# Sub-command → harness experiment (experiments.commands), filled by build_parser.
+HARNESS: dict[str, Experiment] = {}
+
+
 class MissingExtraError(UsageError):
     """A command needs an optional dependency (an extra) that is not installed."""
 
@@ -133,14 +139,17 @@ def required_extras(args: argparse.Namespace) -> dict[str, str]:
     """Extras the parsed command needs → why ("" for the command itself, else the method or
     figure that needs it), from :data:`COMMAND_EXTRAS`, :data:`METHOD_EXTRAS` and the figures'
     ``extras``."""
+    if args.command in HARNESS:
+        return dict.fromkeys(HARNESS[args.command].extras, "")
     need: dict[str, str] = dict.fromkeys(COMMAND_EXTRAS[args.command], "")
     for m in _named_methods(args):
         for extra in METHOD_EXTRAS.get(m, ()):
             need.setdefault(extra, f"method {m!r}")
     if args.command == "figures" and not args.list:
         from experiments.figures import FIGURES
+        from experiments.harness import experiments
 
-        for fig in FIGURES:
+        for fig in [*FIGURES, *experiments()]:
             if not args.only or fig.key in args.only:
                 for extra in fig.extras:
                     need.setdefault(extra, f"figure {fig.key!r}")
@@ -406,6 +415,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     seed004_adaptive.add_arguments(ad)
     add_sweep_parser(sub)
+    HARNESS.update(add_parsers(sub, set(sub.choices)))
     return p
 
 
@@ -675,6 +685,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         check_extras(args)
         check_inputs(args)
+        if args.command in HARNESS:
+            return run_command(HARNESS[args.command], args)
         return COMMANDS[args.command](args)
     except UsageError as e:
         print(f"vislod: error: {e}", file=sys.stderr)

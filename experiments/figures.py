@@ -31,6 +31,7 @@ from typing import Any
 from experiments.common import (
     UsageError,
     castle_path,
+    check_writable,
     default_out,
     make_setup,
     write_json,
@@ -293,8 +294,19 @@ FIGURES: tuple[Figure, ...] = (
 )
 
 
+def _fields(params: Any) -> dict[str, Any]:
+    """A parameters dataclass as keyword overrides (``quick`` is passed apart)."""
+    import dataclasses
+
+    return {
+        f.name: getattr(params, f.name) for f in dataclasses.fields(params) if f.name != "quick"
+    }
+
+
 def figure_names() -> list[str]:
-    return [f.key for f in FIGURES]
+    from experiments.harness import experiments
+
+    return [f.key for f in FIGURES] + [e.key for e in experiments()]
 
 
 def _version() -> str:
@@ -373,16 +385,27 @@ def run_figures(
     if unknown:
         raise UsageError(f"unknown figure(s) {', '.join(unknown)}; available: {', '.join(names)}")
     out = Path(out) if out is not None else default_out(quick)
+    from experiments import harness
+
     chosen = [f for f in FIGURES if not only or f.key in only]
+    exps = [e for e in harness.experiments() if not only or e.key in only]
+    plans = [(e, e.make_params(quick, data if e.uses_data else None)) for e in exps]
+    for _, params in plans:  # wrong data or options: fail now
+        if callable(getattr(params, "check", None)):
+            params.check()
+    check_writable(out)
     for f in chosen:  # wrong data or options: fail now, not after the figures before it
         if f.check is not None:
             f.check(quick, data)
     todo = [f for f in chosen if force or not is_done(out, f, quick, data)]
     skipped = [f.key for f in chosen if f not in todo]
+    exp_todo = [(e, p) for e, p in plans if force or not harness.is_done(e, p, out)]
+    skipped += [e.key for e, p in plans if (e, p) not in exp_todo]
     if skipped:
         print(f"already done (use --force to re-run): {', '.join(skipped)}")
     seconds: dict[str, float] = {}
     weight = {f.key: (f.minutes / 10 if quick else f.minutes) for f in todo}
+    weight.update({e.key: (e.minutes / 10 if quick else e.minutes) for e, _ in exp_todo})
     with tqdm(
         total=round(sum(weight.values()), 1),
         unit="min",
@@ -401,10 +424,17 @@ def run_figures(
                 {"key": inputs_key(inputs), **inputs, "seconds": seconds[fig.key]},
             )
             bar.update(round(weight[fig.key], 1))
+        for exp, params in exp_todo:
+            bar.set_postfix_str(exp.key)
+            res = harness.run(
+                exp, quick=quick, out=out, force=True, progress=False, **_fields(params)
+            )
+            seconds[exp.key] = res.seconds
+            bar.update(round(weight[exp.key], 1))
     report = write_report(out, FIGURES, quick=quick)
     print(f"report: {report}")
     return {
-        "ran": [f.key for f in todo],
+        "ran": [f.key for f in todo] + [e.key for e, _ in exp_todo],
         "skipped": skipped,
         "seconds": seconds,
         "report": report,

@@ -142,6 +142,47 @@ def notebook(cells, prefix: str):
     return nb
 
 
+def experiment_cells(key: str) -> list:
+    """The cells that show one harness experiment: its introduction, parameters at the top
+    (quick with ``VISLOD_QUICK``), the computation, every DataFrame, every picture drawn inline
+    from the frames by the experiment's importable plotting functions (caption above), and
+    the claims beside the document's numbers."""
+    from nbformat import v4
+
+    from experiments import harness
+
+    exp = harness.get(key)
+    mod = exp.module.rsplit(".", 1)[-1]
+    cells = [
+        v4.new_markdown_cell(f"## Seed {exp.seed} — {exp.title}\n\n{exp.intro}"),
+        v4.new_code_cell(
+            "%matplotlib inline\n"
+            f"from experiments import harness, {mod}\n"
+            "from experiments.common import env_quick\n\n"
+            f'exp = harness.get("{exp.key}")\n'
+            "quick = env_quick()  # VISLOD_QUICK=1: small and fast\n"
+            "# Change any parameter here, e.g. exp.make_params(quick, frames=30):\n"
+            "params = exp.make_params(quick)\n"
+            "params"
+        ),
+        v4.new_code_cell("frames = exp.compute(params, progress=True)\nlist(frames)"),
+    ]
+    cells += [v4.new_code_cell(f'frames["{name}"]') for name in _frame_names(exp)]
+    for plot in exp.plots:
+        cells.append(v4.new_markdown_cell(f"### {exp.caption(plot)}"))
+        cells.append(v4.new_code_cell(f"{mod}.{plot.__name__}(frames, params)"))
+    cells.append(v4.new_markdown_cell("### The claims, beside the document"))
+    cells.append(v4.new_code_cell("exp.claims(frames, params)"))
+    return cells
+
+
+def _frame_names(exp) -> list[str]:
+    """The frames an experiment returns, from ``FRAMES`` in its module (``[]`` if absent)."""
+    import importlib
+
+    return list(getattr(importlib.import_module(exp.module), "FRAMES", ()))
+
+
 def image_cell(names) -> str:
     """Code that displays the PNGs ``names`` from the notebook's ``out`` folder."""
     return "\n".join(f'display(Image(filename=str(out / "{name}")))' for name in names)

@@ -507,22 +507,63 @@ def _is_tracked_report_folder(out: Path) -> bool:
     return (ROOT / "pyproject.toml").is_file() and Path(out).resolve() == results
 
 
+def experiment_lines(out: Path, exp, *, tracked_only: bool) -> tuple[list[str], list[str]]:
+    """A harness experiment's section (pictures with captions, then its claims) and its
+    verdicts; "not run" when its files are missing."""
+    from experiments import harness
+
+    lines = [f"## Seed {exp.seed} — {exp.title}", ""]
+    res = harness.load(exp, out)
+    if res is None:
+        return [*lines, f"_not run_ (`vislod figures --only {exp.key}`)", ""], []
+    meta = json.loads((res.folder / "inputs.json").read_text())
+    for stem, caption in meta.get("pictures", {}).items():
+        png = res.folder / f"{stem}.png"
+        if png.is_file():
+            lines += image_lines(out, [png], exp.key, tracked_only=tracked_only)
+            lines += ["", f"*{caption}*", ""]
+    lines += [
+        "| item | document | ours | verdict | basis / why |",
+        "|---|---|---|---|---|",
+    ]
+    for r in res.claims.itertuples():
+        note = "; ".join(t for t in (r.basis, r.why) if t)
+        lines.append(
+            f"| {_cell(r.item)} | {_cell(r.document)} | {_cell(r.ours)} | **{r.verdict}** "
+            f"| {_cell(note)} |"
+        )
+    return [*lines, ""], list(res.claims.verdict)
+
+
 def write_report(out: Path, figures: Sequence, *, quick: bool = False) -> Path:
     """Write ``out/REPORT.md`` from the summaries present; returns its path."""
     out = Path(out)
     tracked_only = _is_tracked_report_folder(out)
-    lines = [
+    head = [
         "# vislod — every figure beside its source document",
         "",
         "Written by `make figures` (`vislod figures`)"
         + (" in quick mode: small scenes, few frames — not the full run." if quick else ".")
-        + " Verdicts: reproduced / differs (why) / image / measured (no number to compare).",
+        + " Verdicts: **numbers** (the same quantity within the tolerance the row states), "
+        "**trend** (the document's qualitative claim asserted on our data, as the row states), "
+        "**differs** (with the measured cause), **image** (the same kind of picture), "
+        "**measured** (the document gives no number, or the row goes beyond it). Rows of "
+        "figures not yet on the harness still say reproduced.",
         "",
     ]
     counts: dict[str, int] = {}
+    from experiments import harness
+
+    sections: list[tuple[str, list[str]]] = []
+    for exp in harness.experiments():
+        sec, verdicts = experiment_lines(out, exp, tracked_only=tracked_only)
+        sections.append((exp.seed, sec))
+        for v in verdicts:
+            counts[v] = counts.get(v, 0) + 1
     for fig in figures:
         rows = figure_rows(out, fig)
-        lines += [f"## Seed {fig.seed} — {fig.title}", ""]
+        lines = [f"## Seed {fig.seed} — {fig.title}", ""]
+        sections.append((fig.seed, lines))
         if rows is None:
             lines += [f"_not run_ (`vislod figures --only {fig.key}`)", ""]
             continue
@@ -536,6 +577,9 @@ def write_report(out: Path, figures: Sequence, *, quick: bool = False) -> Path:
                 f"| {_cell(r.why)} |"
             )
         lines.append("")
+    lines = head
+    for _, sec in sorted(sections, key=lambda s: s[0]):
+        lines += sec
     tally = ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
     lines.insert(4, f"Rows: {tally}.\n")
     text = "\n".join(lines) + "\n"

@@ -1,0 +1,476 @@
+"""One harness for every experiment: an experiment is data, pictures and claims.
+
+An experiment module defines three functions and registers them with :func:`experiment`:
+
+- ``compute(params, progress) -> dict[str, DataFrame]`` — runs the work and returns tidy
+  pandas DataFrames (one row per frame × method, per scene × parameter, …), named;
+- plotting functions ``plot_x(frames, params) -> matplotlib.figure.Figure`` — each draws one
+  picture from those frames only; the first paragraph of its docstring is the picture's
+  caption (what is plotted);
+- ``claims(frames, params) -> DataFrame`` — rows beside the document's numbers, built with
+  :func:`claim`, each with a verdict a reviewer would sign (:data:`VERDICTS`).
+
+Its parameters are a frozen dataclass whose defaults are the full run, with a ``quick``
+variant (:attr:`Experiment.quick`) for notebooks and CI. The harness gives every experiment
+the rest: its ``vislod`` command with ``--quick``, ``--out``, ``--data`` and one option per
+parameter (:mod:`experiments.cli`), the output folder checked before any work, a progress bar,
+CSV and PNG files written atomically, resuming keyed on every input (:func:`inputs_key`), its
+section of ``REPORT.md`` (:mod:`experiments.report`) and its notebook cells
+(:mod:`experiments.notebooks`).
+
+    from experiments import harness
+    res = harness.run("seed002", quick=True)    # Results: frames, figures, claims, folder
+    res.frames["frames"].groupby("run").ms.median()
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib
+import importlib.util
+import inspect
+import json
+import time
+import typing
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from experiments.common import UsageError, atomic_write, check_writable, default_out
+
+# Every experiment module, in report order. A new figure: one module here.
+MODULES: tuple[str, ...] = (
+    "experiments.seed000_demo",
+    "experiments.seed001_lod_budget",
+    "experiments.seed001_lod_quality",
+    "experiments.seed001_portals",
+    "experiments.seed001_state_sorting",
+    "experiments.seed001_image_based",
+    "experiments.seed002_grid",
+    "experiments.seed003_complexity",
+    "experiments.seed004_model",
+    "experiments.seed004_octree",
+    "experiments.seed004_adaptive",
+)
+
+# -- verdicts ------------------------------------------------------------------------------------
+
+NUMBERS = "numbers"  # the same quantity, within a tolerance the row states
+TREND = "trend"  # the document's qualitative claim asserted on our data; the row states how
+DIFFERS = "differs"  # measured and not the same; the row gives the measured cause
+IMAGE = "image"  # the same kind of picture, drawn by us
+MEASURED = "measured"  # the document gives no number (or goes beyond it): ours alone
+VERDICTS = (NUMBERS, TREND, DIFFERS, IMAGE, MEASURED)
+CLAIM_COLUMNS = ("item", "document", "ours", "verdict", "basis", "why")
+
+
+def claim(
+    item: str,
+    document: Any,
+    ours: Any,
+    verdict: str,
+    *,
+    basis: str = "",
+    why: str = "",
+) -> dict[str, str]:
+    """One row of a claims table.
+
+    Parameters
+    ----------
+    item : str
+        What is compared, e.g. ``"Abb. 9, models culled, MT+FC"``.
+    document, ours : Any
+        The document's words or number (quote it exactly) and ours (formatted here with
+        :func:`fmt` unless a string).
+    verdict : str
+        One of :data:`VERDICTS`. ``numbers`` needs ``basis`` = the tolerance ("within 5
+        percentage points"); ``trend`` needs ``basis`` = the assertion made on our data
+        ("each stage culls at least as many models as the one before: holds"); ``differs``
+        needs ``why`` = the measured cause.
+    """
+    if verdict not in VERDICTS:
+        raise ValueError(f"verdict must be one of {', '.join(VERDICTS)}, got {verdict!r}")
+    if verdict in (NUMBERS, TREND) and not basis:
+        raise ValueError(f"a {verdict!r} verdict states its basis (tolerance or assertion): {item}")
+    if verdict == DIFFERS and not why:
+        raise ValueError(f"a 'differs' verdict gives the measured cause: {item}")
+    return {
+        "item": item,
+        "document": fmt(document),
+        "ours": fmt(ours),
+        "verdict": verdict,
+        "basis": basis,
+        "why": why,
+    }
+
+
+def claims_frame(rows: Sequence[Mapping[str, str]]) -> pd.DataFrame:
+    """The claims table as a DataFrame with :data:`CLAIM_COLUMNS`."""
+    return pd.DataFrame(list(rows), columns=list(CLAIM_COLUMNS))
+
+
+def fmt(x: Any, digits: int = 2) -> str:
+    """A number for a claims row: thousands separators, ``digits`` decimals for floats."""
+    if x is None:
+        return "–"
+    if isinstance(x, bool):
+        return "yes" if x else "no"
+    if isinstance(x, int | float) and not isinstance(x, bool):
+        if isinstance(x, float) and x != x:
+            return "–"
+        return f"{x:,.{digits}f}" if isinstance(x, float) else f"{x:,}"
+    return str(x)
+
+
+# -- the registry --------------------------------------------------------------------------------
+
+Frames = dict[str, pd.DataFrame]
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """An experiment as the harness runs it (made by :func:`experiment`).
+
+    Attributes
+    ----------
+    key : str
+        Its ``vislod`` command and ``--only`` name, e.g. ``"seed002"``.
+    seed : str
+        Source document ("000" … "004").
+    title : str
+        What it reproduces, one line (the report's section heading).
+    params : type
+        Frozen dataclass of parameters; defaults are the full run.
+    quick : Mapping
+        Overrides of ``params`` for quick mode (seconds to a minute, small scenes).
+    compute, plots, claims :
+        The three parts (see the module docstring); ``plots`` in display order.
+    minutes : float
+        Rough full-run time on this machine, for ``vislod figures``' progress bar.
+    extras : tuple of str
+        Optional dependencies (pyproject extras) it needs.
+    uses_data : bool
+        Reads the data folder (``--data`` / ``VISLOD_DATA``); its resolved path is an input.
+    aliases : tuple of str
+        Older command names that keep working.
+    notebook : str
+        The notebook (``notebooks/<name>.ipynb``) that shows it.
+    intro : str
+        Markdown for the report and notebook: the document's claim and our setup.
+    """
+
+    key: str
+    seed: str
+    title: str
+    params: type
+    quick: Mapping[str, Any]
+    compute: Callable[..., Frames]
+    plots: tuple[Callable[..., Any], ...]
+    claims: Callable[..., pd.DataFrame]
+    minutes: float = 1.0
+    extras: tuple[str, ...] = ()
+    uses_data: bool = False
+    aliases: tuple[str, ...] = ()
+    notebook: str = ""
+    intro: str = ""
+    module: str = ""
+
+    def make_params(self, quick: bool = False, data: str | None = None, **overrides: Any):
+        """Parameters for a run: the defaults, the quick overrides, then ``overrides``;
+        ``data`` fills a ``data`` field when there is one."""
+        names = {f.name for f in dataclasses.fields(self.params)}
+        unknown = sorted(set(overrides) - names)
+        if unknown:
+            raise UsageError(
+                f"{self.key} has no parameter {', '.join(unknown)}; "
+                f"parameters: {', '.join(sorted(names))}"
+            )
+        values = dict(self.quick) if quick else {}
+        if "data" in names and data is not None:
+            values["data"] = data
+        if "quick" in names:
+            values["quick"] = quick
+        values.update(overrides)
+        return self.params(**values)
+
+    def caption(self, plot: Callable[..., Any]) -> str:
+        """The first paragraph of the plotting function's docstring."""
+        doc = inspect.getdoc(plot) or plot.__name__
+        return " ".join(doc.split("\n\n")[0].split())
+
+    def plot_name(self, plot: Callable[..., Any]) -> str:
+        """File stem of a picture: ``<key>_<function name without plot_>``."""
+        return f"{self.key}_{plot.__name__.removeprefix('plot_')}".replace("-", "_")
+
+
+_REGISTRY: dict[str, Experiment] = {}
+
+
+def experiment(
+    key: str,
+    *,
+    seed: str,
+    title: str,
+    params: type,
+    compute: Callable[..., Frames],
+    plots: Sequence[Callable[..., Any]],
+    claims: Callable[..., pd.DataFrame],
+    quick: Mapping[str, Any] | None = None,
+    **attrs: Any,
+) -> Experiment:
+    """Register an experiment (call once at the end of its module); returns it."""
+    if not dataclasses.is_dataclass(params):
+        raise TypeError(f"{key}: params must be a dataclass, got {params!r}")
+    module = inspect.getmodule(compute)
+    intro = attrs.pop("intro", None)
+    if intro is None:
+        intro = inspect.getdoc(module) or ""
+    exp = Experiment(
+        key,
+        seed,
+        title,
+        params,
+        dict(quick or {}),
+        compute,
+        tuple(plots),
+        claims,
+        intro=intro,
+        module=module.__name__ if module else "",
+        **attrs,
+    )
+    _REGISTRY[key] = exp
+    return exp
+
+
+def experiments() -> list[Experiment]:
+    """Every registered experiment, in report order (imports the modules of :data:`MODULES`
+    that define one)."""
+    for m in MODULES:
+        importlib.import_module(m)
+    order = {m: i for i, m in enumerate(MODULES)}
+    return sorted(_REGISTRY.values(), key=lambda e: (order.get(e.module, len(order)), e.key))
+
+
+def get(key: str) -> Experiment:
+    """The experiment named ``key`` (or one of its aliases)."""
+    exps = experiments()
+    for e in exps:
+        if key == e.key or key in e.aliases:
+            return e
+    raise UsageError(f"unknown experiment {key!r}; available: {', '.join(e.key for e in exps)}")
+
+
+# -- running -------------------------------------------------------------------------------------
+
+
+@dataclass
+class Results:
+    """What one run of an experiment gave (also what a resumed run reads back)."""
+
+    experiment: Experiment
+    params: Any
+    frames: Frames
+    claims: pd.DataFrame
+    folder: Path | None = None
+    figures: dict[str, Any] = field(default_factory=dict)
+    seconds: float = 0.0
+    resumed: bool = False
+
+    def draw(self) -> dict[str, Any]:
+        """Every picture, drawn from the frames: ``{file stem: Figure}``."""
+        self.figures = {
+            self.experiment.plot_name(p): p(self.frames, self.params) for p in self.experiment.plots
+        }
+        return self.figures
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("vislod")
+    except PackageNotFoundError:
+        return "0+unknown"
+
+
+def _source_hash(module: str) -> str:
+    spec = importlib.util.find_spec(module) if module else None
+    if spec is None or not spec.origin or not Path(spec.origin).is_file():
+        return ""
+    return hashlib.sha256(Path(spec.origin).read_bytes()).hexdigest()
+
+
+def _jsonable(x: Any) -> Any:
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        return {k: _jsonable(v) for k, v in dataclasses.asdict(x).items()}
+    if isinstance(x, Mapping):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, Path):
+        return str(x.expanduser().resolve())
+    if isinstance(x, int | float | str | bool) or x is None:
+        return x
+    return repr(x)
+
+
+def inputs(exp: Experiment, params: Any) -> dict[str, Any]:
+    """Everything that changes a result: the experiment, its parameters (data path resolved),
+    the package version and the source of the experiment's module."""
+    return {
+        "experiment": exp.key,
+        "params": _jsonable(params),
+        "version": _version(),
+        "source": _source_hash(exp.module),
+    }
+
+
+def inputs_key(exp: Experiment, params: Any) -> str:
+    """SHA-256 of :func:`inputs` as sorted JSON."""
+    return hashlib.sha256(json.dumps(inputs(exp, params), sort_keys=True).encode()).hexdigest()
+
+
+def folder_of(exp: Experiment, out: Path) -> Path:
+    """Where an experiment's files go: ``<out>/<key>/``."""
+    return Path(out) / exp.key
+
+
+def is_done(exp: Experiment, params: Any, out: Path) -> bool:
+    """Its files exist and were written from the same inputs."""
+    stamp = folder_of(exp, out) / "inputs.json"
+    try:
+        return json.loads(stamp.read_text()).get("key") == inputs_key(exp, params)
+    except (OSError, ValueError):
+        return False
+
+
+def load(exp: Experiment, out: Path, params: Any = None) -> Results | None:
+    """Read a finished run's frames and claims back (``None`` when it has not run)."""
+    folder = folder_of(exp, out)
+    stamp = folder / "inputs.json"
+    if not stamp.is_file():
+        return None
+    meta = json.loads(stamp.read_text())
+    frames = {n: pd.read_csv(folder / f"{n}.csv") for n in meta.get("frames", [])}
+    claims = pd.read_csv(folder / "claims.csv", keep_default_na=False, dtype=str)
+    return Results(exp, params, frames, claims, folder, seconds=meta.get("seconds", 0.0))
+
+
+def _check_frames(exp: Experiment, frames: Any) -> Frames:
+    if not isinstance(frames, Mapping) or not all(
+        isinstance(v, pd.DataFrame) for v in frames.values()
+    ):
+        raise TypeError(f"{exp.key}: compute must return a dict of DataFrames")
+    return dict(frames)
+
+
+def _write_csv(path: Path, df: pd.DataFrame) -> None:
+    atomic_write(path, lambda p: df.to_csv(p, index=False))
+
+
+def _write_png(path: Path, fig: Any) -> None:
+    def save(p: Path) -> None:
+        fig.savefig(p, format="png", dpi=110)
+
+    atomic_write(path, save)
+
+
+def run(
+    key: str | Experiment,
+    *,
+    quick: bool = False,
+    out: str | Path | None = None,
+    data: str | None = None,
+    force: bool = False,
+    progress: bool = True,
+    write: bool = True,
+    **overrides: Any,
+) -> Results:
+    """Run one experiment: parameters, then compute, claims and pictures, written under
+    ``<out>/<key>/`` (frames as CSV, ``claims.csv``, one PNG per picture, ``inputs.json``).
+
+    The output folder and the parameters are checked before any work; a run whose files
+    exist with the same inputs is read back instead of recomputed (``force`` recomputes).
+    ``write=False`` computes in memory only (notebooks that change a parameter).
+    """
+    exp = key if isinstance(key, Experiment) else get(key)
+    params = exp.make_params(quick, data, **overrides)
+    check = getattr(params, "check", None)
+    if callable(check):
+        check()
+    folder = None
+    if write:
+        out = Path(out) if out is not None else default_out(quick)
+        folder = check_writable(folder_of(exp, out))
+        if not force and is_done(exp, params, out):
+            res = load(exp, out, params)
+            if res is not None:
+                res.resumed = True
+                return res
+    t0 = time.perf_counter()
+    frames = _check_frames(exp, exp.compute(params, progress=progress))
+    claims = exp.claims(frames, params)
+    if list(claims.columns) != list(CLAIM_COLUMNS):
+        raise TypeError(f"{exp.key}: claims must have the columns {CLAIM_COLUMNS}")
+    res = Results(exp, params, frames, claims, folder, seconds=time.perf_counter() - t0)
+    res.draw()
+    if folder is not None:
+        for name, df in frames.items():
+            _write_csv(folder / f"{name}.csv", df)
+        _write_csv(folder / "claims.csv", claims)
+        for stem, fig in res.figures.items():
+            _write_png(folder / f"{stem}.png", fig)
+        meta = {
+            "key": inputs_key(exp, params),
+            **inputs(exp, params),
+            "frames": list(frames),
+            "pictures": {exp.plot_name(p): exp.caption(p) for p in exp.plots},
+            "seconds": res.seconds,
+        }
+        atomic_write(folder / "inputs.json", lambda p: p.write_text(json.dumps(meta, indent=1)))
+    return res
+
+
+# -- parameters as command-line options ----------------------------------------------------------
+
+
+def option_types(params: type) -> dict[str, Any]:
+    """Field name → its resolved type annotation."""
+    return typing.get_type_hints(params)
+
+
+def parse_value(text: str, kind: Any) -> Any:
+    """A command-line string as a parameter of type ``kind`` (int, float, bool, str, a
+    ``WxH`` resolution for ``tuple[int, int]``, or a tuple/list of those, comma-separated)."""
+    origin = typing.get_origin(kind)
+    args = [a for a in typing.get_args(kind) if a is not type(None)]
+    if origin in (typing.Union, getattr(__import__("types"), "UnionType", None)) and args:
+        if text.lower() in ("none", ""):
+            return None
+        return parse_value(text, args[0])
+    if kind is bool:
+        if text.lower() in ("1", "true", "yes", "on"):
+            return True
+        if text.lower() in ("0", "false", "no", "off"):
+            return False
+        raise UsageError(f"expected yes/no, got {text!r}")
+    if kind in (int, float, str):
+        try:
+            return kind(text)
+        except ValueError:
+            raise UsageError(f"expected {kind.__name__}, got {text!r}") from None
+    if origin in (tuple, list):
+        if args == [int, int] and "x" in text.lower() and "," not in text:
+            from experiments.common import parse_resolution
+
+            return parse_resolution(text)
+        inner = args[0] if args else str
+        if len(args) == 2 and args[1] is Ellipsis:
+            inner = args[0]
+        items = [t for t in text.split(",") if t.strip()]
+        return origin(parse_value(t.strip(), inner) for t in items)
+    return text

@@ -1,0 +1,150 @@
+"""The experiment harness: one toy experiment (data, picture, claims) run, written, read back,
+resumed only on the same inputs, shown in the report, as a command and in notebook cells."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from experiments import harness
+from experiments.common import UsageError
+
+
+@dataclass(frozen=True)
+class ToyParams:
+    frames: int = 50
+    scale: float = 2.0
+    display: tuple[int, int] = (64, 48)
+    quick: bool = False
+
+
+CALLS = []
+
+
+def compute(params: ToyParams, progress: bool = False) -> dict[str, pd.DataFrame]:
+    CALLS.append(params)
+    f = np.arange(params.frames)
+    frames = pd.DataFrame({"frame": f, "ms": params.scale * f, "method": "toy"})
+    return {"frames": frames}
+
+
+def plot_ms(frames, params):
+    """Milliseconds per frame of the toy method.
+
+    A second paragraph that is not part of the caption."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(3, 2))
+    fig.subplots().plot(frames["frames"].frame, frames["frames"].ms)
+    return fig
+
+
+def claims(frames, params):
+    slope = np.polyfit(frames["frames"].frame, frames["frames"].ms, 1)[0]
+    return harness.claims_frame(
+        [
+            harness.claim(
+                "slope", 2.0, float(slope), harness.NUMBERS, basis="within 1 % of the document"
+            ),
+            harness.claim("a picture", "Abb. 0", "drawn", harness.IMAGE),
+        ]
+    )
+
+
+@pytest.fixture
+def toy():
+    """The toy experiment, registered for one test only (so that no other test runs it)."""
+    exp = harness.experiment(
+        "toy",
+        seed="999",
+        title="a toy line",
+        params=ToyParams,
+        compute=compute,
+        plots=[plot_ms],
+        claims=claims,
+        quick={"frames": 5},
+        aliases=("toy-old",),
+    )
+    yield exp
+    harness._REGISTRY.pop("toy")
+
+
+def test_claim_verdicts_need_their_basis():
+    with pytest.raises(ValueError, match="basis"):
+        harness.claim("x", 1, 1, harness.NUMBERS)
+    with pytest.raises(ValueError, match="cause"):
+        harness.claim("x", 1, 2, harness.DIFFERS)
+    with pytest.raises(ValueError, match="verdict must be one of"):
+        harness.claim("x", 1, 1, "reproduced")
+    assert harness.claim("x", 1234, 0.5, harness.MEASURED)["document"] == "1,234"
+
+
+def test_params_quick_and_overrides(toy):
+    assert toy.make_params().frames == 50
+    assert toy.make_params(quick=True).frames == 5 and toy.make_params(quick=True).quick
+    assert toy.make_params(True, scale=3.0).scale == 3.0
+    with pytest.raises(UsageError, match="no parameter nope"):
+        toy.make_params(nope=1)
+
+
+def test_run_writes_reads_back_and_resumes_on_same_inputs(toy, tmp_path):
+    CALLS.clear()
+    res = harness.run(toy, quick=True, out=tmp_path, progress=False)
+    folder = tmp_path / "toy"
+    assert (folder / "frames.csv").is_file() and (folder / "claims.csv").is_file()
+    assert (folder / "toy_ms.png").stat().st_size > 1000
+    meta = json.loads((folder / "inputs.json").read_text())
+    assert meta["pictures"] == {"toy_ms": "Milliseconds per frame of the toy method."}
+    assert len(res.frames["frames"]) == 5 and not res.resumed
+    again = harness.run(toy, quick=True, out=tmp_path, progress=False)
+    assert again.resumed and len(CALLS) == 1
+    pd.testing.assert_frame_equal(again.frames["frames"], res.frames["frames"])
+    assert list(again.claims.verdict) == ["numbers", "image"]
+    other = harness.run(toy, quick=True, out=tmp_path, progress=False, scale=3.0)
+    assert not other.resumed and len(CALLS) == 2
+    assert other.frames["frames"].ms.iloc[-1] == 12.0
+
+
+def test_unwritable_output_fails_before_the_work(toy, tmp_path):
+    CALLS.clear()
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    with pytest.raises(UsageError):
+        harness.run(toy, quick=True, out=blocker / "sub", progress=False)
+    assert CALLS == []
+
+
+def test_parse_values():
+    assert harness.parse_value("640x360", tuple[int, int]) == (640, 360)
+    assert harness.parse_value("1,2,3", tuple[int, ...]) == (1, 2, 3)
+    assert harness.parse_value("a,b", tuple[str, ...]) == ("a", "b")
+    assert harness.parse_value("none", int | None) is None
+    assert harness.parse_value("yes", bool) is True
+    with pytest.raises(UsageError, match="expected int"):
+        harness.parse_value("x", int)
+
+
+def test_command_line_options_and_alias(toy, tmp_path, capsys):
+    from experiments import cli
+
+    assert (
+        cli.main(["toy-old", "--quick", "--out", str(tmp_path), "--scale", "4", "--no-progress"])
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "slope" in out and "numbers" in out
+    assert pd.read_csv(tmp_path / "toy" / "frames.csv").ms.iloc[-1] == 16.0
+
+
+def test_report_section_and_notebook_cells(toy, tmp_path):
+    from experiments.report import experiment_lines
+
+    harness.run(toy, quick=True, out=tmp_path, progress=False)
+    lines, verdicts = experiment_lines(tmp_path, toy, tracked_only=False)
+    text = "\n".join(lines)
+    assert "![toy_ms](toy/toy_ms.png)" in text and "*Milliseconds per frame" in text
+    assert "| slope | 2.00 |" in text and verdicts == ["numbers", "image"]
