@@ -42,10 +42,9 @@ from collections import deque
 
 import numpy as np
 
-from soc.culling.box_queries import BoxQueries
 from soc.culling.bvh import box_distance, build
-from soc.culling.depth_prepass import DepthTarget
-from soc.methods.base import CullMethod, MethodOutput, frustum_stage, prepass_stage, register, stage
+from soc.methods.base import MethodOutput, register, stage
+from soc.methods.prepass_queries import PrepassQueryMethod
 
 # Nodes per query batch (CHC++ "multiqueries"/i-queue). Larger batches mean fewer depth
 # renders and polls, but queries issued before nearer visible geometry reaches the depth.
@@ -64,7 +63,7 @@ REVISIT_SEED = 0
 
 
 @register
-class CoherentHierarchicalCulling(CullMethod):
+class CoherentHierarchicalCulling(PrepassQueryMethod):
     """CHC/CHC++ over a BVH of the objects, depth from the objects it finds visible.
 
     Options
@@ -115,9 +114,6 @@ class CoherentHierarchicalCulling(CullMethod):
         self.bvh = build(self.scene.aabbs, leaf_size)
         rng = np.random.default_rng(REVISIT_SEED)
         self.phase = rng.integers(0, self.revisit_interval, len(self.bvh))
-        self.target = DepthTarget(self.glctx, resolution)
-        diagonal = float(np.linalg.norm(np.subtract(*self.scene.bounds[::-1])))
-        self.box_queries = BoxQueries(self.glctx, diagonal)
         self.program = self.glctx.program("mesh.vert", "depth_only.frag")
         self.reset()
 
@@ -125,25 +121,15 @@ class CoherentHierarchicalCulling(CullMethod):
         self.was_visible = np.zeros(len(self.bvh), bool)
         self.frame = 0
 
-    def release(self) -> None:
-        self.box_queries.release()
-        self.target.release()
-
     def cull(self, camera) -> MethodOutput:
         timings: dict[str, float] = {}
-        in_frustum = frustum_stage(self, camera, timings)
-        frustum_culled = int((~in_frustum).sum())
-        if not self.config.depth_test:
+        in_frustum, frustum_culled, test = self.start_frame(camera, timings, prepass=self.prepass)
+        if not test:
             return MethodOutput(in_frustum, frustum_culled, 0, timings)
-        finish = self.glctx.finish
         with stage(timings, "frustum"):
             boxes, counts = self.bvh.refit(in_frustum)
             distance = box_distance(boxes, camera.eye)
-        if self.prepass:
-            prepass_stage(self, camera, in_frustum, self.target, timings)
-        else:
-            self.target.clear()
-        with stage(timings, "traverse", finish):
+        with stage(timings, "traverse", self.glctx.finish):
             traversal = _Traversal(self, camera, in_frustum, boxes, counts, distance)
             visible_nodes, queries = traversal.run()
         if self.temporal:

@@ -36,17 +36,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.culling.box_queries import BoxQueries
-from soc.culling.depth_prepass import DepthTarget
 from soc.culling.frustum import aabbs_in_frustum
 from soc.culling.grid import DEFAULT_GRID_SIZE, build_grid
-from soc.methods.base import CullMethod, MethodOutput, frustum_stage, prepass_stage, register, stage
+from soc.methods.base import MethodOutput, frustum_stage, prepass_stage, register, stage
+from soc.methods.prepass_queries import PrepassQueryMethod
 
 UNKNOWN, OCCLUDED, VISIBLE = -1, 0, 1  # a cell's last known query result
 
 
 @register
-class GridCulling(CullMethod):
+class GridCulling(PrepassQueryMethod):
     """Occlusion queries on uniform-grid cells, front to back, with temporal coherence.
 
     Options (keyword arguments of ``soc.Culler(scene, method="grid", ...)``)
@@ -88,9 +87,6 @@ class GridCulling(CullMethod):
         self.query_cap = None if query_cap is None else int(query_cap)
         self.min_fill = float(min_fill)
         self.grid = build_grid(self.scene.aabbs, grid_size, include=~self.scene.occluder)
-        self.target = DepthTarget(self.glctx, resolution)
-        diagonal = float(np.linalg.norm(np.subtract(*self.scene.bounds[::-1])))
-        self.queries = BoxQueries(self.glctx, diagonal)
         self._known = np.full(len(self.grid.cells), UNKNOWN, np.int8)
         self._pending = None  # (QueryBatch, (K,) cell slots) issued last frame
         self.last_fill = 1.0  # non-empty / traversed grid cells in the last frame
@@ -103,8 +99,7 @@ class GridCulling(CullMethod):
 
     def release(self) -> None:
         self.reset()
-        self.queries.release()
-        self.target.release()
+        super().release()
 
     def _collect(self) -> None:
         """Store the results of the queries issued last frame as the cells' known state."""
@@ -145,7 +140,7 @@ class GridCulling(CullMethod):
         prepass_stage(self, camera, in_frustum, self.target, timings)
         with stage(timings, "queries", finish):
             queried = slots if self.query_cap is None else slots[: self.query_cap]
-            batch = self.queries.issue(self.target, camera, self.grid.boxes[queried])
+            batch = self.box_queries.issue(self.target, camera, self.grid.boxes[queried])
             issued = batch.issued  # read before results() hands the query objects back
             cell_visible = np.ones(len(self.grid.cells), bool)
             if self.temporal:

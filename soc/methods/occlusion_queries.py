@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.culling.depth_prepass import DepthTarget
 from soc.culling.queries import OcclusionQueries, near_plane_straddlers
-from soc.methods.base import CullMethod, MethodOutput, frustum_stage, prepass_stage, register, stage
+from soc.methods.base import MethodOutput, register, stage
+from soc.methods.prepass_queries import PrepassQueryMethod
 
 
 @register
-class QueryCulling(CullMethod):
+class QueryCulling(PrepassQueryMethod):
     """Frustum + occluder depth prepass + per-object ``GL_ANY_SAMPLES_PASSED`` queries."""
 
     name = "queries"
@@ -20,22 +20,18 @@ class QueryCulling(CullMethod):
 
     def __init__(self, geometry, resolution, config):
         super().__init__(geometry, resolution, config)
-        self.target = DepthTarget(self.glctx, resolution)
         self.queries = OcclusionQueries(geometry)
 
     def release(self) -> None:
         self.queries.release()
-        self.target.release()
+        super().release()
 
     def cull(self, camera) -> MethodOutput:
         timings: dict[str, float] = {}
-        in_frustum = frustum_stage(self, camera, timings)
-        frustum_culled = int((~in_frustum).sum())
-        if not self.config.depth_test:
+        in_frustum, frustum_culled, test = self.start_frame(camera, timings)
+        if not test:
             return MethodOutput(in_frustum, frustum_culled, 0, timings)
-
         finish = self.glctx.finish
-        prepass_stage(self, camera, in_frustum, self.target, timings)
         with stage(timings, "queries", finish):
             candidates = np.flatnonzero(in_frustum)
             boxes = self.geometry.query_boxes[candidates]

@@ -37,10 +37,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.culling.box_queries import BoxQueries
 from soc.culling.bvh import box_distance, build
-from soc.culling.depth_prepass import DepthTarget
-from soc.methods.base import CullMethod, MethodOutput, frustum_stage, prepass_stage, register, stage
+from soc.methods.base import MethodOutput, register, stage
+from soc.methods.prepass_queries import PrepassQueryMethod
 
 # Objects per packet (the first query level). Larger packets: fewer top-level queries but
 # more refinement rounds; 32-64 balances both on the market at 1080p.
@@ -57,7 +56,7 @@ DEFAULT_WAVE_SIZE = 32
 
 
 @register
-class BatchedQueryCulling(CullMethod):
+class BatchedQueryCulling(PrepassQueryMethod):
     """Frustum + occluder prepass + hierarchical queries: packets, their sub-nodes, objects.
 
     Options
@@ -100,24 +99,13 @@ class BatchedQueryCulling(CullMethod):
         self.packets = self.bvh.cut(packet_size)
         self.wave_size = int(wave_size)
         self.render_visible = bool(render_visible)
-        self.target = DepthTarget(self.glctx, resolution)
-        diagonal = float(np.linalg.norm(np.subtract(*self.scene.bounds[::-1])))
-        self.box_queries = BoxQueries(self.glctx, diagonal)
-
-    def release(self) -> None:
-        self.box_queries.release()
-        self.target.release()
 
     def cull(self, camera) -> MethodOutput:
         timings: dict[str, float] = {}
-        in_frustum = frustum_stage(self, camera, timings)
-        frustum_culled = int((~in_frustum).sum())
-        if not self.config.depth_test:
+        in_frustum, frustum_culled, test = self.start_frame(camera, timings)
+        if not test:
             return MethodOutput(in_frustum, frustum_culled, 0, timings)
-
-        finish = self.glctx.finish
-        prepass_stage(self, camera, in_frustum, self.target, timings)
-        with stage(timings, "queries", finish):
+        with stage(timings, "queries", self.glctx.finish):
             visible, queries = self._refine(camera, in_frustum)
         return MethodOutput(visible, frustum_culled, queries, timings)
 

@@ -1,0 +1,50 @@
+"""What the query-based methods share (``queries``, ``queries-batched``, ``chc``, ``grid``):
+a depth target at the culler's resolution, a pool of box queries, and the start of every
+frame — the frustum test, then the frustum-surviving occluders drawn into the target's depth
+(seed 000's prepass) — before each method queries in its own order."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from soc.culling.box_queries import BoxQueries
+from soc.culling.depth_prepass import DepthTarget
+from soc.methods.base import CullConfig, CullMethod, frustum_stage, prepass_stage
+
+
+class PrepassQueryMethod(CullMethod):
+    """Base of the methods that query boxes against an occluder depth prepass.
+
+    Attributes
+    ----------
+    target : DepthTarget
+        The occluder depth, at the culler's resolution (conservative at that resolution).
+    box_queries : BoxQueries
+        Occlusion queries on grown boxes (grown by a fraction of the scene's diagonal).
+    """
+
+    def __init__(self, geometry, resolution: tuple[int, int], config: CullConfig):
+        super().__init__(geometry, resolution, config)
+        self.target = DepthTarget(self.glctx, resolution)
+        lo, hi = self.scene.bounds
+        self.box_queries = BoxQueries(self.glctx, float(np.linalg.norm(np.subtract(hi, lo))))
+
+    def release(self) -> None:
+        self.box_queries.release()
+        self.target.release()
+
+    def start_frame(
+        self, camera, timings: dict[str, float], *, prepass: bool = True
+    ) -> tuple[np.ndarray, int, bool]:
+        """The frustum test, then (when the depth test is on) the occluder prepass, or a
+        cleared depth with ``prepass=False``. Returns the (N,) bool frustum survivors, how
+        many the frustum culled, and whether to go on querying (the depth test is on)."""
+        in_frustum = frustum_stage(self, camera, timings)
+        frustum_culled = int((~in_frustum).sum())
+        if not self.config.depth_test:
+            return in_frustum, frustum_culled, False
+        if prepass:
+            prepass_stage(self, camera, in_frustum, self.target, timings)
+        else:
+            self.target.clear()
+        return in_frustum, frustum_culled, True
