@@ -17,3 +17,8 @@ QUERY_DEPTH_BIAS_NDC = 2e-6
 # A box whose nearest corner is closer than near * (1 + this) to the eye plane is treated as
 # straddling the near plane: clipping removes its cap, so it is kept without a query.
 NEAR_PLANE_MARGIN = 1e-3
+
+# Shading of every drawn frame (renderer, octree command buffers, two-phase culling): one
+# directional light and a sky-coloured clear, so that pictures of all methods look alike.
+LIGHT_DIR = (0.4, 0.8, 0.3)
+SKY = (0.80, 0.86, 0.93)

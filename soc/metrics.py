@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import time
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
@@ -120,3 +122,16 @@ class CullResult:
     def visible_ids(self) -> np.ndarray:
         """(K,) int64 ids of the kept objects."""
         return np.flatnonzero(self.visible)
+
+
+@contextmanager
+def stage(
+    timings: dict[str, float], name: str, finish: Callable[[], None] | None = None
+) -> Iterator[None]:
+    """Time a block into ``timings[name]`` (ms); ``finish`` (e.g. ``ctx.finish``) runs before
+    the clock stops so GL work is counted where it was issued."""
+    t0 = time.perf_counter()
+    yield
+    if finish is not None:
+        finish()
+    timings[name] = timings.get(name, 0.0) + 1e3 * (time.perf_counter() - t0)

@@ -455,7 +455,7 @@ class MaskedBuffer:
         ``in_frustum`` (M,) bool over :attr:`ids` selects them (default: all); ``timings``, a
         dict, receives the ms of the stages ``sort``, ``transform`` and ``raster``.
         """
-        from soc.methods.base import stage
+        from soc.metrics import stage
 
         timings = {} if timings is None else timings
         width, height = self.resolution

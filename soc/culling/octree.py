@@ -787,7 +787,7 @@ class NodeBuffers:
         for objects. Returns ``(ms, commands, calls)``, the time finished."""
         import moderngl
 
-        from soc.rendering.renderer import LIGHT_DIR, SKY
+        from soc.constants import LIGHT_DIR, SKY
 
         ctx = self.glctx.ctx
         t0 = time.perf_counter()

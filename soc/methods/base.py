@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from soc.metrics import stage
 
 
 @dataclass(frozen=True)
@@ -88,19 +87,6 @@ def register(cls: type[CullMethod]) -> type[CullMethod]:
         raise ValueError(f"culling method name {cls.name!r} is empty or taken")
     METHODS[cls.name] = uses_gl(cls)
     return cls
-
-
-@contextmanager
-def stage(
-    timings: dict[str, float], name: str, finish: Callable[[], None] | None = None
-) -> Iterator[None]:
-    """Time a block into ``timings[name]`` (ms); ``finish`` (e.g. ``ctx.finish``) runs before
-    the clock stops so GL work is counted where it was issued."""
-    t0 = time.perf_counter()
-    yield
-    if finish is not None:
-        finish()
-    timings[name] = timings.get(name, 0.0) + 1e3 * (time.perf_counter() - t0)
 
 
 def frustum_stage(method: CullMethod, camera, timings: dict[str, float]) -> np.ndarray:

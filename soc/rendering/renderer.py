@@ -7,11 +7,9 @@ import time
 
 import numpy as np
 
+from soc.constants import LIGHT_DIR, SKY
 from soc.gl.context import uses_gl
 from soc.scenes.camera import _resolution
-
-LIGHT_DIR = (0.4, 0.8, 0.3)
-SKY = (0.80, 0.86, 0.93)
 
 
 @uses_gl
