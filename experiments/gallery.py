@@ -126,7 +126,21 @@ def update_readme(readme: Path = ROOT / "README.md", folder: Path = FOLDER) -> P
     )
 
 
-if __name__ == "__main__":
+def main() -> int:
+    """Refresh ``docs/gallery/`` and the README's gallery; only in a checkout (an installed
+    package has no README or docs folder to update, and must not write into site-packages)."""
+    if not (ROOT / "pyproject.toml").is_file():
+        print(
+            "gallery: error: the gallery lives in a vislod checkout (docs/gallery, README.md); "
+            f"{ROOT} is an installed package — run it in a clone of the repository",
+            file=sys.stderr,
+        )
+        return 2
     for p in write():
         print(p)
     print(update_readme())
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
