@@ -13,8 +13,9 @@ and interleaved frame by frame (so machine load hits every method alike):
 
 Every GL time is wall time around ``ctx.finish()`` (``time.perf_counter``), never GL timer
 queries. Results are two tidy DataFrames (one row per frame × method, one per frame × floor
-item), written as CSV; every table is printed from them by :func:`markdown_table`. Ratios are
-medians over frames of per-frame ratios (paired, so load that slows one frame cancels).
+item), written as CSV; every table is printed from them by
+:func:`experiments.markdown.markdown_table`. Ratios are medians over frames of per-frame ratios
+(paired, so load that slows one frame cancels).
 
     python -m experiments.bench --only floor --scene castle-2114 --frames 30
 """
@@ -32,6 +33,7 @@ from tqdm import tqdm
 
 import soc
 import soc.gl.context
+from experiments.markdown import markdown_table
 from soc.culling.hiz_gpu import DepthPyramid
 from soc.methods import METHODS
 from soc.rendering.renderer import Renderer
@@ -57,6 +59,8 @@ TARGET_QUERIES_RATIO_27K, TARGET_CPU_RATIO_27K = 50.0, 10.0
 TARGET_IDEAL_RATIO = 1.15
 TARGET_MOC_FACTOR, TARGET_QUERIES_RATIO_2114 = 2.0, 15.0
 LARGE_SCENE = 20_000  # objects; the "27,025-object scenes" targets apply above this
+# Timed beside the floor items, for reference (the exact visible set is no part of a frame).
+ORACLE_ITEM = "oracle (exact id render, for reference)"
 
 
 def parse_spec(spec: str) -> tuple[str, dict]:
@@ -114,7 +118,8 @@ class FloorResult:
         ``visible`` (oracle), ``false_culls``, ``false_keeps`` (hidden kept), ``queries`` and
         ``ms_<stage>`` per stage the method reports (NaN where it has none).
     floor : DataFrame
-        One row per frame × floor item: ``frame``, ``item``, ``ms``.
+        One row per frame × floor item: ``frame``, ``item``, ``ms`` (and the oracle's time,
+        item :data:`ORACLE_ITEM`, for reference).
     scene : str
         The scene's label.
     objects : int
@@ -213,7 +218,9 @@ def run_floor(
             c.reset()
         it = tqdm(cameras, desc=f"bench floor {label}", unit="frame", disable=not progress)
         for i, cam in enumerate(it):
+            t0 = time.perf_counter()
             truth = oracle.visible(cam)
+            oracle_ms = 1e3 * (time.perf_counter() - t0)
             ideal = np.flatnonzero(truth)
 
             with glctx.current():
@@ -231,6 +238,7 @@ def run_floor(
                 floor["HiZ pyramid build (DepthPyramid.build)"] = _time_gl(
                     ctx, lambda: pyramid.build(renderer.depth)
                 )
+            floor[ORACLE_ITEM] = oracle_ms
             floor_rows += [{"frame": i, "item": k, "ms": v} for k, v in floor.items()]
             # The order rotates from frame to frame, so that no method always runs right after
             # the big 'everything' draw (caches, llvmpipe's threads) or always last.
@@ -275,34 +283,14 @@ def run_floor(
 # -- tables -----------------------------------------------------------------------------------
 
 
-def markdown_table(df: pd.DataFrame, floatfmt: str = ".2f") -> str:
-    """GitHub markdown of ``df`` (columns as header, index dropped); floats with ``floatfmt``,
-    NaN as an empty cell. (``DataFrame.to_markdown`` needs ``tabulate``, not a dependency.)"""
-
-    def cell(v) -> str:
-        if isinstance(v, float | np.floating):
-            return "" if math.isnan(v) else format(v, floatfmt)
-        return str(v)
-
-    lines = ["| " + " | ".join(map(str, df.columns)) + " |", "|" + "---|" * len(df.columns)]
-    lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in df.itertuples(index=False)]
-    return "\n".join(lines)
-
-
 def summarize(result: FloorResult) -> pd.DataFrame:
     """One row per method: medians over frames, and per-frame ratios' medians."""
     df = result.frames.copy()
-    per_frame = df.pivot(index="frame", columns="method", values="cull_ms")
+    cull = df.pivot(index="frame", columns="method", values="cull_ms")
     total = df.pivot(index="frame", columns="method", values="total_ms")
     df["hidden_per_visible"] = df["false_keeps"] / df["visible"].clip(lower=1)
-    df["queries_ratio"] = df.apply(
-        lambda r: (
-            per_frame.loc[r["frame"], "queries"] / r["cull_ms"]
-            if "queries" in per_frame and r["cull_ms"] > 0
-            else math.nan
-        ),
-        axis=1,
-    )
+    queries = df["frame"].map(cull["queries"]) if "queries" in cull else math.nan
+    df["queries_ratio"] = queries / df["cull_ms"].where(df["cull_ms"] > 0)
     df["ideal_ratio"] = df["total_ms"] / df["frame"].map(total["ideal"])
     df["over_ideal_ms"] = df["total_ms"] - df["frame"].map(total["ideal"])
     g = df.groupby("method", sort=False)
@@ -328,7 +316,8 @@ def summarize(result: FloorResult) -> pd.DataFrame:
 
 def floor_table(result: FloorResult) -> pd.DataFrame:
     """Median ms per floor item, with the ideal and everything draws for scale."""
-    fl = result.floor.groupby("item", sort=False)["ms"].median()
+    floor = result.floor[result.floor["item"] != ORACLE_ITEM]
+    fl = floor.groupby("item", sort=False)["ms"].median()
     draws = result.frames.groupby("method")["draw_ms"].median()
     items = list(fl.items()) + [
         ("drawing the ideal set (the frame's floor)", draws["ideal"]),

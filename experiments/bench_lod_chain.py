@@ -8,16 +8,21 @@
    Hausdorff error and time at the same triangle targets (the full comparison, with plots,
    is ``experiments/seed001_lod_quality.py``).
 
+:func:`run` returns tidy DataFrames; :func:`markdown` draws the section's tables from them.
 Run: ``python -m experiments.bench_lod_chain`` (prints the markdown section).
 """
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
+
+from experiments.markdown import markdown_table
 
 # Chain ratios benchmarked (the default chain).
 RATIOS = (1.0, 0.5, 0.25, 0.125, 0.0625)
@@ -31,28 +36,30 @@ MELAX_RATIOS = (0.5, 0.25, 0.125, 0.0625)
 SEED = 0
 # The target ratio's two times are the best of this many runs each (shared machines).
 REPEATS = 2
+# The task's target: the chain costs at most this many one-call simplifications.
+CHAIN_TARGET = 2.0
 
 
-def _big_mesh() -> tuple[str, np.ndarray, np.ndarray]:
+def _big_mesh(subdivisions: int, use_data: bool) -> tuple[str, np.ndarray, np.ndarray]:
     import trimesh
 
-    root = os.environ.get("VISLOD_DATA")
+    root = os.environ.get("VISLOD_DATA") if use_data else None
     path = Path(root) / "meshes" / "igea_269k.ply" if root else None
     if path is not None and path.exists():
         m = trimesh.load(path, force="mesh")
         v, f = trimesh.remesh.subdivide(m.vertices, m.faces)  # ×4 → ≈1.07 M
         return f"igea subdivided ({len(f):,} triangles)", v, f
     rng = np.random.default_rng(SEED)
-    m = trimesh.creation.icosphere(ICOSPHERE_SUBDIVISIONS)
+    m = trimesh.creation.icosphere(subdivisions)
     v = m.vertices * (1 + NOISE * rng.standard_normal((len(m.vertices), 1)))
     return f"noisy icosphere ({len(m.faces):,} triangles)", v, m.faces
 
 
-def _small_mesh() -> tuple[np.ndarray, np.ndarray]:
+def _small_mesh(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
     import trimesh
 
     rng = np.random.default_rng(SEED)
-    m = trimesh.creation.icosphere(SMALL_SUBDIVISIONS)
+    m = trimesh.creation.icosphere(subdivisions)
     v = m.vertices * (1 + 5 * NOISE * rng.standard_normal((len(m.vertices), 1)))
     return v, m.faces
 
@@ -68,21 +75,45 @@ def _timed(fn, repeats: int = 1):
     return out, best
 
 
-def bench_lod_chain() -> str:
-    """Run both benchmarks; return a markdown section with the numbers."""
+def run(
+    subdivisions: int = ICOSPHERE_SUBDIVISIONS,
+    small_subdivisions: int = SMALL_SUBDIVISIONS,
+    repeats: int = REPEATS,
+    use_data: bool = True,
+) -> dict[str, pd.DataFrame]:
+    """Run both benchmarks; tidy DataFrames, named.
+
+    Parameters
+    ----------
+    subdivisions, small_subdivisions : int
+        Icosphere subdivisions of the big mesh (when igea is not used) and of the Melax mesh.
+    repeats : int
+        Runs of the one call and of the cascade (the best is kept).
+    use_data : bool
+        Subdivided igea from ``VISLOD_DATA`` when it is there.
+
+    Returns
+    -------
+    dict
+        ``"steps"``: one row per timed step (``step``, ``seconds``, ``times_one_call``,
+        ``target``, ``runs`` (best of), ``mesh``); ``"levels"``: one row per strategy × level
+        (``strategy`` cascade / restart, ``level``, ``triangles``, ``error``, object units);
+        ``"melax"``: one row per target × simplifier (``target``, ``simplifier`` quadric /
+        Melax, ``triangles``, ``error``, ``seconds``, ``mesh_triangles``).
+    """
     import fast_simplification
 
     from lod.chain import AGGRESSIVENESS, build_chain, quadric_simplify
     from lod.melax import melax_levels
     from lod.mesh_error import SurfaceSamples, hausdorff
 
-    name, v, f = _big_mesh()
+    name, v, f = _big_mesh(subdivisions, use_data)
     target = round(RATIOS[-1] * len(f))
     _, t_one = _timed(
         lambda: fast_simplification.simplify(v, f, target_count=target, agg=AGGRESSIVENESS),
-        REPEATS,
+        repeats,
     )
-    cas, t_cas = _timed(lambda: build_chain(v, f, RATIOS, cascade=True, cache_dir=False), REPEATS)
+    cas, t_cas = _timed(lambda: build_chain(v, f, RATIOS, cascade=True, cache_dir=False), repeats)
     res, t_res = _timed(lambda: build_chain(v, f, RATIOS, cascade=False, cache_dir=False))
 
     def errors_again():  # the error stage of build_chain alone, on the cascade's levels
@@ -90,52 +121,107 @@ def bench_lod_chain() -> str:
         return [hausdorff(SurfaceSamples.of(lv.vertices, lv.faces), full) for lv in cas.levels[1:]]
 
     _, t_err = _timed(errors_again)
-    lines = [
-        "## LOD chain building (seed 001)",
-        "",
-        f"Mesh: {name}; ratios {RATIOS}; agg {AGGRESSIVENESS}. The one call and the "
-        f"cascade: best of {REPEATS} runs; the rest: one run.",
-        "",
-        "| | time (s) | × one simplify call | target |",
-        "|---|---|---|---|",
-        f"| one fast-simplification call to {target:,} triangles | {t_one:.2f} | 1.00 | |",
-        f"| build_chain cascade (incl. errors) | {t_cas:.2f} | {t_cas / t_one:.2f} | ≤ 2 |",
-        f"| build_chain restart (incl. errors) | {t_res:.2f} | {t_res / t_one:.2f} | ≤ 2 |",
-        f"| of which error measurement (cascade levels, re-run) | {t_err:.2f} "
-        f"| {t_err / t_one:.2f} | |",
-        "",
-        "| level | triangles (cascade) | error cascade | triangles (restart) | error restart |",
-        "|---|---|---|---|---|",
-    ]
-    for k, (a, b) in enumerate(zip(cas.levels, res.levels, strict=True)):
-        lines.append(f"| {k} | {a.triangles:,} | {a.error:.6f} | {b.triangles:,} | {b.error:.6f} |")
+    steps = pd.DataFrame(
+        {
+            "step": [
+                f"one fast-simplification call to {target:,} triangles",
+                "build_chain cascade (incl. errors)",
+                "build_chain restart (incl. errors)",
+                "of which error measurement (cascade levels, re-run)",
+            ],
+            "seconds": [t_one, t_cas, t_res, t_err],
+            "target": [math.nan, CHAIN_TARGET, CHAIN_TARGET, math.nan],
+        }
+    )
+    steps["times_one_call"] = steps["seconds"] / t_one
+    steps["runs"] = [repeats, repeats, 1, 1]
+    steps["mesh"] = name
+    levels = pd.DataFrame(
+        [
+            {"strategy": s, "level": k, "triangles": lv.triangles, "error": lv.error}
+            for s, chain in (("cascade", cas), ("restart", res))
+            for k, lv in enumerate(chain.levels)
+        ]
+    )
 
-    sv, sf = _small_mesh()
+    sv, sf = _small_mesh(small_subdivisions)
     targets = [round(r * len(sf)) for r in MELAX_RATIOS]
     melax = melax_levels(sv, sf, targets)  # one pass, snapshots at each target
     full = SurfaceSamples.of(sv, sf)
-    lines += [
-        "",
-        f"Quadric vs Melax on a noisy icosphere of {len(sf):,} triangles "
-        "(error: sampled symmetric Hausdorff, object units; radius 1). Quadric: one "
-        "``quadric_simplify`` call per target; Melax: time from the full mesh to each snapshot "
-        "of one pass (``melax_levels``):",
-        "",
-        "| target | quadric tris | quadric error | quadric s "
-        "| Melax tris | Melax error | Melax s | error Melax ÷ quadric |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
+    rows = []
     for t, lv in zip(targets, melax, strict=True):
         (qv, qf), tq = _timed(lambda t=t: quadric_simplify(sv, sf, t))
         mv, mf = lv.result.vertices, lv.result.faces
-        eq = hausdorff(SurfaceSamples.of(qv, qf), full)
-        em = hausdorff(SurfaceSamples.of(mv, mf), full)
-        lines.append(
-            f"| {t:,} | {len(qf):,} | {eq:.5f} | {tq:.3f} | {len(mf):,} | {em:.5f} "
-            f"| {lv.seconds:.2f} | {em / eq:.2f} |"
-        )
-    return "\n".join(lines) + "\n"
+        for simplifier, vv, ff, sec in (("quadric", qv, qf, tq), ("Melax", mv, mf, lv.seconds)):
+            err = hausdorff(SurfaceSamples.of(vv, ff), full)
+            rows.append(
+                {"target": t, "simplifier": simplifier, "triangles": len(ff), "error": err,
+                 "seconds": sec}
+            )  # fmt: skip
+    melax_df = pd.DataFrame(rows)
+    melax_df["mesh_triangles"] = len(sf)
+    return {"steps": steps, "levels": levels, "melax": melax_df}
+
+
+def _thousands(counts: pd.Series) -> list[str]:
+    """Counts as ``1,280``-style strings (a pivot makes them float)."""
+    return [f"{int(c):,}" for c in counts]
+
+
+def markdown(frames: dict[str, pd.DataFrame]) -> str:
+    """The ``lod-chain`` section of BENCHMARKS.md, drawn from :func:`run`'s frames."""
+    from lod.chain import AGGRESSIVENESS
+
+    steps, levels, melax = frames["steps"], frames["levels"], frames["melax"]
+    table1 = steps[["step", "seconds", "times_one_call", "target"]].rename(
+        columns={"step": "", "seconds": "time (s)", "times_one_call": "× one simplify call"}
+    )
+    table1["target"] = table1["target"].map(lambda x: "" if math.isnan(x) else f"≤ {x:g}")
+    wide = levels.pivot(index="level", columns="strategy", values=["triangles", "error"])
+    table2 = pd.DataFrame(
+        {
+            "level": wide.index,
+            "triangles (cascade)": wide["triangles", "cascade"].pipe(_thousands),
+            "error cascade": wide["error", "cascade"].values,
+            "triangles (restart)": wide["triangles", "restart"].pipe(_thousands),
+            "error restart": wide["error", "restart"].values,
+        }
+    )
+    m = melax.pivot(index="target", columns="simplifier").sort_index(ascending=False)
+    table3 = pd.DataFrame(
+        {
+            "target": _thousands(m.index.to_series()),
+            "quadric tris": m["triangles", "quadric"].pipe(_thousands),
+            "quadric error": m["error", "quadric"].values,
+            "quadric s": m["seconds", "quadric"].values,
+            "Melax tris": m["triangles", "Melax"].pipe(_thousands),
+            "Melax error": m["error", "Melax"].values,
+            "Melax s": m["seconds", "Melax"].values,
+            "error Melax ÷ quadric": (m["error", "Melax"] / m["error", "quadric"]).values,
+        }
+    )
+    fmt3 = {"quadric error": ".5f", "Melax error": ".5f", "quadric s": ".3f"}
+    return "\n".join(
+        [
+            "## LOD chain building (seed 001)",
+            "",
+            f"Mesh: {steps['mesh'].iloc[0]}; ratios {RATIOS}; agg {AGGRESSIVENESS}. The one call "
+            f"and the cascade: best of {steps['runs'].iloc[0]} runs; the rest: one run.",
+            "",
+            markdown_table(table1),
+            "",
+            markdown_table(table2, ".6f"),
+            "",
+            f"Quadric vs Melax on a noisy icosphere of {melax['mesh_triangles'].iloc[0]:,} "
+            "triangles (error: sampled symmetric Hausdorff, object units; radius 1). Quadric: "
+            "one ``quadric_simplify`` call per target; Melax: time from the full mesh to each "
+            "snapshot of one pass (``melax_levels``):",
+            "",
+            markdown_table(table3, fmt3),
+            "",
+        ]
+    )
 
 
 if __name__ == "__main__":
-    print(bench_lod_chain())
+    print(markdown(run()))

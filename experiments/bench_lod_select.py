@@ -9,18 +9,22 @@ and the incremental method against the greedy.
 
     python -m experiments.bench_lod_select
 
-Times are wall-clock medians over the frames after a warm-up, with the process's CPU time
+:func:`run` returns tidy DataFrames; :func:`markdown` draws the section from them. Times are
+wall-clock medians over the frames after a warm-up, with the process's CPU time
 beside them (the machine may be shared).
 """
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
+import pandas as pd
 
 import lod
 import soc
+from experiments.markdown import markdown_table
 from lod.benefit import (
     CostModel,
     acuity_factor,
@@ -41,94 +45,141 @@ AREA_TARGET_MS = 20.0  # the targets of the task, for the table
 SELECT_TARGET_MS = 50.0
 SMALL_INSTANCES = 200  # greedy vs exact optimum
 GL_BOXES, GL_CAMERAS = 30, 6  # exact area vs rasterized pixels
+AREA_MIN_PIXELS = 1000  # relative area error only over boxes this large (pixels)
+SELECT_METHODS = ("funkhouser-sequin", "incremental", "screen-size")
 
 
-def bench_lod_select() -> str:
-    """Run everything; return the markdown section."""
+STEPS = ("exact", "naive", *SELECT_METHODS)
+
+
+def run(
+    objects: int = N_OBJECTS,
+    frames: int = FRAMES,
+    small_instances: int = SMALL_INSTANCES,
+    gl_boxes: int = GL_BOXES,
+    gl_cameras: int = GL_CAMERAS,
+) -> dict[str, pd.DataFrame]:
+    """Run everything (sizes default to the module's constants); tidy DataFrames, named.
+
+    Returns
+    -------
+    dict
+        ``"steps"``: one row per timed frame × step (``frame``, ``step``: ``exact`` /
+        ``naive`` projected area or a selection method, ``wall_ms``, ``cpu_ms``);
+        ``"frames"``: one row per timed frame (``objects``, ``on_screen`` fraction,
+        ``greedy_over_lp``, ``incremental_over_greedy``); ``"small"``: one row per small
+        instance (``family``, ``greedy_over_exact``); ``"area"``: one row per box × camera of
+        the id-render check (``pixels``, ``abs_error`` px, ``per_boundary``: the error per
+        boundary pixel).
+    """
     rng = np.random.default_rng(0)
-    boxes, polys = _city(rng, N_OBJECTS)
-    cams = _orbit(WARMUP + FRAMES)
+    boxes, polys = _city(rng, objects)
     model = CostModel(per_draw=2e-3)
-    area_ms = {"exact": [], "naive": []}
-    cpu_ms = {"exact": [], "naive": []}
-    methods = ("funkhouser-sequin", "incremental", "screen-size")
-    sel_ms = {m: [] for m in methods}
-    sel_cpu = {m: [] for m in methods}
-    inc_ratio, lp_ratio, on_screen = [], [], []
+    steps, per_frame = [], []
     previous = None
-    for f, cam in enumerate(cams):
+    for f, cam in enumerate(_orbit(WARMUP + frames)):
         t = {}
         for exact in (True, False):
             w0, c0 = time.perf_counter(), time.process_time()
             area = lod.projected_area(boxes, cam, exact=exact)
-            t["exact" if exact else "naive"] = (
-                1e3 * (time.perf_counter() - w0),
-                1e3 * (time.process_time() - c0),
-            )
+            t["exact" if exact else "naive"] = (w0, c0, time.perf_counter(), time.process_time())
             if exact:
                 size = area
         benefit, cost = _instance(boxes, polys, size, cam, model, previous)
         budget = BUDGET_FRACTION * float(cost[:, 0].sum())
         levels = {}
-        for m in methods:
+        for m in SELECT_METHODS:
             kw = {
                 "incremental": {"previous": previous},
                 "screen-size": {"area": size, "thresholds": [2e4, 5e3, 1e3, 250, 60, 15]},
             }.get(m, {})
             w0, c0 = time.perf_counter(), time.process_time()
             levels[m] = lod.select(benefit, cost, budget, method=m, **kw)
-            t[m] = (1e3 * (time.perf_counter() - w0), 1e3 * (time.process_time() - c0))
+            t[m] = (w0, c0, time.perf_counter(), time.process_time())
             assert total_cost(levels[m], cost) <= budget
         previous = levels["incremental"]
         if f < WARMUP:
             continue
-        for k in area_ms:
-            area_ms[k].append(t[k][0])
-            cpu_ms[k].append(t[k][1])
-        for m in methods:
-            sel_ms[m].append(t[m][0])
-            sel_cpu[m].append(t[m][1])
+        steps += [
+            {"frame": f, "step": k, "wall_ms": 1e3 * (w1 - w0), "cpu_ms": 1e3 * (c1 - c0)}
+            for k, (w0, c0, w1, c1) in t.items()
+        ]
         greedy = total_benefit(levels["funkhouser-sequin"], benefit)
-        inc_ratio.append(total_benefit(levels["incremental"], benefit) / greedy)
-        lp_ratio.append(greedy / lp_bound(benefit, cost, budget))
-        on_screen.append(float(np.mean(size > 0)))
+        per_frame.append(
+            {
+                "frame": f,
+                "objects": objects,
+                "on_screen": float(np.mean(size > 0)),
+                "greedy_over_lp": greedy / lp_bound(benefit, cost, budget),
+                "incremental_over_greedy": total_benefit(levels["incremental"], benefit) / greedy,
+            }
+        )
+    return {
+        "steps": pd.DataFrame(steps),
+        "frames": pd.DataFrame(per_frame),
+        "small": _small_instances(np.random.default_rng(1), small_instances),
+        "area": _area_against_pixels(np.random.default_rng(2), gl_boxes, gl_cameras),
+    }
 
-    small = _small_instances(np.random.default_rng(1))
-    gl = _area_against_pixels(np.random.default_rng(2))
 
-    def med(v):
-        return float(np.median(v))
-
-    lines = [
-        f"{N_OBJECTS:,} boxes (a city on a 600×600 ground), {N_LEVELS} levels per object, "
-        f"{FRAMES} frames of a camera orbit at {DISPLAY[0]}×{DISPLAY[1]} after {WARMUP} "
-        f"warm-up frames; {100 * med(on_screen):.0f} % of the boxes on screen. Medians per "
-        "frame; CPU = this process's CPU time (the machine may be shared).",
-        "",
-        "| step | wall ms | CPU ms | target ms |",
-        "|---|---|---|---|",
-        f"| projected_area exact (silhouette LUT) | {med(area_ms['exact']):.1f} | "
-        f"{med(cpu_ms['exact']):.1f} | {AREA_TARGET_MS:.0f} |",
-        f"| projected_area naive (2D bbox) | {med(area_ms['naive']):.1f} | "
-        f"{med(cpu_ms['naive']):.1f} | |",
-    ]
-    for m in methods:
-        target = f"{SELECT_TARGET_MS:.0f}" if m != "screen-size" else ""
-        lines.append(f"| select {m} | {med(sel_ms[m]):.1f} | {med(sel_cpu[m]):.1f} | {target} |")
-    lines += [
-        "",
-        "Quality:",
-        "",
-        f"- greedy at {N_OBJECTS:,} objects is within {1 - min(lp_ratio):.1e} (worst frame; "
-        f"median {1 - med(lp_ratio):.1e}) of the LP bound, which is above the optimum;",
-        f"- incremental (1 round per frame, hysteresis on its own last frame) / greedy on the "
-        f"same instance: min {min(inc_ratio):.6f}, median {med(inc_ratio):.6f};",
-        f"- greedy / exact optimum (dynamic programming) on {SMALL_INSTANCES} instances each, "
-        "N = 20–40, L = 4–6, budget 20–60 % of the finest: " + small + ";",
-        f"- exact area vs rasterized pixels (id render, {GL_BOXES} boxes × {GL_CAMERAS} "
-        "cameras incl. off-screen, near-crossing and eye-inside cases): " + gl + ".",
-    ]
-    return "\n".join(lines)
+def markdown(frames: dict[str, pd.DataFrame]) -> str:
+    """The ``lod-select`` section of BENCHMARKS.md, drawn from :func:`run`'s frames."""
+    steps, per_frame, small, area = (frames[k] for k in ("steps", "frames", "small", "area"))
+    med = steps.groupby("step")[["wall_ms", "cpu_ms"]].median().reindex(list(STEPS))
+    label = {
+        "exact": "projected_area exact (silhouette LUT)",
+        "naive": "projected_area naive (2D bbox)",
+    }
+    target = {"exact": AREA_TARGET_MS, "funkhouser-sequin": SELECT_TARGET_MS}
+    target["incremental"] = SELECT_TARGET_MS
+    table = pd.DataFrame(
+        {
+            "step": [label.get(k, f"select {k}") for k in med.index],
+            "wall ms": med["wall_ms"].values,
+            "CPU ms": med["cpu_ms"].values,
+            "target ms": [target.get(k, math.nan) for k in med.index],
+        }
+    )
+    lp = 1 - per_frame["greedy_over_lp"]
+    inc = per_frame["incremental_over_greedy"]
+    fams = []
+    for family, r in small.groupby("family", sort=False)["greedy_over_exact"]:
+        fams.append(
+            f"{family} min {r.min():.4f}, 1 % {r.quantile(0.01):.4f}, median "
+            f"{r.median():.4f}, optimal in {np.mean(r > 1 - 1e-12):.0%}"
+        )
+    big = area[area["pixels"] > AREA_MIN_PIXELS]
+    rel = big["abs_error"] / big["pixels"]
+    n_boxes, n_cams = area["box"].nunique(), area["camera"].nunique()
+    return "\n".join(
+        [
+            f"{per_frame['objects'].iloc[0]:,} boxes (a city on a 600×600 ground), {N_LEVELS} "
+            f"levels per object, {len(per_frame)} frames of a camera orbit at "
+            f"{DISPLAY[0]}×{DISPLAY[1]} after {WARMUP} warm-up frames; "
+            f"{100 * per_frame['on_screen'].median():.0f} % of the boxes on screen. Medians per "
+            "frame; CPU = this process's CPU time (the machine may be shared).",
+            "",
+            markdown_table(table, {"target ms": ".0f", "wall ms": ".1f", "CPU ms": ".1f"}),
+            "",
+            "Quality:",
+            "",
+            f"- greedy at {per_frame['objects'].iloc[0]:,} objects is within {lp.max():.1e} "
+            f"(worst frame; median {lp.median():.1e}) of the LP bound, which is above the "
+            "optimum;",
+            "- incremental (1 round per frame, hysteresis on its own last frame) / greedy on the "
+            f"same instance: min {inc.min():.6f}, median {inc.median():.6f};",
+            f"- greedy / exact optimum (dynamic programming) on {len(small) // len(fams)} "
+            "instances each, N = 20–40, L = 4–6, budget 20–60 % of the finest: "
+            + "; ".join(fams)
+            + ";",
+            f"- exact area vs rasterized pixels (id render, {n_boxes} boxes × {n_cams} "
+            "cameras incl. off-screen, near-crossing and eye-inside cases): |pixels − exact| / "
+            f"pixels median {rel.median():.4f}, 95 % {rel.quantile(0.95):.4f}, max "
+            f"{rel.max():.4f} ({len(big)} cases over {AREA_MIN_PIXELS} px); |pixels − exact| "
+            f"per boundary pixel max {area['per_boundary'].max():.2f} (sampling at pixel "
+            "centres: at most 0.5).",
+        ]
+    )
 
 
 # -- the scene and the instances ------------------------------------------------------------
@@ -170,11 +221,11 @@ def _instance(boxes, polys, size, cam, model: CostModel, previous):
     return benefit, model.cost(polys, polys / 2 + 2, size)
 
 
-def _small_instances(rng) -> str:
-    out = []
+def _small_instances(rng, count: int) -> pd.DataFrame:
+    """Greedy ÷ exact optimum on ``count`` small instances of each family."""
+    rows = []
     for family in ("LOD-like", "uniform random"):
-        ratios = []
-        for _ in range(SMALL_INSTANCES):
+        for _ in range(count):
             n, n_levels = int(rng.integers(20, 41)), int(rng.integers(4, 7))
             if family == "LOD-like":
                 size = rng.lognormal(0, 1, n)
@@ -187,25 +238,22 @@ def _small_instances(rng) -> str:
                 cost = rng.integers(1, 51, (n, n_levels)).astype(float)
             budget = float(np.floor(rng.uniform(0.2, 0.6) * cost.max(axis=1).sum()))
             greedy = total_benefit(lod.select(benefit, cost, budget), benefit)
-            ratios.append(greedy / total_benefit(exact_select(benefit, cost, budget), benefit))
-        r = np.array(ratios)
-        out.append(
-            f"{family} min {r.min():.4f}, 1 % {np.percentile(r, 1):.4f}, median "
-            f"{np.median(r):.4f}, optimal in {np.mean(r > 1 - 1e-12):.0%}"
-        )
-    return "; ".join(out)
+            best = total_benefit(exact_select(benefit, cost, budget), benefit)
+            rows.append({"family": family, "greedy_over_exact": greedy / best})
+    return pd.DataFrame(rows)
 
 
-def _area_against_pixels(rng) -> str:
+def _area_against_pixels(rng, n_boxes: int, n_cameras: int) -> pd.DataFrame:
+    """Exact projected area vs the pixels of an id render, one row per box × camera."""
     from soc.scenes.clutter import box_mesh
 
-    rel, per_boundary = [], []
-    for _ in range(GL_BOXES):
+    rows = []
+    for box in range(n_boxes):
         lo = rng.uniform(-3, 3, 3)
         hi = lo + rng.uniform(0.05, 4, 3)
         scene = soc.Scene.from_meshes([box_mesh(lo, hi)])
         with soc.Oracle(scene) as oracle:
-            for c in range(GL_CAMERAS):
+            for c in range(n_cameras):
                 centre = (lo + hi) / 2
                 if c % 3 == 0:
                     d = rng.normal(size=3)
@@ -220,17 +268,13 @@ def _area_against_pixels(rng) -> str:
                 interior = m[1:-1, 1:-1] & m[:-2, 1:-1] & m[2:, 1:-1] & m[1:-1, :-2] & m[1:-1, 2:]
                 boundary = max(int((mask & ~interior).sum()), 1)
                 pixels = int(mask.sum())
-                err = abs(pixels - lod.projected_area(scene.aabbs, cam)[0])
-                per_boundary.append(err / boundary)
-                if pixels > 1000:
-                    rel.append(err / pixels)
-    r = np.array(rel)
-    return (
-        f"|pixels − exact| / pixels median {np.median(r):.4f}, 95 % {np.percentile(r, 95):.4f}, "
-        f"max {r.max():.4f} ({r.size} cases over 1000 px); |pixels − exact| per boundary pixel "
-        f"max {max(per_boundary):.2f} (sampling at pixel centres: at most 0.5)"
-    )
+                err = abs(pixels - float(lod.projected_area(scene.aabbs, cam)[0]))
+                rows.append(
+                    {"box": box, "camera": c, "pixels": pixels, "abs_error": err,
+                     "per_boundary": err / boundary}
+                )  # fmt: skip
+    return pd.DataFrame(rows)
 
 
 if __name__ == "__main__":
-    print(bench_lod_select())
+    print(markdown(run()))

@@ -9,7 +9,9 @@ Issue 6, part 5 (sweeps that outgrow one machine). The stages, top-down:
    Dask ``distributed`` — a ``LocalCluster`` of ``workers`` single-threaded worker processes by
    default, each with its own EGL context, or the cluster behind a scheduler address — and
    stores each task's rows as soon as they arrive (:class:`SweepStore`);
-3. :meth:`SweepStore.merge` joins every stored task into the one table, ``sweep.csv``.
+3. :meth:`SweepStore.merge` joins every stored task into the one table, a DataFrame (one row
+   per task × frame) written as ``sweep.csv``; the printed summary is drawn from it
+   (:func:`summary_frame`).
 
 Why it is safe to kill things: the driver, not the workers, writes results, one file per task
 key (``parts/<key>.csv``), atomically and once, after the whole task has returned. A worker
@@ -36,21 +38,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import pandas as pd
+
 from experiments.common import (
     DISPLAY,
     FRAMES,
     QUICK_FRAMES,
     QUICK_SCALE,
     UsageError,
+    atomic_write,
     castle_path,
     default_out,
-    format_table,
-    mean,
     parse_resolution,
-    read_csv,
     res_str,
     scaled,
-    write_csv,
     write_json,
 )
 from experiments.sweep_tasks import SceneSpec, SweepTask, TaskResult, frame_chunks, run_task
@@ -206,11 +207,15 @@ class SweepStore:
     def has(self, key: str) -> bool:
         return self.path(key).is_file()
 
-    def write(self, task: SweepTask, rows: Sequence[dict[str, Any]]) -> Path:
+    def write(self, task: SweepTask, df: pd.DataFrame) -> Path:
         """Store the rows of ``task`` under its key (replacing any earlier rows)."""
-        if not rows or any(r.get("key") != task.key for r in rows):
+        if not len(df) or "key" not in df or (df["key"] != task.key).any():
             raise ValueError(f"rows for task {task.key} must be non-empty and carry its key")
-        return write_csv(self.path(task.key), rows)
+        return atomic_write(self.path(task.key), lambda p: df.to_csv(p, index=False))
+
+    def read(self, key: str) -> pd.DataFrame:
+        """The stored rows of task ``key`` (integer columns stay integers, empty cells NA)."""
+        return pd.read_csv(self.path(key), dtype_backend="numpy_nullable")
 
     def keys(self) -> list[str]:
         """Keys of every stored task (temporary files of interrupted writes excluded)."""
@@ -223,20 +228,21 @@ class SweepStore:
             p.unlink(missing_ok=True)
         return len(stale)
 
-    def merge(self) -> int:
-        """Write every stored task's rows into ``sweep.csv`` (atomically), ordered by scene,
-        seed, display, depth resolution, method and frame; returns the number of rows."""
-        parts = [read_csv(self.path(k)) for k in self.keys()]
-
-        def order(rows: list[dict[str, str]]) -> tuple:
-            r = rows[0]
-            start = int(r["chunk"].split("-")[0])
-            return (r["scene"], int(r["seed"]), r["display"], r["depth_resolution"], r["method"],
-                    int(r["flight_frames"]), start, r["key"])  # fmt: skip
-
-        rows = [r for part in sorted((p for p in parts if p), key=order) for r in part]
-        write_csv(self.table, rows)
-        return len(rows)
+    def merge(self) -> pd.DataFrame:
+        """Every stored task's rows, one per task × frame, ordered by scene, seed, display,
+        depth resolution, method and frame; also written to ``sweep.csv`` (atomically)."""
+        parts = [self.read(k) for k in self.keys()]
+        parts = [p for p in parts if len(p)]
+        if not parts:
+            df = pd.DataFrame(columns=["key", "frame"])
+        else:
+            df = pd.concat(parts, ignore_index=True)
+            df["_start"] = df["chunk"].str.partition("-")[0].astype(int)
+            order = ["scene", "seed", "display", "depth_resolution", "method", "flight_frames"]
+            df = df.sort_values([*order, "_start", "key", "frame"], kind="stable")
+            df = df.drop(columns="_start").reset_index(drop=True)
+        atomic_write(self.table, lambda p: df.to_csv(p, index=False))
+        return df
 
 
 # -- running on Dask ---------------------------------------------------------------------------
@@ -266,6 +272,7 @@ class SweepSummary:
     rows : int
         Rows in the merged table (every sweep stored in ``out``).
     table : Path
+        ``sweep.csv``; :meth:`frame` reads it.
     """
 
     tasks: int
@@ -278,6 +285,12 @@ class SweepSummary:
     workers: int
     rows: int
     table: Path
+
+    def frame(self, keys: Sequence[str] | None = None) -> pd.DataFrame:
+        """The merged table (only the rows of task ``keys`` when given), one row per task ×
+        frame; see :func:`~experiments.sweep_tasks.run_task` for the columns."""
+        df = pd.read_csv(self.table, dtype_backend="numpy_nullable")
+        return df if keys is None else df[df["key"].isin(set(keys))].reset_index(drop=True)
 
 
 @contextmanager
@@ -377,7 +390,7 @@ def run_sweep(
                 client, todo, store, data, threads, crash_marker, progress
             )
     store.remove_temporaries()
-    rows = store.merge()
+    rows = len(store.merge())
     summary = SweepSummary(
         tasks=len(by_key),
         done=done,
@@ -447,7 +460,7 @@ def _run_on(
             task, attempt = futures[fut]
             if fut.status == "finished":
                 result: TaskResult = fut.result()
-                store.write(task, result.rows)
+                store.write(task, result.frame)
                 done += 1
                 bar.update(1)
             else:
@@ -471,20 +484,23 @@ def _run_on(
 # -- printing ----------------------------------------------------------------------------------
 
 
-def summary_table(summary: SweepSummary, keys: Sequence[str]) -> str:
-    """Means per configuration over the rows of ``keys`` in the table, and the counts."""
-    keys = set(keys)
-    rows = [r for r in read_csv(summary.table) if r["key"] in keys] if summary.rows else []
-    groups: dict[tuple, list] = {}
-    for r in rows:
-        g = (r["scene"], r["seed"], r["display"], r["depth_resolution"], r["method"])
-        groups.setdefault(g, []).append(r)
-    oracle = any(r.get("false_culls") not in (None, "") for r in rows)
-    cols = ["models_visible", "triangles_culled_pct", "ms_cull"] + (
-        ["false_culls"] if oracle else []
-    )
-    table = [[" ".join(g), str(len(rs)), *(mean(rs, c) for c in cols)] for g, rs in groups.items()]
-    text = format_table(["scene seed display depth method", "frames", *cols], table)
+def summary_frame(table: pd.DataFrame) -> pd.DataFrame:
+    """Means per configuration (scene, seed, display, depth resolution, method) of the
+    per-frame rows in ``table``, with the frames counted; ``false_culls`` when counted."""
+    group = ["scene", "seed", "display", "depth_resolution", "method"]
+    cols = ["models_visible", "triangles_culled_pct", "ms_cull"]
+    if "false_culls" in table and table["false_culls"].notna().any():
+        cols.append("false_culls")
+    g = table.groupby(group, sort=False)
+    return g[cols].mean().astype(float).join(g.size().rename("frames")).reset_index()
+
+
+def summary_text(summary: SweepSummary, keys: Sequence[str]) -> str:
+    """The sweep's rows of ``keys`` summarized (:func:`summary_frame`), and the counts."""
+    table = summary.frame(keys) if summary.rows else pd.DataFrame()
+    text = "(no rows)"
+    if len(table):
+        text = summary_frame(table).to_string(index=False, float_format="{:.2f}".format)
     s = summary
     return (
         f"{text}\n{s.tasks} tasks: {s.done} run, {s.skipped} skipped (stored), {s.retried} "
@@ -606,7 +622,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         data=args.data,
         gl_threads=args.gl_threads,
     )
-    print(summary_table(summary, [t.key for t in tasks]))
+    print(summary_text(summary, [t.key for t in tasks]))
     for key, label, err in summary.failed:
         print(f"vislod: task {key} ({label}) failed: {err}", file=sys.stderr)
     return 1 if summary.failed else 0

@@ -1,12 +1,12 @@
 """One task of a ``vislod sweep``: what it is (:class:`SceneSpec`, :class:`SweepTask`), the key
 that names its result, and how a worker process runs it (:func:`run_task`).
 
-Issue 6, part 5. A task culls one chunk of the seed-000 flight (``soc.scenes.paths.flight``) over
-one
-scene with one method at one depth resolution and one display resolution, and returns one row
-per frame (:meth:`soc.FrameStats.as_row` plus the task's parameters). Its key is a hash of
-those parameters and the code version, so the same task always has the same key, in every
-process and on every machine, and a result stored under the key can be reused.
+Issue 6, part 5. A task culls one chunk of the seed-000 flight (``soc.scenes.paths.flight``)
+over one scene with one method at one depth resolution and one display resolution, and returns
+a DataFrame of one row per frame (:meth:`soc.FrameStats.as_row` plus the task's parameters).
+Its key is a hash of those parameters and the code version, so the same task always has the
+same key, in every process and on every machine, and a result stored under the key can be
+reused.
 
 A worker process keeps one EGL context (``soc.gl.context.default_context``) and its last few
 scenes (and their oracles) in a module-level cache, so a scene is generated and uploaded once
@@ -25,6 +25,8 @@ import time
 from collections import OrderedDict
 from dataclasses import asdict, dataclass
 from typing import Any
+
+import pandas as pd
 
 from experiments.common import QUICK_OCCLUDEES, SCENES, UsageError, castle_path, res_str
 
@@ -230,10 +232,11 @@ def frame_chunks(frames: int, chunk: int) -> list[tuple[int, int]]:
 
 @dataclass(frozen=True)
 class TaskResult:
-    """What a worker sends back: the task's key, its rows, where and how long it ran."""
+    """What a worker sends back: the task's key, its rows (one per frame), where and how long
+    it ran (seconds)."""
 
     key: str
-    rows: list[dict[str, Any]]
+    frame: pd.DataFrame
     worker: str
     seconds: float
 
@@ -295,7 +298,7 @@ def run_task(
     Returns
     -------
     TaskResult
-        ``rows``: per frame, :meth:`SweepTask.columns`, ``frame``, ``gl_threads``,
+        ``frame``: one row per frame, :meth:`SweepTask.columns`, ``frame``, ``gl_threads``,
         ``worker`` and :meth:`soc.FrameStats.as_row` (counts; ``false_culls`` /
         ``false_keeps`` empty without the oracle; ``ms_<stage>``, ``ms_cull``, ``ms_total``).
 
@@ -332,4 +335,4 @@ def run_task(
             truth = loaded.oracle.visible(cams[i]) if task.oracle else None
             stats = culler.cull(cams[i], truth=truth, draw=task.draw).stats
             rows.append({**common, "frame": i, **stats.as_row()})
-    return TaskResult(task.key, rows, common["worker"], time.perf_counter() - t0)
+    return TaskResult(task.key, pd.DataFrame(rows), common["worker"], time.perf_counter() - t0)

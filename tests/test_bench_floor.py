@@ -1,5 +1,6 @@
-"""The floor benchmark (experiments.bench_floor) on a tiny scene: its DataFrame, tables and
-BENCHMARKS.md section."""
+"""``make bench`` on tiny inputs: the floor run's DataFrames (experiments.bench_floor), the
+tables every section draws from them (floor, methods, foundation; LOD chain and selection) and
+their BENCHMARKS.md sections (experiments.markdown)."""
 
 import math
 
@@ -7,7 +8,8 @@ import pandas as pd
 import pytest
 
 import soc
-from experiments import bench, bench_floor
+from experiments import bench, bench_floor, bench_lod_chain, bench_lod_select
+from experiments.markdown import markdown_table, replace_section
 
 # a method that draws the frame itself (draws_frame) too, when registered
 SPECS = ["frustum", "queries", "hiz-gpu", "hiz-gpu(footprint=4)"] + [
@@ -58,18 +60,18 @@ def test_markdown_section_written_between_markers(result, tmp_path):
         assert heading in body
     path = tmp_path / "BENCHMARKS.md"
     path.write_text("# Benchmarks\n\n<!-- begin other -->\nkeep me\n<!-- end other -->\n")
-    text = bench.replace_section(path, "floor-tiny", body)
+    text = replace_section(path, "floor-tiny", body)
     assert "keep me" in text
     assert text.count("<!-- begin floor-tiny -->") == 1 and "<!-- end floor-tiny -->" in text
-    text = bench.replace_section(path, "floor-tiny", "again")  # replaced, not appended
+    text = replace_section(path, "floor-tiny", "again")  # replaced, not appended
     assert text.count("<!-- begin floor-tiny -->") == 1 and "again" in text and "keep me" in text
 
 
 def test_markdown_table_and_spec_parsing():
     df = pd.DataFrame({"a": ["x", "y"], "b": [1.234, float("nan")], "c": [3, 4]})
-    assert bench_floor.markdown_table(df) == (
-        "| a | b | c |\n|---|---|---|\n| x | 1.23 | 3 |\n| y |  | 4 |"
-    )
+    assert markdown_table(df) == ("| a | b | c |\n|---|---|---|\n| x | 1.23 | 3 |\n| y |  | 4 |")
+    assert markdown_table(df, {"b": ".0f"}).splitlines()[2] == "| x | 1 | 3 |"
+    assert markdown_table(pd.DataFrame({"a": ["p|q"]})).splitlines()[2] == "| p\\|q |"
     assert bench_floor.parse_spec("hiz-gpu(footprint=4, occluder_resolution=(48, 27))") == (
         "hiz-gpu",
         {"footprint": 4, "occluder_resolution": (48, 27)},
@@ -78,3 +80,82 @@ def test_markdown_table_and_spec_parsing():
     for bad in ("nosuch", "hiz-gpu(4)", "hiz-gpu(footprint=x)", "hiz-gpu(footprint=4"):
         with pytest.raises(ValueError, match="method spec"):
             bench_floor.parse_spec(bad)
+
+
+def test_methods_table_is_the_floor_summary_per_method(result):
+    t = bench.methods_table(result).set_index("method")
+    assert list(t.index) == [*SPECS, "everything", "ideal"]
+    s = bench_floor.summarize(result).set_index("method")
+    assert (t["cull + draw ms"] == s["cull + draw ms"]).all()
+    assert t.loc["queries", "queries ÷ this (cull)"] == pytest.approx(1.0)
+    body = bench.methods_markdown(result, "python -m experiments.bench --only methods")
+    assert body.startswith("## Culling methods side by side (tiny)")
+    assert "| method | conservative | cull ms |" in body and "| hiz-gpu(footprint=4) |" in body
+
+
+def test_foundation_tables_from_the_floor_run(result):
+    """Stage medians of frustum and queries (0 where a method has no such stage) and frame
+    ratios that are 1 for the reference sets themselves."""
+    stages, frame = bench.foundation_tables(result)
+    st = stages.set_index("method")
+    assert list(st.index) == ["frustum", "queries", bench_floor.ORACLE_ITEM]
+    assert st.loc["frustum", "prepass"] == 0.0 and st.loc["queries", "queries"] > 0
+    q = result.frames[result.frames["method"] == "queries"]
+    assert st.loc["queries", "cull total"] == pytest.approx(q["cull_ms"].median())
+    assert st.loc[bench_floor.ORACLE_ITEM, "cull total"] > 0
+    fr = frame.set_index("drawn set")
+    assert list(fr.index) == ["everything", "frustum", "queries", "ideal"]
+    assert fr.loc["ideal", "÷ ideal"] == pytest.approx(1.0)
+    assert fr.loc["everything", "÷ draw everything"] == pytest.approx(1.0)
+    body = bench.foundation_markdown(result, "cmd", load_s=0.1, rss_mb=1.0)
+    assert "| method | frustum | prepass | queries | cull total | objects kept |" in body
+    assert "| drawn set | draw only | cull + draw | ÷ draw everything | ÷ ideal |" in body
+
+
+def test_lod_chain_frames_and_section():
+    frames = bench_lod_chain.run(subdivisions=3, small_subdivisions=2, repeats=1, use_data=False)
+    levels = frames["levels"]
+    assert set(levels["strategy"]) == {"cascade", "restart"}
+    for _, chain in levels.groupby("strategy"):
+        assert chain["triangles"].is_monotonic_decreasing and chain["error"].iloc[0] == 0
+    melax = frames["melax"]
+    assert (melax["triangles"] == melax["target"]).all()
+    body = bench_lod_chain.markdown(frames)
+    assert body.startswith("## LOD chain building (seed 001)")
+    assert "| level | triangles (cascade) |" in body and "| target | quadric tris |" in body
+
+
+def test_lod_select_frames_and_section():
+    frames = bench_lod_select.run(objects=500, frames=2, small_instances=3, gl_boxes=2)
+    steps = frames["steps"]
+    assert set(steps["step"]) == set(bench_lod_select.STEPS)
+    assert len(steps) == 2 * len(bench_lod_select.STEPS)
+    assert (frames["small"]["greedy_over_exact"] <= 1 + 1e-9).all()  # the optimum bounds it
+    assert (frames["frames"]["greedy_over_lp"] <= 1 + 1e-9).all()  # and the LP bound
+    assert (frames["area"]["per_boundary"] <= 0.5 + 1e-6).all()  # pixel-centre sampling
+    body = bench_lod_select.markdown(frames)
+    assert "| projected_area exact (silhouette LUT) |" in body and "Quality:" in body
+
+
+def test_adaptive_section_draws_the_experiment_tables(monkeypatch, tmp_path):
+    """The section shows the harness run's named tables (not the per-frame rows)."""
+    from types import SimpleNamespace
+
+    from experiments import harness
+
+    frames = {
+        "frames": pd.DataFrame({"frame": range(50), "ms": 1.0}),
+        "summary": pd.DataFrame({"scene": ["scene1"], "method": ["adaptive"], "mean_ms": [2.5]}),
+        "switches": pd.DataFrame(columns=["scene", "frame"]),
+    }
+    calls = []
+
+    def fake_run(key, **kw):
+        calls.append((key, kw["out"]))
+        return SimpleNamespace(frames=frames, resumed=True)
+
+    monkeypatch.setattr(harness, "run", fake_run)
+    body = bench.adaptive_markdown(tmp_path / "results")
+    assert calls == [(bench.ADAPTIVE, tmp_path / "results")]
+    assert "### summary" in body and "| scene1 | adaptive | 2.50 |" in body
+    assert "### frames" not in body and "### switches" not in body  # per frame; empty

@@ -11,12 +11,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 pytest.importorskip("distributed")
 
 from experiments import sweep, sweep_tasks
-from experiments.common import UsageError, read_csv
+from experiments.common import UsageError
 from experiments.sweep import SweepStore, make_sweep, run_sweep
 from experiments.sweep_tasks import SceneSpec, SweepTask, frame_chunks, run_task
 
@@ -38,10 +39,10 @@ def grid_tasks() -> list[SweepTask]:
     }).tasks()  # fmt: skip
 
 
-def check_table(table: Path, tasks: list[SweepTask]) -> list[dict[str, str]]:
+def check_table(table: Path, tasks: list[SweepTask]) -> pd.DataFrame:
     """Every task present with exactly its frames, once; nothing else in the table."""
-    rows = read_csv(table)
-    seen = collections.Counter((r["key"], int(r["frame"])) for r in rows)
+    rows = pd.read_csv(table)
+    seen = collections.Counter(zip(rows["key"], rows["frame"], strict=True))
     expected = {(t.key, f) for t in tasks for f in range(t.start, t.stop)}
     assert set(seen) == expected
     dupes = {k: n for k, n in seen.items() if n != 1}
@@ -71,6 +72,25 @@ def test_killed_worker_leaves_every_task_exactly_once(killed):
     assert json.loads((out / "sweep.json").read_text())["retried"] == summary.retried
 
 
+def test_summary_is_drawn_from_the_merged_frame(killed):
+    """One summary row per configuration: its frames counted, its means those of the table;
+    the merged table ordered by method, then frame."""
+    tasks, _, summary, _ = killed
+    table = summary.frame([t.key for t in tasks])
+    assert list(table["method"]) == sorted(table["method"], key=GRID["methods"].index)
+    for _, part in table.groupby("method"):
+        assert list(part["frame"]) == list(range(GRID["frames"]))
+    s = sweep.summary_frame(table).set_index("method")
+    assert sorted(s.index) == sorted(GRID["methods"])
+    assert (s["frames"] == GRID["frames"]).all()
+    for m in GRID["methods"]:
+        mine = table.loc[table["method"] == m, "ms_cull"].mean()
+        assert s.loc[m, "ms_cull"] == pytest.approx(mine)
+        assert s.loc[m, "false_culls"] == 0  # both methods are conservative
+    text = sweep.summary_text(summary, [t.key for t in tasks])
+    assert "queries" in text and f"{len(tasks)} tasks" in text and "false_culls" in text
+
+
 def test_rerun_skips_every_stored_task_without_a_cluster(killed, monkeypatch):
     tasks, out, _, _ = killed
     before = (out / "sweep.csv").read_bytes()
@@ -87,24 +107,25 @@ def test_rerun_skips_every_stored_task_without_a_cluster(killed, monkeypatch):
 def test_results_equal_the_same_task_run_in_process(killed):
     """Counts from the workers equal those of ``run_task`` here (timings aside)."""
     tasks, out, _, _ = killed
-    table = {(r["key"], int(r["frame"])): r for r in read_csv(out / "sweep.csv")}
+    table = pd.read_csv(out / "sweep.csv").set_index(["key", "frame"])
     for task in tasks:
-        for row in run_task(task).rows:
-            stored = table[(task.key, row["frame"])]
-            assert {c: int(stored[c]) for c in COUNTS} == {c: row[c] for c in COUNTS}
-    assert any(int(r["occlusion_culled"]) > 0 for r in table.values()), "nothing was occluded"
+        here = run_task(task).frame.set_index(["key", "frame"])[list(COUNTS)]
+        assert (table.loc[here.index, list(COUNTS)] == here).all().all(), task.label
+    assert (table["occlusion_culled"] > 0).any(), "nothing was occluded"
 
 
 def test_force_recomputes_and_replaces_each_part(killed):
     tasks, out, _, _ = killed
     store = SweepStore(out)
     inodes = {k: store.path(k).stat().st_ino for k in store.keys()}
-    before = {(r["key"], r["frame"]): [r[c] for c in COUNTS] for r in read_csv(store.table)}
+    before = pd.read_csv(store.table).set_index(["key", "frame"])[list(COUNTS)].sort_index()
     s = run_sweep(tasks, out, workers=2, force=True, progress=False)
     assert (s.done, s.skipped, s.failed) == (len(tasks), 0, ())
     assert all(store.path(k).stat().st_ino != i for k, i in inodes.items()), "not rewritten"
     rows = check_table(store.table, tasks)
-    assert {(r["key"], r["frame"]): [r[c] for c in COUNTS] for r in rows} == before
+    pd.testing.assert_frame_equal(
+        rows.set_index(["key", "frame"])[list(COUNTS)].sort_index(), before
+    )
 
 
 def test_driver_resubmits_after_killed_worker(tmp_path, monkeypatch):
@@ -211,14 +232,15 @@ def test_grid_is_the_full_product():
 def test_store_replaces_a_key_and_ignores_interrupted_writes(tmp_path):
     task = SweepTask(SceneSpec("clutter"), "none", (64, 36), (64, 36), 4, 0, 2)
     store = SweepStore(tmp_path)
-    store.write(task, [{**task.columns(), "frame": f, "v": 1} for f in range(2)])
-    store.write(task, [{**task.columns(), "frame": f, "v": 2} for f in range(2)])
+    for v in (1, 2):
+        store.write(task, pd.DataFrame([{**task.columns(), "frame": f, "v": v} for f in range(2)]))
     (store.parts / f".{task.key}.csv.abc.tmp").write_text("key,frame\nhalf")
     with pytest.raises(ValueError, match="carry its key"):
-        store.write(task, [{"key": "other", "frame": 0}])
+        store.write(task, pd.DataFrame([{"key": "other", "frame": 0}]))
     assert store.keys() == [task.key]
-    assert store.merge() == 2
-    assert [r["v"] for r in read_csv(store.table)] == ["2", "2"]
+    merged = store.merge()
+    assert list(merged["v"]) == [2, 2] and list(merged["frame"]) == [0, 1]
+    assert list(pd.read_csv(store.table)["v"]) == [2, 2]
     assert store.remove_temporaries() == 1
 
 
