@@ -201,14 +201,18 @@ def adaptive_markdown(out: Path, progress: bool = True) -> str:
     return "\n".join(parts)
 
 
-def lod_sections() -> dict[str, str]:
-    """``lod-chain`` and ``lod-select`` section bodies (runs both benchmarks)."""
+def lod_sections(out: Path) -> dict[str, str]:
+    """``lod-chain`` and ``lod-select`` section bodies (runs both benchmarks); their frames are
+    written to ``out/<section>-<frame>.csv``."""
     from experiments import bench_lod_chain, bench_lod_select
 
-    return {
-        "lod-chain": bench_lod_chain.markdown(bench_lod_chain.run()),
-        "lod-select": bench_lod_select.markdown(bench_lod_select.run()),
-    }
+    sections = {}
+    for name, module in (("lod-chain", bench_lod_chain), ("lod-select", bench_lod_select)):
+        frames = module.run()
+        for key, df in frames.items():
+            df.to_csv(out / f"{name}-{key}.csv", index=False)
+        sections[name] = module.markdown(frames)
+    return sections
 
 
 def _specs(args: argparse.Namespace, scene) -> list[str] | None:
@@ -247,7 +251,7 @@ def main(argv: list[str] | None = None) -> int:
     md = out / "BENCHMARKS.md"
     text = ""
     if args.only in (None, "lod"):
-        for name, body in lod_sections().items():
+        for name, body in lod_sections(out).items():
             text = replace_section(md, name, body)
     if args.only in (None, "adaptive"):
         text = replace_section(md, ADAPTIVE, adaptive_markdown(out))

@@ -112,28 +112,41 @@ def test_foundation_tables_from_the_floor_run(result):
     assert "| drawn set | draw only | cull + draw | ÷ draw everything | ÷ ideal |" in body
 
 
-def test_lod_chain_frames_and_section():
-    frames = bench_lod_chain.run(subdivisions=3, small_subdivisions=2, repeats=1, use_data=False)
-    levels = frames["levels"]
+def test_lod_sections_store_frames_and_draw_tables(monkeypatch, tmp_path):
+    """Both LOD benchmarks on tiny inputs: their frames written as CSV, their properties (read
+    back from the CSVs) and the tables drawn from them."""
+    import functools
+
+    chain, select = bench_lod_chain.run, bench_lod_select.run
+    monkeypatch.setattr(
+        bench_lod_chain,
+        "run",
+        functools.partial(chain, subdivisions=3, small_subdivisions=2, repeats=1, use_data=False),
+    )
+    monkeypatch.setattr(bench_lod_select, "run", functools.partial(
+        select, objects=500, frames=2, small_instances=3, gl_boxes=2))  # fmt: skip
+    sections = bench.lod_sections(tmp_path)
+
+    levels = pd.read_csv(tmp_path / "lod-chain-levels.csv")
     assert set(levels["strategy"]) == {"cascade", "restart"}
-    for _, chain in levels.groupby("strategy"):
-        assert chain["triangles"].is_monotonic_decreasing and chain["error"].iloc[0] == 0
-    melax = frames["melax"]
+    for _, c in levels.groupby("strategy"):
+        assert c["triangles"].is_monotonic_decreasing and c["error"].iloc[0] == 0
+    melax = pd.read_csv(tmp_path / "lod-chain-melax.csv")
     assert (melax["triangles"] == melax["target"]).all()
-    body = bench_lod_chain.markdown(frames)
-    assert body.startswith("## LOD chain building (seed 001)")
-    assert "| level | triangles (cascade) |" in body and "| target | quadric tris |" in body
+    assert sections["lod-chain"].startswith("## LOD chain building (seed 001)")
+    assert "| level | triangles (cascade) |" in sections["lod-chain"]
+    assert "| target | quadric tris |" in sections["lod-chain"]
 
-
-def test_lod_select_frames_and_section():
-    frames = bench_lod_select.run(objects=500, frames=2, small_instances=3, gl_boxes=2)
-    steps = frames["steps"]
+    steps = pd.read_csv(tmp_path / "lod-select-steps.csv")
     assert set(steps["step"]) == set(bench_lod_select.STEPS)
     assert len(steps) == 2 * len(bench_lod_select.STEPS)
-    assert (frames["small"]["greedy_over_exact"] <= 1 + 1e-9).all()  # the optimum bounds it
-    assert (frames["frames"]["greedy_over_lp"] <= 1 + 1e-9).all()  # and the LP bound
-    assert (frames["area"]["per_boundary"] <= 0.5 + 1e-6).all()  # pixel-centre sampling
-    body = bench_lod_select.markdown(frames)
+    small = pd.read_csv(tmp_path / "lod-select-small.csv")
+    assert (small["greedy_over_exact"] <= 1 + 1e-9).all()  # the optimum bounds the greedy
+    per_frame = pd.read_csv(tmp_path / "lod-select-frames.csv")
+    assert (per_frame["greedy_over_lp"] <= 1 + 1e-9).all()  # and so does the LP bound
+    area = pd.read_csv(tmp_path / "lod-select-area.csv")
+    assert (area["per_boundary"] <= 0.5 + 1e-6).all()  # pixel-centre sampling
+    body = sections["lod-select"]
     assert "| projected_area exact (silhouette LUT) |" in body and "Quality:" in body
 
 
