@@ -10,7 +10,7 @@ import numpy as np
 
 from soc.gl.context import uses_gl
 from soc.methods import METHODS, CullConfig
-from soc.methods.base import MethodOutput
+from soc.methods.base import CullMethod, MethodOutput, load_entry_points
 from soc.metrics import CullResult, frame_stats
 from soc.scenes.camera import Camera, _resolution
 
@@ -18,6 +18,7 @@ from soc.scenes.camera import Camera, _resolution
 def method_names(scene=None) -> list[str]:
     """Names accepted by :class:`Culler`'s ``method``; with ``scene``, only the methods that
     can cull it (portal culling, for instance, needs a scene of cells and portals)."""
+    load_entry_points()
     return sorted(m for m, cls in METHODS.items() if scene is None or cls.supports(scene))
 
 
@@ -27,8 +28,9 @@ class Culler:
     Parameters
     ----------
     scene : Scene
-    method : str
-        One of :func:`method_names` (``"none"``, ``"frustum"``, ``"queries"``, …).
+    method : str or CullMethod subclass
+        One of :func:`method_names` (``"none"``, ``"frustum"``, ``"queries"``, …), or a
+        :class:`soc.methods.CullMethod` subclass of one's own (registered or not).
     resolution : (width, height)
         Resolution of the method's depth buffer, pixels. The camera's projection is used
         unchanged, so a resolution whose aspect differs from the camera's only changes the
@@ -65,7 +67,11 @@ class Culler:
         glctx=None,
         **options,
     ):
-        if method not in METHODS:
+        if isinstance(method, type) and issubclass(method, CullMethod):
+            cls = uses_gl(method)  # a user's class, registered or not
+        elif method in METHODS or (isinstance(method, str) and method in method_names()):
+            cls = METHODS[method]
+        else:
             raise ValueError(f"unknown culling method {method!r}; available: {method_names()}")
         self.resolution = _resolution(*resolution)
         self.config = config or CullConfig()
@@ -77,7 +83,6 @@ class Culler:
             self.glctx.check_size(self.resolution, "culling resolution")
             self.scene = scene
             self.geometry = self.glctx.geometry(scene)
-            cls = METHODS[method]
             try:
                 self.method = cls(self.geometry, self.resolution, self.config, **options)
             except TypeError as e:

@@ -80,13 +80,45 @@ METHODS: dict[str, type[CullMethod]] = {}
 
 def register(cls: type[CullMethod]) -> type[CullMethod]:
     """Class decorator adding a method to :data:`METHODS` under ``cls.name``; its calls run
-    with the GL context current (:func:`soc.gl.context.uses_gl`)."""
+    with the GL context current (:func:`soc.gl.context.uses_gl`).
+
+    Usable outside vislod: ``@soc.methods.register`` on a subclass of :class:`CullMethod` in
+    one's own module makes ``soc.Culler(scene, method=cls.name)`` work once that module is
+    imported (or named in the ``vislod.methods`` entry-point group, loaded on first need).
+    Re-registering the same class (a module imported twice) replaces it.
+    """
     from soc.gl.context import uses_gl
 
-    if not cls.name or cls.name in METHODS:
+    old = METHODS.get(cls.name)
+    same = old is not None and (old.__module__, old.__qualname__) == (
+        cls.__module__,
+        cls.__qualname__,
+    )
+    if not cls.name or (old is not None and not same):
         raise ValueError(f"culling method name {cls.name!r} is empty or taken")
     METHODS[cls.name] = uses_gl(cls)
     return cls
+
+
+# Entry-point group through which installed packages add culling methods
+# (``[project.entry-points."vislod.methods"] mine = "mypkg.cull:MyMethod"``).
+ENTRY_POINT_GROUP = "vislod.methods"
+_entry_points_loaded = False
+
+
+def load_entry_points() -> None:
+    """Import the ``vislod.methods`` entry points once per process and register each class
+    that its module did not register itself."""
+    global _entry_points_loaded
+    if _entry_points_loaded:
+        return
+    _entry_points_loaded = True
+    from importlib.metadata import entry_points
+
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        obj = ep.load()
+        if isinstance(obj, type) and issubclass(obj, CullMethod) and obj.name not in METHODS:
+            register(obj)
 
 
 def frustum_stage(method: CullMethod, camera, timings: dict[str, float]) -> np.ndarray:
