@@ -90,16 +90,20 @@ class ConservativeReport:
     views : tuple of ViewCheck
     whys : dict of str to str
         Each case's reason, for the message.
+    skipped : tuple of str
+        Cases whose scene the method cannot cull (its ``supports(scene)`` is False, e.g.
+        portal culling on a scene without cells).
     """
 
     method: str
     conservative: bool
     views: tuple[ViewCheck, ...]
     whys: dict[str, str]
+    skipped: tuple[str, ...] = ()
 
     @property
     def ok(self) -> bool:
-        """True when no view has a false cull."""
+        """True when no view has a false cull (vacuously when every case was skipped)."""
         return all(v.ok for v in self.views)
 
     @property
@@ -254,12 +258,18 @@ def check_conservative(
     ConservativeReport
         ``.ok``, ``.failures``, ``.summary()``, ``.to_frame()``.
     """
-    from soc.culler import Culler
+    from soc.culler import Culler, method_names
+    from soc.methods import METHODS
 
     cases = _as_cases(cases, scenes, cameras, resolution)
+    cls = METHODS.get(method) if isinstance(method, str) and method in method_names() else method
     views: list[ViewCheck] = []
+    skipped: list[str] = []
     conservative = True
     for case in cases:
+        if hasattr(cls, "supports") and not cls.supports(case.scene):
+            skipped.append(case.name)
+            continue
         truths = oracle_truth(case)
         with Culler(
             case.scene, method=method, resolution=case.resolution, config=config, **options
@@ -282,13 +292,19 @@ def check_conservative(
                     )
                 )
     whys = {c.name: c.why for c in cases}
-    return ConservativeReport(_method_name(method), conservative, tuple(views), whys)
+    return ConservativeReport(
+        _method_name(method), conservative, tuple(views), whys, tuple(skipped)
+    )
 
 
 def assert_conservative(method, cases=None, **kwargs) -> ConservativeReport:
     """:func:`check_conservative`, raising ``AssertionError`` with a readable message naming
     the first failing case, camera and object ids. Returns the report when it passes."""
     report = check_conservative(method, cases, **kwargs)
+    if not report.views:
+        raise AssertionError(
+            f"culling method {report.method!r} supports none of the cases {list(report.skipped)}"
+        )
     if not report.ok:
         raise AssertionError(report.message())
     return report

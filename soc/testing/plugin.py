@@ -14,7 +14,6 @@ pytest at load time, so other test runs are unchanged.
 from __future__ import annotations
 
 import importlib
-import importlib.util
 import sys
 from pathlib import Path
 
@@ -53,23 +52,20 @@ def load_method(spec: str, rootdir: Path | None = None):
         path = Path(where)
         if not path.is_absolute() and rootdir is not None and not path.exists():
             path = rootdir / path
-        name = f"_vislod_method_{path.stem}"
-        if name not in sys.modules:
-            mod_spec = importlib.util.spec_from_file_location(name, path)
-            if mod_spec is None or mod_spec.loader is None:
-                raise pytest.UsageError(f"--vislod-method: cannot import {where!r}")
-            module = importlib.util.module_from_spec(mod_spec)
-            sys.modules[name] = module
-            mod_spec.loader.exec_module(module)
-        module = sys.modules[name]
+        if not path.is_file():
+            raise pytest.UsageError(f"--vislod-method: no file {where!r}")
+        # Imported by its stem from its folder, as a test file beside it imports it (pytest's
+        # default import mode), so that both see one module and one registered class.
+        where, folders = path.stem, [str(path.resolve().parent)]
     else:
-        for d in (str(Path.cwd()), str(rootdir) if rootdir else None):
-            if d and d not in sys.path:
-                sys.path.insert(0, d)
-        try:
-            module = importlib.import_module(where)
-        except ImportError as e:
-            raise pytest.UsageError(f"--vislod-method: cannot import {where!r}: {e}") from e
+        folders = [str(Path.cwd())] + ([str(rootdir)] if rootdir else [])
+    for d in folders:
+        if d not in sys.path:
+            sys.path.insert(0, d)
+    try:
+        module = importlib.import_module(where)
+    except ImportError as e:
+        raise pytest.UsageError(f"--vislod-method: cannot import {where!r}: {e}") from e
     try:
         return getattr(module, attr)
     except AttributeError:
