@@ -4,7 +4,8 @@
                 [--methods NAME ...] [--quick] [--out results]
     vislod cull --method NAME [--scene market|castle|clutter] [--resolution 1920x1080]
                 [--frames N] [--oracle]
-    vislod grid [--frames 100] [--grid-sizes 16 32 64] [--display WxH] [--quick] [--out results]
+    vislod seed002 [--frames 100] [--grid-sizes 16,32,64] [--display WxH] [--quick] [--out DIR]
+                                                     (= vislod grid)
     vislod portals [--frames 200] [--rooms 6x4] [--floors 1] [--display WxH] [--quick]
                    [--out results]
     vislod lod [--frames 150] [--budget-ms MS] [--recalibrate] [--quick] [--out results]
@@ -75,7 +76,6 @@ EXTRA_MODULES: dict[str, tuple[str, ...]] = {
 COMMAND_EXTRAS: dict[str, tuple[str, ...]] = {
     "demo": (),
     "cull": (),
-    "grid": (),
     "portals": (),
     "lod": (),
     "lod-quality": (),
@@ -278,42 +278,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="also count false culls / keeps against the exact visibility oracle",
     )
 
-    grid = sub.add_parser(
-        "grid", help="seed 002: grid occlusion queries vs frustum, caps and grid sizes"
-    )
-    portals = sub.add_parser("portals", help="seed 001: portal culling on a walk through rooms")
-    for sp, frames in ((grid, "100 per segment"), (portals, "200")):
-        sp.add_argument(
-            "--frames", type=int, default=None, help=f"frames (default {frames}; fewer when quick)"
-        )
-        sp.add_argument("--seed", type=int, default=0, help="scene and walk seed (default 0)")
-        sp.add_argument(
-            "--quick", action="store_true", help="few frames, quarter resolution (VISLOD_QUICK=1)"
-        )
-        sp.add_argument(
-            "--display",
-            type=_resolution,
-            default=None,
-            help="camera (display) resolution WxH (default 1920x1080, quick 480x270)",
-        )
-        sp.add_argument(
-            "--out",
-            default=None,
-            help="results folder (default: results/; quick runs: results/quick/)",
-        )
-        sp.add_argument("--no-progress", action="store_true", help="no progress bar")
-    grid.add_argument(
-        "--grid-sizes",
-        type=int,
-        nargs="+",
-        default=None,
-        metavar="N",
-        help="cells along the longest axis (default 16 32 64; caps run on the middle one)",
-    )
-    portals.add_argument(
-        "--rooms", type=_rooms, default=None, metavar="NXxNZ", help="rooms (default 6x4)"
-    )
-    portals.add_argument("--floors", type=int, default=1, help="storeys (default 1)")
     lodp = sub.add_parser(
         "lod", help="seed 001: LOD picture pair and strategies over a flight under a frame budget"
     )
@@ -546,38 +510,6 @@ def cmd_cull(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_grid(args: argparse.Namespace) -> int:
-    from experiments import seed002_grid
-
-    setup = seed002_grid.make_setup(
-        args.quick, args.frames, args.display, args.grid_sizes, seed=args.seed
-    )
-    out = args.out or default_out(setup.quick)
-    if setup.quick:
-        print(
-            f"quick mode: {setup.frames} frames per segment, display {res_str(setup.display)}",
-            file=sys.stderr,
-        )
-    seed002_grid.grid_experiment(setup, out, progress=not args.no_progress)
-    return 0
-
-
-def cmd_portals(args: argparse.Namespace) -> int:
-    from experiments import seed001_portals
-
-    setup = seed001_portals.make_setup(
-        args.quick, args.frames, args.display, args.rooms, args.floors, seed=args.seed
-    )
-    out = args.out or default_out(setup.quick)
-    if setup.quick:
-        print(
-            f"quick mode: {setup.frames} frames, display {res_str(setup.display)}",
-            file=sys.stderr,
-        )
-    seed001_portals.portal_experiment(setup, out, progress=not args.no_progress)
-    return 0
-
-
 def cmd_lod(args: argparse.Namespace) -> int:
     from pathlib import Path
 
@@ -661,7 +593,6 @@ def cmd_figures(args: argparse.Namespace) -> int:
 COMMANDS = {
     "demo": cmd_demo,
     "cull": cmd_cull,
-    "grid": cmd_grid,
     "portals": cmd_portals,
     "lod": cmd_lod,
     "lod-quality": cmd_lod_quality,

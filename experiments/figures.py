@@ -143,12 +143,6 @@ def _seed001_image_based(quick: bool, out: Path, data: str | None) -> None:
     seed001_image_based.run(quick, out, True)
 
 
-def _seed002(quick: bool, out: Path, data: str | None) -> None:
-    from experiments import seed002_grid
-
-    seed002_grid.grid_experiment(seed002_grid.make_setup(quick), out)
-
-
 def _seed003(quick: bool, out: Path, data: str | None) -> None:
     from experiments import seed003_complexity
 
@@ -238,16 +232,6 @@ FIGURES: tuple[Figure, ...] = (
         3.0,
         "seed001_image_based/*.png",
         module="experiments.seed001_image_based",
-    ),
-    Figure(
-        "seed002",
-        "002",
-        "occlusion queries on grid cells: query caps, grid sizes, popping",
-        "seed002_summary.json",
-        _seed002,
-        8.0,
-        "seed002_*.png",
-        module="experiments.seed002_grid",
     ),
     Figure(
         "seed003",

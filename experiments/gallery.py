@@ -55,11 +55,11 @@ SHOTS = (
         "vislod image-based",
     ),
     Shot(
-        "seed002_frametime.png",
+        "seed002/seed002_frametime.png",
         "seed002_frametime.png",
         "Seed 002: frame time with grid occlusion queries against frustum culling alone, and "
-        "under query caps",
-        "vislod grid",
+        "under query caps scaled to our queries per frame (the thesis's caps never bind here)",
+        "vislod seed002",
     ),
     Shot(
         "seed003_complexity/seed003_lights.png",

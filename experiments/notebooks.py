@@ -86,43 +86,10 @@ market flight) and an indoor one (a walk through generated rooms). The document'
 bind on our scenes (at most about a thousand non-empty cells), so caps scaled to our mean
 queries per frame are run as well.
 
-All the work is done by `experiments/seed002_grid.py` (`vislod grid`); this notebook only
-calls it. Set `VISLOD_QUICK=1` for a quick run (a few frames at a quarter of the resolution:
-seconds); the full run takes a few minutes on two CPU cores."""
-
-GRID_SETUP = """\
-from IPython.display import Image, display
-
-from experiments import seed002_grid
-from experiments.common import default_out, env_quick
-
-quick = env_quick()
-out = default_out(quick)
-grid_setup = seed002_grid.make_setup(quick=quick)
-print(f"quick={quick}: {grid_setup}; results in {out}")"""
-
-GRID_RUN = """\
-# Both segments: frustum only, grid sizes without a cap, then the caps on the middle size.
-grid = seed002_grid.grid_experiment(grid_setup, out, verbose=False)
-print(seed002_grid.caps_note(grid.summary, grid_setup))"""
-
-GRID_TABLES = """\
-print(seed002_grid.format_summary(grid.summary, grid_setup))
-print()
-print(seed002_grid.format_claims(grid.claims))"""
-
-
-GRID_SECTIONS = [
-    (
-        "## Frame time per frame (cull + draw)\n\nLeft: grid sizes without a cap; right: query "
-        "caps on the middle grid size. × marks a frame where culling made the frame slower "
-        "than frustum culling alone.",
-        ["seed002_frametime.png"],
-    ),
-    ("## Objects drawn per frame", ["seed002_drawn.png"]),
-    ("## Popping per frame: objects the oracle sees that were not drawn", ["seed002_popping.png"]),
-]
-
+Below, the experiment (`experiments/seed002_grid.py`, `vislod seed002` or `vislod grid`) is
+computed into DataFrames, its pictures are drawn from them and its claims set beside the
+thesis's words. `VISLOD_QUICK=1`: a few frames at a quarter of the resolution (seconds); the
+full run takes a few minutes on two CPU cores."""
 
 def notebook(cells, prefix: str):
     """Cells → a validated notebook with stable cell ids (``prefix-NN``) and no outputs."""
@@ -205,19 +172,10 @@ def build_methods():
 
 
 def build_grid():
-    """``seed002_grid.ipynb`` as an ``nbformat`` node (no outputs)."""
+    """``seed002_grid.ipynb``: the introduction, then the experiment's cells."""
     from nbformat import v4
 
-    cells = [
-        v4.new_markdown_cell(GRID_INTRO),
-        v4.new_code_cell(GRID_SETUP),
-        v4.new_markdown_cell("## Seed 002 — run"),
-        v4.new_code_cell(GRID_RUN),
-        v4.new_markdown_cell("## Seed 002 — per segment and run; the claims, ours"),
-        v4.new_code_cell(GRID_TABLES),
-    ]
-    for text, images in GRID_SECTIONS:
-        cells += [v4.new_markdown_cell(text), v4.new_code_cell(image_cell(images))]
+    cells = [v4.new_markdown_cell(GRID_INTRO), *experiment_cells("seed002")]
     return notebook(cells, "seed002-grid")
 
 

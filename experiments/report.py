@@ -60,16 +60,8 @@ CLAIM_WHY = {
     "faster than rendering": "llvmpipe is a CPU rasterizer: a point splat per pixel costs "
     "about as much as shading that pixel from triangles; the lecture's 20× is for 12 M "
     "polygons on graphics hardware",
-    "grid is fastest": "which grid wins depends on how the cells fill; our generated town "
-    "and rooms are not the thesis' level",
-    "most even frame time": "which grid wins depends on how the cells fill; our generated "
-    "town and rooms are not the thesis' level",
-    "fluctuates more without occlusion culling": "indoors the frustum alone already keeps "
-    "few objects, so frustum culling's frame time is even too",
     "like the product": "on llvmpipe time adds (a·V + b·VP) rather than multiplies: the "
     "product is the worst-case bound, reached only when every triangle covers the screen",
-    "makes a frame slower": "an llvmpipe query costs ≈ 20 µs: indoors, with few hidden "
-    "objects, culling slows most frames, not some",
 }
 
 
@@ -317,13 +309,6 @@ def _seed001_state_sorting(s: dict[str, Any]) -> list[Row]:
     return _claims(s["claims"], "state sorting: ")
 
 
-# -- seed 002 ---------------------------------------------------------------------------------
-
-
-def _seed002(s: dict[str, Any]) -> list[Row]:
-    return _claims(s["claims"])
-
-
 # -- seed 003 ---------------------------------------------------------------------------------
 
 
@@ -440,7 +425,6 @@ ROWS: dict[str, Callable[[dict[str, Any]], list[Row]]] = {
     "seed001-image-based": _seed001_image_based,
     "seed001-portals": _seed001_portals,
     "seed001-state-sorting": _seed001_state_sorting,
-    "seed002": _seed002,
     "seed003": _seed003,
     "seed004-model": _seed004_model,
     "seed004-octree": _seed004_octree,

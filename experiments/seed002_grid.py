@@ -1,87 +1,86 @@
-"""Seed 002 reproduced (trend): occlusion queries on uniform-grid cells (``grid``) against
-frustum culling alone, on an outdoor and an indoor camera segment (``vislod grid``).
+"""Seed 002 (trend): occlusion queries on uniform-grid cells (``grid``) against frustum
+culling alone, on an outdoor and an indoor camera segment (``vislod seed002``, ``grid``).
 
 Seed 002 (a thesis on hardware occlusion queries with grid traversal, pp. 35-40) shows frame
 rate and rendered nodes per frame with occlusion culling off and with query caps 4000, 3000
-and 2000, on three grid sizes and on indoor and outdoor parts of its scene, and claims:
+and 2000, on three grid sizes, indoors and outdoors, and claims: caps 4000 and 3000 look
+alike, 3000 pops more, 2000 pops unacceptably; without occlusion culling the frame rate
+fluctuates and dips when many nodes are drawn; a sparser grid is better outdoors, a tighter
+one indoors, the one in between is the most even; culling sometimes makes a frame slower.
 
-- caps 4000 and 3000 look alike in frame rate, 3000 pops more, 2000 pops unacceptably;
-- without occlusion culling the frame rate fluctuates strongly and dips when many nodes are
-  drawn;
-- a sparser grid is better outdoors, a tighter grid indoors, the one in between gives the most
-  even frame rate;
-- culling sometimes makes a frame slower (few objects behind a wall).
-
-We measure, per frame: frame time (cull + draw at the display resolution, ms), objects drawn,
+We measure per frame: frame time (cull + draw at the display resolution, ms), objects drawn
 and popping (objects the oracle sees at the display resolution that were not drawn: the
-``false_culls`` of the temporal ``grid`` method, which reads its query results one frame late).
+``false_culls`` of the temporal ``grid`` method, which reads its query results one frame
+late). OUTDOOR is the middle half of the seed-000 market flight (sampled twice as densely);
+INDOOR a walk through ``soc.scenes.rooms``. The document's caps never bind on our scenes (at
+most about 1,200 non-empty cells per frame), so caps scaled to the segment's *mean* uncapped
+queries per frame (1.0x, 0.75x, 0.5x: the ratios 4000 : 3000 : 2000) run too, on the middle
+grid size.
 
-Segments: OUTDOOR is the middle half of the seed-000 flight over the market, sampled twice as
-densely (so ``frames`` consecutive cameras); INDOOR is a walk through ``soc.scenes.rooms``.
-
-The document's caps never bind on our scenes (the market has 240-1,221 non-empty cells,
-the rooms 173-936), so besides the absolute caps we run caps scaled to the *mean* uncapped
-queries per frame of the segment (1.0x, 0.75x, 0.5x: the ratios of 4000 : 3000 : 2000), which
-do bind; the output says so. Caps run on the middle grid size only.
-
-Stages: :func:`segments` (scenes and cameras) → :func:`fly` (every run over a segment, frames
-interleaved, the oracle once per frame) → :func:`run_segment` (uncapped pass, caps from its
-queries, capped pass) → :func:`summarize` / :func:`check_claims` → :func:`write` (CSV, JSON,
-PNG). Nothing is written before all runs are done; every file is written atomically.
+Stages: :func:`segments` → :func:`fly` (every run over a segment, frames interleaved, the
+oracle once per frame) → :func:`run_segment` (uncapped pass, caps from its queries, capped
+pass) → :func:`compute` (frames, summary) → plots and :func:`claims`.
 """
 
 from __future__ import annotations
 
-import math
-import os
-import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
+from experiments import harness
 from experiments.common import (
     DISPLAY,
     QUICK_FRAMES,
     QUICK_OCCLUDEES,
     QUICK_SCALE,
     UsageError,
-    fmt,
-    format_table,
     res_str,
-    save_figure,
     scaled,
-    write_csv,
-    write_json,
 )
 
-FRAMES = 100  # cameras per segment in a full run
+FRAMES = ("frames", "summary")
 GRID_SIZES = (16, 32, 64)  # cells along the scene's longest axis: sparse, medium, tight
 DOC_CAPS = (4000, 3000, 2000)  # the thesis's query caps
 CAP_SCALES = (1.0, 0.75, 0.5)  # 4000 : 3000 : 2000, applied to our mean uncapped queries
 ALIKE = 0.10  # "look alike in frame rate": mean frame times within 10 %
 ROOMS = (6, 4)  # the indoor building, rooms along x and z
 
-DOCUMENT = {
-    "source": "seed 002 (002_a2570f34dbec3132.txt), thesis pp. 35-40",
-    "caps": "It is hard to see a difference in performance between a query cap of 3000 and "
-    "4000 [...] a few areas that produce popping artifacts more noticeably with a query cap "
-    "of 3000. [...] 2000 [...] popping artifacts were too noticeable",
-    "no_culling": "When occlusion culling is turned off, the framerate can fluctuate between "
-    "high values and back down to values around 30 [...] dip when the number of rendered "
-    "nodes jumps up to high values",
-    "grid_size": "The sparser grid performs better outside, while the tighter grid performs "
-    "better inside. The grid size in between seems to produce a more even framerate",
-    "slower": "There are some portions of the scene where the culling algorithm brings down "
-    "the framerate rather than boosting it",
-    "numbers": "none (graphs only); frame rate 'around 30' FPS without culling at its dips",
-}
+# The thesis's words (seed 002, pp. 35-40), quoted exactly.
+DOC_CAPS_TEXT = (
+    "It is hard to see a difference in performance between a query cap of 3000 and 4000 from "
+    "the graphs, but visually, there are a few areas that produce popping artifacts more "
+    "noticeably with a query cap of 3000."
+)
+DOC_2000 = (
+    "The scene was also tried with a query cap of 2000 but the popping artifacts were too "
+    "noticeable leading to unacceptable compromises in visual quality."
+)
+DOC_OFF = (
+    "with occlusion culling turned off, the framerate tends to jump down to below average and "
+    "fluctuate much more noticeably."
+)
+DOC_DIP = (
+    "The framerate can be seen to dip when the number of rendered nodes jumps up to high values."
+)
+DOC_SIZE = (
+    "The sparser grid performs better outside, while the tighter grid per- forms better inside."
+)
+DOC_EVEN = (
+    "The grid size in between seems to produce a more even framerate which is typically desirable."
+)
+DOC_SLOWER = (
+    "There are some portions of the scene where the culling algorithm brings down the "
+    "framerate rather than boosting it. This is usually in areas of the scene where there are "
+    "very few objects on the other side of a wall."
+)
 
 
 @dataclass(frozen=True)
-class GridSetup:
+class Params:
     """One seed-002 run.
 
     Attributes
@@ -92,43 +91,35 @@ class GridSetup:
         Camera resolution, pixels; the oracle, the depth buffer and drawing all run at it.
     grid_sizes : tuple of int
         Cells along each scene's longest axis; the middle one also runs the query caps.
-    quick : bool
-        Small market, quarter resolution.
     seed : int
         Scene generator and walk seed.
+    quick : bool
+        Small market (2,000 occludees).
     """
 
-    frames: int
-    display: tuple[int, int]
+    frames: int = 100
+    display: tuple[int, int] = DISPLAY
     grid_sizes: tuple[int, ...] = GRID_SIZES
-    quick: bool = False
     seed: int = 0
+    quick: bool = False
+
+    def check(self) -> None:
+        """:class:`UsageError` for values the run cannot use."""
+        if self.frames < 2:
+            raise UsageError(f"frames must be at least 2, got {self.frames}")
+        if len(self.display) != 2 or min(self.display) < 16:
+            raise UsageError(f"display must be at least 16x16 pixels, got {self.display}")
+        s = list(self.grid_sizes)
+        if not s or min(s) < 1 or len(set(s)) != len(s):
+            raise UsageError(f"grid sizes must be distinct positive integers, got {s}")
+        if self.seed < 0:
+            raise UsageError(f"seed must be >= 0, got {self.seed}")
 
     @property
     def cap_size(self) -> int:
         """The grid size the query caps run on (the middle one)."""
-        return sorted(self.grid_sizes)[len(self.grid_sizes) // 2]
-
-
-def make_setup(
-    quick: bool = False,
-    frames: int | None = None,
-    display: tuple[int, int] | None = None,
-    grid_sizes: Sequence[int] | None = None,
-    seed: int = 0,
-) -> GridSetup:
-    """The full setup (100 frames per segment at 1080p, grids 16/32/64) or the quick one
-    (6 frames at 480x270); arguments override. :class:`UsageError` for bad values."""
-    frames = frames if frames is not None else (QUICK_FRAMES if quick else FRAMES)
-    if frames < 2:
-        raise UsageError(f"--frames must be at least 2, got {frames}")
-    display = tuple(display) if display else scaled(DISPLAY, QUICK_SCALE if quick else 1.0)
-    sizes = tuple(int(s) for s in (grid_sizes or GRID_SIZES))
-    if not sizes or min(sizes) < 1 or len(set(sizes)) != len(sizes):
-        raise UsageError(f"grid sizes must be distinct positive integers, got {list(sizes)}")
-    if seed < 0:
-        raise UsageError(f"--seed must be >= 0, got {seed}")
-    return GridSetup(int(frames), display, tuple(sorted(sizes)), bool(quick), int(seed))  # type: ignore[arg-type]
+        s = sorted(self.grid_sizes)
+        return s[len(s) // 2]
 
 
 # -- segments and runs ------------------------------------------------------------------------
@@ -141,40 +132,21 @@ class Segment:
     name: str
     scene: Any
     cameras: list
-    description: str
 
 
-def segments(setup: GridSetup) -> list[Segment]:
+def segments(params: Params) -> list[Segment]:
     """OUTDOOR: the middle half of the seed-000 market flight, sampled at ``2 * frames``
-    cameras; INDOOR: a walk of ``frames`` cameras through 8 rooms of ``soc.scenes.rooms``."""
+    cameras; INDOOR: a walk of ``frames`` cameras through the rooms of ``soc.scenes.rooms``."""
     import soc
 
-    w, h = setup.display
-    n = setup.frames
-    market = (
-        soc.scenes.market(seed=setup.seed, occludees=QUICK_OCCLUDEES)
-        if setup.quick
-        else soc.scenes.market(seed=setup.seed)
-    )
+    w, h = params.display
+    n = params.frames
+    kw = {"occludees": QUICK_OCCLUDEES} if params.quick else {}
+    market = soc.scenes.market(seed=params.seed, **kw)
     flight = soc.scenes.paths.flight(market, frames=2 * n, width=w, height=h)
-    start = n // 2
-    rooms = soc.scenes.rooms(setup.seed, rooms=ROOMS)
-    walk = soc.scenes.rooms_walk(rooms, n, seed=setup.seed, width=w, height=h)
-    return [
-        Segment(
-            "outdoor",
-            market,
-            flight[start : start + n],
-            f"market ({len(market):,} objects), seed-000 flight frames {start}-{start + n - 1} "
-            f"of {2 * n}",
-        ),
-        Segment(
-            "indoor",
-            rooms,
-            walk,
-            f"rooms {ROOMS[0]}x{ROOMS[1]} ({len(rooms):,} objects), walk of {n} frames",
-        ),
-    ]
+    rooms = soc.scenes.rooms(params.seed, rooms=ROOMS)
+    walk = soc.scenes.rooms_walk(rooms, n, seed=params.seed, width=w, height=h)
+    return [Segment("outdoor", market, flight[n // 2 : n // 2 + n]), Segment("indoor", rooms, walk)]
 
 
 @dataclass(frozen=True)
@@ -284,9 +256,9 @@ def fly(
     return truths, rows
 
 
-def first_pass_runs(setup: GridSetup) -> list[Run]:
+def first_pass_runs(params: Params) -> list[Run]:
     """Frustum only and every grid size without a cap."""
-    return [Run("frustum")] + [Run("grid", s) for s in setup.grid_sizes]
+    return [Run("frustum")] + [Run("grid", s) for s in params.grid_sizes]
 
 
 def scaled_caps(uncapped_queries: Sequence[float]) -> list[tuple[float, int]]:
@@ -296,15 +268,15 @@ def scaled_caps(uncapped_queries: Sequence[float]) -> list[tuple[float, int]]:
     return [(s, max(1, round(s * m))) for s in CAP_SCALES]
 
 
-def cap_runs(setup: GridSetup, uncapped_queries: Sequence[float]) -> list[Run]:
+def cap_runs(params: Params, uncapped_queries: Sequence[float]) -> list[Run]:
     """The document's absolute caps and the scaled caps, on the middle grid size."""
-    g = setup.cap_size
+    g = params.cap_size
     runs = [Run("grid", g, c, "document") for c in DOC_CAPS]
     runs += [Run("grid", g, c, f"{s:g}x mean") for s, c in scaled_caps(uncapped_queries)]
     return runs
 
 
-def run_segment(segment: Segment, setup: GridSetup, *, bar=None) -> list[dict[str, Any]]:
+def run_segment(segment: Segment, params: Params, *, bar=None) -> list[dict[str, Any]]:
     """Both passes over one segment; per-frame rows of every run and of the oracle.
 
     Every row gets ``segment``, ``oracle_visible`` and, for grid runs,
@@ -312,11 +284,11 @@ def run_segment(segment: Segment, setup: GridSetup, *, bar=None) -> list[dict[st
     ``cap_binds`` (the frame had more candidate cells than the cap: the uncapped run's
     queries at that grid size).
     """
-    first = first_pass_runs(setup)
-    truths, rows = fly(segment, first, resolution=setup.display, bar=bar)
+    first = first_pass_runs(params)
+    truths, rows = fly(segment, first, resolution=params.display, bar=bar)
     uncapped = {r.grid_size: [row["queries"] for row in rows[r]] for r in first[1:]}
-    second = cap_runs(setup, uncapped[setup.cap_size])
-    _, more = fly(segment, second, truths, resolution=setup.display, bar=bar)
+    second = cap_runs(params, uncapped[params.cap_size])
+    _, more = fly(segment, second, truths, resolution=params.display, bar=bar)
     rows.update(more)
 
     frustum_ms = [row["ms_total"] for row in rows[first[0]]]
@@ -334,487 +306,307 @@ def run_segment(segment: Segment, setup: GridSetup, *, bar=None) -> list[dict[st
     return out
 
 
-# -- summaries and claims -----------------------------------------------------------------------
+# -- the experiment ---------------------------------------------------------------------------
 
 
-def _stats(values: Sequence[float]) -> dict[str, float]:
-    v = np.asarray(values, np.float64)
-    return {
-        "mean": float(v.mean()),
-        "std": float(v.std()),
-        "p95": float(np.percentile(v, 95)),
-    }
+def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
+    """``frames``: one row per segment × run × frame (frame time = cull + draw, ms; drawn;
+    popping; queries; ``slower_than_frustum``; ``cap_binds``); ``summary``: one row per segment
+    × run (frame-time mean/std/p95 and coefficient of variation, means of drawn, popping,
+    queries, cull ms; frames slower than frustum only; frames where the cap binds)."""
+    from tqdm.auto import tqdm
 
-
-def summarize(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
-    """One row per segment and run: frame time mean/std/p95 (ms) and its coefficient of
-    variation, FPS at the mean frame time, mean drawn objects, popping (mean, max, total per
-    frame), queries, frames slower than frustum only, frames where the cap binds."""
-    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
-    for r in rows:
-        groups.setdefault((r["segment"], r["run"]), []).append(r)
-    out = []
-    for (seg, run), rs in groups.items():
-        t = _stats([r["ms_total"] for r in rs])
-        pop = [r["popping"] for r in rs]
-        first = rs[0]
-        out.append(
-            {
-                "segment": seg,
-                "run": run,
-                "method": first["method"],
-                "grid_size": first["grid_size"],
-                "query_cap": first["query_cap"],
-                "cap_rule": first["cap_rule"],
-                "frames": len(rs),
-                "ms_mean": t["mean"],
-                "ms_std": t["std"],
-                "ms_p95": t["p95"],
-                "ms_cv": t["std"] / t["mean"] if t["mean"] > 0 else float("nan"),
-                "fps_mean": 1e3 / t["mean"] if t["mean"] > 0 else float("nan"),
-                "ms_cull_mean": float(np.mean([r["ms_cull"] for r in rs])),
-                "drawn_mean": float(np.mean([r["drawn"] for r in rs])),
-                "popping_mean": float(np.mean(pop)),
-                "popping_max": int(max(pop)),
-                "popping_frames": int(sum(p > 0 for p in pop)),
-                "queries_mean": float(np.mean([r["queries"] for r in rs])),
-                "queries_max": int(max(r["queries"] for r in rs)),
-                "slower_frames": int(sum(bool(r.get("slower_than_frustum")) for r in rs)),
-                "cap_binds_frames": int(sum(bool(r.get("cap_binds")) for r in rs)),
-            }
-        )
-    return out
-
-
-def _claim(claim: str, document: str, segment: str, measured: str, agrees: bool | None):
-    verdict = "n/a" if agrees is None else ("agrees" if agrees else "differs")
-    return {
-        "claim": claim,
-        "document": document,
-        "segment": segment,
-        "measured": measured,
-        "verdict": verdict,
-    }
-
-
-def check_claims(
-    summary: Sequence[dict[str, Any]], rows: Sequence[dict[str, Any]], setup: GridSetup
-) -> list[dict[str, Any]]:
-    """Seed 002's claims against our numbers, per segment (and both segments together where
-    the claim is about the whole walkthrough). ``verdict``: agrees / differs / n/a."""
-    out = []
-    sizes = list(setup.grid_sizes)
-    mid = setup.cap_size
-    by = {(s["segment"], s["run"]): s for s in summary}
-    segs = list(dict.fromkeys(s["segment"] for s in summary))
-
-    def grid(seg: str, size: int, scale: float | None = None):
-        """The uncapped run of ``size`` (or its cap at ``scale`` x mean queries)."""
-        rule = "none" if scale is None else f"{scale:g}x mean"
-        for s in summary:
-            if (s["segment"], s["method"], s["grid_size"], s["cap_rule"]) == (
-                seg, "grid", size, rule,
-            ):  # fmt: skip
-                return s
-        return None
-
-    def frustum(seg: str):
-        return by[(seg, Run("frustum").label)]
-
-    # grid size: sparse outdoors, tight indoors, middle the most even
-    for seg, want, word in (
-        ("outdoor", min(sizes), "sparsest"),
-        ("indoor", max(sizes), "tightest"),
-    ):
-        if seg not in segs or len(sizes) < 2:
-            continue
-        means = {g: grid(seg, g)["ms_mean"] for g in sizes}
-        best = min(means, key=means.get)
-        out.append(
-            _claim(
-                f"the {word} grid is fastest {seg}s",
-                DOCUMENT["grid_size"],
-                seg,
-                "mean ms " + ", ".join(f"{g}: {means[g]:.1f}" for g in sizes) + f" → {best}",
-                best == want,
-            )
-        )
-    if len(sizes) >= 3:
-        for seg in [*segs, "both"]:
-            pick = segs if seg == "both" else [seg]
-            stds, p95s = {}, {}
-            for g in sizes:
-                t = [
-                    r["ms_total"]
-                    for r in rows
-                    if r["segment"] in pick
-                    and r["method"] == "grid"
-                    and r["grid_size"] == g
-                    and r["cap_rule"] == "none"
-                ]
-                st = _stats(t)
-                stds[g], p95s[g] = st["std"], st["p95"]
-            even = min(stds, key=stds.get)
-            even95 = min(p95s, key=p95s.get)
-            out.append(
-                _claim(
-                    f"grid {mid} (in between) gives the most even frame time (std)",
-                    DOCUMENT["grid_size"],
-                    seg,
-                    "std ms "
-                    + ", ".join(f"{g}: {stds[g]:.1f}" for g in sizes)
-                    + f" → {even}; p95 ms "
-                    + ", ".join(f"{g}: {p95s[g]:.1f}" for g in sizes)
-                    + f" → {even95}",
-                    even == mid,
-                )
-            )
-
-    for seg in segs:
-        f = frustum(seg)
-        gs = [grid(seg, g) for g in sizes]
-        # no culling: fluctuates more, dips when many objects are drawn
-        out.append(
-            _claim(
-                "frame time fluctuates more without occlusion culling (std frustum > every grid)",
-                DOCUMENT["no_culling"],
-                seg,
-                f"std ms frustum {f['ms_std']:.1f}; grid "
-                + ", ".join(f"{g['grid_size']}: {g['ms_std']:.1f}" for g in gs),
-                all(f["ms_std"] > g["ms_std"] for g in gs),
-            )
-        )
-        fr = [r for r in rows if r["segment"] == seg and r["method"] == "frustum"]
-        drawn = np.array([r["drawn"] for r in fr], float)
-        ms = np.array([r["ms_total"] for r in fr], float)
-        corr = (
-            float(np.corrcoef(drawn, ms)[0, 1])
-            if len(fr) > 2 and drawn.std() > 0 and ms.std() > 0
-            else float("nan")
-        )
-        out.append(
-            _claim(
-                "without occlusion culling, frame time rises with objects drawn (r > 0.5)",
-                DOCUMENT["no_culling"],
-                seg,
-                f"Pearson r(drawn, frame ms) = {fmt(corr)} (frustum)",
-                None if not math.isfinite(corr) else corr > 0.5,
-            )
-        )
-        # caps, scaled to our queries (the document's absolute caps never bind here)
-        c1, c75, c50 = (grid(seg, mid, scale=s) for s in CAP_SCALES)
-        if c1 and c75 and c50:
-            d = abs(c75["ms_mean"] - c1["ms_mean"]) / c1["ms_mean"]
-            out.append(
-                _claim(
-                    f"caps 1x and 0.75x mean queries (≈ 4000 and 3000) alike in frame time "
-                    f"(within {ALIKE:.0%})",
-                    DOCUMENT["caps"],
-                    seg,
-                    f"mean ms {c1['ms_mean']:.1f} vs {c75['ms_mean']:.1f} ({d:.1%})",
-                    d <= ALIKE,
-                )
-            )
-            out.append(
-                _claim(
-                    "cap 0.75x (≈ 3000) pops more than 1x (≈ 4000)",
-                    DOCUMENT["caps"],
-                    seg,
-                    f"popping/frame {c1['popping_mean']:.2f} → {c75['popping_mean']:.2f}",
-                    c75["popping_mean"] > c1["popping_mean"],
-                )
-            )
-            out.append(
-                _claim(
-                    "cap 0.5x (≈ 2000) pops more than 0.75x (document: unacceptably)",
-                    DOCUMENT["caps"],
-                    seg,
-                    f"popping/frame {c75['popping_mean']:.2f} → {c50['popping_mean']:.2f} "
-                    f"(max {c50['popping_max']})",
-                    c50["popping_mean"] > c75["popping_mean"],
-                )
-            )
-        # culling sometimes slower
-        slower = {g["grid_size"]: g["slower_frames"] for g in gs}
-        n = gs[0]["frames"]
-        out.append(
-            _claim(
-                "culling sometimes (in under half the frames) makes a frame slower than "
-                "frustum only",
-                DOCUMENT["slower"],
-                seg,
-                "slower frames " + ", ".join(f"grid {g}: {k}/{n}" for g, k in slower.items()),
-                any(0 < k < n / 2 for k in slower.values()),
-            )
-        )
-    return out
-
-
-# -- printed tables ---------------------------------------------------------------------------
-
-
-def format_summary(summary: Sequence[dict[str, Any]], setup: GridSetup) -> str:
-    """The per-run table of every segment."""
-    rows = [
-        [
-            f"{s['segment']:<7} {s['run']}",
-            s["ms_mean"],
-            s["ms_std"],
-            s["ms_p95"],
-            s["fps_mean"],
-            s["drawn_mean"],
-            s["popping_mean"],
-            str(s["popping_max"]),
-            s["queries_mean"],
-            f"{s['slower_frames']}/{s['frames']}" if s["method"] == "grid" else "—",
-            f"{s['cap_binds_frames']}/{s['frames']}" if s["query_cap"] is not None else "—",
-        ]
-        for s in summary
-    ]
-    return format_table(
-        [
-            "segment / run",
-            "frame ms",
-            "std",
-            "p95",
-            "FPS",
-            "drawn",
-            "pop/frame",
-            "pop max",
-            "queries",
-            "slower",
-            "cap binds",
-        ],
-        rows,
-        f"seed 002 — frame time = cull + draw at {res_str(setup.display)}, {setup.frames} frames "
-        f"per segment (document: graphs only; ~30 FPS dips without culling)",
-    )
-
-
-def format_claims(claims: Sequence[dict[str, Any]]) -> str:
-    """The document's claims, one line each, with our measurement and the verdict."""
-    lines = ["seed 002's claims vs ours:"]
-    for c in claims:
-        lines.append(f"  {c['verdict']:<7}  [{c['segment']}] {c['claim']}: {c['measured']}")
-    return "\n".join(lines)
-
-
-def caps_note(summary: Sequence[dict[str, Any]], setup: GridSetup) -> str:
-    """Why the scaled caps exist: the document's caps against our largest query counts."""
-    parts = []
-    for seg in dict.fromkeys(s["segment"] for s in summary):
-        qmax = max(
-            s["queries_max"] for s in summary if s["segment"] == seg and s["cap_rule"] == "none"
-        )
-        scaled_ = [
-            f"{s['cap_rule'].split('x')[0]}x = {s['query_cap']}"
-            for s in summary
-            if s["segment"] == seg and s["cap_rule"].endswith("mean")
-        ]
-        parts.append(
-            f"{seg}: at most {qmax} queries/frame uncapped; scaled caps {', '.join(scaled_)}"
-        )
-    binds = any(s["cap_binds_frames"] > 0 for s in summary if s["cap_rule"] == "document")
-    head = (
-        f"the document's caps {'/'.join(map(str, DOC_CAPS))} "
-        + ("bind on some frames" if binds else "never bind on our scenes (same culling as no cap)")
-        + f"; so caps scaled to the mean uncapped queries per frame (grid {setup.cap_size}) "
-        "were run too"
-    )
-    return head + ":\n  " + "\n  ".join(parts)
+    segs = segments(params)
+    per_frame = 1 + len(first_pass_runs(params)) + len(DOC_CAPS) + len(CAP_SCALES)
+    rows: list[dict[str, Any]] = []
+    total = params.frames * per_frame * len(segs)
+    with tqdm(total=total, unit="frame", desc="seed 002", disable=not progress) as bar:
+        for seg in segs:
+            rows += run_segment(seg, params, bar=bar)
+    df = pd.DataFrame(rows)
+    df["objects"] = df.segment.map({s.name: len(s.scene) for s in segs})
+    g = df.groupby(["segment", "run"], sort=False)
+    summary = g.agg(
+        method=("method", "first"),
+        grid_size=("grid_size", "first"),
+        query_cap=("query_cap", "first"),
+        cap_rule=("cap_rule", "first"),
+        frames=("frame", "size"),
+        ms_mean=("ms_total", "mean"),
+        ms_std=("ms_total", lambda v: float(np.std(v))),
+        ms_p95=("ms_total", lambda v: float(np.percentile(v, 95))),
+        ms_cull_mean=("ms_cull", "mean"),
+        ms_cull_std=("ms_cull", lambda v: float(np.std(v))),
+        drawn_mean=("drawn", "mean"),
+        drawn_std=("drawn", lambda v: float(np.std(v))),
+        popping_mean=("popping", "mean"),
+        popping_max=("popping", "max"),
+        queries_mean=("queries", "mean"),
+        queries_max=("queries", "max"),
+        slower_frames=("slower_than_frustum", lambda v: int(v.fillna(False).astype(bool).sum())),
+        cap_binds_frames=("cap_binds", lambda v: int(v.fillna(False).astype(bool).sum())),
+    ).reset_index()
+    summary["ms_cv"] = summary.ms_std / summary.ms_mean
+    return {"frames": df, "summary": summary}
 
 
 # -- plots ------------------------------------------------------------------------------------
 
+SEGMENTS = ("outdoor", "indoor")
+_COLOURS = {16: "tab:green", 32: "tab:blue", 64: "tab:purple"}
+_CAP_COLOURS = {"none": "tab:blue", "1x mean": "tab:orange", "0.75x mean": "tab:red",
+                "0.5x mean": "tab:brown"}  # fmt: skip
 
-def _panels(
-    rows: Sequence[dict[str, Any]],
-    setup: GridSetup,
-    key: str,
-    ylabel: str,
-    title: str,
-    *,
-    frustum: bool = True,
-    oracle: bool = False,
-    mark_slower: bool = False,
-):
-    """Rows = segments; columns = grid sizes (no cap) | query caps on the middle size."""
-    import matplotlib
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+def _segments(df: pd.DataFrame) -> list[str]:
+    return [s for s in SEGMENTS if s in set(df.segment)]
 
-    segs = list(dict.fromkeys(r["segment"] for r in rows))
-    fig, axes = plt.subplots(len(segs), 2, figsize=(14, 4.2 * len(segs)), squeeze=False)
-    cmap = plt.get_cmap("tab10")
+
+def _panels(frames, params: Params, key: str, ylabel: str, title: str, *, frustum=True,
+            oracle=False, mark_slower=False):  # fmt: skip
+    """Rows = segments; left: grid sizes without a cap; right: the middle grid size without a
+    cap and under the caps scaled to its mean queries (the document's caps are left out: they
+    never bind, so they lie on "no cap")."""
+    from matplotlib.figure import Figure
+
+    df = frames["frames"]
+    segs = _segments(df)
+    fig = Figure(figsize=(14, 3.9 * len(segs) + 0.9))
+    axes = fig.subplots(len(segs), 2, squeeze=False)
+    mid = params.cap_size
     for i, seg in enumerate(segs):
-        srows = [r for r in rows if r["segment"] == seg]
-        runs = list(dict.fromkeys(r["run"] for r in srows))
-        for j, ax in enumerate(axes[i]):
-            if j == 0:
-                pick = [
-                    r
-                    for r in runs
-                    if _first(srows, r)["method"] == "grid"
-                    and _first(srows, r)["cap_rule"] == "none"
-                ]
-                sub = "grid sizes, no cap"
-            else:
-                pick = [
-                    r
-                    for r in runs
-                    if _first(srows, r)["grid_size"] == setup.cap_size
-                    and _first(srows, r)["method"] == "grid"
-                ]
-                sub = f"query caps, grid {setup.cap_size}"
+        s = df[df.segment == seg]
+        fr = s[s.method == "frustum"]
+        grid = s[s.method == "grid"]
+        left = [(r, g) for r, g in grid[grid.cap_rule == "none"].groupby("run", sort=False)]
+        right = [(r, g) for r, g in grid[(grid.grid_size == mid)
+                 & grid.cap_rule.isin(["none", *(f"{c:g}x mean" for c in CAP_SCALES)])]
+                 .groupby("run", sort=False)]  # fmt: skip
+        for j, (ax, runs) in enumerate(zip(axes[i], (left, right), strict=True)):
             if frustum:
-                fr = [r for r in srows if r["method"] == "frustum"]
-                ax.plot(
-                    [r["frame"] for r in fr], [r[key] for r in fr], color="black", lw=1.6,
-                    label="frustum only (occlusion culling off)",
-                )  # fmt: skip
+                ax.plot(fr.frame, fr[key], color="black", lw=1.6, label="frustum only")
             if oracle:
-                fr = [r for r in srows if r["method"] == "frustum"]
-                ax.plot(
-                    [r["frame"] for r in fr], [r["oracle_visible"] for r in fr], "--",
-                    color="grey", lw=1.2, label="oracle (exactly visible)",
-                )  # fmt: skip
-            for k, run in enumerate(pick):
-                rs = [r for r in srows if r["run"] == run]
-                x = [r["frame"] for r in rs]
-                ax.plot(x, [r[key] for r in rs], color=cmap(k), lw=1.1, label=run)
+                ax.plot(fr.frame, fr.oracle_visible, "--", color="grey", lw=1.2,
+                        label="oracle (exactly visible)")  # fmt: skip
+            for _, g in runs:
+                rule = g.cap_rule.iloc[0]
+                color = _COLOURS.get(int(g.grid_size.iloc[0])) if j == 0 else _CAP_COLOURS[rule]
+                label = (f"grid {int(g.grid_size.iloc[0])}" if j == 0 else
+                         "no cap" if rule == "none" else
+                         f"cap {int(g.query_cap.iloc[0])} ({rule})")  # fmt: skip
+                ax.plot(g.frame, g[key], color=color, lw=1.1, label=label)
                 if mark_slower:
-                    slow = [r for r in rs if r.get("slower_than_frustum")]
-                    ax.plot(
-                        [r["frame"] for r in slow], [r[key] for r in slow], "x",
-                        color=cmap(k), ms=6,
-                    )  # fmt: skip
+                    slow = g[g.slower_than_frustum.fillna(False).astype(bool)]
+                    ax.plot(slow.frame, slow[key], "x", color=color, ms=5)
+            qmax = int(grid[grid.cap_rule == "none"].queries.max())
+            sub = ("grid sizes, no cap" if j == 0 else
+                   f"grid {mid}: caps scaled to mean queries (max {qmax}/frame)")  # fmt: skip
             ax.set_title(f"{seg} — {sub}", fontsize=10)
-            ax.set_xlabel("frame")
-            ax.set_ylabel(ylabel)
+            ax.set(xlabel="frame", ylabel=ylabel)
             ax.grid(alpha=0.3)
-            ax.legend(fontsize=7, loc="best")
-    if mark_slower:
-        title += "   (× = frame slower than frustum only)"
+            ax.legend(fontsize=7, loc="upper right", ncol=2)
     fig.suptitle(title, fontsize=11)
     fig.tight_layout()
     return fig
 
 
-def _first(rows, run: str) -> dict[str, Any]:
-    return next(r for r in rows if r["run"] == run)
+def plot_frametime(frames, params: Params):
+    """Frame time (cull + draw, ms) per frame, outdoor (top) and indoor (bottom). Left: frustum
+    culling only (black) and grid occlusion queries at each grid size without a cap; right:
+    the middle grid size without a cap and with caps of 1x, 0.75x and 0.5x its mean queries
+    per frame (4000 : 3000 : 2000). The document's caps 4000/3000/2000 are not drawn: our
+    scenes have at most about 1,200 non-empty cells per frame, so those caps never bind and
+    their curves are the "no cap" curve. × marks a frame that culling made slower than
+    frustum culling alone."""
+    return _panels(frames, params, "ms_total", "frame ms (cull + draw)",
+                   f"Seed 002 — frame time per frame at {res_str(params.display)} "
+                   "(× = slower than frustum only)", mark_slower=True)  # fmt: skip
 
 
-def plots(rows: Sequence[dict[str, Any]], setup: GridSetup) -> dict[str, Any]:
-    """``{file name: Figure}``: frame time, drawn objects and popping per frame."""
-    res = res_str(setup.display)
-    return {
-        "seed002_frametime.png": _panels(
-            rows, setup, "ms_total", "frame ms (cull + draw)",
-            f"Seed 002 — frame time per frame at {res}", mark_slower=True,
-        ),
-        "seed002_drawn.png": _panels(
-            rows, setup, "drawn", "objects drawn", "Seed 002 — drawn objects per frame",
-            oracle=True,
-        ),
-        "seed002_popping.png": _panels(
-            rows, setup, "popping", "popping (visible, not drawn)",
-            "Seed 002 — popping per frame (oracle-visible objects not drawn)", frustum=False,
-        ),
-    }  # fmt: skip
+def plot_drawn(frames, params: Params):
+    """Objects drawn per frame, outdoor (top) and indoor (bottom): frustum culling only
+    (black), the oracle's exactly visible objects (grey dashes), grid occlusion queries at
+    each grid size (left) and under caps scaled to the mean queries of the middle grid size
+    (right)."""
+    return _panels(frames, params, "drawn", "objects drawn",
+                   "Seed 002 — drawn objects per frame", oracle=True)  # fmt: skip
 
 
-# -- the experiment ---------------------------------------------------------------------------
+def plot_popping(frames, params: Params):
+    """Popping per frame: objects the oracle sees at the display resolution that the temporal
+    grid method did not draw (it reads its query results one frame late), outdoor (top) and
+    indoor (bottom), per grid size (left) and per scaled query cap (right)."""
+    return _panels(frames, params, "popping", "popping (visible, not drawn)",
+                   "Seed 002 — popping per frame", frustum=False)  # fmt: skip
 
 
-@dataclass
-class GridResult:
-    """What :func:`grid_experiment` measured and wrote."""
-
-    rows: list[dict[str, Any]]
-    summary: list[dict[str, Any]]
-    claims: list[dict[str, Any]]
-    files: list[Path] = field(default_factory=list)
-    seconds: dict[str, float] = field(default_factory=dict)
+# -- claims -----------------------------------------------------------------------------------
 
 
-def write(result: GridResult, setup: GridSetup, segs: Sequence[Segment], out) -> list[Path]:
-    """CSV of every frame, the summary CSV, the claims CSV, a JSON summary and three PNGs."""
-    import matplotlib.pyplot as plt
-
-    out = Path(out)
-    figs = plots(result.rows, setup)
-    files = [
-        write_csv(out / "seed002_frames.csv", result.rows),
-        write_csv(out / "seed002_summary.csv", result.summary),
-        write_csv(out / "seed002_claims.csv", result.claims),
-    ]
-    for name, fig in figs.items():
-        files.append(save_figure(fig, out / name))
-        plt.close(fig)
-    files.append(
-        write_json(
-            out / "seed002_summary.json",
-            {
-                "setup": {
-                    "frames": setup.frames,
-                    "display": res_str(setup.display),
-                    "grid_sizes": list(setup.grid_sizes),
-                    "cap_grid_size": setup.cap_size,
-                    "document_caps": list(DOC_CAPS),
-                    "cap_scales": list(CAP_SCALES),
-                    "quick": setup.quick,
-                    "seed": setup.seed,
-                },
-                "segments": {s.name: s.description for s in segs},
-                "caps_note": caps_note(result.summary, setup),
-                "summary": result.summary,
-                "claims": result.claims,
-                "document": DOCUMENT,
-                "seconds": result.seconds,
-            },
-        )
-    )
-    return files
+def _verdict(holds: bool) -> str:
+    return harness.TREND if holds else harness.DIFFERS
 
 
-def grid_experiment(
-    setup: GridSetup,
-    out: str | os.PathLike = "results",
-    *,
-    progress: bool = True,
-    verbose: bool = True,
-) -> GridResult:
-    """Run seed 002 on both segments, write the results into ``out``, print the tables."""
-    from tqdm.auto import tqdm
+def claims(frames, params: Params) -> pd.DataFrame:
+    """The thesis's claims asserted per segment; a claim that does not hold gives the
+    measured cause."""
+    df, sm = frames["frames"], frames["summary"]
+    sizes = sorted(params.grid_sizes)
+    mid = params.cap_size
+    rows = []
 
-    t0 = time.perf_counter()
-    segs = segments(setup)
-    seconds = {"scenes": time.perf_counter() - t0}
-    per_frame = 1 + len(first_pass_runs(setup)) + len(DOC_CAPS) + len(CAP_SCALES)
-    rows: list[dict[str, Any]] = []
-    t1 = time.perf_counter()
-    with tqdm(
-        total=setup.frames * per_frame * len(segs), unit="frame", desc="seed 002",
-        disable=not progress,
-    ) as bar:  # fmt: skip
+    def run(seg, size=None, rule="none", method="grid"):
+        s = sm[(sm.segment == seg) & (sm.method == method)]
+        if method == "grid":
+            s = s[(s.grid_size == size) & (s.cap_rule == rule)]
+        return s.iloc[0]
+
+    segs = _segments(df)
+    # grid size: sparse outdoors, tight indoors
+    for seg, want, word in (("outdoor", sizes[0], "sparsest"), ("indoor", sizes[-1], "tightest")):
+        if seg not in segs or len(sizes) < 2:
+            continue
+        g = {s: run(seg, s) for s in sizes}
+        best = min(g, key=lambda s: g[s].ms_mean)
+        holds = best == want
+        rows.append(harness.claim(
+            f"the {word} grid is fastest {seg}s",
+            DOC_SIZE,
+            "mean frame ms " + ", ".join(f"grid {s}: {g[s].ms_mean:.1f}" for s in sizes)
+            + f" → grid {best}",
+            _verdict(holds),
+            basis=f"grid {want} has the lowest mean frame time {seg}s: "
+            + ("holds" if holds else "does not hold"),
+            why="" if holds else "cull ms " + ", ".join(f"{s}: {g[s].ms_cull_mean:.1f}"
+            for s in sizes) + "; queries/frame " + ", ".join(f"{s}: {g[s].queries_mean:.0f}"
+            for s in sizes) + "; drawn " + ", ".join(f"{s}: {g[s].drawn_mean:.0f}" for s in sizes)
+            + f": on llvmpipe a query costs about as much as drawing what it hides, so the grid "
+            f"with the best balance of queries and drawn objects wins, grid {best} here",
+        ))  # fmt: skip
+    # the middle grid is the most even
+    if len(sizes) >= 3:
         for seg in segs:
-            rows += run_segment(seg, setup, bar=bar)
-    seconds["runs"] = time.perf_counter() - t1
-    summary = summarize(rows)
-    claims = check_claims(summary, rows, setup)
-    result = GridResult(rows, summary, claims, seconds=seconds)
-    result.files = write(result, setup, segs, out)
-    seconds["total"] = time.perf_counter() - t0
-    if verbose:
-        print()
-        for s in segs:
-            print(f"{s.name}: {s.description}")
-        print(caps_note(summary, setup))
-        print()
-        print(format_summary(summary, setup))
-        print()
-        print(format_claims(claims))
-        print()
-        print(f"{len(result.files)} files written to {out}/ in {seconds['total']:.0f} s")
-    return result
+            g = {s: run(seg, s) for s in sizes}
+            even = min(g, key=lambda s: g[s].ms_std)
+            holds = even == mid
+            rows.append(harness.claim(
+                f"grid {mid} (in between) gives the most even frame time ({seg})",
+                DOC_EVEN,
+                "frame-time std ms " + ", ".join(f"{s}: {g[s].ms_std:.1f}" for s in sizes)
+                + f" → grid {even}",
+                _verdict(holds),
+                basis=f"grid {mid} has the smallest standard deviation of frame time: "
+                + ("holds" if holds else "does not hold"),
+                why="" if holds else "std of cull ms (queries) "
+                + ", ".join(f"{s}: {g[s].ms_cull_std:.1f}" for s in sizes)
+                + "; std of objects drawn "
+                + ", ".join(f"{s}: {g[s].drawn_std:.0f}" for s in sizes)
+                + f": grid {even} varies least in what it queries and draws on this segment",
+            ))  # fmt: skip
+    for seg in segs:
+        f = run(seg, method="frustum")
+        gs = [run(seg, s) for s in sizes]
+        holds = all(f.ms_std > g.ms_std for g in gs)
+        rows.append(harness.claim(
+            f"frame time fluctuates more without occlusion culling ({seg})",
+            DOC_OFF,
+            f"std ms frustum only {f.ms_std:.1f}; grid "
+            + ", ".join(f"{int(g.grid_size)}: {g.ms_std:.1f}" for g in gs),
+            _verdict(holds),
+            basis="frustum culling's frame-time std exceeds every grid size's: "
+            + ("holds" if holds else "does not hold"),
+            why="" if holds else f"objects drawn ± std: frustum only {f.drawn_mean:.0f} ± "
+            f"{f.drawn_std:.0f}, grid "
+            + ", ".join(f"{int(g.grid_size)}: {g.drawn_mean:.0f} ± {g.drawn_std:.0f}" for g in gs)
+            + "; the grid's queries add cull time that varies with the cells in view (std "
+            + ", ".join(f"{g.ms_cull_std:.1f}" for g in gs)
+            + " ms), more than the objects it removes take off the variation",
+        ))  # fmt: skip
+        fr = df[(df.segment == seg) & (df.method == "frustum")]
+        ok = len(fr) > 2 and fr.drawn.std() > 0 and fr.ms_total.std() > 0
+        r = float(np.corrcoef(fr.drawn, fr.ms_total)[0, 1]) if ok else float("nan")
+        holds = bool(r > 0.5)
+        rows.append(harness.claim(
+            f"without occlusion culling frame time rises with objects drawn ({seg})",
+            DOC_DIP,
+            f"Pearson r(objects drawn, frame ms) = {r:.2f}, frustum only",
+            _verdict(holds),
+            basis="r > 0.5: " + ("holds" if holds else "does not hold"),
+            why="" if holds else f"objects drawn vary by only ± {fr.drawn.std():.0f} around "
+            f"{fr.drawn.mean():.0f}, so timing noise of the shared machine dominates",
+        ))  # fmt: skip
+        caps = {c: run(seg, mid, f"{c:g}x mean") for c in CAP_SCALES}
+        c1, c75, c50 = (caps[c] for c in CAP_SCALES)
+        d = abs(c75.ms_mean - c1.ms_mean) / c1.ms_mean
+        holds = d <= ALIKE
+        rows.append(harness.claim(
+            f"caps 1x and 0.75x mean queries (as 4000 and 3000) alike in frame time ({seg})",
+            DOC_CAPS_TEXT,
+            f"mean ms {c1.ms_mean:.1f} vs {c75.ms_mean:.1f} ({d:.0%}); caps "
+            f"{int(c1.query_cap)} and {int(c75.query_cap)}, the document's caps bind on "
+            f"{int(sm[(sm.segment == seg) & (sm.cap_rule == 'document')].cap_binds_frames.sum())} "
+            "frames",
+            _verdict(holds),
+            basis=f"mean frame times within {ALIKE:.0%}: "
+            + ("holds" if holds else "does not hold"),
+            why="" if holds else f"the 0.75x cap skips {c1.queries_mean - c75.queries_mean:.0f} "
+            "queries per frame; a cell over the cap keeps its last result: "
+            f"{c75.drawn_mean - c1.drawn_mean:+.0f} objects drawn",
+        ))  # fmt: skip
+        holds = c75.popping_mean > c1.popping_mean
+        rows.append(harness.claim(
+            f"cap 0.75x (as 3000) pops more than 1x (as 4000) ({seg})",
+            DOC_CAPS_TEXT,
+            f"popping per frame {c1.popping_mean:.2f} → {c75.popping_mean:.2f}",
+            _verdict(holds),
+            basis="mean popping per frame grows: " + ("holds" if holds else "does not hold"),
+            why="" if holds else f"objects drawn {c1.drawn_mean:.0f} → {c75.drawn_mean:.0f}: a "
+            "cell over the cap keeps its last query result (never queried: drawn), so a "
+            "tighter cap draws more instead of popping more",
+        ))  # fmt: skip
+        holds = c50.popping_mean > c75.popping_mean
+        rows.append(harness.claim(
+            f"cap 0.5x (as 2000) pops more than 0.75x ({seg})",
+            DOC_2000,
+            f"popping per frame {c75.popping_mean:.2f} → {c50.popping_mean:.2f} "
+            f"(max {int(c50.popping_max)})",
+            _verdict(holds),
+            basis="mean popping per frame grows: " + ("holds" if holds else "does not hold"),
+            why="" if holds else f"objects drawn {c75.drawn_mean:.0f} → {c50.drawn_mean:.0f}: a "
+            "cell over the cap keeps its last query result (never queried: drawn), so a "
+            "tighter cap draws more instead of popping more",
+        ))  # fmt: skip
+        n = int(gs[0].frames)
+        slower = {int(g.grid_size): int(g.slower_frames) for g in gs}
+        holds = any(0 < k < n / 2 for k in slower.values())
+        rows.append(harness.claim(
+            f"culling sometimes makes a frame slower than frustum only ({seg})",
+            DOC_SLOWER,
+            "slower frames " + ", ".join(f"grid {s}: {k}/{n}" for s, k in slower.items()),
+            _verdict(holds),
+            basis="some grid size is slower than frustum only in some but under half of the "
+            "frames: " + ("holds" if holds else "does not hold"),
+            why="" if holds else "cull ms (queries) grid "
+            + ", ".join(f"{int(g.grid_size)}: {g.ms_cull_mean:.1f}" for g in gs)
+            + f" vs frustum {f.ms_cull_mean:.1f}, "
+            f"objects drawn {f.drawn_mean:.0f} (frustum) vs oracle-visible "
+            f"{fr.oracle_visible.mean():.0f}: "
+            + ("few objects are hidden, so the queries cost more than they save in most frames"
+               if max(slower.values()) >= n / 2 else "culling never slowed a frame"),
+        ))  # fmt: skip
+    return harness.claims_frame(rows)
+
+
+EXPERIMENT = harness.experiment(
+    "seed002",
+    seed="002",
+    title="occlusion queries on grid cells: grid sizes, query caps, popping, indoors and out",
+    params=Params,
+    compute=compute,
+    plots=[plot_frametime, plot_drawn, plot_popping],
+    claims=claims,
+    quick={"frames": QUICK_FRAMES, "display": scaled(DISPLAY, QUICK_SCALE)},
+    minutes=8.0,
+    aliases=("grid",),
+    notebook="seed002_grid",
+)
