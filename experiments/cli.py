@@ -510,6 +510,22 @@ def cmd_cull(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_portals(args: argparse.Namespace) -> int:
+    from experiments import seed001_portals
+
+    setup = seed001_portals.make_setup(
+        args.quick, args.frames, args.display, args.rooms, args.floors, seed=args.seed
+    )
+    out = args.out or default_out(setup.quick)
+    if setup.quick:
+        print(
+            f"quick mode: {setup.frames} frames, display {res_str(setup.display)}",
+            file=sys.stderr,
+        )
+    seed001_portals.portal_experiment(setup, out, progress=not args.no_progress)
+    return 0
+
+
 def cmd_lod(args: argparse.Namespace) -> int:
     from pathlib import Path
 
