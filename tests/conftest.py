@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import soc
+import soc.testing
 
 
 @pytest.fixture(autouse=True)
@@ -49,24 +50,14 @@ def assert_conservative(result_visible: np.ndarray, truth: np.ndarray, what: str
 
 
 def check_conservative(scene, cameras, resolution, methods, **options) -> int:
-    """Cull ``cameras`` with every method in ``methods`` and fail on any object the oracle
-    sees at ``resolution`` but a method culls. Returns how many cameras the last method
-    culled something for (so callers can check the scene really exercised culling)."""
-    oracle = soc.Oracle(scene)
-    cullers = {
-        m: soc.Culler(scene, method=m, resolution=resolution, **options.get(m, {})) for m in methods
-    }
+    """Cull ``cameras`` with every method in ``methods`` (each camera on its own: ``reset()``
+    before it) and fail on any object the oracle sees at ``resolution`` but a method culls —
+    :func:`soc.testing.assert_conservative`, the same suite users run. ``options`` maps a
+    method name to its options. Returns how many cameras the last method culled something for
+    (so callers can check the scene really exercised culling)."""
+    case = soc.testing.Case("scene", scene, tuple(cameras), tuple(resolution), "given by the test")
     culled_something = 0
-    try:
-        for i, cam in enumerate(cameras):
-            truth = oracle.visible(cam, resolution)
-            for m, c in cullers.items():
-                c.method.reset()  # conservative check: no temporal reuse between cameras
-                r = c.cull(cam, truth=truth)
-                assert_conservative(r.visible, truth, f"{m} camera {i} eye={cam.eye}")
-            culled_something += int(r.visible.sum() < len(scene))
-    finally:
-        for c in cullers.values():
-            c.close()
-        oracle.close()
+    for m in methods:
+        report = soc.testing.assert_conservative(m, [case], reset=True, **options.get(m, {}))
+        culled_something = report.culled_views
     return culled_something

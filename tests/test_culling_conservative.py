@@ -2,18 +2,19 @@
 
 Random cameras over generated scenes (hard cases included on purpose: cameras inside AABBs,
 objects crossing the near plane or behind the camera, box occluders whose mesh is their AABB,
-pillars and decals lying on wall tops, flat objects, non-power-of-two resolutions), the seed-000
-flight over the generated town, and the castle when ``VISLOD_DATA`` is set.
+pillars and decals lying on wall tops, flat objects, non-power-of-two resolutions), the named
+hard cases of :func:`soc.testing.hard_cases` (one source of truth with the users' suite), the
+seed-000 flight over the generated town, and the castle when ``VISLOD_DATA`` is set.
 """
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 from conftest import check_conservative
 
 import soc
-from soc.scenes.clutter import box_mesh
+import soc.testing
+from soc.methods import METHODS
 from soc.scenes.paths import flight, random_cameras
 
 # Seed 000's methods; each later method runs the random-camera checks in its own test file.
@@ -28,8 +29,6 @@ STRICT_OPTIONS = {
 
 def every_conservative_method(scene) -> list[str]:
     """Every registered method that can cull ``scene`` and is conservative (strictly run)."""
-    from soc.methods import METHODS
-
     return [m for m in soc.method_names(scene) if METHODS[m].conservative or m in STRICT_OPTIONS]
 
 
@@ -64,59 +63,30 @@ def test_flight_over_small_market_at_large_odd_resolution(small_market):
     _check(small_market, cams, (2432, 1440))
 
 
-def test_camera_inside_an_objects_aabb():
-    """A room around the camera; a wall inside the room hides the room's far side, but the
-    room's near walls (inside its box) are visible and must be kept."""
-    room_v, room_f = box_mesh((-10, 0, -10), (10, 10, 10))
-    wall = box_mesh((-3, 0, -2), (3, 6, -1.5))
-    s = soc.Scene.from_meshes([(room_v, room_f), wall], occluder=[False, True])
-    cam = soc.Camera.look_at((0, 3, 2), (0, 3, -5), width=320, height=200, near=0.1, far=100)
-    _check_all(s, [cam], (320, 200))
-    with soc.Culler(s, method="queries", resolution=(320, 200)) as c:
-        assert c.cull(cam).visible[0]
+@pytest.mark.parametrize("case", soc.testing.hard_cases(), ids=lambda c: c.name)
+def test_hard_cases(case):
+    """soc.testing's hard cases (camera inside a box, near plane, box occluders, flat objects,
+    decals, slits, odd resolution, camera cut), each camera on its own, for every
+    conservative method — the suite users run on their own methods."""
+    _check_all(case.scene, case.cameras, case.resolution)
 
 
-def test_object_crossing_the_near_plane():
-    """A long beam from behind the camera to behind a wall (clipped by the near plane), and a
-    box wholly behind the camera."""
-    beam = box_mesh((-0.2, 1.9, -20), (0.2, 2.1, 5))
-    behind = box_mesh((-1, 1, 3), (1, 3, 4))
-    wall = box_mesh((-5, 0, -3), (5, 5, -2))
-    s = soc.Scene.from_meshes([beam, behind, wall], occluder=[False, False, True])
-    cam = soc.Camera.look_at((0, 2, 0), (0, 2, -10), width=320, height=200, near=0.5, far=100)
-    _check_all(s, [cam], (320, 200))
+def test_hard_cases_in_sequence_for_temporal_methods():
+    """Temporal methods that call themselves conservative stay so frame after frame, across
+    the camera cut (no reset between cameras)."""
+    for m in soc.method_names():
+        if METHODS[m].temporal and METHODS[m].conservative:
+            soc.testing.assert_conservative(m)
 
 
-def test_box_shaped_occluders_see_themselves():
-    """Occluders whose mesh equals their AABB: the query box coincides with the depth it is
-    tested against, at every angle."""
-    boxes = [
-        box_mesh((x, 0, z), (x + 2, 1 + abs(x) % 3, z + 2))
-        for x in range(-8, 8, 3)
-        for z in range(-8, 8, 3)
-    ]
-    s = soc.Scene.from_meshes(boxes, occluder=np.ones(len(boxes), bool))
-    cams = random_cameras(s, 40, seed=3, width=256, height=256, inside_fraction=0.0)
-    _check_all(s, cams, (256, 256))
-
-
-def test_pillar_and_decal_on_a_wall_top():
-    """Seen from above at a grazing angle, a pillar and a flat decal whose bottom faces lie in
-    the wall's top face, and a decal hovering a millimetre above it (visible, not z-fighting)."""
-    wall = box_mesh((-5, 0, -0.5), (5, 4, 0.5))
-    pillar = box_mesh((-0.2, 4, -0.2), (0.2, 4.05, 0.2))
-    decal = (
-        np.array([[1, 4, -0.5], [2, 4, -0.5], [2, 4, 0.5], [1, 4, 0.5]], np.float32),
-        np.array([[0, 1, 2], [0, 2, 3]]),
-    )
-    hover = (decal[0] + np.float32([0, 1e-3, 0]) - np.float32([3, 0, 0]), decal[1])
-    s = soc.Scene.from_meshes([wall, pillar, decal, hover], occluder=[True, False, False, False])
-    cams = [
-        soc.Camera.look_at((0, 4 + h, 12), (0, 4, 0), width=400, height=300, near=0.2, far=80)
-        for h in (0.05, 0.3, 1.0, 5.0)
-    ]
-    _check_all(s, cams, (400, 300))
-    assert soc.exact_visibility(s, cams[-1], (400, 300))[[1, 3]].all()  # really visible
+def test_hard_objects_are_really_visible():
+    """The objects the hard cases trap are seen by the oracle (else the cases test nothing)."""
+    cases = {c.name: c for c in soc.testing.hard_cases()}
+    inside = cases["camera-inside-box"]
+    with soc.Culler(inside.scene, method="queries", resolution=inside.resolution) as c:
+        assert c.cull(inside.cameras[0]).visible[0]  # the room around the camera
+    decals = soc.testing.oracle_truth(cases["decals"])
+    assert decals[2][[3, 5]].all()  # the pillar on the wall top and the hovering decal
 
 
 @pytest.mark.castle
