@@ -7,11 +7,13 @@
     vislod seed002 [--frames 100] [--grid-sizes 16,32,64] [--display WxH] [--quick] [--out DIR]
                                                      (= vislod grid)
     vislod portals [--frames 200] [--rooms 6x4] [--floors 1] [--display WxH] [--quick]
-                   [--out results]
+                   [--out results]                   (= vislod seed001-portals)
     vislod lod [--frames 150] [--budget-ms MS] [--recalibrate] [--quick] [--out results]
     vislod lod-quality [--data DIR] [--quick] [--out results]
     vislod image-based [--display 800x600] [--views 8] [--quick] [--out results]
-    vislod state-sorting [--frames 100] [--method hiz-gpu] [--k 1 2 ...] [--quick] [--out results]
+                                                     (= vislod seed001-image-based)
+    vislod state-sorting [--frames 100] [--method hiz-gpu] [--ks 1,2,...] [--quick] [--out DIR]
+                                                     (= vislod seed001-state-sorting)
     vislod seed003 [--quick] [--out DIR]
     vislod seed004-model [--quick] [--out DIR]
     vislod seed004-octree [--quick] [--frames N] [--objects 70000] [--out DIR]
@@ -76,11 +78,8 @@ EXTRA_MODULES: dict[str, tuple[str, ...]] = {
 COMMAND_EXTRAS: dict[str, tuple[str, ...]] = {
     "demo": (),
     "cull": (),
-    "portals": (),
     "lod": (),
     "lod-quality": (),
-    "image-based": (),
-    "state-sorting": (),
     "figures": (),  # and what its chosen figures need (experiments.figures.Figure.extras)
     "seed003": (),
     "seed004-model": ("fit",),  # the query-count model (7)-(11) is fitted with JAX/optimistix
@@ -114,10 +113,6 @@ def _named_methods(args: argparse.Namespace) -> list[str]:
     """The culling methods a command will run, from its options (``all`` expanded)."""
     if args.command == "cull":
         return [args.method]
-    if args.command == "state-sorting":
-        from experiments.seed001_state_sorting import METHOD
-
-        return [args.method or METHOD]
     if args.command in ("demo", "sweep"):
         if args.methods is None:
             if args.command == "demo":
@@ -190,16 +185,6 @@ def _resolution(text: str) -> tuple[int, int]:
 
 def _resolutions(text: str) -> list[tuple[int, int]]:
     return [_resolution(t) for t in text.split(",") if t.strip()]
-
-
-def _rooms(text: str) -> tuple[int, int]:
-    try:
-        nx, nz = (int(t) for t in text.lower().replace("×", "x").split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"bad rooms {text!r}: expected NXxNZ, e.g. 6x4") from None
-    if nx < 1 or nz < 1:
-        raise argparse.ArgumentTypeError(f"bad rooms {text!r}: need at least 1 room per axis")
-    return nx, nz
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -307,43 +292,6 @@ def build_parser() -> argparse.ArgumentParser:
     lq.add_argument(
         "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
     )
-    image = sub.add_parser(
-        "image-based", help="seed 001: stereo by warping, warping renderer, z-compositing"
-    )
-    image.add_argument(
-        "--quick", action="store_true", help="small market, 320x240, 3 views (VISLOD_QUICK=1)"
-    )
-    image.add_argument(
-        "--display", type=_resolution, default=None, help="WxH (default 800x600, quick 320x240)"
-    )
-    image.add_argument("--views", type=int, default=None, help="views per sweep (default 8)")
-    image.add_argument("--seed", type=int, default=0, help="scene and animation seed (default 0)")
-    image.add_argument(
-        "--out", default=None, help="results root; files go to <out>/seed001_image_based/"
-    )
-    image.add_argument("--no-progress", action="store_true", help="no progress bar")
-    ss = sub.add_parser(
-        "state-sorting", help="seed 001: sorting-buffer strategies, state changes per buffer size"
-    )
-    ss.add_argument("--frames", type=int, default=None, help="flight frames (default 100; quick 6)")
-    ss.add_argument(
-        "--display",
-        type=_resolution,
-        default=None,
-        help="culling resolution WxH (default 1920x1080, quick 480x270)",
-    )
-    ss.add_argument(
-        "--method", default=None, help="culling method producing the draw stream (default hiz-gpu)"
-    )
-    ss.add_argument(
-        "--k", type=int, nargs="+", default=None, metavar="K", help="buffer sizes (default 1..64)"
-    )
-    ss.add_argument("--seed", type=int, default=0, help="scene and stream seed (default 0)")
-    ss.add_argument("--quick", action="store_true", help="6 frames, small sweep (VISLOD_QUICK=1)")
-    ss.add_argument(
-        "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
-    )
-    ss.add_argument("--no-progress", action="store_true", help="no progress bar")
     figs = sub.add_parser(
         "figures", help="every figure of the source documents, then results/REPORT.md"
     )
@@ -406,8 +354,6 @@ def check_inputs(args: argparse.Namespace) -> None:
         if not folder.is_dir():
             what = "is a file, not a folder" if folder.exists() else "does not exist"
             raise UsageError(f"mesh folder {str(folder)!r} (--data) {what}")
-    if args.command == "state-sorting" and args.method is not None:
-        _check_method_culls(args.method, "market")
 
 
 def _check_method_culls(method: str, scene_name: str, scene=None) -> None:
@@ -510,22 +456,6 @@ def cmd_cull(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_portals(args: argparse.Namespace) -> int:
-    from experiments import seed001_portals
-
-    setup = seed001_portals.make_setup(
-        args.quick, args.frames, args.display, args.rooms, args.floors, seed=args.seed
-    )
-    out = args.out or default_out(setup.quick)
-    if setup.quick:
-        print(
-            f"quick mode: {setup.frames} frames, display {res_str(setup.display)}",
-            file=sys.stderr,
-        )
-    seed001_portals.portal_experiment(setup, out, progress=not args.no_progress)
-    return 0
-
-
 def cmd_lod(args: argparse.Namespace) -> int:
     from pathlib import Path
 
@@ -557,14 +487,6 @@ def cmd_lod_quality(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_image_based(args: argparse.Namespace) -> int:
-    from experiments import seed001_image_based as exp
-
-    setup = exp.make_setup(args.quick, args.display, args.views, args.seed)
-    exp.run(setup.quick, args.out, True, setup=setup, progress=not args.no_progress)
-    return 0
-
-
 def cmd_seed003(args: argparse.Namespace) -> int:
     from pathlib import Path
 
@@ -572,16 +494,6 @@ def cmd_seed003(args: argparse.Namespace) -> int:
 
     out = Path(args.out) if args.out else None
     seed003_complexity.run(args.quick, out, progress=not args.no_progress)
-    return 0
-
-
-def cmd_state_sorting(args: argparse.Namespace) -> int:
-    from experiments import seed001_state_sorting as ss
-
-    setup = ss.make_setup(
-        args.quick, args.frames, args.display, args.method, args.k, seed=args.seed
-    )
-    ss.run(setup.quick, args.out, True, setup=setup, progress=not args.no_progress)
     return 0
 
 
@@ -609,11 +521,8 @@ def cmd_figures(args: argparse.Namespace) -> int:
 COMMANDS = {
     "demo": cmd_demo,
     "cull": cmd_cull,
-    "portals": cmd_portals,
     "lod": cmd_lod,
     "lod-quality": cmd_lod_quality,
-    "image-based": cmd_image_based,
-    "state-sorting": cmd_state_sorting,
     "figures": cmd_figures,
     "seed003": cmd_seed003,
     "seed004-model": seed004_model.command,

@@ -113,12 +113,6 @@ def _seed001_lod_quality_check(quick: bool, data: str | None) -> str | None:
     return None
 
 
-def _seed001_portals(quick: bool, out: Path, data: str | None) -> None:
-    from experiments import seed001_portals
-
-    seed001_portals.portal_experiment(seed001_portals.make_setup(quick), out)
-
-
 def _seed001_lod(quick: bool, out: Path, data: str | None) -> None:
     from experiments import seed001_lod_budget
 
@@ -129,18 +123,6 @@ def _seed001_lod_quality(quick: bool, out: Path, data: str | None) -> None:
     from experiments import seed001_lod_quality
 
     seed001_lod_quality.run(quick, out / "seed001_lod", data, verbose=True)
-
-
-def _seed001_state_sorting(quick: bool, out: Path, data: str | None) -> None:
-    from experiments import seed001_state_sorting
-
-    seed001_state_sorting.run(quick, out, True)
-
-
-def _seed001_image_based(quick: bool, out: Path, data: str | None) -> None:
-    from experiments import seed001_image_based
-
-    seed001_image_based.run(quick, out, True)
 
 
 def _seed003(quick: bool, out: Path, data: str | None) -> None:
@@ -202,36 +184,6 @@ FIGURES: tuple[Figure, ...] = (
         module="experiments.seed001_lod_quality",
         uses_data=True,
         check=_seed001_lod_quality_check,
-    ),
-    Figure(
-        "seed001-portals",
-        "001",
-        "portal culling in a building",
-        "seed001_portals_summary.json",
-        _seed001_portals,
-        2.0,
-        "seed001_portals*.png",
-        module="experiments.seed001_portals",
-    ),
-    Figure(
-        "seed001-state-sorting",
-        "001",
-        "state sorting: sorting-buffer strategies against the offline optimum",
-        "seed001_state_sorting/seed001_state_sorting.json",
-        _seed001_state_sorting,
-        3.0,
-        "seed001_state_sorting/*.png",
-        module="experiments.seed001_state_sorting",
-    ),
-    Figure(
-        "seed001-image-based",
-        "001",
-        "image-based rendering: stereo by warping, the warping renderer, z-compositing",
-        "seed001_image_based/seed001_image_based.json",
-        _seed001_image_based,
-        3.0,
-        "seed001_image_based/*.png",
-        module="experiments.seed001_image_based",
     ),
     Figure(
         "seed003",

@@ -49,7 +49,7 @@ SHOTS = (
         "vislod lod",
     ),
     Shot(
-        "seed001_image_based/seed001_stereo_images.png",
+        "seed001-image-based/seed001_image_based_stereo_images.png",
         "seed001_stereo.png",
         "Seed 001: stereo by warping — the true right eye, the warped one, and its holes",
         "vislod image-based",

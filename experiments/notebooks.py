@@ -185,84 +185,21 @@ RENDERING_INTRO = """\
 # Seed 001 — portal culling, state sorting, image-based techniques
 
 Zachmann's VR lecture on real-time rendering (seed 001) covers, besides levels of detail
-(`seed001_lod.ipynb`):
-
-- **portal culling** in buildings: cells and portals; from a viewpoint even less is visible.
-  We walk through generated rooms and compare objects culled per room by portal culling and
-  by frustum culling alone, and check against the oracle that portals never cull a visible
-  object (`experiments/seed001_portals.py`, `vislod portals`);
-- **state sorting** with a sorting buffer of k draws and lazy online strategies (LRU,
-  Bounded-Waste, Random-Choice, Round-Robin) against the offline optimum, by their number of
-  state changes, on synthetic streams and on the draw stream of the culled market flight;
-  LRU's worst-case input (`experiments/seed001_state_sorting.py`, `vislod state-sorting`);
-- **image-based techniques**: stereo by warping one eye's image to the other (holes vs eye
-  separation), the decoupled warping renderer (re-projecting an older frame with per-object
-  transforms: holes and error vs frame age, warp vs render time), and z-compositing of images
-  of disjoint object subsets, which must equal the full render exactly
-  (`experiments/seed001_image_based.py`, `vislod image-based`).
-
-The notebook only calls the experiments. `VISLOD_QUICK=1`: small scenes, few frames (about a
-minute in all); the full runs take a few minutes each on two CPU cores."""
-
-RENDERING_SETUP = """\
-from IPython.display import Image, display
-
-from experiments import seed001_image_based, seed001_portals, seed001_state_sorting
-from experiments.common import default_out, env_quick
-
-quick = env_quick()
-out = default_out(quick)
-print(f"quick={quick}: results in {out}")"""
-
-PORTALS_RUN = """\
-portal_setup = seed001_portals.make_setup(quick=quick)
-portals = seed001_portals.portal_experiment(portal_setup, out, verbose=False)
-print(seed001_portals.format_summary(portals.summary, portal_setup, portals.objects))"""
-
-SORTING_RUN = """\
-sorting = seed001_state_sorting.run(quick, out, verbose=False, progress=False)
-print(seed001_state_sorting.format_summary(sorting["summary"], sorting["stream"]))
-print()
-print(seed001_state_sorting.format_worst(sorting["worst_case"]))"""
-
-IMAGE_RUN = """\
-image = seed001_image_based.run(quick, out, verbose=False, progress=False)
-print(seed001_image_based.format_claims(image["claims"]))"""
+(`seed001_lod.ipynb`), portal culling in buildings, state sorting with a sorting buffer, and
+image-based techniques (stereo by warping, the decoupled warping renderer, z-compositing).
+Each section below computes one experiment into tidy DataFrames, draws its pictures from them
+and lists its claims beside the lecture's words. `VISLOD_QUICK=1`: small scenes, few frames
+(about a minute in all); the full runs take a few minutes each on two CPU cores."""
 
 
 def build_rendering():
-    """``seed001_rendering.ipynb`` as an ``nbformat`` node (no outputs)."""
+    """``seed001_rendering.ipynb``: the introduction, then each seed-001 rendering experiment's
+    cells (:func:`experiment_cells`)."""
     from nbformat import v4
 
-    sorting_pngs = ["seed001_state_changes.png", "seed001_state_ratio.png"]
-    image_pngs = [
-        "seed001_stereo_images.png",
-        "seed001_stereo_error.png",
-        "seed001_warp_images.png",
-        "seed001_warp_age.png",
-        "seed001_composite.png",
-    ]
-    cells = [
-        v4.new_markdown_cell(RENDERING_INTRO),
-        v4.new_code_cell(RENDERING_SETUP),
-        v4.new_markdown_cell(
-            "## Portal culling per room\n\nObjects culled per room the camera stands in, "
-            "frustum alone vs portals vs the oracle's ideal; cull time per frame."
-        ),
-        v4.new_code_cell(PORTALS_RUN),
-        v4.new_code_cell(image_cell(["seed001_portals.png"])),
-        v4.new_markdown_cell(
-            "## State sorting\n\nState changes per buffer size k and the ratio to the "
-            "best offline order, per strategy and stream."
-        ),
-        v4.new_code_cell(SORTING_RUN),
-        v4.new_code_cell(image_cell([f"seed001_state_sorting/{p}" for p in sorting_pngs])),
-        v4.new_markdown_cell(
-            "## Image-based techniques\n\nStereo by warping, the warping renderer, z-compositing."
-        ),
-        v4.new_code_cell(IMAGE_RUN),
-        v4.new_code_cell(image_cell([f"seed001_image_based/{p}" for p in image_pngs])),
-    ]
+    cells = [v4.new_markdown_cell(RENDERING_INTRO)]
+    for key in ("seed001-portals", "seed001-state-sorting", "seed001-image-based"):
+        cells += experiment_cells(key)
     return notebook(cells, "seed001-rendering")
 
 

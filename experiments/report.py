@@ -57,9 +57,6 @@ def _verdict(agrees: Any) -> str:
 
 # Why a claim differs on our machine and scenes, by a phrase of the claim (as far as we know).
 CLAIM_WHY = {
-    "faster than rendering": "llvmpipe is a CPU rasterizer: a point splat per pixel costs "
-    "about as much as shading that pixel from triangles; the lecture's 20× is for 12 M "
-    "polygons on graphics hardware",
     "like the product": "on llvmpipe time adds (a·V + b·VP) rather than multiplies: the "
     "product is the worst-case bound, reached only when every triangle covers the screen",
 }
@@ -201,19 +198,6 @@ def _seed000(s: dict[str, Any]) -> list[Row]:
 # -- seed 001 ---------------------------------------------------------------------------------
 
 
-def _seed001_portals(s: dict[str, Any]) -> list[Row]:
-    fc = s["false_culls"]
-    return [
-        Row(
-            "portal culling",
-            s["document"]["claim"],
-            f"portals cull more than the frustum: {s['portals_culls_more']}; false culls "
-            f"frustum {fc['frustum']}, portals {fc['portals']} ({s['objects']:,} objects)",
-            _verdict(s["portals_culls_more"] and fc["portals"] == 0),
-        )
-    ]
-
-
 def _seed001_lod(s: dict[str, Any]) -> list[Row]:
     doc, pics, cal = s["document"], s["pictures"], s["calibration"]
     budget = pics["budget_ms"]
@@ -289,24 +273,6 @@ def _seed001_lod_quality(s: dict[str, Any]) -> list[Row]:
                 )
             )
     return rows
-
-
-def _seed001_image_based(s: dict[str, Any]) -> list[Row]:
-    c = s["composite"]
-    return [
-        Row(
-            "image composition by per-pixel z comparison",
-            "each part rendered separately, combined by z",
-            f"{c['parts']} parts, {c['pixels']:,} pixels: {c['ids_differ']} ids and "
-            f"{c['color_differs']} colours differ from the full render",
-            _verdict(c["exact"]),
-        ),
-        *_claims(s["claims"], "image-based: "),
-    ]
-
-
-def _seed001_state_sorting(s: dict[str, Any]) -> list[Row]:
-    return _claims(s["claims"], "state sorting: ")
 
 
 # -- seed 003 ---------------------------------------------------------------------------------
@@ -422,9 +388,6 @@ ROWS: dict[str, Callable[[dict[str, Any]], list[Row]]] = {
     "seed000": _seed000,
     "seed001-lod": _seed001_lod,
     "seed001-lod-quality": _seed001_lod_quality,
-    "seed001-image-based": _seed001_image_based,
-    "seed001-portals": _seed001_portals,
-    "seed001-state-sorting": _seed001_state_sorting,
     "seed003": _seed003,
     "seed004-model": _seed004_model,
     "seed004-octree": _seed004_octree,

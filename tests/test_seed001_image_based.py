@@ -1,101 +1,93 @@
-"""The seed-001 image-based experiment end to end on a tiny setup: every file written, the
-identity cases exact (separation 0, age 0), holes growing with eye separation, the composite
-equal to the full render, and mistakes reported as exit status 2 with nothing written."""
+"""The seed-001 image-based experiment on a tiny run: the identity cases exact (separation 0,
+age 0), holes growing with eye separation and frame age, the composite equal to the full
+render, the timing recorded, the pictures drawn from the frames (no recomputation), claims
+verdicts, and bad parameters refused before any work."""
 
 from __future__ import annotations
-
-import json
 
 import numpy as np
 import pytest
 
+from experiments import harness
 from experiments import seed001_image_based as exp
-from experiments.common import read_csv
+from experiments.common import UsageError
 
-FILES = [
-    "seed001_stereo.csv",
-    "seed001_warp.csv",
-    "seed001_timing.csv",
-    "seed001_image_based.json",
-    "seed001_stereo_images.png",
-    "seed001_stereo_error.png",
-    "seed001_warp_age.png",
-    "seed001_warp_images.png",
-    "seed001_composite.png",
-]
+TINY = dict(
+    display=(160, 120), views=2, separations=(0.0, 0.5, 1.0, 4.0), ages=(0, 1, 4),
+    splat_sizes=(1.0, 2.0), repeats=1,
+)  # fmt: skip
 
 
 @pytest.fixture(scope="module")
-def tiny_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("image_based")
-    setup = exp.ImageSetup(
-        display=(160, 120),
-        views=2,
-        separations=(0.0, 0.5, 1.0, 4.0),
-        ages=(0, 1, 4),
-        splat_sizes=(1.0, 2.0),
-        repeats=1,
-        quick=True,
-    )
-    result = exp.run(out=out, verbose=False, setup=setup, progress=False)
-    return out / exp.NAME, setup, result
+def tiny():
+    params = exp.EXPERIMENT.make_params(quick=True, **TINY)
+    params.check()
+    return params, exp.compute(params, progress=False)
 
 
-def test_every_file_is_written(tiny_run):
-    folder, _, result = tiny_run
-    for name in FILES:
-        assert (folder / name).is_file() and (folder / name).stat().st_size > 0, name
-    assert sorted(p.split("/")[-1] for p in result["files"]) == sorted(FILES)
-    assert not list(folder.glob(".*.tmp"))
-    saved = json.loads((folder / "seed001_image_based.json").read_text())
-    assert saved["document"]["speedup"].startswith("12 Mio Polygone")
-    assert saved["setup"]["display"] == "160x120"
+def test_zero_separation_and_zero_age_are_exact(tiny):
+    params, frames = tiny
+    assert set(frames) == set(exp.FRAMES)
+    st = frames["stereo"]
+    zero = st[st.separation == 0.0]
+    assert len(zero) == len(exp.view_frames(params))
+    assert (zero.holes == 0).all() and (zero.wrong_objects == 0).all()
+    assert (zero.color_mae == 0).all()
+    w = frames["warp"]
+    fresh = w[(w.age == 0) & (w.splat_size == 1.0)]
+    assert len(fresh) == 2 * len(exp.view_frames(params, lead=max(params.ages)))  # both motions
+    assert (fresh.holes == 0).all() and (fresh.wrong_objects == 0).all()
 
 
-def test_zero_separation_and_zero_age_are_exact(tiny_run):
-    folder, setup, _ = tiny_run
-    stereo = read_csv(folder / "seed001_stereo.csv")
-    zero = [r for r in stereo if float(r["separation"]) == 0.0]
-    assert len(zero) == len(exp.view_frames(setup))
-    for r in zero:
-        assert (int(r["holes"]), int(r["wrong_objects"]), float(r["color_mae"])) == (0, 0, 0.0)
-    warp = read_csv(folder / "seed001_warp.csv")
-    fresh = [r for r in warp if r["age"] == "0" and float(r["splat_size"]) == 1.0]
-    assert len(fresh) == 2 * len(exp.view_frames(setup, lead=max(setup.ages)))  # both motions
-    for r in fresh:
-        assert (int(r["holes"]), int(r["wrong_objects"]), float(r["color_mae"])) == (0, 0, 0.0)
-
-
-def test_holes_grow_with_separation_and_age(tiny_run):
-    _, _, result = tiny_run
-    holes = [s["hole_pct"] for s in result["summary"]["stereo"]]
+def test_holes_grow_with_separation_and_age(tiny):
+    _, frames = tiny
+    holes = frames["stereo"].groupby("separation").hole_pct.mean().to_numpy()
     assert holes[0] == 0 and holes[-1] > holes[1] > 0
     assert np.all(np.diff(holes) >= 0), holes
-    one = [
-        a
-        for a in result["summary"]["ages"]
-        if a["splat_size"] == 1.0 and a["object_motion"] != "ignored"
-    ]
-    assert [a["age"] for a in one] == [0, 1, 4]
-    assert one[0]["hole_pct"] == 0 < one[1]["hole_pct"] < one[2]["hole_pct"]
+    w = frames["warp"]
+    one = w[(w.splat_size == 1.0) & (w.object_motion != "ignored")]
+    h = one.groupby("age").hole_pct.mean()
+    assert list(h.index) == [0, 1, 4]
+    assert h[0] == 0 < h[1] < h[4]
     # Holes are either at the border or inside; the split adds up.
-    for a in result["summary"]["ages"]:
-        assert a["border_hole_pct"] + a["interior_hole_pct"] == pytest.approx(a["hole_pct"])
+    assert np.allclose(w.border_hole_pct + w.interior_hole_pct, w.hole_pct)
 
 
-def test_composite_is_exact_and_timing_is_recorded(tiny_run):
-    folder, setup, result = tiny_run
-    assert result["composite"]["exact"] and result["composite"]["ids_differ"] == 0
-    rows = read_csv(folder / "seed001_timing.csv")
-    assert len(rows) == len(exp.view_frames(setup))
-    for r in rows:
-        assert float(r["render_ms"]) > 0 and float(r["warp_scatter_ms"]) > 0
-        assert float(r["engines_agree_pct"]) > 95.0
-    verdicts = {c["claim"]: c["verdict"] for c in result["claims"]}
-    assert verdicts["z-compositing separately rendered parts gives the full image"] == "agrees"
+def test_composite_timing_and_claims(tiny):
+    params, frames = tiny
+    c = frames["composite"].iloc[0]
+    assert c.exact and c.ids_differ == 0
+    tm = frames["timing"]
+    assert len(tm) == len(exp.view_frames(params))
+    assert (tm.render_ms > 0).all() and (tm.warp_scatter_ms > 0).all()
+    assert (tm.engines_agree_pct > 95.0).all()
+    cl = exp.claims(frames, params).set_index("item")
+    assert set(cl.verdict) <= set(harness.VERDICTS)
+    assert cl.loc["image composition by per-pixel z"].verdict == harness.NUMBERS
+    assert cl.loc["stereo by warping: holes, more the wider the eyes are apart"].verdict == (
+        harness.TREND
+    )
+    speed = cl.loc["warping renderer: speed-up over rendering"]
+    assert speed.document == "«12 Mio Polygone, 800 x 600»: «ca.(!) Faktor 20 schneller»"
+    assert speed.verdict == harness.TREND or "extrapolation" in speed.why
 
 
-def test_main_rejects_a_bad_display_without_writing(tmp_path, capsys):
-    assert exp.main(["--quick", "--display", "4x4", "--out", str(tmp_path)]) == 2
-    assert "display" in capsys.readouterr().err
-    assert not any(tmp_path.iterdir())
+def test_pictures_are_drawn_from_the_frames(tiny):
+    params, frames = tiny
+    pics = frames["pictures"]
+    assert set(pics.picture) == {"stereo", "warp", "composite"}
+    assert (pics[pics.picture == "stereo"].panel.tolist()) == [0, 1, 2, 3]
+    img = exp.decode(pics.png.iloc[0])
+    assert img.shape[:2] == (params.display[1], params.display[0])
+    for plot in exp.EXPERIMENT.plots:
+        assert plot(frames, params).axes, plot.__name__
+
+
+@pytest.mark.parametrize(
+    "override, needle",
+    [({"display": (4, 4)}, "display"), ({"views": 0}, "views"), ({"ages": (0, 400)}, "ages"),
+     ({"splat_sizes": (0.0,)}, "splat_sizes"), ({"separations": (-1.0,)}, "separations")],
+)  # fmt: skip
+def test_check_refuses_bad_values(override, needle):
+    with pytest.raises(UsageError, match=needle):
+        exp.EXPERIMENT.make_params(quick=True, **override).check()

@@ -1,98 +1,76 @@
-"""The seed-001 state-sorting experiment end to end on a tiny setup: every file written, every
-row consistent with an independent count, LRU's worst case exact, the draw stream built from
-the culler's output, and usage errors that exit 2 without writing."""
+"""The seed-001 state-sorting experiment on a tiny run: every row of the sweep consistent with
+an independent count, LRU's worst case exact, the draw stream built from the culler's output,
+the claims' verdicts, the pictures drawn from the frames, and bad parameters (a method that
+cannot cull the market among them) refused before any work."""
 
 from __future__ import annotations
-
-import dataclasses
-import json
 
 import numpy as np
 import pytest
 
 import soc
+from experiments import harness
 from experiments import seed001_state_sorting as exp
-from experiments.common import read_csv
+from experiments.common import UsageError
 from soc.rendering.state_sorting import colour_changes, simulate
 
-FILES = [
-    "seed001_state_sorting.csv",
-    "seed001_state_summary.csv",
-    "seed001_state_exact.csv",
-    "seed001_state_worst_case.csv",
-    "seed001_state_timing.csv",
-    "seed001_state_claims.csv",
-    "seed001_state_changes.png",
-    "seed001_state_ratio.png",
-    "seed001_state_sorting.json",
-]
+TINY = dict(
+    frames=2, display=(240, 136), ks=(1, 2, 5, 16), real_ks=(1, 2, 5, 16), synthetic_n=600,
+    exact_streams=6, worst_ms=(2, 4), timing_n=5_000,
+)  # fmt: skip
 
 
 @pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
-    out = tmp_path_factory.mktemp("sorting")
-    setup = exp.make_setup(quick=True, frames=2, display=(240, 136), ks=(1, 2, 5, 16))
-    setup = dataclasses.replace(
-        setup, synthetic_n=600, exact_streams=6, worst_ms=(2, 4), timing_n=5_000
-    )
-    result = exp.run(out=out, verbose=False, setup=setup, progress=False)
-    return out / exp.SUBDIR, setup, result
-
-
-def test_every_file_is_written(tiny):
-    folder, _, result = tiny
-    for name in FILES:
-        assert (folder / name).is_file() and (folder / name).stat().st_size > 0, name
-    assert sorted(p.name for p in result["files"]) == sorted(FILES)
-    assert not list(folder.glob(".*.tmp")), "a temporary file was left behind"
-    data = json.loads((folder / "seed001_state_sorting.json").read_text())
-    assert data["document"]["round_robin"].startswith("Round-Robin ist sehr gut")
-    assert {c["verdict"] for c in data["claims"]} <= {"agrees", "differs"}
-    assert len(data["claims"]) == 3
+def tiny():
+    params = exp.EXPERIMENT.make_params(quick=True, **TINY)
+    params.check()
+    return params, exp.compute(params, progress=False)
 
 
 def test_rows_agree_with_independent_counts(tiny):
-    folder, setup, result = tiny
-    rows = read_csv(folder / "seed001_state_sorting.csv")
-    streams = exp.synthetic_streams(setup.synthetic_n, setup.seed)
-    cells = {(r["stream"], int(r["k"])) for r in rows}
-    assert len(cells) == 4 * len(setup.ks) + len(setup.real_ks)
-    for r in rows:
-        k, changes, ref = int(r["k"]), int(r["changes"]), int(r["reference"])
-        assert changes >= ref >= int(r["sorted_bound"]) > 0, r
-        assert float(r["ratio"]) == pytest.approx(changes / ref, abs=1e-6)
-        if k == 1:  # one slot cannot reorder: FIFO for everyone
-            assert changes == int(r["fifo"]), r
-        if r["stream"] in streams:
-            assert int(r["fifo"]) == colour_changes(streams[r["stream"]])
-            if r["strategy"] == "lru":  # re-run independently of the sweep
-                assert changes == simulate(streams[r["stream"]], k, "lru").changes
-        if r["stream"] == "adversarial":
-            assert int(r["fifo"]) == colour_changes(exp.adversarial_stream(k))
-    # the reference is the best strategy at that cell
-    for cell in cells:
-        cell_rows = [r for r in rows if (r["stream"], int(r["k"])) == cell]
-        assert min(int(r["changes"]) for r in cell_rows) == int(cell_rows[0]["reference"])
-    assert result["stream"]["draws"] == int(
-        next(r for r in rows if r["stream"] == "market")["draws"]
-    )
+    params, frames = tiny
+    assert set(frames) == set(exp.FRAMES)
+    sw = frames["sweep"]
+    streams = exp.synthetic_streams(params.synthetic_n, params.seed)
+    cells = sw.groupby(["stream", "k"])
+    assert cells.ngroups == 4 * len(params.ks) + len(params.real_ks)
+    assert (cells.size() == len(exp.STRATEGIES)).all()
+    assert (sw.changes >= sw.reference).all() and (sw.reference >= sw.sorted_bound).all()
+    assert np.allclose(sw.ratio, sw.changes / sw.reference)
+    assert (sw[sw.k == 1].changes == sw[sw.k == 1].fifo).all()  # one slot cannot reorder
+    for r in sw[sw.stream.isin(list(streams))].itertuples():
+        assert r.fifo == colour_changes(streams[r.stream])
+        if r.strategy == "lru":  # re-run independently of the sweep
+            assert r.changes == simulate(streams[r.stream], r.k, "lru").changes
+    for r in sw[sw.stream == "adversarial"].itertuples():
+        assert r.fifo == colour_changes(exp.adversarial_stream(r.k))
+    assert (cells.changes.min() == cells.reference.first()).all()  # the best is the reference
+    assert frames["stream"].draws.iloc[0] == sw[sw.stream == "market"].draws.iloc[0]
 
 
 def test_worst_case_rows_are_exact(tiny):
-    _, _, result = tiny
-    for r in result["worst_case"]:
-        m = r["m"]
-        assert r["lru_changes"] == m * (m + 1) == r["fifo_changes"]
-        assert r["optimal_changes"] == 2 * m
-        assert r["ratio"] == pytest.approx((m + 1) / 2)
-    lru_claim = result["claims"][1]
-    assert lru_claim["verdict"] == "agrees", lru_claim
+    _, frames = tiny
+    for r in frames["worst_case"].itertuples():
+        assert r.lru_changes == r.m * (r.m + 1) == r.fifo_changes
+        assert r.optimal_changes == 2 * r.m
+        assert r.ratio == pytest.approx((r.m + 1) / 2)
+    ex = frames["exact"]
+    assert (ex.ratio_mean >= 1.0 - 1e-12).all() and (ex.ratio_max >= ex.ratio_mean).all()
 
 
-def test_exact_check_offline_is_never_below_one(tiny):
-    _, _, result = tiny
-    for r in result["exact"]:
-        assert r["ratio_mean"] >= 1.0 - 1e-12 and r["ratio_max"] >= r["ratio_mean"], r
+def test_claims_and_pictures(tiny):
+    params, frames = tiny
+    c = exp.claims(frames, params).set_index("item")
+    assert set(c.verdict) <= set(harness.VERDICTS)
+    lru = c.loc["LRU's lower bound: the offline strategy's cost on LRU's input"]
+    assert lru.verdict == harness.NUMBERS and "m=4: optimum 8" in lru.ours
+    rr = c.loc["Round-Robin is very good although very simple"]
+    assert rr.document == "«Round-Robin ist sehr gut (obwohl sehr einfach)»"
+    assert rr.verdict in (harness.TREND, harness.DIFFERS) and rr.basis
+    worst = c.loc["the worst case says little about practical performance"]
+    assert worst.basis.endswith(("holds", "does not hold"))
+    for plot in (exp.plot_changes, exp.plot_ratio):
+        assert len(plot(frames, params).axes) == 5
 
 
 def test_materials_are_mesh_families():
@@ -105,8 +83,8 @@ def test_materials_are_mesh_families():
 
 
 def test_draw_stream_is_what_the_culler_keeps():
-    setup = exp.make_setup(quick=True, frames=2, display=(160, 90), method="frustum")
-    frames, info = exp.draw_stream(setup)
+    params = exp.EXPERIMENT.make_params(quick=True, frames=2, display=(160, 90), method="frustum")
+    frames, info = exp.draw_stream(params)
     scene = soc.scenes.market(seed=0)
     mats, names = exp.material_ids(scene.names)
     cams = soc.scenes.paths.flight(scene, frames=2, width=160, height=90)
@@ -116,10 +94,12 @@ def test_draw_stream_is_what_the_culler_keeps():
     assert info["materials"] == len(names) and info["draws"] == sum(len(f) for f in frames)
 
 
-def test_usage_errors_exit_2_and_write_nothing(tmp_path, capsys):
-    assert exp.main(["--frames", "1", "--out", str(tmp_path)]) == 2
-    assert exp.main(["--method", "nope", "--out", str(tmp_path)]) == 2
-    assert exp.main(["--k", "0", "--out", str(tmp_path)]) == 2
-    assert exp.main(["--display", "12", "--out", str(tmp_path)]) == 2
-    assert "vislod: error:" in capsys.readouterr().err
-    assert not list(tmp_path.iterdir())
+@pytest.mark.parametrize(
+    "override, needle",
+    [({"frames": 1}, "frames"), ({"method": "nope"}, "unknown method 'nope'"),
+     ({"method": "portals"}, "cells and portals"), ({"ks": (0, 4)}, "ks"),
+     ({"worst_ms": (3,)}, "worst_ms"), ({"display": (12, 12)}, "display")],
+)  # fmt: skip
+def test_check_refuses_bad_values(override, needle):
+    with pytest.raises(UsageError, match=needle):
+        exp.EXPERIMENT.make_params(quick=True, **override).check()
