@@ -142,6 +142,34 @@ def test_a_user_registered_method_reaches_the_culler_by_name():
         del METHODS["test-registered-odd"]
 
 
+def test_an_entry_point_method_is_loaded_on_first_need(monkeypatch):
+    """A package's ``vislod.methods`` entry point (here a stand-in) is imported the first time
+    a method name is not found, and its class registered."""
+    import importlib.metadata
+
+    from soc.methods import base
+
+    class FromPackage(OddCull):
+        name = "test-entry-point-odd"
+
+    class EntryPoint:
+        def load(self):
+            return FromPackage
+
+    groups = []
+    monkeypatch.setattr(
+        importlib.metadata, "entry_points", lambda group: groups.append(group) or [EntryPoint()]
+    )
+    monkeypatch.setattr(base, "_entry_points_loaded", False)
+    try:
+        case = soc.testing.hard_cases()[0]
+        with soc.Culler(case.scene, method="test-entry-point-odd", resolution=(64, 40)) as c:
+            assert not c.cull(case.cameras[0]).visible[1]
+        assert groups == ["vislod.methods"]
+    finally:
+        METHODS.pop("test-entry-point-odd", None)
+
+
 def test_bad_arguments_are_clear_errors():
     scene = soc.scenes.clutter(0)
     with pytest.raises(ValueError, match="without cameras"):
