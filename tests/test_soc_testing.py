@@ -123,6 +123,16 @@ def test_a_shrunken_frustum_is_caught_on_given_scenes_and_cameras():
     assert soc.testing.check_conservative("frustum", scenes=[scene], cameras=[cams]).ok
 
 
+def test_a_coarse_depth_buffer_loses_the_slits():
+    """hiz-gpu with a 64×40 occluder buffer and no conservative rasterization (seed 000's
+    coarse-buffer trade) closes the few-pixel slits: the slits case catches it."""
+    slits = [c for c in soc.testing.hard_cases() if c.name == "slits"]
+    coarse = {"conservative": False, "occluder_resolution": (64, 40)}
+    report = soc.testing.check_conservative("hiz-gpu", slits, **coarse)
+    assert not report.ok and not report.conservative
+    assert soc.testing.check_conservative("hiz-gpu", slits, conservative=True).ok
+
+
 def test_a_temporal_method_that_pops_fails_the_sequence():
     """grid's default temporal mode reads last frame's queries: not conservative over a cut."""
     report = soc.testing.check_conservative("grid")
