@@ -17,7 +17,7 @@
     vislod seed003 [--quick] [--out DIR]
     vislod seed004-model [--quick] [--out DIR]
     vislod seed004-octree [--quick] [--frames N] [--objects 70000] [--out DIR]
-    vislod seed004-adaptive [--quick] [--frames N] [--scale S] [--scenes ...] [--out DIR]
+    vislod seed004-adaptive [--quick] [--frames N] [--scale S] [--scenes A,B] [--out DIR]
     vislod figures [--only NAME ...] [--force] [--quick] [--out results]
     vislod sweep [--scenes SPEC ...] [--seeds N ...] [--methods ...] [--displays WxH ...]
                  [--resolutions WxH ...] [--frames N] [--chunk N] [--oracle] [--draw]
@@ -42,7 +42,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
-from experiments import seed004_adaptive, seed004_model, seed004_octree
 from experiments.commands import add_parsers, run_command
 from experiments.common import (
     DISPLAY,
@@ -82,9 +81,6 @@ COMMAND_EXTRAS: dict[str, tuple[str, ...]] = {
     "lod-quality": (),
     "figures": (),  # and what its chosen figures need (experiments.figures.Figure.extras)
     "seed003": (),
-    "seed004-model": ("fit",),  # the query-count model (7)-(11) is fitted with JAX/optimistix
-    "seed004-octree": (),
-    "seed004-adaptive": ("fit",),  # the adaptive method fits q* while rendering
     "sweep": ("sweep",),  # Dask distributed
 }
 # Culling method → the extras it needs, for the commands that take methods.
@@ -316,16 +312,6 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", default=None, help="folder (default: results/[quick/]seed003_complexity/)"
     )
     s3.add_argument("--no-progress", action="store_true", help="no progress bar")
-    s4 = sub.add_parser("seed004-model", help="seed 004: performance model, Table 1")
-    seed004_model.add_arguments(s4)
-    octree = sub.add_parser(
-        "seed004-octree", help="seed 004: dynamic scenes, octree node buffers, Table 2"
-    )
-    seed004_octree.add_arguments(octree)
-    ad = sub.add_parser(
-        "seed004-adaptive", help="seed 004: Figs. 3-5, frustum vs queries vs adaptive"
-    )
-    seed004_adaptive.add_arguments(ad)
     add_sweep_parser(sub)
     HARNESS.update(add_parsers(sub, set(sub.choices)))
     return p
@@ -525,9 +511,6 @@ COMMANDS = {
     "lod-quality": cmd_lod_quality,
     "figures": cmd_figures,
     "seed003": cmd_seed003,
-    "seed004-model": seed004_model.command,
-    "seed004-octree": seed004_octree.command,
-    "seed004-adaptive": seed004_adaptive.command,
     "sweep": cmd_sweep,
 }
 

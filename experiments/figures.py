@@ -131,24 +131,6 @@ def _seed003(quick: bool, out: Path, data: str | None) -> None:
     seed003_complexity.run(quick, out / "seed003_complexity")
 
 
-def _seed004_model(quick: bool, out: Path, data: str | None) -> None:
-    from experiments import seed004_model
-
-    seed004_model.run(quick, out / "seed004_model")
-
-
-def _seed004_octree(quick: bool, out: Path, data: str | None) -> None:
-    from experiments import seed004_octree
-
-    seed004_octree.run(quick, out / "seed004_octree", True)
-
-
-def _seed004_adaptive(quick: bool, out: Path, data: str | None) -> None:
-    from experiments import seed004_adaptive
-
-    seed004_adaptive.run(quick, out / "seed004_adaptive", True)
-
-
 FIGURES: tuple[Figure, ...] = (
     Figure(
         "seed000",
@@ -194,38 +176,6 @@ FIGURES: tuple[Figure, ...] = (
         3.0,
         "seed003_complexity/*.png",
         module="experiments.seed003_complexity",
-    ),
-    Figure(
-        "seed004-model",
-        "004",
-        "performance model: memory (1) and frame time (2) with measured constants (Table 1)",
-        "seed004_model/seed004_model.json",
-        _seed004_model,
-        1.0,
-        "seed004_model/*.png",
-        module="experiments.seed004_model",
-        extras=("fit",),
-    ),
-    Figure(
-        "seed004-octree",
-        "004",
-        "dynamic scenes, octree with per-node command buffers, invisible estimate (Table 2)",
-        "seed004_octree/seed004_octree_summary.json",
-        _seed004_octree,
-        2.0,
-        "seed004_octree/*.png",
-        module="experiments.seed004_octree",
-    ),
-    Figure(
-        "seed004-adaptive",
-        "004",
-        "the adaptive method on three growing scenes: frustum vs queries vs adaptive (Figs. 3-5)",
-        "seed004_adaptive/seed004_adaptive_summary.json",
-        _seed004_adaptive,
-        5.0,
-        "seed004_adaptive/*.png",
-        module="experiments.seed004_adaptive",
-        extras=("fit",),
     ),
 )
 

@@ -68,10 +68,10 @@ SHOTS = (
         "vislod seed003",
     ),
     Shot(
-        "seed004_adaptive/seed004_adaptive_frametimes.png",
+        "seed004-adaptive/seed004_adaptive_frametimes.png",
         "seed004_adaptive.png",
         "Seed 004, Figs. 3–5: frustum culling vs queries vs the adaptive method on three "
-        "growing scenes, mode switches marked",
+        "growing scenes, the adaptive method's mode as background colour (legend below)",
         "vislod seed004-adaptive",
     ),
 )

@@ -298,77 +298,29 @@ SEED004_INTRO = """\
 # Seed 004 — Gonakhchyan's performance model, invisible-object estimate and adaptive method
 
 Seed 004 (adaptive rendering of dynamic 3D scenes) models a frame's memory (1) and time (2)
-with per-material constants measured by drawing (a full-screen triangle for T_frag, many tiny
-triangles for T_Δ, one tiny triangle per state change for T_state, node queries for T_vis),
-and checks the model on random-box scenes (**Table 1**). A single-reference octree keeps one
-command buffer (here: indirect draw buffer) per node; querying only "expensive" nodes top-down
-gives a conservative estimate of the invisible objects in bounded time (**Table 2**). The
-adaptive method switches between (1) per-frame rebuild + per-object frustum culling, (2) the
-octree's node buffers + node frustum culling and (3) occlusion queries, by conditions (5) and
-(6), with the number of queries q* from formula (11) fitted while rendering (**Figs. 3–5**).
+with per-material constants measured by drawing, and checks the model on random-box scenes
+(**Table 1**). A single-reference octree keeps one command buffer (here: indirect draw buffer)
+per node; querying only "expensive" nodes top-down gives a conservative estimate of the
+invisible objects in bounded time (**Table 2**). The adaptive method switches between (1)
+per-frame rebuild + per-object frustum culling, (2) the octree's node buffers + node frustum
+culling and (3) occlusion queries, by conditions (5) and (6), with the number of queries q*
+from formula (11) fitted while rendering (**Figs. 3–5**).
 
 Our scenes are scaled to what llvmpipe on two cores draws in reasonable time (¼ of the
-paper's objects, 1/20 of its triangles); times are this machine's, errors and ratios are what
-compare. All the work is done by `experiments/seed004_model.py`, `seed004_octree.py` and
-`seed004_adaptive.py` (`vislod seed004-model`, `seed004-octree`, `seed004-adaptive`).
-`VISLOD_QUICK=1`: small scenes, few frames (about a minute in all); the full runs take a few
-minutes each."""
-
-SEED004_SETUP = """\
-from IPython.display import Image, display
-
-from experiments import seed004_adaptive, seed004_model, seed004_octree
-from experiments.common import default_out, env_quick
-
-quick = env_quick()
-out = default_out(quick)
-print(f"quick={quick}: results in {out}")"""
+paper's objects, 1/20 of its triangles); times are this machine's, so model errors, ratios and
+slopes are what compare. Each section below computes one experiment (`vislod seed004-model`,
+`seed004-octree`, `seed004-adaptive`) into DataFrames, draws its pictures from them and judges
+its claims beside the paper's numbers. `VISLOD_QUICK=1`: small scenes, few frames (about a
+minute in all); the full runs take a few minutes each."""
 
 
 def build_seed004():
     """``seed004_adaptive.ipynb`` as an ``nbformat`` node (no outputs)."""
     from nbformat import v4
 
-    parts = [
-        (
-            "## Table 1 — the performance model against measured frame times\n\nConstants "
-            "measured on this context, then random-box scenes of 10 … 300,000 objects, "
-            "measured vs predicted, beside the paper's rows; formula (1) against the bytes GL "
-            "allocated.",
-            "model = seed004_model.run(quick, out / 'seed004_model', progress=False)",
-            ["seed004_model/seed004_table1.png"],
-        ),
-        (
-            "## Table 2 — the invisible-object estimate\n\nEstimate and time per number of "
-            "expensive nodes checked on a 70,000-object scene (a smaller one when quick), "
-            "beside the paper's row and the oracle's true count; the octree's cost per frame "
-            "over the three growing scenes.",
-            "octree = seed004_octree.run(quick, out / 'seed004_octree', progress=False)",
-            [
-                "seed004_octree/seed004_table2.png",
-                "seed004_octree/seed004_octree_frames.png",
-                "seed004_octree/seed004_expensive_nodes.png",
-            ],
-        ),
-        (
-            "## Figs. 3–5 — frustum culling vs queries on all leaves vs adaptive\n\nFrame time "
-            "per frame over each scene's animation, the three methods interleaved per frame; "
-            "the adaptive method's mode switches marked; the regression curves c(q), s(q), "
-            "e(q) against the measured points.",
-            "adaptive = seed004_adaptive.run(quick, out / 'seed004_adaptive', progress=False)",
-            [
-                "seed004_adaptive/seed004_adaptive_frametimes.png",
-                "seed004_adaptive/seed004_adaptive_regression.png",
-            ],
-        ),
-    ]
-    cells = [v4.new_markdown_cell(SEED004_INTRO), v4.new_code_cell(SEED004_SETUP)]
-    for text, code, images in parts:
-        cells += [
-            v4.new_markdown_cell(text),
-            v4.new_code_cell(code),
-            v4.new_code_cell(image_cell(images)),
-        ]
+    cells = [v4.new_markdown_cell(SEED004_INTRO)]
+    for key in ("seed004-model", "seed004-octree", "seed004-adaptive"):
+        cells += experiment_cells(key)
     return notebook(cells, "seed004-adaptive")
 
 

@@ -24,9 +24,6 @@ from experiments.common import atomic_write
 # Document and ours within this many percentage points (or relative %, where stated) count as
 # reproduced for numbers read off the same kind of scene.
 PCT_POINTS_TOLERANCE = 5.0
-# Adaptive's mean frame time within this factor of the better fixed method counts as "as good
-# as the best" (frame times wander by a few % between identical runs on llvmpipe).
-ADAPTIVE_TOLERANCE = 1.02
 
 
 @dataclass(frozen=True)
@@ -293,105 +290,11 @@ def _seed003(s: dict[str, Any]) -> list[Row]:
     return rows + _claims(s["claims"])
 
 
-# -- seed 004 ---------------------------------------------------------------------------------
-
-
-def _seed004_model(s: dict[str, Any]) -> list[Row]:
-    rows = []
-    for r in s["table1"]:
-        if r.get("kind") != "random":
-            continue
-        ok = abs(r["error_pct"]) <= s["held_back"]["target_pct"]
-        rows.append(
-            Row(
-                f"Table 1, {r['objects']:,} random boxes",
-                f"measured {r['doc_ms_measured']} ms, model {r['doc_ms_model']} ms, error "
-                f"{r['doc_error_pct']} %",
-                f"measured {r['ms_measured']:.3f} ms, model {r['ms_predicted']:.3f} ms, error "
-                f"{r['error_pct']:+.1f} % (paper's max form {r['error_paper_form_pct']:+.1f} %)",
-                "reproduced" if ok else "differs",
-                ""
-                if ok
-                else "the model prices every fragment as drawn; at 100k+ boxes more of them "
-                "are hidden, and llvmpipe's frame time at this size wanders ±15 % between runs",
-            )
-        )
-    mem = s["memory"]
-    rows.append(
-        Row(
-            "formula (1): scene memory",
-            "sum of vertex, index, texture, buffer and descriptor bytes",
-            f"formula = allocated GL bytes in {sum(m['match'] for m in mem)}/{len(mem)} scenes",
-            _verdict(all(m["match"] for m in mem)),
-        )
-    )
-    return rows
-
-
-def _seed004_octree(s: dict[str, Any]) -> list[Row]:
-    rows = []
-    for r in s["table2"]:
-        if r.get("threshold") != "default":
-            continue
-        rows.append(
-            Row(
-                f"Table 2, {int(r['nodes_checked_budget']):,} nodes checked",
-                f"estimate {r['paper_estimate']:,} invisible, {r['paper_ms']} ms",
-                f"estimate {r['estimate']:,.0f} (true invisible {r['true_invisible']:,.0f}), "
-                f"{r['ms']:.1f} ms, false {r['false_invisible']}",
-                "reproduced" if r["false_invisible"] == 0 else "differs",
-                "conservative (never above the oracle's count) and bounded by the nodes "
-                "checked, as claimed; times are llvmpipe's (≈50 µs per query), not a GTX 1070's",
-            )
-        )
-    return rows
-
-
-def _seed004_adaptive(s: dict[str, Any]) -> list[Row]:
-    by = {(r["scene"], r["method"]): r for r in s["summary"]}
-    rows = []
-    for c in s["criterion"]:
-        sc = c["scene"]
-        fr, qu = by.get((sc, "frustum")), by.get((sc, "queries"))
-        switches = [f"{w['from']}→{w['to']} at {w['frame']}" for w in s["switches"]
-                    if w["scene"] == sc]  # fmt: skip
-        queries_pay = qu is not None and fr is not None and qu["mean_ms"] < fr["mean_ms"]
-        rows.append(
-            Row(
-                f"Figs. 3–5, {sc}: queries on all leaves vs frustum",
-                "queries cost more than they save in scenes 1 and 2, help in scene 3",
-                f"mean ms frustum {fr['mean_ms']:.1f}, queries {qu['mean_ms']:.1f}"
-                if fr and qu
-                else "–",
-                _verdict(queries_pay == (sc == "scene3")),
-            )
-        )
-        rows.append(
-            Row(
-                f"Figs. 3–5, {sc}: adaptive",
-                "the adaptive method is best on average",
-                f"adaptive ÷ best other ({c['best_other']}) mean {c['mean_ratio']:.3f}, worst "
-                f"20-frame window {c['worst_window_ratio']:.2f}; modes: "
-                + (", ".join(switches) or "stays in mode 1"),
-                "reproduced" if c["mean_ratio"] <= ADAPTIVE_TOLERANCE else "differs",
-                "adaptive pays for its own bookkeeping (keeping the octree current, the "
-                "occasional invisible estimate; on a switch to mode 3 the octree build and "
-                "every node buffer), which the fixed methods never do"
-                if c["mean_ratio"] > 1.0
-                else "",
-            )
-        )
-    return rows
-
-
 ROWS: dict[str, Callable[[dict[str, Any]], list[Row]]] = {
     "seed000": _seed000,
     "seed001-lod": _seed001_lod,
     "seed001-lod-quality": _seed001_lod_quality,
     "seed003": _seed003,
-    "seed004-model": _seed004_model,
-    "seed004-octree": _seed004_octree,
-    "seed004-adaptive": _seed004_adaptive,
 }
 
 

@@ -1,152 +1,110 @@
-"""Seed 004 reproduced: Gonakhchyan's performance model on our GL context — Table 1 (frame time
-of random-box scenes, measured beside formula (2)), memory formula (1) against the GL buffers
-actually allocated, and the re-fit time of the query-count regression (formulas 8-10)
-(``vislod seed004-model``).
+"""Seed 004, Table 1: Gonakhchyan's performance model on our GL context — frame time of
+random-box scenes measured beside formula (2), memory formula (1) against the GL buffers
+actually allocated, and the re-fit time of the query-count regression (formulas 8-10).
 
 Seed 004 (``004_bba2ab22d18288ab.txt``, Table 1) renders scenes of 10 … 300,000 random boxes,
 measures the frame time and predicts it with formula (2) from per-material constants measured
-on calibration draws; its model errs by 1.1-9.5 %. We do the same on llvmpipe: the constants
-of :mod:`soc.models.perf_model` are measured on calibration geometry only (full-screen triangles,
-patches of equal triangles, tiny triangles, node queries), never on a Table 1 scene, so
-every row is a held-back prediction. Every timed batch (calibration and Table 1 frames) is
-interleaved round by round (:func:`soc.models.perf_model.run_interleaved`), so load from other
-processes falls on all alike; a frame is "draw everything with one multi-draw indirect",
-clear and ``finish`` included, its minimum over the rounds (the least disturbed run: steady
-on a busy machine; ``--statistic median`` for medians, see
-:func:`soc.models.perf_model.typical_ms`).
+on calibration draws; its model errs by 1.1-9.5 %. We do the same on llvmpipe: the constants of
+:mod:`soc.models.perf_model` are measured on calibration geometry only (full-screen triangles,
+patches of equal triangles, tiny triangles, node queries), never on a Table 1 scene, so every
+row is a held-back prediction. Calibration batches and Table 1 frames are interleaved round by
+round (:func:`soc.models.perf_model.run_interleaved`), so load from other processes falls on
+all alike; a frame is "draw everything with one multi-draw indirect", clear and ``finish``
+included, its minimum over the rounds (``statistic="median"`` for medians).
 
 Our prediction is formula (2) with the llvmpipe reading of its stages (``overlap="sum"``: the
 CPU rasterizer does not pipeline them) and T_vert + T_frag summed per triangle from the
-measured cost curve t(E) of a triangle's footprint (see :mod:`soc.models.perf_model`); the paper's
-form (``max``; T_vert = N_Δ·T_Δ, T_frag = f·T_frag from the full-screen triangle) is
-reported beside it. Dense scenes (boxes as large as their spacing, most fragments
-rejected by the depth test) are run as a stated limitation: the model prices every fragment
-as shaded. The paper's absolute times (Vulkan on a GTX 1070, µs per frame) are not
-comparable with llvmpipe's; its error column is.
+measured cost curve t(E) of a triangle's footprint; the paper's form (``max``; T_vert = N_Δ·T_Δ,
+T_frag = f·T_frag from the full-screen triangle) is computed beside it. Dense scenes (boxes as
+large as their spacing, most fragments rejected by the depth test) are run as a stated
+limitation: the model prices every fragment as shaded. **The paper's absolute times (Vulkan on
+a GTX 1070) cannot be compared with llvmpipe's on two CPU cores; its model error can.**
 
-Stages: :func:`make_setup` → :func:`prepare` (scenes, uploads, workloads, fragment counts) →
-:func:`measure` (calibration + frames, interleaved) → :func:`table_rows` / :func:`memory_rows`
-/ :func:`refit_timing` → :func:`write` (CSV, JSON, PNG) → printed tables. Nothing is written
-before everything is measured; every file is written atomically.
+Stages: :func:`prepare` (scenes, uploads, workloads, fragment counts) → :func:`measure`
+(calibration + frames, interleaved) → :func:`table_rows`, :func:`memory_rows` →
+:func:`refit_timing` → :func:`compute` returns them as DataFrames.
 """
 
 from __future__ import annotations
 
-import argparse
-import sys
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
-from experiments.common import (
-    UsageError,
-    default_out,
-    env_quick,
-    fmt,
-    format_table,
-    module_main,
-    parse_resolution,
-    res_str,
-    save_figure,
-    write_csv,
-    write_json,
-)
+from experiments import harness
+from experiments.common import UsageError, res_str
 
 # Seed 004, Table 1 (SPEC.md "Seed 004"): objects, measured ms, model ms, model error %.
 DOC_OBJECTS = (10, 20, 30, 100, 1000, 5000, 50000, 100000, 300000)
 DOC_MEASURED_MS = (0.00657, 0.00700, 0.00743, 0.01452, 0.091, 0.442, 4.07, 7.71, 22.95)
 DOC_MODEL_MS = (0.00611, 0.00668, 0.00751, 0.01338, 0.089, 0.424, 4.19, 8.38, 25.14)
 DOC_ERROR_PCT = (7.05, 4.64, 1.14, 7.88, 2.38, 4.19, 3.46, 8.77, 9.54)
-DOCUMENT = {
-    "source": "seed 004 (004_bba2ab22d18288ab.txt), section 2, Table 1",
-    "scene": "randomly placed parallelepipeds; Vulkan, GeForce GTX 1070, Core i7-7700",
-    "claim": "the performance model is accurate enough on different generated data",
-}
+# The document's words (seed 004, section 2, below Table 1's description).
+DOC_CLAIM = (
+    "«Показано, что модель производительности работает достаточно точно на различных "
+    "генерируемых данных» (the performance model is shown to work accurately enough on "
+    "various generated data)"
+)
 
-FULL_RESOLUTION = (1280, 720)
-QUICK_RESOLUTION = (640, 360)
-QUICK_SIZES = (10, 20, 30, 100, 1000, 5000)
-DENSE_SIZES = (1000, 10000)  # the limitation check, full runs
-QUICK_DENSE_SIZES = (1000,)
 DENSE_SIZE_RANGE = (0.3, 1.5)  # edges as long as the spacing: depth complexity ~5-18
-TARGET_ERROR_PCT = 15.0  # the issue's target on held-back sizes
+ERROR_TOLERANCE_PCT = 10.0  # a row matches when |our error| <= this: the document's errors
+# reach 9.54 %, so a model as good as the paper's stays inside it
+TARGET_ERROR_PCT = 15.0  # the issue's target on held-back sizes (median over the sizes)
+NOISY_IQR = 0.10  # rounds whose interquartile range exceeds this fraction are "noisy"
+SLOPE_TOLERANCE = 0.25  # log-log slope of frame time vs objects: ours within this of theirs
 OVERLAP = "sum"  # our reading of (2) on llvmpipe (see soc.models.perf_model.frame_time)
+CALIBRATION_SCALE = 1.0  # batch scale of the calibration (CalibrationSetup.scale)
 REFIT_FRAMES = 200  # frames of statistics per query-model re-fit
 REFIT_REPEATS = 20
+FRAMES = ("table1", "rounds", "memory", "constants", "refit")
 
 
 @dataclass(frozen=True)
-class ModelSetup:
-    """One seed-004 run.
+class Params:
+    """One run of Table 1.
 
     Attributes
     ----------
     sizes : tuple of int
         Objects of the Table 1 scenes (random boxes, sparse).
     dense_sizes : tuple of int
-        Objects of the dense limitation scenes.
+        Objects of the dense limitation scenes (``()`` for none).
     resolution : (width, height)
         Pixels of every frame, calibration included.
     repeats : int
-        Interleaved rounds.
-    scale : float
-        Batch scale of the calibration (:class:`soc.models.perf_model.CalibrationSetup`).
+        Interleaved rounds (at least 3).
     seed : int
-    quick : bool
-    statistic : {"median", "min"}
+        Scene and calibration seed.
+    statistic : {"min", "median"}
         What stands for repeated timings, calibration and frames alike
         (:func:`soc.models.perf_model.typical_ms`).
     """
 
-    sizes: tuple[int, ...]
-    dense_sizes: tuple[int, ...]
-    resolution: tuple[int, int]
-    repeats: int
-    scale: float
+    sizes: tuple[int, ...] = DOC_OBJECTS
+    dense_sizes: tuple[int, ...] = (1000, 10000)
+    resolution: tuple[int, int] = (1280, 720)
+    repeats: int = 9
     seed: int = 0
-    quick: bool = False
     statistic: str = "min"
 
-
-def make_setup(
-    quick: bool = False,
-    sizes: Sequence[int] | None = None,
-    resolution: tuple[int, int] | None = None,
-    repeats: int | None = None,
-    seed: int = 0,
-    dense_sizes: Sequence[int] | None = None,
-    statistic: str = "min",
-) -> ModelSetup:
-    """Full: Table 1's nine sizes up to 300,000 objects at 1280x720, 9 rounds. Quick: sizes up
-    to 5,000 at 640x360, 11 rounds (small frames are noisier). Arguments override;
-    :class:`UsageError` for bad values."""
-    sizes = tuple(int(s) for s in (sizes or (QUICK_SIZES if quick else DOC_OBJECTS)))
-    if not sizes or min(sizes) < 1 or len(set(sizes)) != len(sizes):
-        raise UsageError(f"sizes must be distinct positive integers, got {list(sizes)}")
-    dense = tuple(
-        int(s) for s in (dense_sizes if dense_sizes is not None else
-                         (QUICK_DENSE_SIZES if quick else DENSE_SIZES))
-    )  # fmt: skip
-    if any(s < 1 for s in dense):
-        raise UsageError(f"dense sizes must be positive, got {list(dense)}")
-    res = tuple(resolution) if resolution else (QUICK_RESOLUTION if quick else FULL_RESOLUTION)
-    if min(res) < 8:
-        raise UsageError(f"resolution must be at least 8x8, got {res_str(res)}")
-    repeats = int(repeats if repeats is not None else (11 if quick else 9))
-    if repeats < 3:
-        raise UsageError(f"--repeats must be at least 3, got {repeats}")
-    if seed < 0:
-        raise UsageError(f"--seed must be >= 0, got {seed}")
-    if statistic not in ("median", "min"):
-        raise UsageError(f"--statistic must be median or min, got {statistic!r}")
-    return ModelSetup(
-        tuple(sorted(sizes)), tuple(sorted(set(dense))), (int(res[0]), int(res[1])),
-        repeats, 1.0, int(seed), bool(quick), statistic,
-    )  # fmt: skip
+    def check(self) -> None:
+        """:class:`UsageError` for values the run cannot use."""
+        if not self.sizes or min(self.sizes) < 1 or len(set(self.sizes)) != len(self.sizes):
+            raise UsageError(f"sizes must be distinct positive integers, got {list(self.sizes)}")
+        if any(s < 1 for s in self.dense_sizes):
+            raise UsageError(f"dense sizes must be positive, got {list(self.dense_sizes)}")
+        if min(self.resolution) < 8:
+            raise UsageError(f"resolution must be at least 8x8, got {res_str(self.resolution)}")
+        if self.repeats < 3:
+            raise UsageError(f"--repeats must be at least 3, got {self.repeats}")
+        if self.seed < 0:
+            raise UsageError(f"--seed must be >= 0, got {self.seed}")
+        if self.statistic not in ("median", "min"):
+            raise UsageError(f"--statistic must be median or min, got {self.statistic!r}")
 
 
 # -- scenes and measurement ---------------------------------------------------------------------
@@ -162,8 +120,8 @@ class Case:
     camera: Any
     geometry: Any
     renderer: Any
-    work: Any
-    fragments: Any
+    work: Any = None
+    fragments: Any = None
 
     @property
     def name(self) -> str:
@@ -177,12 +135,10 @@ class Case:
         self.geometry.release()
 
 
-def prepare(setup: ModelSetup, *, bar=None) -> list[Case]:
-    """Build, upload and count every scene (random boxes of each size, then dense ones).
-
-    Geometry is uploaded with :class:`SceneGeometry` directly and released by the caller
-    (:meth:`Case.release`): the context's geometry cache would keep the scenes alive.
-    """
+def prepare(params: Params, cases: list[Case], bar) -> None:
+    """Build, upload and count every scene (random boxes of each size, then dense ones) into
+    ``cases``. Geometry is uploaded with :class:`SceneGeometry` directly and released by the
+    caller (:meth:`Case.release`): the context's geometry cache would keep the scenes alive."""
     from soc.gl.context import default_context
     from soc.gl.geometry import SceneGeometry
     from soc.models.perf_model import count_fragments, scene_workload
@@ -190,57 +146,39 @@ def prepare(setup: ModelSetup, *, bar=None) -> list[Case]:
     from soc.scenes.random_boxes import overview_camera, random_boxes
 
     glctx = default_context()
-    cases: list[Case] = []
-    plan = [("random", n, {}) for n in setup.sizes]
-    plan += [("dense", n, {"size_range": DENSE_SIZE_RANGE}) for n in setup.dense_sizes]
-    try:
-        for kind, n, extra in plan:
-            if bar is not None:
-                bar.set_postfix_str(f"scene {kind} {n:,}")
-            scene = random_boxes(n, setup.seed, **extra)
-            camera = overview_camera(scene, *setup.resolution)
-            geometry = SceneGeometry(glctx, scene)
-            renderer = Renderer(geometry, setup.resolution)
-            case = Case(kind, n, scene, camera, geometry, renderer, None, None)
-            cases.append(case)
-            case.work = scene_workload(scene, camera)
-            case.fragments = count_fragments(renderer, camera, np.arange(n))
-            if bar is not None:
-                bar.update(1)
-    except BaseException:
-        for c in cases:
-            c.release()
-        raise
-    return cases
+    plan = [("random", n, {}) for n in sorted(params.sizes)]
+    plan += [("dense", n, {"size_range": DENSE_SIZE_RANGE}) for n in sorted(params.dense_sizes)]
+    for kind, n, extra in plan:
+        bar.set_postfix_str(f"scene {kind} {n:,}")
+        scene = random_boxes(n, params.seed, **extra)
+        camera = overview_camera(scene, *params.resolution)
+        geometry = SceneGeometry(glctx, scene)
+        case = Case(kind, n, scene, camera, geometry, Renderer(geometry, params.resolution))
+        cases.append(case)
+        case.work = scene_workload(scene, camera)
+        case.fragments = count_fragments(case.renderer, camera, np.arange(n))
+        bar.update(1)
 
 
-def measure(
-    setup: ModelSetup, cases: Sequence[Case], calibration, *, bar=None
-) -> tuple[Any, dict[str, list[float]]]:
-    """Time the calibration batches and every case's frame, interleaved; returns the
-    constants and the per-case frame times (ms, every round)."""
+def measure(params: Params, cases: Sequence[Case], calibration, bar):
+    """Time the calibration batches and every case's frame, interleaved; returns the constants
+    and the per-case frame times (ms, every round)."""
     from soc.models.perf_model import run_interleaved
 
     tasks = dict(calibration.tasks)
     tasks.update({c.name: c.draw for c in cases})
-    samples = run_interleaved(tasks, setup.repeats, seed=setup.seed, bar=bar)
-    constants = calibration.constants(samples)
-    return constants, {c.name: samples[c.name] for c in cases}
-
-
-# -- rows -----------------------------------------------------------------------------------------
+    samples = run_interleaved(tasks, params.repeats, seed=params.seed, bar=bar)
+    return calibration.constants(samples), {c.name: samples[c.name] for c in cases}
 
 
 def _err(pred: float, meas: float) -> float:
     return 100.0 * (pred - meas) / meas
 
 
-def table_rows(
-    cases: Sequence[Case], frames: dict[str, list[float]], constants, statistic: str = "min"
-) -> list[dict]:
-    """One row per scene: measured frame time (``statistic`` over the rounds, and the
-    quartiles), our prediction and its error, the paper's form and its error, the terms of
-    (2), counts, and the document's row when the size is one of Table 1's."""
+def table_rows(cases: Sequence[Case], frames: dict, constants, statistic: str) -> list[dict]:
+    """One row per scene: measured frame time (``statistic`` over the rounds, and quartiles),
+    our prediction and its error, the paper's form and its error, the terms of (2), counts,
+    and the document's row when the size is one of Table 1's."""
     from soc.models.perf_model import frame_time, typical_ms
 
     paper_constants = constants.paper_only()
@@ -261,8 +199,6 @@ def table_rows(
                 "fragments_gl": c.fragments.rasterized,
                 "fragments_shaded": c.fragments.shaded,
                 "ms_measured": meas,
-                "ms_min": float(t.min()),
-                "ms_median": float(np.median(t)),
                 "ms_p25": float(np.percentile(t, 25)),
                 "ms_p75": float(np.percentile(t, 75)),
                 "ms_predicted": ours.total_ms,
@@ -270,28 +206,12 @@ def table_rows(
                 "ms_paper_form": paper.total_ms,
                 "error_paper_form_pct": _err(paper.total_ms, meas),
                 **{f"ms_{k}": v for k, v in ours.terms_ms.items() if not k.endswith("(H)")},
-                "doc_ms_measured": DOC_MEASURED_MS[i] if i is not None else None,
-                "doc_ms_model": DOC_MODEL_MS[i] if i is not None else None,
-                "doc_error_pct": DOC_ERROR_PCT[i] if i is not None else None,
+                "doc_ms_measured": DOC_MEASURED_MS[i] if i is not None else np.nan,
+                "doc_ms_model": DOC_MODEL_MS[i] if i is not None else np.nan,
+                "doc_error_pct": DOC_ERROR_PCT[i] if i is not None else np.nan,
             }
         )
     return rows
-
-
-def held_back(rows: Sequence[dict]) -> dict[str, Any]:
-    """Error summary over the Table 1 rows: none of their scenes was used for a constant."""
-    err = np.array([abs(r["error_pct"]) for r in rows if r["kind"] == "random"])
-    paper = np.array([abs(r["error_paper_form_pct"]) for r in rows if r["kind"] == "random"])
-    return {
-        "sizes": [r["objects"] for r in rows if r["kind"] == "random"],
-        "target_pct": TARGET_ERROR_PCT,
-        "median_abs_error_pct": float(np.median(err)),
-        "max_abs_error_pct": float(err.max()),
-        "within_target": int((err <= TARGET_ERROR_PCT).sum()),
-        "paper_form_median_abs_error_pct": float(np.median(paper)),
-        "paper_form_max_abs_error_pct": float(paper.max()),
-        "document_max_error_pct": max(DOC_ERROR_PCT),
-    }
 
 
 def memory_rows(cases: Sequence[Case]) -> list[dict]:
@@ -317,10 +237,26 @@ def memory_rows(cases: Sequence[Case]) -> list[dict]:
     return rows
 
 
-def refit_timing(constants, seed: int = 0) -> dict[str, Any]:
-    """Compile once, then time re-fits of formulas (8)-(10) on :data:`REFIT_FRAMES` frames
-    of synthetic statistics (a model with this context's unit times; the statistics of a real
-    renderer come with the adaptive method). Reports the recovered coefficients too."""
+def constants_rows(constants) -> list[dict]:
+    """The measured constants, one row each (the t(E) curve one row per footprint)."""
+    c = constants
+    rows = [
+        {"constant": "resolution", "value": np.nan, "unit": res_str(c.resolution)},
+        {"constant": "threads", "value": c.threads, "unit": "llvmpipe threads"},
+        {"constant": "T_frame", "value": c.t_frame_ms, "unit": "ms"},
+    ]
+    for name in ("frag", "tri", "cmd", "state", "vis", "buf", "fc"):
+        rows.append({"constant": f"T_{name}", "value": getattr(c, f"t_{name}_ns"), "unit": "ns"})
+    for e, t in zip(c.curve_footprint_px, c.curve_ns, strict=True):
+        rows.append({"constant": f"t(E={e:.4g} px)", "value": t, "unit": "ns/triangle"})
+    return rows
+
+
+def refit_timing(constants, seed: int) -> list[dict]:
+    """Compile once, then time :data:`REFIT_REPEATS` re-fits of formulas (8)-(10) on
+    :data:`REFIT_FRAMES` frames of synthetic statistics (a model with this context's unit
+    times). One row per fit: ms, whether it compiled, converged, the recovered coefficients
+    and the best q of the fitted model beside the true one."""
     from soc.models.query_model import (
         QueryModel,
         best_query_count,
@@ -333,95 +269,124 @@ def refit_timing(constants, seed: int = 0) -> dict[str, Any]:
         t_c=constants.t_buf_ns * 1e-6, t_s=constants.t_state_ns * 1e-6,
         t_e=constants.t_tri_ns * 1e-6,  # elements counted as triangles
     )  # fmt: skip
+    exact = best_query_count(truth, int(truth.n_0)).q
     rng = np.random.default_rng(seed)
-
-    def stats(k: int):
-        # Query counts spread in ln(1 + q), as a renderer exploring q would: with q uniform,
-        # ln(1 + q) hardly varies and e_0 trades off against e_1.
+    coefs = ("alpha_n", "n_0", "s_1", "e_0", "p", "e_1")
+    rows = []
+    for k in range(REFIT_REPEATS + 1):
+        # q spread in ln(1 + q), as a renderer exploring q would: with q uniform, ln(1 + q)
+        # hardly varies and e_0 trades off against e_1.
         q = np.round(np.expm1(rng.uniform(0.0, np.log1p(truth.n_0), REFIT_FRAMES)))
-        return synthetic_statistics(truth, q, noise=0.02, seed=seed + k)
-
-    t0 = time.perf_counter()
-    fit_query_model(stats(0), truth.c_n)
-    first_ms = 1e3 * (time.perf_counter() - t0)
-    times, fit = [], None
-    for k in range(1, REFIT_REPEATS + 1):
-        s = stats(k)
+        stats = synthetic_statistics(truth, q, noise=0.02, seed=seed + k)
         t0 = time.perf_counter()
-        fit = fit_query_model(s, truth.c_n)
-        times.append(1e3 * (time.perf_counter() - t0))
-    model = fit.model(truth.c_n, truth.t_c, truth.t_s, truth.t_e)
-    choice = best_query_count(model, int(truth.n_0))
-    exact = best_query_count(truth, int(truth.n_0))
+        fit = fit_query_model(stats, truth.c_n)
+        ms = 1e3 * (time.perf_counter() - t0)
+        model = fit.model(truth.c_n, truth.t_c, truth.t_s, truth.t_e)
+        rows.append(
+            {
+                "fit": k,
+                "compiling": k == 0,
+                "ms": ms,
+                "frames": REFIT_FRAMES,
+                "converged": bool(fit.converged),
+                "q_best": best_query_count(model, int(truth.n_0)).q,
+                "q_best_truth": exact,
+                **{c: getattr(fit, c) for c in coefs},
+                **{f"{c}_truth": getattr(truth, c) for c in coefs},
+            }
+        )
+    return rows
+
+
+def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
+    """Measure and predict Table 1 (module docstring); frames :data:`FRAMES`."""
+    from tqdm.auto import tqdm
+
+    from soc.models.perf_model import Calibration, CalibrationSetup
+
+    cal_setup = CalibrationSetup(
+        params.resolution, params.repeats, CALIBRATION_SCALE, params.seed, params.statistic
+    )
+    cases: list[Case] = []
+    calibration = None
+    total = len(params.sizes) + len(params.dense_sizes)
+    with tqdm(total=total, desc="seed004 model", unit="step", disable=not progress) as bar:
+        try:
+            prepare(params, cases, bar)
+            calibration = Calibration(cal_setup)
+            bar.total += (len(calibration.tasks) + len(cases)) * (params.repeats + 1)
+            bar.refresh()
+            constants, times = measure(params, cases, calibration, bar)
+            rows = table_rows(cases, times, constants, params.statistic)
+            memory = memory_rows(cases)
+        finally:
+            if calibration is not None:
+                calibration.close()
+            for c in cases:
+                c.release()
+    rounds = [
+        {"kind": c.kind, "objects": c.objects, "round": i, "ms": ms}
+        for c in cases
+        for i, ms in enumerate(times[c.name])
+    ]
     return {
-        "frames_per_fit": REFIT_FRAMES,
-        "first_fit_ms": first_ms,
-        "refit_ms_median": float(np.median(times)),
-        "refit_ms_max": float(np.max(times)),
-        "converged": bool(fit.converged),
-        "statistics": "synthetic: formulas (8)-(10) with 2 % noise, q spread in ln(1 + q)",
-        "truth": {k: getattr(truth, k) for k in ("alpha_n", "n_0", "s_1", "e_0", "p", "e_1")},
-        "fitted": {k: getattr(fit, k) for k in ("alpha_n", "n_0", "s_1", "e_0", "p", "e_1")},
-        "q_best_fitted": choice.q,
-        "q_best_truth": exact.q,
-        "q_star_fitted": choice.q_star,
+        "table1": pd.DataFrame(rows),
+        "rounds": pd.DataFrame(rounds),
+        "memory": pd.DataFrame(memory),
+        "constants": pd.DataFrame(constants_rows(constants)),
+        "refit": pd.DataFrame(refit_timing(constants, params.seed)),
     }
 
 
-# -- output ---------------------------------------------------------------------------------------
+# -- pictures -------------------------------------------------------------------------------------
 
 
-def figure(rows: Sequence[dict], setup: ModelSetup, constants) -> Any:
-    """Log-log frame time against objects (ours measured and predicted, the paper's form,
-    the document's rows) and the error per row."""
+def plot_table1(frames: dict[str, pd.DataFrame], params: Params):
+    """Left: frame time (ms, log-log) against the number of random boxes — ours measured
+    (dots: the run's statistic over the interleaved rounds, bars: quartiles), our formula (2)
+    (solid), the paper's form of (2) on our constants (dotted), dense boxes (red squares and
+    crosses, a stated limitation) and the paper's own rows (grey; a GTX 1070, one to two
+    orders of magnitude below llvmpipe: the levels are not comparable). Right: each row's
+    model error, % of the measured time, ours beside the paper's (the comparable quantity),
+    the ±10 % band shaded.
+    """
     from matplotlib.figure import Figure
 
+    t = frames["table1"]
+    const = frames["constants"].set_index("constant")
     fig = Figure(figsize=(12.5, 4.8))
     ax, ax_err = fig.subplots(1, 2)
-    rnd = [r for r in rows if r["kind"] == "random"]
-    n = [r["objects"] for r in rnd]
-    ax.errorbar(
-        n, [r["ms_measured"] for r in rnd],
-        yerr=[[max(r["ms_measured"] - r["ms_p25"], 0.0) for r in rnd],
-              [max(r["ms_p75"] - r["ms_measured"], 0.0) for r in rnd]],
-        fmt="o", color="C0", label=f"ours measured ({setup.statistic}, quartiles)",
-    )  # fmt: skip
-    ax.plot(n, [r["ms_predicted"] for r in rnd], "-", color="C0", label="ours formula (2)")
-    ax.plot(
-        n, [r["ms_paper_form"] for r in rnd], ":", color="C1",
-        label="ours, paper's form (max, full-screen T_frag)",
-    )  # fmt: skip
-    dense = [r for r in rows if r["kind"] == "dense"]
-    if dense:
-        ax.plot([r["objects"] for r in dense], [r["ms_measured"] for r in dense], "s",
-                color="C3", label="dense boxes measured (limitation)")  # fmt: skip
-        ax.plot([r["objects"] for r in dense], [r["ms_predicted"] for r in dense], "x",
-                color="C3", ms=8, label="dense boxes formula (2)")  # fmt: skip
-    ax.plot(DOC_OBJECTS, DOC_MEASURED_MS, "o", color="grey", mfc="none", label="paper measured")
+    rnd, dense = t[t.kind == "random"], t[t.kind == "dense"]
+    yerr = [(rnd.ms_measured - rnd.ms_p25).clip(lower=0), (rnd.ms_p75 - rnd.ms_measured).clip(0)]
+    ax.errorbar(rnd.objects, rnd.ms_measured, yerr=yerr, fmt="o", color="C0",
+                label=f"ours measured ({params.statistic}, quartiles)")  # fmt: skip
+    ax.plot(rnd.objects, rnd.ms_predicted, "-", color="C0", label="ours formula (2)")
+    ax.plot(rnd.objects, rnd.ms_paper_form, ":", color="C1",
+            label="ours, paper's form (max, full-screen T_frag)")  # fmt: skip
+    if len(dense):
+        ax.plot(dense.objects, dense.ms_measured, "s", color="C3",
+                label="dense boxes measured (limitation)")  # fmt: skip
+        ax.plot(dense.objects, dense.ms_predicted, "x", color="C3", ms=8,
+                label="dense boxes formula (2)")  # fmt: skip
+    ax.plot(DOC_OBJECTS, DOC_MEASURED_MS, "o", color="grey", mfc="none",
+            label="paper measured (GTX 1070)")  # fmt: skip
     ax.plot(DOC_OBJECTS, DOC_MODEL_MS, "--", color="grey", label="paper model")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("objects (random boxes)")
-    ax.set_ylabel("frame time, ms")
+    ax.set(xscale="log", yscale="log", xlabel="objects (random boxes)", ylabel="frame time, ms")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
-    ax.set_title(
-        f"Table 1: measured vs predicted, {res_str(setup.resolution)}, llvmpipe "
-        f"{constants.threads} threads",
-        fontsize=10,
-    )
-    ax_err.axhspan(-TARGET_ERROR_PCT, TARGET_ERROR_PCT, color="C2", alpha=0.12,
-                   label=f"±{TARGET_ERROR_PCT:g} % target")  # fmt: skip
-    ax_err.plot(n, [r["error_pct"] for r in rnd], "o-", color="C0", label="ours formula (2)")
-    ax_err.plot(n, [r["error_paper_form_pct"] for r in rnd], "s:", color="C1",
+    threads = int(const.loc["threads", "value"])
+    ax.set_title(f"Table 1: measured vs predicted, {res_str(params.resolution)}, llvmpipe "
+                 f"{threads} threads", fontsize=10)  # fmt: skip
+    ax_err.axhspan(-ERROR_TOLERANCE_PCT, ERROR_TOLERANCE_PCT, color="C2", alpha=0.12,
+                   label=f"±{ERROR_TOLERANCE_PCT:g} %")  # fmt: skip
+    ax_err.plot(rnd.objects, rnd.error_pct, "o-", color="C0", label="ours formula (2)")
+    ax_err.plot(rnd.objects, rnd.error_paper_form_pct, "s:", color="C1",
                 label="ours, paper's form")  # fmt: skip
     signed = [_err(mo, me) for mo, me in zip(DOC_MODEL_MS, DOC_MEASURED_MS, strict=True)]
     ax_err.plot(DOC_OBJECTS, signed, "o--", color="grey", mfc="none",
                 label="paper (its model vs its measurement)")  # fmt: skip
     ax_err.axhline(0.0, color="black", lw=0.8)
-    ax_err.set_xscale("log")
-    ax_err.set_xlabel("objects")
-    ax_err.set_ylabel("prediction error, % of measured")
+    ax_err.set(xscale="log", xlabel="objects", ylabel="prediction error, % of measured")
     ax_err.grid(alpha=0.3)
     ax_err.legend(fontsize=7)
     ax_err.set_title("model error per row (held-back sizes)", fontsize=10)
@@ -429,279 +394,178 @@ def figure(rows: Sequence[dict], setup: ModelSetup, constants) -> Any:
     return fig
 
 
-def format_rows(rows: Sequence[dict], setup: ModelSetup) -> str:
-    """The printed Table 1: ours beside the document's."""
-    table = [
-        [
-            f"{r['kind']} {r['objects']:,}",
-            r["ms_measured"],
-            r["ms_predicted"],
-            f"{r['error_pct']:+.1f}",
-            f"{r['error_paper_form_pct']:+.1f}",
-            fmt(r["doc_ms_measured"], 5),
-            fmt(r["doc_ms_model"], 5),
-            fmt(r["doc_error_pct"], 2),
-        ]
-        for r in rows
-    ]
-    return format_table(
-        ["scene", "ms", "model ms", "err %", "paper-form err %", "doc ms", "doc model",
-         "doc err %"],
-        table,
-        f"seed 004 Table 1 — draw everything (one multi-draw), {res_str(setup.resolution)}, "
-        f"{setup.statistic} of {setup.repeats} interleaved rounds",
-    )  # fmt: skip
+# -- claims ---------------------------------------------------------------------------------------
 
 
-def format_constants(constants) -> str:
-    c = constants
-    lines = [
-        f"constants ({c.material}, {res_str(c.resolution)}, llvmpipe {c.threads} threads):",
-        f"  T_frame {c.t_frame_ms:.3f} ms   T_frag {c.t_frag_ns:.2f} ns/px   "
-        f"T_Δ {c.t_tri_ns:.0f} ns/tri   T_cmd {c.t_cmd_ns:.0f} ns/command",
-        f"  T_state {c.t_state_ns / 1e3:.2f} µs/change   T_vis {c.t_vis_ns / 1e3:.2f} µs/query   "
-        f"T_buf {c.t_buf_ns:.1f} ns/command   T_fc {c.t_fc_ns:.0f} ns/box",
-        "  t(E) ns/triangle at footprint E px: "
-        + ", ".join(
-            f"{e:.4g}: {t:.0f}" for e, t in zip(c.curve_footprint_px, c.curve_ns, strict=True)
-        ),
-    ]
-    return "\n".join(lines)
+def _slope(objects, ms) -> float:
+    """Log-log slope of frame time against objects (least squares)."""
+    return float(np.polyfit(np.log(objects), np.log(ms), 1)[0])
 
 
-@dataclass
-class ModelResult:
-    """What :func:`run` measured and wrote."""
-
-    rows: list[dict]
-    memory: list[dict]
-    constants: Any
-    held_back: dict[str, Any]
-    refit: dict[str, Any]
-    files: list[Path] = field(default_factory=list)
-    seconds: dict[str, float] = field(default_factory=dict)
-
-
-def write(result: ModelResult, setup: ModelSetup, out: Path) -> list[Path]:
-    """``seed004_table1.csv``, ``seed004_memory.csv``, ``seed004_model.json``,
-    ``seed004_table1.png`` under ``out``."""
-    fig = figure(result.rows, setup, result.constants)
-    return [
-        write_csv(out / "seed004_table1.csv", result.rows),
-        write_csv(out / "seed004_memory.csv", result.memory),
-        save_figure(fig, out / "seed004_table1.png"),
-        write_json(
-            out / "seed004_model.json",
-            {
-                "setup": {
-                    "sizes": list(setup.sizes),
-                    "dense_sizes": list(setup.dense_sizes),
-                    "resolution": list(setup.resolution),
-                    "repeats": setup.repeats,
-                    "calibration_scale": setup.scale,
-                    "seed": setup.seed,
-                    "quick": setup.quick,
-                    "overlap": OVERLAP,
-                    "statistic": setup.statistic,
-                },
-                "document": {
-                    **DOCUMENT,
-                    "objects": list(DOC_OBJECTS),
-                    "measured_ms": list(DOC_MEASURED_MS),
-                    "model_ms": list(DOC_MODEL_MS),
-                    "error_pct": list(DOC_ERROR_PCT),
-                },
-                "constants": result.constants.as_dict(),
-                "held_back": result.held_back,
-                "table1": result.rows,
-                "memory": result.memory,
-                "query_model_refit": result.refit,
-                "seconds": result.seconds,
-            },
-        ),
-    ]
-
-
-def run(
-    quick: bool = False,
-    out: str | Path | None = None,
-    verbose: bool = True,
-    *,
-    setup: ModelSetup | None = None,
-    progress: bool | None = None,
-) -> dict[str, Any]:
-    """Measure, predict and write seed 004's Table 1 (see the module docstring).
-
-    Parameters
-    ----------
-    quick : bool
-        Sizes up to 5,000 at 640x360 (well under a minute); ignored when ``setup`` is given.
-    out : path, optional
-        Folder of the files (default ``default_out(quick) / "seed004_model"``).
-    verbose : bool
-        Print the tables.
-    setup : ModelSetup, optional
-        Overrides ``quick``'s defaults (see :func:`make_setup`).
-    progress : bool, optional
-        tqdm bar (default: ``verbose``).
-
-    Returns
-    -------
-    dict
-        ``rows``, ``memory``, ``constants`` (dict), ``held_back``, ``refit``, ``files``,
-        ``seconds``.
-    """
-    from soc.models.perf_model import Calibration, CalibrationSetup
-
-    setup = setup or make_setup(quick)
-    out = Path(out) if out is not None else default_out(setup.quick) / "seed004_model"
-    progress = verbose if progress is None else progress
-    seconds: dict[str, float] = {}
-    t0 = time.perf_counter()
-    cal_setup = CalibrationSetup(
-        setup.resolution, setup.repeats, setup.scale, setup.seed, setup.statistic
-    )
-    bar = None
-    cases: list[Case] = []
-    calibration = None
-    try:
-        if progress:
-            from tqdm import tqdm
-
-            bar = tqdm(total=len(setup.sizes) + len(setup.dense_sizes), desc="seed004", unit="step")
-        cases = prepare(setup, bar=bar)
-        calibration = Calibration(cal_setup)
-        seconds["prepare"] = time.perf_counter() - t0
-        if bar is not None:
-            bar.total += (len(calibration.tasks) + len(cases)) * (setup.repeats + 1)
-            bar.refresh()
-        constants, frames = measure(setup, cases, calibration, bar=bar)
-        seconds["measure"] = time.perf_counter() - t0 - seconds["prepare"]
-        rows = table_rows(cases, frames, constants, setup.statistic)
-        memory = memory_rows(cases)
-    finally:
-        if calibration is not None:
-            calibration.close()
-        for c in cases:
-            c.release()
-        if bar is not None:
-            bar.close()
-    t1 = time.perf_counter()
-    refit = refit_timing(constants, setup.seed)
-    seconds["refit"] = time.perf_counter() - t1
-    result = ModelResult(rows, memory, constants, held_back(rows), refit, seconds=seconds)
-    result.files = write(result, setup, out)
-    seconds["total"] = time.perf_counter() - t0
-    if verbose:
-        hb = result.held_back
-        print(format_constants(constants))
-        print(format_rows(rows, setup))
-        print(
-            f"held-back sizes: median |error| {hb['median_abs_error_pct']:.1f} %, max "
-            f"{hb['max_abs_error_pct']:.1f} %, {hb['within_target']}/{len(hb['sizes'])} within "
-            f"{TARGET_ERROR_PCT:g} % (paper's form: median "
-            f"{hb['paper_form_median_abs_error_pct']:.1f} %, max "
-            f"{hb['paper_form_max_abs_error_pct']:.1f} %; document: max "
-            f"{hb['document_max_error_pct']:.2f} %)"
+def _error_cause(
+    r: pd.Series, hidden: float, best: pd.Series, best_hidden: float, statistic: str
+) -> str:
+    """The measured cause of one row's model error beyond the tolerance: more fragments
+    hidden than at the best-predicted size (an over-prediction), or a wide spread of its
+    rounds (a busy machine); otherwise it says that neither explains it."""
+    if r.error_pct > 0 and hidden > best_hidden + 0.05:
+        return (
+            f"formula (2) prices all {r.fragments_gl:,.0f} rasterized fragments as shaded; "
+            f"{hidden:.0%} of them fail the depth test here, {best_hidden:.0%} at "
+            f"{best.objects:,} boxes (error {best.error_pct:+.1f} %)"
         )
-        print(
-            "memory (1): formula == allocated bytes for "
-            f"{sum(m['match'] for m in memory)}/{len(memory)} scenes"
+    iqr = (r.ms_p75 - r.ms_p25) / r.ms_measured
+    hid = (
+        f"{hidden:.0%} hidden vs {best_hidden:.0%} at {best.objects:,} boxes, error "
+        f"{best.error_pct:+.1f} %"
+    )
+    if iqr > NOISY_IQR:
+        return (
+            f"timing noise: this size's rounds spread {r.ms_p25:.2f}-{r.ms_p75:.2f} ms "
+            f"(interquartile {iqr:.0%} of its {statistic}) on the shared cores; fragments {hid}"
         )
-        print(
-            f"query model re-fit ({REFIT_FRAMES} frames): {refit['refit_ms_median']:.2f} ms "
-            f"median after a {refit['first_fit_ms']:.0f} ms first (compiling) fit"
+    return (
+        f"cause not identified: not hidden fragments ({hid}), nor the spread of its rounds "
+        f"(interquartile {iqr:.0%} of its {statistic})"
+    )
+
+
+def claims(frames: dict[str, pd.DataFrame], params: Params) -> pd.DataFrame:
+    """Table 1 row by row on the model error (the comparable quantity), the document's
+    claim over all rows, the frame time's growth, formula (1), and what goes beyond."""
+    t = frames["table1"]
+    rnd = t[t.kind == "random"]
+    rows = []
+    hidden_all = 1.0 - rnd.fragments_shaded / rnd.fragments_gl.clip(lower=1)
+    best = rnd.loc[rnd.error_pct.abs().idxmin()]
+    best_hidden = hidden_all[best.name]
+    for _, r in rnd.iterrows():
+        doc = (
+            f"error {r.doc_error_pct:g} % (measured {r.doc_ms_measured:g} ms, model "
+            f"{r.doc_ms_model:g} ms)"
+            if np.isfinite(r.doc_error_pct)
+            else "– (not a Table 1 size)"
         )
-        print(f"wrote {len(result.files)} files to {out} in {seconds['total']:.0f} s")
-    return {
-        "rows": rows,
-        "memory": memory,
-        "constants": constants.as_dict(),
-        "held_back": result.held_back,
-        "refit": refit,
-        "files": result.files,
-        "seconds": seconds,
-    }
-
-
-# -- command line ---------------------------------------------------------------------------------
-
-
-def _sizes(text: str) -> list[int]:
-    try:
-        return [int(t.replace("_", "")) for t in text.split(",") if t.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"bad sizes {text!r}: expected e.g. 10,100,1000") from None
-
-
-def _resolution(text: str) -> tuple[int, int]:
-    try:
-        return parse_resolution(text)
-    except UsageError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    """The options of ``vislod seed004-model`` (also ``python -m experiments.seed004_model``)."""
-    p.add_argument("--quick", action="store_true", help="sizes up to 5,000 at 640x360 (< 40 s)")
-    p.add_argument(
-        "--sizes",
-        type=_sizes,
-        default=None,
-        metavar="N,N,...",
-        help="objects of the Table 1 scenes (default: the paper's nine)",
-    )
-    p.add_argument(
-        "--dense-sizes",
-        type=_sizes,
-        default=None,
-        metavar="N,N,...",
-        help="objects of the dense limitation scenes ('' for none)",
-    )
-    p.add_argument(
-        "--resolution",
-        type=_resolution,
-        default=None,
-        help="frame size WxH (default 1280x720; quick 640x360)",
-    )
-    p.add_argument("--repeats", type=int, default=None, help="interleaved rounds (default 9)")
-    p.add_argument("--seed", type=int, default=0, help="scene and calibration seed (default 0)")
-    p.add_argument(
-        "--statistic",
-        choices=("min", "median"),
-        default="min",
-        help="what stands for repeated timings (default min: steady on a busy machine)",
-    )
-    p.add_argument(
-        "--out", default=None, help="folder (default results/seed004_model; quick: results/quick)"
-    )
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-
-
-def command(args: argparse.Namespace) -> int:
-    """Run ``vislod seed004-model`` with parsed ``args``; :class:`UsageError` for bad values."""
-    quick = bool(args.quick) or env_quick()
-    setup = make_setup(quick, args.sizes, args.resolution, args.repeats, args.seed,
-                       args.dense_sizes, args.statistic)  # fmt: skip
-    if quick:
-        print(
-            f"quick mode: sizes up to {max(setup.sizes):,}, {res_str(setup.resolution)}",
-            file=sys.stderr,
+        ours = (
+            f"error {r.error_pct:+.1f} % (measured {r.ms_measured:.3f} ms, model "
+            f"{r.ms_predicted:.3f} ms)"
         )
-    run(setup.quick, args.out, True, setup=setup, progress=not args.no_progress)
-    return 0
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m experiments.seed004_model [options]``; returns the exit status."""
-    return module_main(
-        "seed004_model",
-        "Seed 004: Gonakhchyan's performance model, Table 1, on this GL context.",
-        add_arguments,
-        command,
-        argv,
+        ok = abs(r.error_pct) <= ERROR_TOLERANCE_PCT
+        hidden = 1.0 - r.fragments_shaded / max(r.fragments_gl, 1)
+        rows.append(
+            harness.claim(
+                f"Table 1, {r.objects:,} random boxes: model error",
+                doc,
+                ours,
+                harness.NUMBERS if ok else harness.DIFFERS,
+                basis=f"|model error| within {ERROR_TOLERANCE_PCT:g} % (the document's reach "
+                "9.54 %); absolute ms not compared: llvmpipe on CPU cores vs the paper's GTX "
+                f"1070, ours {r.ms_measured / r.doc_ms_measured:.0f}× theirs"
+                if np.isfinite(r.doc_ms_measured)
+                else f"|model error| within {ERROR_TOLERANCE_PCT:g} %",
+                why="" if ok else _error_cause(r, hidden, best, best_hidden, params.statistic),
+            )
+        )
+    err = rnd.error_pct.abs()
+    holds = err.median() <= ERROR_TOLERANCE_PCT and err.max() <= TARGET_ERROR_PCT
+    rows.append(
+        harness.claim(
+            "Table 1: the model over all sizes",
+            DOC_CLAIM,
+            f"median |error| {err.median():.1f} %, max {err.max():.1f} % over "
+            f"{len(rnd)} held-back sizes (document: max 9.54 %)",
+            harness.TREND if holds else harness.DIFFERS,
+            basis=f"median |error| <= {ERROR_TOLERANCE_PCT:g} % and every size within "
+            f"{TARGET_ERROR_PCT:g} %: " + ("holds" if holds else "does not hold"),
+            why="" if holds else f"largest error at {int(rnd.objects[err.idxmax()]):,} boxes",
+        )
     )
+    big = rnd[rnd.objects >= 1000]
+    if len(big) >= 2:
+        ours_s = _slope(big.objects, big.ms_measured)
+        doc_n = [n for n in DOC_OBJECTS if big.objects.min() <= n <= big.objects.max()]
+        doc_ms = [DOC_MEASURED_MS[DOC_OBJECTS.index(n)] for n in doc_n]
+        doc_s = _slope(doc_n, doc_ms) if len(doc_n) >= 2 else np.nan
+        ok = abs(ours_s - doc_s) <= SLOPE_TOLERANCE
+        rows.append(
+            harness.claim(
+                f"Table 1: growth of frame time, {big.objects.min():,}-{big.objects.max():,} boxes",
+                f"log-log slope {doc_s:.2f} (measured ms vs objects)",
+                f"log-log slope {ours_s:.2f}",
+                harness.NUMBERS if ok else harness.DIFFERS,
+                basis=f"slopes within ±{SLOPE_TOLERANCE:g}; the slope compares, the levels "
+                "(llvmpipe vs a GPU) do not",
+                why="" if ok else "llvmpipe's fixed cost per frame weighs more at small sizes",
+            )
+        )
+    pf = rnd.error_paper_form_pct.abs()
+    rows.append(
+        harness.claim(
+            "Table 1: the paper's form of (2) on llvmpipe",
+            "max of the stages; T_vert = N_Δ·T_Δ, T_frag = f·T_frag (full-screen triangle)",
+            f"median |error| {pf.median():.1f} %, max {pf.max():.1f} %",
+            harness.MEASURED,
+            basis="goes beyond the document: its form on a CPU rasterizer, which does not "
+            "overlap the stages",
+        )
+    )
+    for _, r in t[t.kind == "dense"].iterrows():
+        rows.append(
+            harness.claim(
+                f"dense boxes, {r.objects:,} (limitation)",
+                "–",
+                f"error {r.error_pct:+.1f} %, {r.fragments_shaded / r.fragments_gl:.0%} of "
+                "the rasterized fragments shaded",
+                harness.MEASURED,
+                basis="goes beyond the document: depth complexity ~5-18, the model prices "
+                "every fragment as shaded",
+            )
+        )
+    mem = frames["memory"]
+    same = int(mem["match"].sum())
+    rows.append(
+        harness.claim(
+            "formula (1): scene memory",
+            "M_scene = N_vert·M_vert + N_index·M_index + N_tc·M_tc + N_norm·M_norm + Σ M_tex "
+            "+ Σ M_buf + Σ M_desc",
+            f"formula = allocated GL bytes in {same}/{len(mem)} scenes",
+            harness.NUMBERS if same == len(mem) else harness.DIFFERS,
+            basis="exact: 0 bytes apart",
+            why="" if same == len(mem) else "formula and allocation disagree (see memory.csv)",
+        )
+    )
+    fits = frames["refit"]
+    later = fits[~fits.compiling]
+    last = fits.iloc[-1]
+    rows.append(
+        harness.claim(
+            "formulas (8)-(10): re-fit while rendering",
+            "coefficients regressed from statistics gathered while rendering (no time given)",
+            f"{later.ms.median():.2f} ms per re-fit of {REFIT_FRAMES} frames (first, "
+            f"compiling: {fits.ms.iloc[0]:.0f} ms); {int(later.converged.sum())}/{len(later)} "
+            f"converged; best q {int(last.q_best):,} vs {int(last.q_best_truth):,} true",
+            harness.MEASURED,
+            basis="synthetic statistics from (8)-(10) with 2 % noise and this context's unit times",
+        )
+    )
+    return harness.claims_frame(rows)
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+EXPERIMENT = harness.experiment(
+    "seed004-model",
+    seed="004",
+    title="performance model: memory (1) and frame time (2) with measured constants (Table 1)",
+    params=Params,
+    compute=compute,
+    plots=[plot_table1],
+    claims=claims,
+    quick={
+        "sizes": (10, 20, 30, 100, 1000, 5000),
+        "dense_sizes": (1000,),
+        "resolution": (640, 360),
+        "repeats": 11,
+    },
+    minutes=1.5,
+    extras=("fit",),
+    notebook="seed004_adaptive",
+)

@@ -1,12 +1,12 @@
-"""Seed 004 reproduced: the three dynamic test scenes at our scale, the single-reference octree
-with one command buffer per node (re-recording only changed nodes), and the invisible-object
-estimate of Table 2 (``vislod seed004-octree``).
+"""Seed 004, sections 3-5: the three dynamic test scenes at our scale, the single-reference
+octree with one command buffer per node (re-recording only changed nodes), and the
+invisible-object estimate of Table 2.
 
-Seed 004 (``004_bba2ab22d18288ab.txt``, sections 3–5) tests on three dynamic scenes (71,961 /
-221,796 / 270,431 objects; 10.8 M / 10.2 M / 31.5 M triangles) whose object count grows, and
-times the invisible-object estimate (queries of expensive octree nodes, top-down) on a
-generated 70,000-object scene for 10 … 10,000 nodes checked (Table 2: 0 … 48,782 objects,
-0.031 … 23.42 ms). We report:
+Seed 004 (``004_bba2ab22d18288ab.txt``) tests on three dynamic scenes (71,961 / 221,796 /
+270,431 objects; 10.8 M / 10.2 M / 31.5 M triangles) whose object count grows, and times the
+invisible-object estimate (queries of expensive octree nodes, top-down) on a generated
+70,000-object scene for 10 … 10,000 nodes checked (Table 2: 0 … 48,782 objects, 0.031 … 23.42
+ms). We measure:
 
 1. **Scenes** — objects and triangles (first and last frame; the paper's beside them and the
    scale, :mod:`soc.scenes.dynamic`), pool size, generation time, and the time to draw every
@@ -20,162 +20,142 @@ generated 70,000-object scene for 10 … 10,000 nodes checked (Table 2: 0 … 48
    cameras outside the city, for each budget of nodes checked and two thresholds of the
    expensive nodes (the octree's default, 2× the mean objects per node, and 2): estimate,
    nodes checked, query rounds and time (traversal + queries, finished; the occluder depth
-   prepass timed apart), beside the exact oracle's invisible and occluded-in-frustum counts
-   and the paper's row. Times are medians over repeats; compare them as ratios.
+   prepass timed apart), beside the exact oracle's counts and the paper's row. Times are
+   medians over repeats on llvmpipe: compare their growth, not their level.
 
-Stages: :func:`make_setup` → :func:`scene_rows` → :func:`replay` per scene → :func:`table2`
-→ :func:`write` (CSV, JSON, PNG) → printed tables. Nothing is written before everything is
-measured; every file is written atomically.
+Stages: :func:`scene_row` and :func:`replay` per scene → :func:`table2` → :func:`picture`;
+:func:`compute` returns them as DataFrames.
 """
 
 from __future__ import annotations
 
-import argparse
-import sys
 import time
-from collections.abc import Sequence
-from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
+import pandas as pd
 
-from experiments.common import (
-    UsageError,
-    default_out,
-    env_quick,
-    format_table,
-    module_main,
-    parse_resolution,
-    res_str,
-    save_figure,
-    write_csv,
-    write_json,
-)
+from experiments import harness
+from experiments.common import UsageError
 
 # Seed 004, Table 2 (SPEC.md "Seed 004"): nodes checked → estimated invisible objects, ms.
 DOC_NODES_CHECKED = (10, 20, 30, 100, 300, 1000, 2000, 10000)
 DOC_ESTIMATE = (0, 10513, 20858, 27523, 39617, 42554, 45839, 48782)
 DOC_MS = (0.031, 0.059, 0.084, 0.261, 0.753, 2.75, 4.9, 23.42)
 DOC_OBJECTS = 70_000
-DOCUMENT = {
-    "source": "seed 004 (004_bba2ab22d18288ab.txt), section 3 Table 2, section 5 Table 3",
-    "scene": "a generated scene of 70,000 objects; Vulkan, GeForce GTX 1070, Core i7-7700",
-    "claim": "the method gives a conservative estimate of the invisible objects in bounded time",
-}
+# The document's words (seed 004, section 3, below Table 2).
+DOC_CLAIM = (
+    "«предложенный метод позволяет за ограниченное время получить консервативную оценку "
+    "количества невидимых объектов» (the method gives a conservative estimate of the number "
+    "of invisible objects in bounded time)"
+)
 
-FULL_RESOLUTION = (1280, 720)
-QUICK_RESOLUTION = (640, 360)
-FRAMES = 200  # animation frames replayed per scene
-QUICK_FRAMES = 30
-QUICK_SCALE = 0.25  # quick runs replay the scenes at a quarter of their objects
-CAMERAS = 4  # Table 2 cameras (elevated, round the city)
-QUICK_CAMERAS = 2
-REPEATS = 5  # timed repeats per Table 2 cell (median)
-QUICK_REPEATS = 2
+DOC_MODE2 = (
+    "«Для сцен с малым количеством подвижных объектов и существенным временем записи "
+    "(T_buf(S) ≫ T_buf(H)) условие (5) перестает выполняться и происходит переход ко второму "
+    "способу рендеринга» (with few moving objects and a long recording time, condition (5) "
+    "fails and the method goes over to mode 2)"
+)
+
 LEAF_CAPACITY = 8  # small leaves: many nodes, as a 10,000-node budget needs
 MAX_DEPTH = 10
 MIN_OBJECTS = (None, 2)  # expensive-node thresholds: the octree's default, and 2
-LAYOUTS = ("shared", "per-node")
+PICTURE = (480, 270)  # pixels of the expensive-nodes picture (stored as a frame of pixels)
+PICTURE_BUDGET = 1000  # nodes checked in the picture (the largest budget if not run)
+SLOPE_RANGE = (0.5, 1.2)  # log-log slope of time vs nodes checked that "bounded" accepts
+FRAMES = ("scenes", "frames", "layouts", "table2", "table2_scene", "picture")
 
 
 @dataclass(frozen=True)
-class OctreeSetup:
-    """One run: scenes, animation length, resolution, Table 2 cameras and budgets."""
+class Params:
+    """One run.
 
-    quick: bool
-    frames: int
-    resolution: tuple[int, int]
-    scale: float
-    cameras: int
-    repeats: int
-    table2_objects: int = DOC_OBJECTS
-    nodes_checked: tuple[int, ...] = DOC_NODES_CHECKED
+    Attributes
+    ----------
+    frames : int
+        Animation frames replayed per scene (at least 10).
+    resolution : (width, height)
+        Pixels of the drawings, the estimate's depth buffer and queries.
+    scale : float
+        Object scale of the replayed scenes (1 = ¼ of the paper's objects).
+    cameras : int
+        Table 2 cameras (elevated, round the city).
+    objects : int
+        Objects of the Table 2 scene (the paper's 70,000).
+    scenes : tuple of str
+        Dynamic scenes replayed (:data:`soc.scenes.dynamic.PRESETS`).
+    seed : int
+    repeats : int
+        Timed repeats per Table 2 cell (median).
+    nodes_checked : tuple of int
+        Table 2's budgets.
+    """
+
+    frames: int = 200
+    resolution: tuple[int, int] = (1280, 720)
+    scale: float = 1.0
+    cameras: int = 4
+    objects: int = DOC_OBJECTS
     scenes: tuple[str, ...] = ("scene1", "scene2", "scene3")
     seed: int = 0
+    repeats: int = 5
+    nodes_checked: tuple[int, ...] = DOC_NODES_CHECKED
+
+    def check(self) -> None:
+        """:class:`UsageError` for values the run cannot use."""
+        from soc.scenes.dynamic import PRESETS
+
+        if self.frames < 10:
+            raise UsageError(f"--frames must be at least 10, got {self.frames}")
+        bad = [s for s in self.scenes if s not in PRESETS]
+        if bad:
+            raise UsageError(f"unknown scene {bad[0]!r}; available: {', '.join(PRESETS)}")
+        if self.objects < 1000:
+            raise UsageError(f"--objects must be at least 1000, got {self.objects}")
+        if not self.scale > 0 or self.cameras < 1 or self.repeats < 1:
+            raise UsageError(
+                f"scale, cameras and repeats must be positive, got {self.scale}, "
+                f"{self.cameras}, {self.repeats}"
+            )
+        if not self.nodes_checked or min(self.nodes_checked) < 1:
+            raise UsageError(f"nodes checked must be >= 1, got {list(self.nodes_checked)}")
 
 
-def make_setup(
-    quick: bool = False,
-    frames: int | None = None,
-    resolution: tuple[int, int] | None = None,
-    *,
-    scale: float | None = None,
-    cameras: int | None = None,
-    table2_objects: int = DOC_OBJECTS,
-    scenes: Sequence[str] | None = None,
-    seed: int = 0,
-) -> OctreeSetup:
-    """The full setup (200 frames of each scene at full scale, 1280x720, 4 cameras) or the
-    quick one (30 frames at a quarter of the objects, 640x360, 2 cameras; Table 2 keeps its
-    70,000 objects). Arguments override."""
-    from soc.scenes.dynamic import PRESETS
-
-    frames = frames if frames is not None else (QUICK_FRAMES if quick else FRAMES)
-    if frames < 10:
-        raise UsageError(f"--frames must be at least 10, got {frames}")
-    scenes = tuple(scenes) if scenes is not None else PRESETS
-    bad = [s for s in scenes if s not in PRESETS]
-    if bad:
-        raise UsageError(f"unknown scene {bad[0]!r}; available: {', '.join(PRESETS)}")
-    if table2_objects < 1000:
-        raise UsageError(f"--objects must be at least 1000, got {table2_objects}")
-    return OctreeSetup(
-        quick=quick,
-        frames=int(frames),
-        resolution=resolution or (QUICK_RESOLUTION if quick else FULL_RESOLUTION),
-        scale=scale if scale is not None else (QUICK_SCALE if quick else 1.0),
-        cameras=cameras if cameras is not None else (QUICK_CAMERAS if quick else CAMERAS),
-        repeats=QUICK_REPEATS if quick else REPEATS,
-        table2_objects=int(table2_objects),
-        scenes=scenes,
-        seed=seed,
-    )
+# -- 1. scenes and 2. the octree over an animation -----------------------------------------------
 
 
-# -- 1. scenes --------------------------------------------------------------------------------
-
-
-def scene_rows(dyn, seconds: float, renderer) -> dict[str, Any]:
+def scene_row(dyn, seconds: float, renderer, scale: float) -> dict:
     """Counts of one dynamic scene beside the paper's, and drawing its last frame."""
     from soc.scenes.dynamic import OBJECT_SCALE, PAPER_SCENES, TRIANGLE_SCALE
 
     counts = dyn.counts()
-    last = dyn.frames - 1
-    cam = dyn.cameras(*renderer.resolution)[last]
-    ids = np.flatnonzero(dyn.alive(last))
+    cam = dyn.cameras(*renderer.resolution)[dyn.frames - 1]
+    ids = np.flatnonzero(dyn.alive(dyn.frames - 1))
     renderer.draw(cam, ids)  # warm-up
-    ms = float(np.median([renderer.draw(cam, ids) for _ in range(3)]))
     paper = PAPER_SCENES[dyn.name]
-    moves = int((dyn.move_to >= 0).sum())
     return {
         "scene": dyn.name,
         "paper_objects": paper["objects"],
         "paper_triangles": paper["triangles"],
-        "target_objects": round(paper["objects"] * OBJECT_SCALE),
-        "target_triangles": round(paper["triangles"] * TRIANGLE_SCALE),
+        "target_objects": round(paper["objects"] * OBJECT_SCALE * scale),
+        "target_triangles": round(paper["triangles"] * TRIANGLE_SCALE * scale),
         "objects_first": int(counts["objects"][0]),
         "objects_last": int(counts["objects"][-1]),
         "triangles_first": int(counts["triangles"][0]),
         "triangles_last": int(counts["triangles"][-1]),
         "occluders_last": int(dyn.scene.occluder[ids].sum()),
         "pool_objects": len(dyn.scene),
-        "moves": moves,
+        "moves": int((dyn.move_to >= 0).sum()),
         "recolours": len(dyn.recolour_id),
         "frames": dyn.frames,
         "generate_s": seconds,
-        "draw_all_last_ms": ms,
+        "draw_all_last_ms": float(np.median([renderer.draw(cam, ids) for _ in range(3)])),
     }
 
 
-# -- 2. the octree over an animation --------------------------------------------------------------
-
-
-def replay(dyn, glctx, renderer, *, bar=None) -> tuple[list[dict], dict[str, Any]]:
-    """Apply every frame's events to an octree and time the command buffers (module docstring).
-
-    Returns per-frame rows and the last frame's layout comparison.
-    """
+def replay(dyn, glctx, renderer, bar) -> tuple[list[dict], list[dict]]:
+    """Apply every frame's events to an octree and time the command buffers (module
+    docstring). Returns per-frame rows and the last frame's layout rows."""
     from soc.culling.frustum import aabbs_in_frustum
     from soc.culling.octree import NodeBuffers, ObjectCommands, Octree
 
@@ -201,7 +181,6 @@ def replay(dyn, glctx, renderer, *, bar=None) -> tuple[list[dict], dict[str, Any
             alive = np.flatnonzero(state.alive)
             kept = alive[aabbs_in_frustum(scene.aabbs[alive], cam.planes)]
             ms_fc_s = 1e3 * (time.perf_counter() - t2)
-            ms_buf_s = flat.sync(kept)
             rows.append(
                 {
                     "scene": dyn.name,
@@ -221,50 +200,66 @@ def replay(dyn, glctx, renderer, *, bar=None) -> tuple[list[dict], dict[str, Any
                     "ms_fc_h": ms_fc_h,
                     "visible_nodes": len(visible_nodes),
                     "objects_in_frustum": len(kept),
-                    "ms_buf_s": ms_buf_s,
+                    "ms_buf_s": flat.sync(kept),
                     "ms_fc_s": ms_fc_s,
                 }
             )
-            if bar is not None:
-                bar.update(1)
-        layouts = compare_layouts(octree, geom, renderer, cams[-1], nodes_gl, flat)
+            bar.update(1)
+        layouts = compare_layouts(dyn.name, octree, geom, renderer, cams[-1], nodes_gl, flat)
     finally:
         nodes_gl.release()
         flat.release()
-    return rows, {"scene": dyn.name, **layouts}
+    return rows, layouts
 
 
-def compare_layouts(octree, geom, renderer, cam, shared, flat) -> dict[str, Any]:
+def compare_layouts(name, octree, geom, renderer, cam, shared, flat) -> list[dict]:
     """At the last frame: re-record everything, and draw the frustum's nodes from both GPU
-    layouts and as one flat multi-draw (medians of 3)."""
+    layouts and as one flat multi-draw (medians of 3); one row per layout."""
     from soc.culling.frustum import aabbs_in_frustum
     from soc.culling.octree import NodeBuffers
 
-    out: dict[str, Any] = {"nodes": int((octree.own_counts > 0).sum())}
+    base = {"scene": name, "nodes": int((octree.own_counts > 0).sum())}
     per_node = NodeBuffers(octree, geom, layout="per-node")
+    rows = []
     try:
         per_node.sync()
         visible = octree.visible_nodes(cam)
         alive = np.flatnonzero(octree.alive)
         kept = alive[aabbs_in_frustum(geom.scene.aabbs[alive], cam.planes)]
-        out["visible_nodes"] = len(visible)
-        for name, nb in (("shared", shared), ("per-node", per_node)):
+        for layout, nb in (("shared", shared), ("per-node", per_node)):
             full = []
             for _ in range(3):
                 octree.mark_all_dirty()
                 full.append(nb.sync())
-            out[f"{name}_full_record_ms"] = float(np.median([s.ms_record for s in full]))
-            out[f"{name}_full_upload_ms"] = float(np.median([s.ms_upload for s in full]))
             nb.render(renderer, cam, visible)
-            out[f"{name}_draw_visible_ms"] = float(
-                np.median([nb.render(renderer, cam, visible)[0] for _ in range(3)])
+            rows.append(
+                {
+                    **base,
+                    "layout": layout,
+                    "record_ms": float(np.median([s.ms_record for s in full])),
+                    "upload_ms": float(np.median([s.ms_upload for s in full])),
+                    "record_upload_ms": float(np.median([s.ms for s in full])),
+                    "draw_ms": float(
+                        np.median([nb.render(renderer, cam, visible)[0] for _ in range(3)])
+                    ),
+                    "drawn": len(visible),
+                }
             )
-        out["flat_record_upload_ms"] = float(np.median([flat.sync(kept) for _ in range(3)]))
         renderer.draw(cam, kept)
-        out["flat_draw_ms"] = float(np.median([renderer.draw(cam, kept) for _ in range(3)]))
+        rows.append(
+            {
+                **base,
+                "layout": "flat (mode 1)",
+                "record_ms": np.nan,
+                "upload_ms": np.nan,
+                "record_upload_ms": float(np.median([flat.sync(kept) for _ in range(3)])),
+                "draw_ms": float(np.median([renderer.draw(cam, kept) for _ in range(3)])),
+                "drawn": len(kept),
+            }
+        )
     finally:
         per_node.release()
-    return out
+    return rows
 
 
 # -- 3. Table 2 ----------------------------------------------------------------------------------
@@ -276,19 +271,18 @@ def table2_cameras(dyn, count: int, resolution: tuple[int, int]):
 
     lo, hi = dyn.scene.bounds.astype(np.float64)
     half = 0.5 * float(hi[0] - lo[0]) - 20.0  # the ground reaches 20 m past the city
-    diag = 2.0 * half
     cams = []
     for k in range(count):
         phi = np.radians(225.0 + 360.0 * k / count)
-        height = 60.0 + 30.0 * (k % 2)
-        eye = (1.15 * half * np.cos(phi), height, 1.15 * half * np.sin(phi))
+        eye = (1.15 * half * np.cos(phi), 60.0 + 30.0 * (k % 2), 1.15 * half * np.sin(phi))
         cams.append(Camera.look_at(eye, (0.0, 0.0, 0.0), fov_y=60.0, width=resolution[0],
-                                   height=resolution[1], near=0.5, far=3.0 * diag))  # fmt: skip
+                                   height=resolution[1], near=0.5, far=6.0 * half))  # fmt: skip
     return cams
 
 
-def table2(setup: OctreeSetup, glctx, *, bar=None) -> dict[str, Any]:
-    """The estimate on a ``table2_objects``-object scene for every budget and threshold."""
+def table2(params: Params, glctx, bar) -> tuple[list[dict], dict, np.ndarray]:
+    """The estimate on an ``objects``-object scene for every camera, threshold and budget;
+    the scene's row; the picture (H, W, 3) uint8 of camera 0 with its expensive nodes."""
     import soc
     from soc.culling.frustum import aabbs_in_frustum
     from soc.culling.invisible_estimate import InvisibleEstimator
@@ -296,7 +290,7 @@ def table2(setup: OctreeSetup, glctx, *, bar=None) -> dict[str, Any]:
     from soc.scenes.dynamic import scene3
 
     t0 = time.perf_counter()
-    dyn = scene3(setup.seed, frames=10, objects=setup.table2_objects)
+    dyn = scene3(params.seed, frames=10, objects=params.objects)
     scene, _ = dyn.scene_at(dyn.frames - 1)
     geom = glctx.geometry(scene)
     octree = Octree.for_scene(scene, max_depth=MAX_DEPTH, leaf_capacity=LEAF_CAPACITY)
@@ -304,113 +298,181 @@ def table2(setup: OctreeSetup, glctx, *, bar=None) -> dict[str, Any]:
     octree.insert(np.arange(len(scene)), scene.aabbs)
     build = octree.rebuild_dirty()
     ms_build = 1e3 * (time.perf_counter() - t1)
-    cams = table2_cameras(dyn, setup.cameras, setup.resolution)
+    cams = table2_cameras(dyn, params.cameras, params.resolution)
+    doc = dict(zip(DOC_NODES_CHECKED, zip(DOC_ESTIMATE, DOC_MS, strict=True), strict=True))
+    pic_budget = PICTURE_BUDGET if PICTURE_BUDGET in params.nodes_checked else None
+    pic_budget = pic_budget or max(params.nodes_checked)
     rows: list[dict] = []
-    pictures: list[dict] = []
-    with soc.Oracle(scene) as oracle, InvisibleEstimator(octree, geom, setup.resolution) as est:
+    shown = None
+    with soc.Oracle(scene) as oracle, InvisibleEstimator(octree, geom, params.resolution) as est:
         for ci, cam in enumerate(cams):
             truth = oracle.visible(cam)
             in_frustum = aabbs_in_frustum(scene.aabbs, cam.planes)
-            invisible = int((~truth).sum())
-            occluded = int((~truth & in_frustum).sum())
-            ms_prepass = float(np.median([est.render_depth(cam) for _ in range(setup.repeats)]))
+            ms_prepass = float(np.median([est.render_depth(cam) for _ in range(params.repeats)]))
             est.estimate(cam, nodes_checked=10, prepass=False)  # warm-up
             for k in MIN_OBJECTS:
-                for budget in setup.nodes_checked:
+                for budget in params.nodes_checked:
                     runs = [
                         est.estimate(cam, nodes_checked=budget, min_objects=k, prepass=False)
-                        for _ in range(setup.repeats)
+                        for _ in range(params.repeats)
                     ]
                     e = runs[0]
                     hidden = octree.objects_in(e.occluded_nodes, subtree=True)
+                    d_est, d_ms = doc.get(budget, (np.nan, np.nan))
                     rows.append(
                         {
                             "camera": ci,
-                            "min_objects": e.min_objects,
                             "threshold": "default" if k is None else str(k),
+                            "min_objects": e.min_objects,
                             "nodes_checked_budget": budget,
                             "nodes_checked": e.nodes_checked,
+                            "occluded_nodes": len(e.occluded_nodes),
                             "queries": e.queries,
                             "rounds": e.rounds,
                             "estimate": e.invisible,
                             "ms": float(np.median([r.ms for r in runs])),
                             "ms_prepass": ms_prepass,
-                            "true_invisible": invisible,
-                            "true_occluded_in_frustum": occluded,
+                            "true_invisible": int((~truth).sum()),
+                            "true_occluded_in_frustum": int((~truth & in_frustum).sum()),
                             "false_invisible": int(truth[hidden].sum()),  # must be 0
+                            "doc_estimate": d_est,
+                            "doc_ms": d_ms,
                         }
                     )
-                    if bar is not None:
-                        bar.update(1)
-                    if ci == 0 and k is None and budget == 1000:
-                        pictures.append({"camera": cam, "estimate": e})
+                    bar.update(1)
+                    if ci == 0 and k is None and budget == pic_budget:
+                        shown = e
+        image = picture(glctx, dyn, scene, octree, shown, params)
+    info = {
+        "objects": len(scene),
+        "triangles": int(scene.triangle_counts.sum()),
+        "occluders": int(scene.occluder.sum()),
+        "octree_nodes": int((octree.own_counts > 0).sum()),
+        "octree_nodes_created": octree.nodes,
+        "default_min_objects": octree.default_min_objects(),
+        "expensive_nodes": int(octree.expensive().sum()),
+        "build_ms": ms_build,
+        "record_all_ms": build.ms_record,
+        "generate_s": t1 - t0,
+        "picture_budget": pic_budget,
+        "picture_min_objects": shown.min_objects,
+        "picture_estimate": shown.invisible,
+    }
+    return rows, info, image
+
+
+def picture(glctx, dyn, scene, octree, e, params: Params) -> np.ndarray:
+    """Camera 0 at :data:`PICTURE` pixels with the expensive nodes outlined: found occluded
+    (red, drawn through what hides them) and the others (yellow, depth-tested)."""
+    from soc.culling.octree import outline_boxes
+    from soc.rendering.renderer import Renderer
+
+    cam = table2_cameras(dyn, params.cameras, PICTURE)[0]
+    r = Renderer(glctx.geometry(scene), PICTURE)
+    try:
+        r.draw(cam, np.arange(len(scene)))
+        expensive = np.flatnonzero(octree.expensive(e.min_objects))
+        others = np.setdiff1d(expensive, e.occluded_nodes)
+        outline_boxes(r, cam, octree.subtree_bounds[others], (1.0, 0.85, 0.0, 1.0))
+        outline_boxes(r, cam, octree.subtree_bounds[e.occluded_nodes], (0.9, 0.1, 0.1, 1.0),
+                      depth_test=False)  # fmt: skip
+        return r.image()
+    finally:
+        r.release()
+
+
+def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
+    """Scenes, octree replay, layouts and Table 2 (module docstring); frames :data:`FRAMES`."""
+    from tqdm.auto import tqdm
+
+    from soc.gl.context import default_context
+    from soc.rendering.renderer import Renderer
+    from soc.scenes.dynamic import dynamic_scene
+
+    glctx = default_context()
+    scenes, frames, layouts = [], [], []
+    total = len(params.scenes) * params.frames
+    total += params.cameras * len(MIN_OBJECTS) * len(params.nodes_checked)
+    with tqdm(total=total, desc="seed004 octree", unit="step", disable=not progress) as bar:
+        for name in params.scenes:
+            t = time.perf_counter()
+            dyn = dynamic_scene(name, params.seed, frames=params.frames, scale=params.scale)
+            gen = time.perf_counter() - t
+            renderer = Renderer(glctx.geometry(dyn.scene), params.resolution)
+            try:
+                scenes.append(scene_row(dyn, gen, renderer, params.scale))
+                rows, lay = replay(dyn, glctx, renderer, bar)
+            finally:
+                renderer.release()
+            frames += rows
+            layouts += lay
+            del dyn
+        t2, info, image = table2(params, glctx, bar)
+    h, w, _ = image.shape
+    yy, xx = np.mgrid[0:h, 0:w]
+    pixels = pd.DataFrame(
+        {
+            "y": yy.ravel(),
+            "x": xx.ravel(),
+            **{c: image[..., i].ravel() for i, c in enumerate("rgb")},
+        }
+    )
     return {
-        "rows": rows,
-        "scene": {
-            "objects": len(scene),
-            "triangles": int(scene.triangle_counts.sum()),
-            "occluders": int(scene.occluder.sum()),
-            "octree_nodes": int((octree.own_counts > 0).sum()),
-            "octree_nodes_created": octree.nodes,
-            "default_min_objects": octree.default_min_objects(),
-            "expensive_nodes": int(octree.expensive().sum()),
-            "build_ms": ms_build,
-            "record_all_ms": build.ms_record,
-            "generate_s": t1 - t0,
-        },
-        "_picture": (scene, octree, pictures),
+        "scenes": pd.DataFrame(scenes),
+        "frames": pd.DataFrame(frames),
+        "layouts": pd.DataFrame(layouts),
+        "table2": pd.DataFrame(t2),
+        "table2_scene": pd.DataFrame([info]),
+        "picture": pixels,
     }
 
 
-def table2_summary(rows: Sequence[dict], setup: OctreeSetup) -> list[dict]:
-    """Per threshold and budget: mean estimate and truth over cameras, median time."""
-    out = []
-    for thr in dict.fromkeys(r["threshold"] for r in rows):
-        for budget in setup.nodes_checked:
-            sel = [r for r in rows if r["threshold"] == thr and r["nodes_checked_budget"] == budget]
-            doc = DOC_NODES_CHECKED.index(budget) if budget in DOC_NODES_CHECKED else None
-            out.append(
-                {
-                    "threshold": thr,
-                    "min_objects": sel[0]["min_objects"],
-                    "nodes_checked_budget": budget,
-                    "nodes_checked": float(np.mean([r["nodes_checked"] for r in sel])),
-                    "estimate": float(np.mean([r["estimate"] for r in sel])),
-                    "true_occluded_in_frustum": float(
-                        np.mean([r["true_occluded_in_frustum"] for r in sel])
-                    ),
-                    "true_invisible": float(np.mean([r["true_invisible"] for r in sel])),
-                    "ms": float(np.median([r["ms"] for r in sel])),
-                    "rounds": float(np.mean([r["rounds"] for r in sel])),
-                    "false_invisible": int(sum(r["false_invisible"] for r in sel)),
-                    "paper_estimate": DOC_ESTIMATE[doc] if doc is not None else None,
-                    "paper_ms": DOC_MS[doc] if doc is not None else None,
-                }
-            )
-    return out
+# -- pictures -------------------------------------------------------------------------------------
 
 
-# -- figures -------------------------------------------------------------------------------------
+def table2_summary(t2: pd.DataFrame) -> pd.DataFrame:
+    """Per threshold and budget: mean counts over the cameras, median time, false culls."""
+    g = t2.groupby(["threshold", "nodes_checked_budget"], sort=False)
+    out = g.agg(
+        min_objects=("min_objects", "first"),
+        nodes_checked=("nodes_checked", "mean"),
+        occluded_nodes=("occluded_nodes", "mean"),
+        estimate=("estimate", "mean"),
+        true_invisible=("true_invisible", "mean"),
+        true_occluded_in_frustum=("true_occluded_in_frustum", "mean"),
+        ms=("ms", "median"),
+        rounds=("rounds", "mean"),
+        false_invisible=("false_invisible", "sum"),
+        doc_estimate=("doc_estimate", "first"),
+        doc_ms=("doc_ms", "first"),
+    )
+    return out.reset_index()
 
 
-def figure_table2(summary: Sequence[dict], objects: int):
-    import matplotlib
+def plot_table2(frames: dict[str, pd.DataFrame], params: Params):
+    """Table 2. Left: estimated invisible objects as a fraction of all objects against the
+    nodes checked (budget, log), ours per expensive-node threshold (means over the cameras),
+    the oracle's occluded-in-frustum (dashed) and all invisible objects (dotted), and the
+    paper's row (grey; its own 70,000-object scene). Right: time of the method (traversal +
+    queries, median over cameras and repeats, ms, log-log) beside the paper's on a GTX 1070 —
+    compare the slopes, not the levels."""
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2))
-    for thr in dict.fromkeys(r["threshold"] for r in summary):
-        sel = [r for r in summary if r["threshold"] == thr]
-        x = [r["nodes_checked_budget"] for r in sel]
-        label = f"ours, min objects {sel[0]['min_objects']}" + (" (default)" if thr == "default"
-                                                                 else "")  # fmt: skip
-        a.plot(x, [r["estimate"] / objects for r in sel], "o-", label=label)
-        b.plot(x, [r["ms"] for r in sel], "o-", label=label)
-    truth = np.mean([r["true_occluded_in_frustum"] for r in summary]) / objects
-    a.axhline(truth, color="k", ls="--", lw=1, label="oracle: occluded in frustum")
+    s = table2_summary(frames["table2"])
+    objects = int(frames["table2_scene"].objects.iloc[0])
+    fig = Figure(figsize=(11, 4.2))
+    a, b = fig.subplots(1, 2)
+    for thr, sel in s.groupby("threshold", sort=False):
+        label = f"ours, min objects {int(sel.min_objects.iloc[0])}"
+        label += " (default)" if thr == "default" else ""
+        a.plot(sel.nodes_checked_budget, sel.estimate / objects, "o-", label=label)
+        b.plot(sel.nodes_checked_budget, sel.ms, "o-", label=label)
+    a.axhline(s.true_occluded_in_frustum.mean() / objects, color="k", ls="--", lw=1,
+              label="oracle: occluded in frustum")  # fmt: skip
+    a.axhline(s.true_invisible.mean() / objects, color="k", ls=":", lw=1,
+              label="oracle: all invisible (frustum's outside too)")  # fmt: skip
     a.plot(DOC_NODES_CHECKED, np.divide(DOC_ESTIMATE, DOC_OBJECTS), "s:", color="grey",
-           label="paper (70,000 objects)")  # fmt: skip
+           label="paper (its 70,000-object scene)")  # fmt: skip
     b.plot(DOC_NODES_CHECKED, DOC_MS, "s:", color="grey", label="paper (GTX 1070)")
     for ax in (a, b):
         ax.set_xscale("log")
@@ -420,36 +482,35 @@ def figure_table2(summary: Sequence[dict], objects: int):
     a.set_ylabel("estimated invisible objects / all objects")
     b.set_yscale("log")
     b.set_ylabel("time of the method, ms (traversal + queries)")
-    a.set_title("Table 2: estimate (conservative)")
-    b.set_title("Table 2: time (llvmpipe vs the paper's GPU)")
+    a.set_title(f"Table 2: estimate (conservative), {objects:,} objects", fontsize=10)
+    b.set_title("Table 2: time (llvmpipe vs the paper's GPU)", fontsize=10)
     fig.tight_layout()
     return fig
 
 
-def figure_replay(rows: Sequence[dict]):
-    import matplotlib
+def plot_replay(frames: dict[str, pd.DataFrame], params: Params):
+    """The octree over each scene's animation (one column per scene). Top: per frame, ms (log)
+    of T_buf(H) (record + upload the node buffers that changed), T_buf(S) (record + upload the
+    frustum's objects afresh, mode 1), T_fc(H) (node frustum test) and T_fc(S) (per-object
+    test). Bottom: objects alive and commands re-recorded per frame (symlog)."""
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    scenes = list(dict.fromkeys(r["scene"] for r in rows))
-    fig, axes = plt.subplots(2, len(scenes), figsize=(4.6 * len(scenes), 6.5), squeeze=False)
+    f = frames["frames"]
+    scenes = list(dict.fromkeys(f.scene))
+    fig = Figure(figsize=(4.6 * len(scenes), 6.5))
+    axes = fig.subplots(2, len(scenes), squeeze=False)
     for j, s in enumerate(scenes):
-        sel = [r for r in rows if r["scene"] == s]
-        f = [r["frame"] for r in sel]
+        sel = f[f.scene == s]
         top, bottom = axes[0, j], axes[1, j]
-        top.plot(f, [r["ms_buf_h"] for r in sel], label="T_buf(H): dirty nodes")
-        top.plot(f, [r["ms_buf_s"] for r in sel], label="T_buf(S): objects in frustum")
-        top.plot(f, [r["ms_fc_h"] for r in sel], lw=0.8, label="T_fc(H)")
-        top.plot(f, [r["ms_fc_s"] for r in sel], lw=0.8, label="T_fc(S)")
-        top.set_yscale("log")
-        top.set_title(s)
-        top.set_ylabel("ms")
+        top.plot(sel.frame, sel.ms_buf_h, label="T_buf(H): dirty nodes")
+        top.plot(sel.frame, sel.ms_buf_s, label="T_buf(S): objects in frustum")
+        top.plot(sel.frame, sel.ms_fc_h, lw=0.8, label="T_fc(H)")
+        top.plot(sel.frame, sel.ms_fc_s, lw=0.8, label="T_fc(S)")
+        top.set(yscale="log", title=s, ylabel="ms")
         top.legend(fontsize=7)
-        bottom.plot(f, [r["objects"] for r in sel], label="objects alive")
-        bottom.plot(f, [r["commands_recorded"] for r in sel], label="commands re-recorded")
-        bottom.set_xlabel("frame")
-        bottom.set_yscale("symlog")
+        bottom.plot(sel.frame, sel.objects, label="objects alive")
+        bottom.plot(sel.frame, sel.commands_recorded, label="commands re-recorded")
+        bottom.set(xlabel="frame", yscale="symlog", ylabel="count")
         bottom.legend(fontsize=7)
         for ax in (top, bottom):
             ax.grid(alpha=0.3)
@@ -457,314 +518,192 @@ def figure_replay(rows: Sequence[dict]):
     return fig
 
 
-def picture(glctx, scene, octree, pictures: Sequence[dict], resolution):
-    """The Table 2 scene from camera 0 with the expensive nodes outlined at a 1,000-node
-    budget: found occluded (red, drawn through the buildings hiding them) and the others
-    (yellow, depth-tested)."""
-    import matplotlib
+def plot_expensive_nodes(frames: dict[str, pd.DataFrame], params: Params):
+    """The Table 2 scene from camera 0 with the expensive octree nodes outlined after the
+    estimate at the picture's budget (title): red = found occluded (drawn through the
+    buildings that hide them), yellow = the other expensive nodes (depth-tested)."""
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from soc.culling.octree import outline_boxes
-    from soc.rendering.renderer import Renderer
-
-    cam, e = pictures[0]["camera"], pictures[0]["estimate"]
-    r = Renderer(glctx.geometry(scene), resolution)
-    try:
-        r.draw(cam, np.arange(len(scene)))
-        expensive = np.flatnonzero(octree.expensive(e.min_objects))
-        occluded = e.occluded_nodes
-        others = np.setdiff1d(expensive, occluded)
-        outline_boxes(r, cam, octree.subtree_bounds[others], (1.0, 0.85, 0.0, 1.0))
-        outline_boxes(r, cam, octree.subtree_bounds[occluded], (0.9, 0.1, 0.1, 1.0),
-                      depth_test=False)  # fmt: skip
-        img = r.image()
-    finally:
-        r.release()
-    fig, ax = plt.subplots(figsize=(10, 10 * resolution[1] / resolution[0] + 0.4))
+    px = frames["picture"]
+    h, w = int(px.y.max()) + 1, int(px.x.max()) + 1
+    img = np.zeros((h, w, 3), np.uint8)
+    img[px.y.to_numpy(), px.x.to_numpy()] = px[["r", "g", "b"]].to_numpy(np.uint8)
+    info = frames["table2_scene"].iloc[0]
+    fig = Figure(figsize=(9, 9 * h / w + 0.5))
+    ax = fig.subplots()
     ax.imshow(img)
     ax.set_axis_off()
     ax.set_title(
-        f"{len(scene):,} objects; expensive nodes (min objects {e.min_objects}): "
-        f"found occluded (red, seen through what hides them; {e.invisible:,} objects), "
-        "others (yellow)",
+        f"{int(info.objects):,} objects, {int(info.picture_budget):,} nodes checked, min "
+        f"objects {int(info.picture_min_objects)}: red = found occluded "
+        f"({int(info.picture_estimate):,} objects), yellow = other expensive nodes",
         fontsize=9,
     )
     fig.tight_layout()
     return fig
 
 
-# -- writing and printing ------------------------------------------------------------------------
+# -- claims ---------------------------------------------------------------------------------------
 
 
-@dataclass
-class OctreeResult:
-    scenes: list[dict]
-    frames: list[dict]
-    layouts: list[dict]
-    table2_rows: list[dict]
-    table2: list[dict]
-    table2_scene: dict[str, Any]
-    files: list[Path] = field(default_factory=list)
-    seconds: dict[str, float] = field(default_factory=dict)
-
-
-def replay_summary(frames: Sequence[dict]) -> list[dict]:
-    out = []
-    for s in dict.fromkeys(r["scene"] for r in frames):
-        sel = [r for r in frames if r["scene"] == s][1:]  # frame 0 records everything
-        col = {k: np.array([r[k] for r in sel], float) for k in sel[0] if k != "scene"}
-        out.append(
-            {
-                "scene": s,
-                "frames": len(sel) + 1,
-                "dirty_nodes_median": float(np.median(col["dirty_nodes"])),
-                "ms_buf_h_median": float(np.median(col["ms_buf_h"])),
-                "ms_buf_h_p95": float(np.percentile(col["ms_buf_h"], 95)),
-                "ms_buf_h_max": float(col["ms_buf_h"].max()),
-                "ms_buf_s_median": float(np.median(col["ms_buf_s"])),
-                "ms_fc_h_median": float(np.median(col["ms_fc_h"])),
-                "ms_fc_s_median": float(np.median(col["ms_fc_s"])),
-            }
-        )
-    return out
-
-
-def _n(x) -> str:
-    """A count for a printed table: thousands separated, no decimals ("—" for None)."""
-    return "—" if x is None else f"{round(float(x)):,}"
-
-
-def format_tables(result: OctreeResult, setup: OctreeSetup) -> str:
-    """The four printed tables: scenes, per-frame octree costs, layouts, Table 2."""
-    t1 = format_table(
-        ["scene", "paper obj", "target", "ours first", "ours last", "paper tris", "target",
-         "ours last", "pool", "draw all ms"],
-        [[r["scene"], *(_n(r[k]) for k in ("paper_objects", "target_objects", "objects_first",
-          "objects_last", "paper_triangles", "target_triangles", "triangles_last",
-          "pool_objects")), r["draw_all_last_ms"]] for r in result.scenes],
-        f"Dynamic scenes (objects x1/4, triangles x1/20 of the paper's; replay scale "
-        f"{setup.scale:g}; drawn at {res_str(setup.resolution)})",
-    )  # fmt: skip
-    t2 = format_table(
-        ["scene", "dirty nodes", "T_buf(H) med", "p95", "max", "T_buf(S) med", "T_fc(H)",
-         "T_fc(S)"],
-        [[r["scene"], _n(r["dirty_nodes_median"]), r["ms_buf_h_median"], r["ms_buf_h_p95"],
-          r["ms_buf_h_max"], r["ms_buf_s_median"], r["ms_fc_h_median"], r["ms_fc_s_median"]]
-         for r in replay_summary(result.frames)],
-        "Octree per frame (ms, frames 1.., medians)",
-    )  # fmt: skip
-    t3 = format_table(
-        ["scene", "nodes", "full rec", "shared up", "per-node up", "shared draw",
-         "per-node draw", "flat rec+up", "flat draw"],
-        [[r["scene"], _n(r["nodes"]), r["shared_full_record_ms"], r["shared_full_upload_ms"],
-          r["per-node_full_upload_ms"], r["shared_draw_visible_ms"],
-          r["per-node_draw_visible_ms"], r["flat_record_upload_ms"], r["flat_draw_ms"]]
-         for r in result.layouts],
-        "Last frame: re-record every node; draw the frustum's nodes / objects (ms)",
-    )  # fmt: skip
-    t4 = format_table(
-        ["min obj", "budget", "checked", "estimate", "oracle inv.", "occl. in frustum", "ms",
-         "paper est.", "paper ms", "false"],
-        [[str(r["min_objects"]), _n(r["nodes_checked_budget"]), _n(r["nodes_checked"]),
-          _n(r["estimate"]), _n(r["true_invisible"]), _n(r["true_occluded_in_frustum"]),
-          r["ms"], _n(r["paper_estimate"]), r["paper_ms"], _n(r["false_invisible"])]
-         for r in result.table2],
-        f"Table 2 on {result.table2_scene['objects']:,} objects ({setup.cameras} cameras, "
-        f"{res_str(setup.resolution)}; counts: means over cameras, ms: median)",
-    )  # fmt: skip
-    return "\n\n".join([t1, t2, t3, t4])
-
-
-def write(result: OctreeResult, setup: OctreeSetup, out: Path, pic) -> list[Path]:
-    out.mkdir(parents=True, exist_ok=True)
-    files = [
-        write_csv(out / "seed004_octree_scenes.csv", result.scenes),
-        write_csv(out / "seed004_octree_frames.csv", result.frames),
-        write_csv(out / "seed004_octree_layouts.csv", result.layouts),
-        write_csv(out / "seed004_table2_cameras.csv", result.table2_rows),
-        write_csv(out / "seed004_table2.csv", result.table2),
-        save_figure(
-            figure_table2(result.table2, result.table2_scene["objects"]), out / "seed004_table2.png"
-        ),
-        save_figure(figure_replay(result.frames), out / "seed004_octree_frames.png"),
-    ]
-    if pic is not None:
-        files.append(save_figure(pic, out / "seed004_expensive_nodes.png"))
-    files.append(
-        write_json(
-            out / "seed004_octree_summary.json",
-            {
-                "setup": {
-                    "quick": setup.quick,
-                    "frames": setup.frames,
-                    "resolution": res_str(setup.resolution),
-                    "scale": setup.scale,
-                    "cameras": setup.cameras,
-                    "repeats": setup.repeats,
-                    "leaf_capacity": LEAF_CAPACITY,
-                    "max_depth": MAX_DEPTH,
-                    "seed": setup.seed,
-                },
-                "scenes": result.scenes,
-                "replay": replay_summary(result.frames),
-                "layouts": result.layouts,
-                "table2_scene": result.table2_scene,
-                "table2": result.table2,
-                "document": {
-                    **DOCUMENT,
-                    "nodes_checked": DOC_NODES_CHECKED,
-                    "estimate": DOC_ESTIMATE,
-                    "ms": DOC_MS,
-                },
-                "seconds": result.seconds,
-            },
+def claims(frames: dict[str, pd.DataFrame], params: Params) -> pd.DataFrame:
+    """Table 2 judged as a trend at another scale (conservative, growing with the budget,
+    bounded time), per budget beside the document; the scenes at our scale; the octree's
+    re-recording against mode 1's."""
+    t2 = frames["table2"]
+    s = table2_summary(t2)
+    info = frames["table2_scene"].iloc[0]
+    n = int(info.objects)
+    rows = []
+    false = int(t2.false_invisible.sum())
+    over = int((t2.estimate > t2.true_invisible).sum())
+    ok = false == 0 and over == 0
+    rows.append(
+        harness.claim(
+            "Table 2: the estimate is conservative",
+            DOC_CLAIM,
+            f"{false} objects counted invisible that the oracle sees, over {len(t2)} cases "
+            f"({params.cameras} cameras × {len(MIN_OBJECTS)} thresholds × "
+            f"{len(params.nodes_checked)} budgets)",
+            harness.TREND if ok else harness.DIFFERS,
+            basis="no object inside a node found occluded is visible to the exact oracle, and "
+            "no estimate exceeds the oracle's invisible count: " + ("holds" if ok else "fails"),
+            why="" if ok else f"{false} false invisible objects, {over} estimates too high",
         )
     )
-    return files
-
-
-def run(
-    quick: bool = False,
-    out: str | Path | None = None,
-    verbose: bool = True,
-    *,
-    setup: OctreeSetup | None = None,
-    progress: bool | None = None,
-) -> dict[str, Any]:
-    """Measure and write the scenes, the octree replay and Table 2 (module docstring).
-
-    Parameters
-    ----------
-    quick : bool
-        30 frames at a quarter of the objects, 640x360, 2 Table 2 cameras (< 40 s); ignored
-        when ``setup`` is given.
-    out : path, optional
-        Folder of the files (default ``default_out(quick) / "seed004_octree"``).
-    verbose : bool
-        Print the tables.
-    setup : OctreeSetup, optional
-        Overrides ``quick``'s defaults (see :func:`make_setup`).
-    progress : bool, optional
-        tqdm bar (default: ``verbose``).
-
-    Returns
-    -------
-    dict
-        ``scenes``, ``frames``, ``layouts``, ``table2`` (summary), ``table2_rows``,
-        ``table2_scene``, ``files``, ``seconds``.
-    """
-    from tqdm.auto import tqdm
-
-    from soc.gl.context import default_context
-    from soc.rendering.renderer import Renderer
-    from soc.scenes.dynamic import dynamic_scene
-
-    setup = setup or make_setup(quick)
-    out = Path(out) if out is not None else default_out(setup.quick) / "seed004_octree"
-    progress = verbose if progress is None else progress
-    glctx = default_context()
-    seconds: dict[str, float] = {}
-    t0 = time.perf_counter()
-    scenes, frames, layouts = [], [], []
-    total = len(setup.scenes) * setup.frames + setup.cameras * len(MIN_OBJECTS) * len(
-        setup.nodes_checked
+    d = s[s.threshold == "default"].sort_values("nodes_checked_budget")
+    grows = bool((np.diff(d.estimate) >= 0).all())
+    per_cam = t2[t2.threshold == "default"].sort_values("nodes_checked_budget")
+    grows_each = bool(
+        per_cam.groupby("camera").estimate.apply(lambda e: (np.diff(e) >= 0).all()).all()
     )
-    with tqdm(total=total, desc="seed004 octree", unit="step", disable=not progress) as bar:
-        for name in setup.scenes:
-            t = time.perf_counter()
-            dyn = dynamic_scene(name, setup.seed, frames=setup.frames, scale=setup.scale)
-            gen = time.perf_counter() - t
-            renderer = Renderer(glctx.geometry(dyn.scene), setup.resolution)
-            try:
-                scenes.append(scene_rows(dyn, gen, renderer))
-                rows, lay = replay(dyn, glctx, renderer, bar=bar)
-            finally:
-                renderer.release()
-            frames += rows
-            layouts.append(lay)
-            del dyn
-        seconds["scenes_and_replay"] = time.perf_counter() - t0
-        t1 = time.perf_counter()
-        t2 = table2(setup, glctx, bar=bar)
-        seconds["table2"] = time.perf_counter() - t1
-    summary = table2_summary(t2["rows"], setup)
-    result = OctreeResult(scenes, frames, layouts, t2["rows"], summary, t2["scene"],
-                          seconds=seconds)  # fmt: skip
-    scene, octree, pics = t2["_picture"]
-    pic = picture(glctx, scene, octree, pics, setup.resolution) if pics else None
-    result.files = write(result, setup, out, pic)
-    seconds["total"] = time.perf_counter() - t0
-    if verbose:
-        print(format_tables(result, setup))
-        bad = sum(r["false_invisible"] for r in summary)
-        print(f"estimate conservative on every camera and budget: {bad == 0} ({bad} false)")
-        print(f"wrote {len(result.files)} files to {out} in {seconds['total']:.0f} s")
-    return {
-        "scenes": scenes,
-        "frames": frames,
-        "layouts": layouts,
-        "table2": summary,
-        "table2_rows": t2["rows"],
-        "table2_scene": t2["scene"],
-        "files": result.files,
-        "seconds": seconds,
-    }
-
-
-# -- command line ---------------------------------------------------------------------------------
-
-
-def _resolution(text: str) -> tuple[int, int]:
-    try:
-        return parse_resolution(text)
-    except UsageError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    """The options of ``vislod seed004-octree`` (also ``python -m experiments.seed004_octree``)."""
-    p.add_argument("--quick", action="store_true", help="30 frames, 1/4 objects, 640x360 (< 40 s)")
-    p.add_argument("--frames", type=int, default=None, help="frames per scene (default 200)")
-    p.add_argument(
-        "--resolution", type=_resolution, default=None, help="WxH (default 1280x720; quick 640x360)"
-    )
-    p.add_argument("--scale", type=float, default=None, help="object scale of the replayed scenes")
-    p.add_argument("--cameras", type=int, default=None, help="Table 2 cameras (default 4)")
-    p.add_argument("--objects", type=int, default=DOC_OBJECTS, help="Table 2 objects (70000)")
-    p.add_argument("--scenes", nargs="+", default=None, help="scene1 scene2 scene3 (default all)")
-    p.add_argument("--seed", type=int, default=0, help="scene seed (default 0)")
-    p.add_argument("--out", default=None, help="folder (default results/seed004_octree)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-
-
-def command(args: argparse.Namespace) -> int:
-    """Run ``vislod seed004-octree`` with parsed ``args``; :class:`UsageError` for bad values."""
-    quick = bool(args.quick) or env_quick()
-    setup = make_setup(quick, args.frames, args.resolution, scale=args.scale,
-                       cameras=args.cameras, table2_objects=args.objects, scenes=args.scenes,
-                       seed=args.seed)  # fmt: skip
-    if quick:
-        print(
-            f"quick mode: {setup.frames} frames at scale {setup.scale:g}, "
-            f"{res_str(setup.resolution)}, {setup.cameras} Table 2 cameras",
-            file=sys.stderr,
+    first = d[d.estimate > 0].nodes_checked_budget
+    first_txt = f"{int(first.iloc[0]):,}" if len(first) else "none"
+    top = d.estimate.max() / n
+    rows.append(
+        harness.claim(
+            "Table 2: estimate against nodes checked",
+            "0 / 10,513 / 20,858 / 27,523 / 39,617 / 42,554 / 45,839 / 48,782 for 10 … 10,000 "
+            "nodes (first nonzero at 20; up to 70 % of the objects)",
+            " / ".join(f"{v:,.0f}" for v in d.estimate)
+            + f" for {', '.join(f'{b:,}' for b in d.nodes_checked_budget)} nodes (first nonzero "
+            f"at {first_txt}; up to {top:.0%} of the objects)",
+            harness.TREND if grows and grows_each else harness.DIFFERS,
+            basis="the estimate never falls as the budget grows, for every camera: "
+            + ("holds" if grows and grows_each else "does not hold"),
+            why="a trend at another scale, not the document's numbers: our octree "
+            f"({int(info.octree_nodes):,} non-empty nodes, {int(info.expensive_nodes):,} "
+            f"expensive, leaves of {LEAF_CAPACITY}) on our city finds its first hidden node "
+            f"only at {first_txt} nodes checked",
         )
-    run(setup.quick, args.out, True, setup=setup, progress=not args.no_progress)
-    return 0
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m experiments.seed004_octree [options]``; returns the exit status."""
-    return module_main(
-        "seed004_octree",
-        "Seed 004: dynamic scenes, the octree's node buffers and Table 2.",
-        add_arguments,
-        command,
-        argv,
     )
+    for r in d.itertuples():
+        if not np.isfinite(r.doc_estimate):
+            continue
+        ours_f, doc_f = r.estimate / n, r.doc_estimate / DOC_OBJECTS
+        rows.append(
+            harness.claim(
+                f"Table 2, {r.nodes_checked_budget:,} nodes checked",
+                f"estimate {r.doc_estimate:,.0f} of 70,000 ({doc_f:.0%}), {r.doc_ms:g} ms",
+                f"estimate {r.estimate:,.0f} of {n:,} ({ours_f:.0%}; oracle "
+                f"{r.true_invisible:,.0f} invisible), {r.occluded_nodes:.0f} nodes found "
+                f"occluded, {r.ms:.1f} ms",
+                harness.TREND if r.false_invisible == 0 else harness.DIFFERS,
+                basis="conservative at this budget (0 false invisible) and not below the "
+                "smaller budgets': " + ("holds" if r.false_invisible == 0 and grows else "fails"),
+                why="numbers not compared: another scene at another scale (ours "
+                f"{ours_f - doc_f:+.0%} of the objects against the document's); ms are "
+                f"llvmpipe's, {r.ms / r.doc_ms:.0f}× the paper's GPU's, with "
+                f"{r.nodes_checked:,.0f} nodes actually checked",
+            )
+        )
+    grow = d[d.nodes_checked.diff().fillna(1) > 0]
+    slope = float(np.polyfit(np.log(grow.nodes_checked), np.log(grow.ms), 1)[0])
+    doc_slope = float(np.polyfit(np.log(DOC_NODES_CHECKED), np.log(DOC_MS), 1)[0])
+    lo, hi = SLOPE_RANGE
+    bounded = bool((t2.nodes_checked <= t2.nodes_checked_budget).all()) and lo <= slope <= hi
+    rows.append(
+        harness.claim(
+            "Table 2: time bounded by the nodes checked",
+            f"0.031 … 23.42 ms for 10 … 10,000 nodes (log-log slope {doc_slope:.2f})",
+            f"{d.ms.min():.1f} … {d.ms.max():.1f} ms, {int(d.nodes_checked.max()):,} nodes "
+            f"checked at most (slope {slope:.2f} against the nodes actually checked)",
+            harness.TREND if bounded else harness.DIFFERS,
+            basis="never more nodes checked than the budget, and time grows with the nodes "
+            f"checked with a log-log slope in [{lo:g}, {hi:g}]: "
+            + ("holds" if bounded else "does not hold")
+            + "; absolute ms not compared (llvmpipe's queries vs a GTX 1070's)",
+            why="" if bounded else f"slope {slope:.2f}",
+        )
+    )
+    sc = frames["scenes"]
+    for r in sc.itertuples():
+        rel = r.triangles_last / r.target_triangles - 1.0
+        rows.append(
+            harness.claim(
+                f"Table 3, {r.scene}: objects",
+                f"{r.paper_objects:,} objects, {r.paper_triangles:,} triangles",
+                f"{r.objects_first:,} → {r.objects_last:,} objects, {r.triangles_last:,} "
+                f"triangles (target {r.target_objects:,} / {r.target_triangles:,})",
+                harness.MEASURED,
+                basis=f"scaled by construction (objects ×1/4, triangles ×1/20, run scale "
+                f"{params.scale:g}): the generator aims at the paper's counts so scaled; the "
+                f"last frame's triangles land {rel:+.1%} from the target",
+            )
+        )
+    f = frames["frames"]
+    later = f[f.frame > 0]
+    cols = ["ms_buf_h", "ms_buf_s", "dirty_nodes", "commands_recorded", "objects_in_frustum"]
+    med = later.groupby("scene", sort=False)[cols].median()
+    cheaper = bool((med.ms_buf_h < med.ms_buf_s).all())
+    rows.append(
+        harness.claim(
+            "mode 2's premise: T_buf(S) ≫ T_buf(H)",
+            DOC_MODE2,
+            "; ".join(
+                f"{sc_}: T_buf(H) {m.ms_buf_h:.2f} vs T_buf(S) {m.ms_buf_s:.2f} ms "
+                f"({m.dirty_nodes:.0f} dirty nodes)"
+                for sc_, m in med.iterrows()
+            ),
+            harness.TREND if cheaper else harness.DIFFERS,
+            basis="per scene, the median frame re-records its changed nodes (T_buf(H)) faster "
+            "than mode 1 records the frustum's objects (T_buf(S)): "
+            + ("holds" if cheaper else "does not hold"),
+            why=""
+            if cheaper
+            else "; ".join(
+                f"{sc_}: {m.dirty_nodes:.0f} dirty nodes, {m.commands_recorded:.0f} commands "
+                f"re-recorded per frame against {m.objects_in_frustum:.0f} recorded flat: "
+                f"{1e3 * m.ms_buf_h / max(m.dirty_nodes, 1):.1f} µs per node"
+                for sc_, m in med.iterrows()
+            ),
+        )
+    )
+    lay = frames["layouts"].groupby("layout", sort=False)[["record_upload_ms", "draw_ms"]].median()
+    rows.append(
+        harness.claim(
+            "node buffers: shared vs per-node GPU buffers",
+            "– (Vulkan command buffers; no layout compared)",
+            "; ".join(
+                f"{k}: re-record all {v.record_upload_ms:.1f} ms, draw {v.draw_ms:.1f} ms"
+                for k, v in lay.iterrows()
+            ),
+            harness.MEASURED,
+            basis="goes beyond the document: medians over the scenes' last frames",
+        )
+    )
+    return harness.claims_frame(rows)
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+EXPERIMENT = harness.experiment(
+    "seed004-octree",
+    seed="004",
+    title="dynamic scenes, octree with per-node command buffers, invisible estimate (Table 2)",
+    params=Params,
+    compute=compute,
+    plots=[plot_table2, plot_replay, plot_expensive_nodes],
+    claims=claims,
+    quick={"frames": 30, "resolution": (640, 360), "scale": 0.25, "cameras": 2, "repeats": 2},
+    minutes=2.0,
+    notebook="seed004_adaptive",
+)

@@ -30,8 +30,11 @@ def _fake(key: str, calls: list[str]) -> figures.Figure:
 
 @pytest.fixture
 def fakes(monkeypatch):
+    from experiments import harness
+
     calls: list[str] = []
     monkeypatch.setattr(figures, "FIGURES", (_fake("a", calls), _fake("b", calls)))
+    monkeypatch.setattr(harness, "experiments", lambda: [])  # no real experiment runs here
     return calls
 
 
@@ -80,8 +83,11 @@ def _data_fake(key: str, calls: list[str], checked: list) -> figures.Figure:
 
 def test_resume_keys_on_the_data_and_scene_not_only_mode_and_version(tmp_path, monkeypatch):
     """Issue 14: a market run must not be 'already done' for a later castle run."""
+    from experiments import harness
+
     calls, checked = [], []
     monkeypatch.setattr(figures, "FIGURES", (_data_fake("d", calls, checked),))
+    monkeypatch.setattr(harness, "experiments", lambda: [])  # no real experiment runs here
     castle = tmp_path / "data"
     (castle / "castle").mkdir(parents=True)
     out = tmp_path / "out"
@@ -102,8 +108,11 @@ def test_resume_keys_on_the_module_source(tmp_path, monkeypatch, fakes):
 
 def test_a_wrong_data_path_fails_before_any_figure_runs(tmp_path, monkeypatch):
     """No silent fallback to the market, and no figure run before the error."""
+    from experiments import harness
+
     calls, checked = [], []
     monkeypatch.setattr(figures, "FIGURES", (_fake("a", calls), _data_fake("d", calls, checked)))
+    monkeypatch.setattr(harness, "experiments", lambda: [])  # no real experiment runs here
     with pytest.raises(UsageError, match="no castle"):
         figures.run_figures(tmp_path, data=str(tmp_path), progress=False)
     assert calls == []

@@ -1,74 +1,107 @@
-"""``experiments.seed004_adaptive`` (Figs. 3–5): a tiny run writes every file with one row per
-frame and method; the benchmark criterion and the window means against brute force; mistakes
-exit with status 2."""
+"""``experiments.seed004_adaptive`` (Figs. 3-5) on a tiny run: one row per frame and method,
+the fixed methods in their modes, summaries that match the rows, the benchmark criterion and
+window means against brute force, claims that say why the modes differ from the paper's, and
+pictures that name the modes and q*; bad parameters are refused."""
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
+import pandas as pd
 import pytest
 
+from experiments import harness
 from experiments import seed004_adaptive as exp
-from experiments.common import read_csv
+from experiments.common import UsageError
 
-FILES = (
-    "seed004_adaptive_frames.csv",
-    "seed004_adaptive_summary.csv",
-    "seed004_adaptive_criterion.csv",
-    "seed004_adaptive_switches.csv",
-    "seed004_adaptive_regression.csv",
-    "seed004_adaptive_q_compare.csv",
-    "seed004_adaptive_frametimes.png",
-    "seed004_adaptive_regression.png",
-    "seed004_adaptive_summary.json",
-)
+EXP = exp.EXPERIMENT
 
 
 @pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
-    out = tmp_path_factory.mktemp("seed004_adaptive")
-    setup = replace(
-        exp.make_setup(quick=True, frames=20, resolution=(160, 90), scale=0.05,
-                       scenes=("scene1", "scene3")),
-        sweep_frames=12,
-    )  # fmt: skip
-    return out, setup, exp.run(out=out, verbose=False, setup=setup, progress=False)
+def tiny():
+    params = EXP.make_params(True, frames=20, resolution=(160, 90), scale=0.05,
+                             scenes=("scene1", "scene3"), sweep_frames=12)  # fmt: skip
+    return params, exp.compute(params, progress=False)
 
 
-def test_writes_every_file(tiny):
-    out, setup, _ = tiny
-    for name in FILES:
-        assert (out / name).stat().st_size > 0, name
-    rows = read_csv(out / "seed004_adaptive_frames.csv")
-    assert len(rows) == len(setup.scenes) * setup.frames * len(exp.METHODS)
-    assert {r["method"] for r in rows} == set(exp.METHODS)
+def test_one_row_per_frame_and_method_and_fixed_modes(tiny):
+    params, frames = tiny
+    f = frames["frames"]
+    assert len(f) == len(params.scenes) * params.frames * len(exp.METHODS)
+    assert set(f.method) == set(exp.METHODS)
+    assert set(f[f.method == "frustum"]["mode"]) == {1}
+    assert set(f[f.method == "queries"]["mode"]) == {3}
+    assert f.false_culls.notna().all()  # quick: the oracle on every frame
+    assert (f[f["mode"].isin((1, 2))].false_culls == 0).all()  # only late queries may pop
+    q = f[(f.method == "queries") & (f.drawn > 0)]
+    assert (q.queries > 0).all()
 
 
-def test_baselines_stay_in_their_modes_and_mode1_never_pops(tiny):
-    _, _, result = tiny
-    rows = result["frames"]
-    assert {r["mode"] for r in rows if r["method"] == "frustum"} == {1}
-    assert {r["mode"] for r in rows if r["method"] == "queries"} == {3}
-    checked = [r for r in rows if r["false_culls"] is not None]
-    assert len(checked) == len(rows)  # quick: the oracle on every frame
-    assert all(r["false_culls"] == 0 for r in checked if r["mode"] in (1, 2))
-    # queries on all nodes: every frame issues them
-    assert all(r["queries"] > 0 for r in rows if r["method"] == "queries" and r["drawn"])
+def test_summary_and_switches_match_the_rows(tiny):
+    _, frames = tiny
+    f = frames["frames"]
+    for s in frames["summary"].itertuples():
+        ms = f[(f.scene == s.scene) & (f.method == s.method)].ms
+        assert s.median_ms == pytest.approx(ms.median())
+        assert s.p95_ms == pytest.approx(np.percentile(ms, 95))
+        assert s.frames_mode1 + s.frames_mode2 + s.frames_mode3 == s.frames
+    ad = f[f.method == "adaptive"]
+    for _, w in frames["switches"].iterrows():
+        prev = ad[(ad.scene == w.scene) & (ad.frame == w.frame - 1)]["mode"].item()
+        assert prev == w["from"] and w.to != prev
+    n_switch = sum(
+        int((np.diff(ad[ad.scene == s]["mode"].to_numpy()) != 0).sum()) for s in set(ad.scene)
+    )
+    assert len(frames["switches"]) == n_switch
+    cmp = frames["q_compare"]
+    for s in set(f.scene):
+        assert set(cmp[cmp.scene == s].term) == {"T(0)", "T(n0)", "T(q*)"}
+        assert (frames["regression"].scene == s).sum() == 12
 
 
-def test_summary_matches_the_rows(tiny):
-    _, _, result = tiny
-    for s in result["summary"]:
-        ms = [r["ms"] for r in result["frames"]
-              if r["scene"] == s["scene"] and r["method"] == s["method"]]  # fmt: skip
-        assert s["median_ms"] == pytest.approx(np.median(ms))
-        assert s["p95_ms"] == pytest.approx(np.percentile(ms, 95))
-    for sw in result["switches"]:
-        assert sw["from"] != sw["to"]
-    for sw in result["sweeps"]:
-        assert {"T(0)", "T(n0)", "T(q*)"} == set(sw["compare"])
-        assert len(sw["points"]) > 0
+def test_claims_give_causes_for_modes_and_quote_the_paper(tiny):
+    params, frames = tiny
+    c = exp.claims(frames, params)
+    assert list(c.columns) == list(harness.CLAIM_COLUMNS)
+    ad = frames["frames"][frames["frames"].method == "adaptive"]
+    for sc in params.scenes:
+        row = c.set_index("item").loc[f"Figs. 3-5, {sc}: modes passed through"]
+        assert "последовательно применяет" in row.document
+        visited = list(dict.fromkeys(ad[ad.scene == sc]["mode"]))
+        if visited != [1, 2, 3]:
+            assert row.verdict == "differs" and "decisions" in row.why
+    assert set(c.verdict) <= set(harness.VERDICTS) and "reproduced" not in set(c.verdict)
+
+
+def test_mode_causes_on_a_constructed_adaptive_run():
+    """A run that never leaves mode 1: the cause counts the decisions that preferred mode 1."""
+    nan = np.nan
+    ad = pd.DataFrame({"mode": [1] * 4, "pred_T1": [1.0, nan, 2.0, 3.0],
+                       "pred_T2": [2.0, nan, 3.0, 1.0], "pred_T3": [3.0, nan, 4.0, 5.0],
+                       "condition5": [0, nan, 0, 1], "condition6": [0, nan, 0, 0]})  # fmt: skip
+    why = exp._modes_cause(ad)
+    assert "on its 3 decisions" in why and "mode 1 on 2, mode 2 on 1 (1 of them" in why
+    assert "mode 3 on 0" in why
+    assert "condition (5) held on 1" in why
+
+
+def test_q_star_titles_say_what_minus_one_means():
+    base = {"scene": "s", "trusted": True, "converged": True, "rms_elements": 0.01,
+            "max_rms": 0.5, "fit_s_1": 0.0, "fit_e_1": 0.0, "q_best": 0,
+            "n0_nodes": 90}  # fmt: skip
+    t = exp._q_title(pd.Series({**base, "q_star": -1.0}))
+    assert "no query pays" in t and "s_1 = 0" in t and "best q = 0 of 90" in t
+    t = exp._q_title(pd.Series({**base, "q_star": -1.0, "trusted": False}))
+    assert "not trusted" in t
+    assert "no q*" in exp._q_title(pd.Series({**base, "q_star": np.nan}))
+
+
+def test_pictures_have_a_mode_legend(tiny):
+    params, frames = tiny
+    fig = exp.plot_frametimes(frames, params)
+    labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    assert any(lab.startswith("mode 2") for lab in labels)
+    fig = exp.plot_regression(frames, params)
+    assert len(fig.axes) == 4 * len(params.scenes)
 
 
 def test_window_means_and_criterion_against_brute_force():
@@ -88,16 +121,11 @@ def test_window_means_and_criterion_against_brute_force():
     )
 
 
-def test_mistakes_exit_with_status_2(tmp_path, capsys):
-    assert exp.main(["--frames", "5", "--out", str(tmp_path)]) == 2
-    assert exp.main(["--scenes", "nowhere", "--out", str(tmp_path)]) == 2
-    assert "error" in capsys.readouterr().err
-    assert not any(tmp_path.iterdir())
-
-
-def test_benchmark_section_carries_the_criterion(tiny):
-    _, setup, result = tiny
-    text = exp.benchmark_markdown(result, setup)
-    assert text.startswith("## Seed 004 Figs. 3-5")
-    for c in result["criterion"]:
-        assert f"{c['worst_window_ratio']:.2f}" in text
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [({"frames": 5}, "frames"), ({"scenes": ("nowhere",)}, "unknown scene"),
+     ({"scale": 0.0}, "scale"), ({"oracle_every": -1}, "oracle")],
+)  # fmt: skip
+def test_bad_parameters_are_refused(kwargs, match):
+    with pytest.raises(UsageError, match=match):
+        EXP.make_params(**kwargs).check()

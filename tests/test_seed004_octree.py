@@ -1,60 +1,35 @@
-"""The seed-004 octree experiment end to end on a tiny setup: every file written, the paper's
-Table 2 beside ours, the estimate conservative in every row, the replay consistent with the
-scenes' events, and mistakes reported as one line with status 2."""
+"""The seed-004 octree experiment on a tiny setup: frames with the paper's Table 2 beside
+ours, the estimate conservative in every row, the replay consistent with the scenes' events,
+the claims judging Table 2 as a trend (never its numbers), and bad parameters refused."""
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import pytest
 
+from experiments import harness
 from experiments import seed004_octree as exp
-from experiments.common import read_csv
+from experiments.common import UsageError
 
-FILES = [
-    "seed004_octree_scenes.csv",
-    "seed004_octree_frames.csv",
-    "seed004_octree_layouts.csv",
-    "seed004_table2_cameras.csv",
-    "seed004_table2.csv",
-    "seed004_table2.png",
-    "seed004_octree_frames.png",
-    "seed004_expensive_nodes.png",
-    "seed004_octree_summary.json",
-]
+EXP = exp.EXPERIMENT
 
 
 @pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
-    out = tmp_path_factory.mktemp("seed004_octree")
-    setup = exp.make_setup(True, frames=12, resolution=(160, 96), scale=0.02, cameras=1,
-                           table2_objects=3000)  # fmt: skip
-    setup = replace(setup, repeats=1, nodes_checked=(10, 100, 1000))
-    result = exp.run(out=out, verbose=False, setup=setup, progress=False)
-    return out, setup, result
-
-
-def test_writes_every_file(tiny):
-    out, _, result = tiny
-    for name in FILES:
-        assert (out / name).is_file() and (out / name).stat().st_size > 0, name
-    assert sorted(p.name for p in result["files"]) == sorted(FILES)
-    assert not list(out.glob(".*.tmp"))
+def tiny():
+    params = EXP.make_params(True, frames=12, resolution=(160, 96), scale=0.02, cameras=1,
+                             objects=3000, repeats=1, nodes_checked=(10, 100, 1000))  # fmt: skip
+    return params, exp.compute(params, progress=False)
 
 
 def test_table2_is_conservative_and_carries_the_papers_row(tiny):
-    out, setup, result = tiny
-    rows = read_csv(out / "seed004_table2_cameras.csv")
-    assert len(rows) == setup.cameras * len(exp.MIN_OBJECTS) * len(setup.nodes_checked)
-    for r in rows:
-        assert int(r["false_invisible"]) == 0
-        assert int(r["estimate"]) <= int(r["true_invisible"])
-        assert int(r["nodes_checked"]) <= int(r["nodes_checked_budget"])
-    assert max(int(r["estimate"]) for r in rows) > 0, "nothing found occluded: a dead test"
-    summary = {(r["threshold"], r["nodes_checked_budget"]): r for r in result["table2"]}
-    assert summary[("default", 100)]["paper_estimate"] == 27523
-    assert summary[("default", 1000)]["paper_ms"] == 2.75
-    assert result["table2_scene"]["objects"] == 3000
+    params, frames = tiny
+    t2 = frames["table2"]
+    assert len(t2) == params.cameras * len(exp.MIN_OBJECTS) * len(params.nodes_checked)
+    assert (t2.false_invisible == 0).all() and (t2.estimate <= t2.true_invisible).all()
+    assert (t2.nodes_checked <= t2.nodes_checked_budget).all()
+    assert t2.estimate.max() > 0, "nothing found occluded: a dead test"
+    row = t2[(t2.threshold == "default") & (t2.nodes_checked_budget == 100)].iloc[0]
+    assert row.doc_estimate == 27523 and row.doc_ms == 0.261
+    assert int(frames["table2_scene"].objects.iloc[0]) == 3000
     assert exp.DOC_ESTIMATE == (0, 10513, 20858, 27523, 39617, 42554, 45839, 48782)
     assert exp.DOC_MS == (0.031, 0.059, 0.084, 0.261, 0.753, 2.75, 4.9, 23.42)
 
@@ -62,29 +37,57 @@ def test_table2_is_conservative_and_carries_the_papers_row(tiny):
 def test_replay_follows_the_scenes_events(tiny):
     from soc.scenes.dynamic import dynamic_scene
 
-    out, setup, _ = tiny
-    frames = read_csv(out / "seed004_octree_frames.csv")
-    assert len(frames) == len(setup.scenes) * setup.frames
-    for name in setup.scenes:
-        d = dynamic_scene(name, setup.seed, frames=setup.frames, scale=setup.scale)
-        rows = [r for r in frames if r["scene"] == name]
+    params, frames = tiny
+    f = frames["frames"]
+    assert len(f) == len(params.scenes) * params.frames
+    for name in params.scenes:
+        d = dynamic_scene(name, params.seed, frames=params.frames, scale=params.scale)
+        rows = f[f.scene == name]
         counts = d.counts()["objects"]
-        for r, s in zip(rows, d, strict=True):
-            assert int(r["objects"]) == counts[s.frame]
-            assert int(r["added"]) == len(s.added) and int(r["moved"]) == len(s.moved_from)
-        first = rows[0]
-        assert int(first["commands_recorded"]) == counts[0]  # frame 0 records everything
-        later = [int(r["commands_recorded"]) for r in rows[1:]]
-        assert min(later) < counts[-1], "a later frame re-recorded every object"
-    scenes = read_csv(out / "seed004_octree_scenes.csv")
-    assert [r["scene"] for r in scenes] == list(setup.scenes)
-    assert all(int(r["objects_last"]) > int(r["objects_first"]) for r in scenes)
-    layouts = read_csv(out / "seed004_octree_layouts.csv")
-    assert all(float(r["shared_full_upload_ms"]) > 0 for r in layouts)
+        for r, s in zip(rows.itertuples(), d, strict=True):
+            assert r.objects == counts[s.frame]
+            assert r.added == len(s.added) and r.moved == len(s.moved_from)
+        assert rows.commands_recorded.iloc[0] == counts[0]  # frame 0 records everything
+        assert rows.commands_recorded.iloc[1:].min() < counts[-1], "re-recorded everything"
+    sc = frames["scenes"]
+    assert list(sc.scene) == list(params.scenes) and (sc.objects_last > sc.objects_first).all()
+    lay = frames["layouts"]
+    assert set(lay.layout) == {"shared", "per-node", "flat (mode 1)"}
+    assert (lay.record_upload_ms > 0).all()
+    px = frames["picture"]
+    assert len(px) == exp.PICTURE[0] * exp.PICTURE[1] and px[["r", "g", "b"]].max().max() > 0
 
 
-def test_mistakes_exit_with_status_2(tmp_path, capsys):
-    assert exp.main(["--scenes", "scene9", "--out", str(tmp_path)]) == 2
-    assert "unknown scene 'scene9'" in capsys.readouterr().err
-    assert exp.main(["--frames", "3", "--out", str(tmp_path)]) == 2
-    assert not any(tmp_path.iterdir())
+def test_claims_judge_table2_as_a_trend(tiny):
+    params, frames = tiny
+    c = exp.claims(frames, params)
+    assert list(c.columns) == list(harness.CLAIM_COLUMNS)
+    rows = c.set_index("item")
+    assert rows.loc["Table 2: the estimate is conservative", "verdict"] == "trend"
+    assert "консервативную оценку" in rows.loc["Table 2: the estimate is conservative", "document"]
+    per_budget = c[c.item.str.match(r"Table 2, [\d,]+ nodes checked")]
+    assert len(per_budget) == 3 and set(per_budget.verdict) == {"trend"}
+    assert per_budget.why.str.contains("numbers not compared").all()
+    assert "numbers" not in set(c[c.item.str.startswith("Table 2")].verdict)
+    # a false invisible object turns the conservative claim into 'differs' with its cause
+    bad = {k: v.copy() for k, v in frames.items()}
+    bad["table2"].loc[0, "false_invisible"] = 3
+    row = exp.claims(bad, params).set_index("item").loc["Table 2: the estimate is conservative"]
+    assert row.verdict == "differs" and "3 false" in row.why
+
+
+def test_pictures_draw_from_the_frames(tiny):
+    params, frames = tiny
+    for plot in EXP.plots:
+        fig = plot(frames, params)
+        assert fig.axes, plot.__name__
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [({"scenes": ("scene9",)}, "unknown scene 'scene9'"), ({"frames": 3}, "frames"),
+     ({"objects": 10}, "objects"), ({"nodes_checked": (0,)}, "nodes checked")],
+)  # fmt: skip
+def test_bad_parameters_are_refused(kwargs, match):
+    with pytest.raises(UsageError, match=match):
+        EXP.make_params(**kwargs).check()
