@@ -14,7 +14,7 @@
                                                      (= vislod seed001-image-based)
     vislod state-sorting [--frames 100] [--method hiz-gpu] [--ks 1,2,...] [--quick] [--out DIR]
                                                      (= vislod seed001-state-sorting)
-    vislod seed003 [--quick] [--out DIR]
+    vislod seed003 [--quick] [--light-counts 0,1,...] [--vp-sides ...] [--out DIR]
     vislod seed004-model [--quick] [--out DIR]
     vislod seed004-octree [--quick] [--frames N] [--objects 70000] [--out DIR]
     vislod seed004-adaptive [--quick] [--frames N] [--scale S] [--scenes A,B] [--out DIR]
@@ -80,7 +80,6 @@ COMMAND_EXTRAS: dict[str, tuple[str, ...]] = {
     "lod": (),
     "lod-quality": (),
     "figures": (),  # and what its chosen figures need (experiments.figures.Figure.extras)
-    "seed003": (),
     "sweep": ("sweep",),  # Dask distributed
 }
 # Culling method → the extras it needs, for the commands that take methods.
@@ -306,12 +305,6 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
     )
     figs.add_argument("--no-progress", action="store_true", help="no progress bar")
-    s3 = sub.add_parser("seed003", help="seed 003: forward vs deferred shading, time vs V, VP, L")
-    s3.add_argument("--quick", action="store_true", help="the quick sweep (also VISLOD_QUICK=1)")
-    s3.add_argument(
-        "--out", default=None, help="folder (default: results/[quick/]seed003_complexity/)"
-    )
-    s3.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_sweep_parser(sub)
     HARNESS.update(add_parsers(sub, set(sub.choices)))
     return p
@@ -473,16 +466,6 @@ def cmd_lod_quality(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_seed003(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from experiments import seed003_complexity
-
-    out = Path(args.out) if args.out else None
-    seed003_complexity.run(args.quick, out, progress=not args.no_progress)
-    return 0
-
-
 def cmd_figures(args: argparse.Namespace) -> int:
     import os
 
@@ -510,7 +493,6 @@ COMMANDS = {
     "lod": cmd_lod,
     "lod-quality": cmd_lod_quality,
     "figures": cmd_figures,
-    "seed003": cmd_seed003,
     "sweep": cmd_sweep,
 }
 

@@ -125,12 +125,6 @@ def _seed001_lod_quality(quick: bool, out: Path, data: str | None) -> None:
     seed001_lod_quality.run(quick, out / "seed001_lod", data, verbose=True)
 
 
-def _seed003(quick: bool, out: Path, data: str | None) -> None:
-    from experiments import seed003_complexity
-
-    seed003_complexity.run(quick, out / "seed003_complexity")
-
-
 FIGURES: tuple[Figure, ...] = (
     Figure(
         "seed000",
@@ -166,16 +160,6 @@ FIGURES: tuple[Figure, ...] = (
         module="experiments.seed001_lod_quality",
         uses_data=True,
         check=_seed001_lod_quality_check,
-    ),
-    Figure(
-        "seed003",
-        "003",
-        "forward vs deferred shading: time against triangles, pixels and lights; g-buffer size",
-        "seed003_complexity/seed003_summary.json",
-        _seed003,
-        3.0,
-        "seed003_complexity/*.png",
-        module="experiments.seed003_complexity",
     ),
 )
 

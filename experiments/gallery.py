@@ -62,9 +62,10 @@ SHOTS = (
         "vislod seed002",
     ),
     Shot(
-        "seed003_complexity/seed003_lights.png",
+        "seed003/seed003_lights.png",
         "seed003_lights.png",
-        "Seed 003: forward vs deferred shading time against the number of lights",
+        "Seed 003: forward vs deferred shading, CPU time and their ratio against the number of "
+        "lights, drawn back to front and front to back",
         "vislod seed003",
     ),
     Shot(

@@ -54,8 +54,6 @@ def _verdict(agrees: Any) -> str:
 
 # Why a claim differs on our machine and scenes, by a phrase of the claim (as far as we know).
 CLAIM_WHY = {
-    "like the product": "on llvmpipe time adds (a·V + b·VP) rather than multiplies: the "
-    "product is the worst-case bound, reached only when every triangle covers the screen",
 }
 
 
@@ -272,29 +270,10 @@ def _seed001_lod_quality(s: dict[str, Any]) -> list[Row]:
     return rows
 
 
-# -- seed 003 ---------------------------------------------------------------------------------
-
-
-def _seed003(s: dict[str, Any]) -> list[Row]:
-    g = s["gbuffer"]
-    same = g["bytes_computed"] == g["bytes_read"]
-    rows = [
-        Row(
-            f"g-buffer memory at {g['resolution']}",
-            f"≈{g['lecture_mb']:g} MB (depth 24, normal 2×32, diffuse 3×32, material 16 bit)",
-            f"{g['mib_computed']:.2f} MiB computed, {g['mib_read']:.2f} MiB read from GL",
-            "reproduced" if same and abs(g["mib_read"] - g["lecture_mb"]) < 0.5 else "differs",
-            "the lecture's MB are MiB (2^20 bytes)",
-        )
-    ]
-    return rows + _claims(s["claims"])
-
-
 ROWS: dict[str, Callable[[dict[str, Any]], list[Row]]] = {
     "seed000": _seed000,
     "seed001-lod": _seed001_lod,
     "seed001-lod-quality": _seed001_lod_quality,
-    "seed003": _seed003,
 }
 
 

@@ -22,59 +22,48 @@ threads are ours, so that is the work the lecture's W(n) counts); on a machine s
 other jobs wall time swings by 2-3× while CPU time stays within a few per cent, so the claims
 are judged on CPU time and every table and plot shows both. Slopes are least-squares fits of
 log10 time on log10 x (residual = RMS of the log10 residuals); per-light costs are linear fits
-of time on L, and deferred overtakes forward where the two lines cross.
-
-    python -m experiments.seed003_complexity [--quick] [--out DIR] [--no-progress]
+Stages: :func:`measure` (every point of the sweeps, paths interleaved) → :func:`compute`
+(times, fits, crossovers, g-buffer, images as DataFrames) → plots and :func:`claims`.
 """
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
-from experiments.common import (
-    default_out,
-    env_quick,
-    fmt,
-    format_table,
-    save_figure,
-    write_csv,
-    write_json,
-)
+from experiments import harness
 
-NAME = "seed003_complexity"
 PATHS = ("forward", "deferred-loop", "deferred-passes")
 ORDERS = ("back-to-front", "front-to-back")
+FRAMES = ("times", "fits", "crossovers", "gbuffer", "images")
+IMAGE_SIDE = 128  # the images frame holds the reference frame subsampled to at most this side
 
-DOCUMENT = {
-    "forward": "Rasterisierung: O(V) × O(4) × (O(VP) × O(L) + O(VP)) = O(V × VP × L) (20); "
-    "O(V × VP) for constant L (21)",
-    "deferred": "Deferred: W(n) = O(V) × O(VP) + O(L) × O(VP) (25), "
-    "instead of O(V) × O(VP) × O(L) (24)",
-    "gbuffer": "DB 24 bit, NB 2 × 32 bit (polar coordinates), TB 3 × 32 bit (RGB), MB 16 bit: "
-    "about 25 MB at 1024 × 1024",
-    "light_passes": "then #lights render passes that light the pixels (no longer fragments)",
-}
-
-
-# -- setup ------------------------------------------------------------------------------------
+# The lecture's words (seed 003, OCR text of the slides), quoted exactly.
+DOC_FORWARD = "O(V) x O(4) x (O(VP) x O(L) + O(VP)) = O(V x VP x L) (20)"
+DOC_CONSTANT_L = "O(V x VP). (21)"
+DOC_DEFERRED = "W(n) = O(V) x O(VP) + O(L) x O(VP) (25)"
+DOC_PASSES = (
+    "Dann folgen #Lichtquellen viele Render Passes, die die Pixel (nicht mehr Fragmente!) "
+    "beleuchten."
+)
+DOC_GBUFFER = (
+    "Fir eine Bildschirmauflésung von 1024 x 1024 Pixel ergibt sich dann etwa ein "
+    "Speicherverbrauch von 25 MB."
+)
 
 
 @dataclass(frozen=True)
-class ComplexitySetup:
+class Params:
     """Every setting of one seed-003 run.
 
     Attributes
     ----------
-    quick : bool
     grid, layers : int
         Spheres per row and column of a layer, layers one behind the other (plus the wall).
     reference_subdivisions : int
@@ -104,7 +93,6 @@ class ComplexitySetup:
         Viewport side of the g-buffer memory check (the lecture's 1024).
     """
 
-    quick: bool
     grid: int = 5
     layers: int = 4
     reference_subdivisions: int = 2
@@ -120,22 +108,21 @@ class ComplexitySetup:
     seed: int = 0
     gbuffer_side: int = 1024
 
+    def check(self) -> None:
+        """:class:`UsageError` for sweeps that cannot be fitted."""
+        from experiments.common import UsageError
 
-def make_setup(quick: bool = False) -> ComplexitySetup:
-    """The full sweep (a few minutes on two cores) or the quick one (well under a minute)."""
-    if not quick:
-        return ComplexitySetup(quick=False)
-    return ComplexitySetup(
-        quick=True,
-        subdivisions=(1, 2, 3),
-        v_sides=(128, 256),
-        vp_sides=(128, 256, 512),
-        light_counts=(0, 1, 4, 16, 64),
-        l_sides=(128, 256),
-        reference=(256, 16),
-        repeats=2,
-        budget_ms=300.0,
-    )
+        for name in ("subdivisions", "v_sides", "vp_sides", "light_counts", "l_sides"):
+            v = list(getattr(self, name))
+            if len(v) < 2 or min(v) < 0 or len(set(v)) != len(v):
+                raise UsageError(f"{name} needs at least two distinct values >= 0, got {v}")
+        if min(self.vp_sides) < 1 or min(self.v_sides) < 1 or min(self.l_sides) < 1:
+            raise UsageError(f"viewport sides must be >= 1, got {self.vp_sides}")
+        if self.repeats < 1 or self.grid < 1 or self.layers < 1:
+            raise UsageError(
+                f"repeats, grid, layers must be >= 1, got {self.repeats}, {self.grid}, "
+                f"{self.layers}"
+            )
 
 
 # -- the scene --------------------------------------------------------------------------------
@@ -191,10 +178,10 @@ def camera(side: int):
     )  # fmt: skip
 
 
-def light_box(setup: ComplexitySetup) -> np.ndarray:
+def light_box(params: Params) -> np.ndarray:
     """(2, 3) where lights are placed: among and in front of the spheres."""
-    half = 0.5 * setup.grid * PITCH
-    return np.array([[-half, -half, -setup.layers * LAYER_GAP], [half, half, 3.0]])
+    half = 0.5 * params.grid * PITCH
+    return np.array([[-half, -half, -params.layers * LAYER_GAP], [half, half, 3.0]])
 
 
 def draw_order(scene, cam, order: str) -> np.ndarray:
@@ -214,29 +201,29 @@ def draw_order(scene, cam, order: str) -> np.ndarray:
 # -- measuring --------------------------------------------------------------------------------
 
 
-def _points(setup: ComplexitySetup) -> list[dict[str, Any]]:
+def _points(params: Params) -> list[dict[str, Any]]:
     """Every point of the three sweeps as ``{sweep, order, subdivisions, side, lights}``."""
-    s0, lf = setup.reference_subdivisions, setup.fixed_lights
+    s0, lf = params.reference_subdivisions, params.fixed_lights
     pts = [
         {"sweep": "L", "order": o, "subdivisions": s0, "side": side, "lights": n}
         for o in ORDERS
-        for side in setup.l_sides
-        for n in setup.light_counts
+        for side in params.l_sides
+        for n in params.light_counts
     ]
     pts += [
         {"sweep": "VP", "order": ORDERS[0], "subdivisions": s0, "side": side, "lights": lf}
-        for side in setup.vp_sides
+        for side in params.vp_sides
     ]
     pts += [
         {"sweep": "V", "order": ORDERS[0], "subdivisions": s, "side": side, "lights": lf}
-        for s in setup.subdivisions
-        for side in setup.v_sides
+        for s in params.subdivisions
+        for side in params.v_sides
     ]
     return pts
 
 
 def measure(
-    setup: ComplexitySetup, *, progress: bool = True
+    params: Params, *, progress: bool = True
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Time every point of the sweeps with every path.
 
@@ -253,11 +240,11 @@ def measure(
     from soc.rendering.shading import ShadingRenderer, random_lights
 
     t0 = time.perf_counter()
-    points = _points(setup)
+    points = _points(params)
     groups: dict[tuple[int, int], list[dict[str, Any]]] = {}
     for p in points:
         groups.setdefault((p["subdivisions"], p["side"]), []).append(p)
-    box = light_box(setup)
+    box = light_box(params)
     rows: list[dict[str, Any]] = []
     scenes: dict[int, Any] = {}
     extra: dict[str, Any] = {}
@@ -267,40 +254,40 @@ def measure(
         for (sub, side), pts in sorted(groups.items()):
             if sub not in scenes:
                 scenes.clear()  # one scene at a time: the 2 M-triangle one is large
-                scenes[sub] = sphere_stack(sub, grid=setup.grid, layers=setup.layers)
+                scenes[sub] = sphere_stack(sub, grid=params.grid, layers=params.layers)
             scene = scenes[sub]
             cam = camera(side)
             with ShadingRenderer(scene, (side, side)) as r:
                 orders = {o: draw_order(scene, cam, o) for o in ORDERS}
                 fragments = {o: r.count_fragments(cam, ids) for o, ids in orders.items()}
-                r.set_lights(random_lights(box, 1, seed=setup.seed))
+                r.set_lights(random_lights(box, 1, seed=params.seed))
                 for path in PATHS:  # warm-up: llvmpipe compiles shader variants on first use
                     r.render(cam, orders[ORDERS[0]], path=path)
                 for p in pts:
                     ids = orders[p["order"]]
-                    r.set_lights(random_lights(box, p["lights"], seed=setup.seed, intensity=6.0))
-                    runs = _time_point(r, cam, ids, setup)
+                    r.set_lights(random_lights(box, p["lights"], seed=params.seed, intensity=6.0))
+                    runs = _time_point(r, cam, ids, params)
                     for path in PATHS:
                         rows.append(_row(p, path, scene, ids, fragments[p["order"]], runs[path]))
                         bar.update(1)
-                if (side, sub) == (setup.reference[0], setup.reference_subdivisions):
-                    extra["images"] = _pictures(r, cam, orders[ORDERS[0]], setup)
-    extra["gbuffer"] = gbuffer_memory(setup)
+                if (side, sub) == (params.reference[0], params.reference_subdivisions):
+                    extra["images"] = _pictures(r, cam, orders[ORDERS[0]], params)
+    extra["gbuffer"] = gbuffer_memory(params)
     extra["seconds"] = time.perf_counter() - t0
     return rows, extra
 
 
-def _time_point(r, cam, ids, setup: ComplexitySetup) -> dict[str, list]:
+def _time_point(r, cam, ids, params: Params) -> dict[str, list]:
     """Up to ``repeats`` frames per path (ShadingStats), interleaved; stops once ``budget_ms``
     of wall time is spent."""
     runs: dict[str, list] = {p: [] for p in PATHS}
     spent = 0.0
-    for _ in range(setup.repeats):
+    for _ in range(params.repeats):
         for path in PATHS:
             st = r.render(cam, ids, path=path)
             runs[path].append(st)
             spent += st.total_ms
-        if spent >= setup.budget_ms:
+        if spent >= params.budget_ms:
             break
     return runs
 
@@ -330,11 +317,11 @@ def _row(p, path, scene, ids, fragments, runs) -> dict[str, Any]:
     return row
 
 
-def _pictures(r, cam, ids, setup: ComplexitySetup) -> dict[str, Any]:
+def _pictures(r, cam, ids, params: Params) -> dict[str, Any]:
     """Forward and deferred images at the reference setting, their difference, the g-buffer."""
     from soc.rendering.shading import random_lights
 
-    r.set_lights(random_lights(light_box(setup), setup.reference[1], seed=setup.seed,
+    r.set_lights(random_lights(light_box(params), params.reference[1], seed=params.seed,
                                intensity=6.0))  # fmt: skip
     r.render(cam, ids, path="forward")
     forward = r.hdr_image()
@@ -359,7 +346,7 @@ def _to_uint8(img: np.ndarray) -> np.ndarray:
     return np.rint(np.clip(img, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
-def gbuffer_memory(setup: ComplexitySetup) -> dict[str, Any]:
+def gbuffer_memory(params: Params) -> dict[str, Any]:
     """The g-buffer at ``gbuffer_side``²: bytes per texture computed from the formats and read
     back from the allocated textures (``glGetTextureLevelParameteriv``), beside the lecture."""
     from soc.rendering.shading import (
@@ -370,7 +357,7 @@ def gbuffer_memory(setup: ComplexitySetup) -> dict[str, Any]:
         gbuffer_bytes,
     )
 
-    size = (setup.gbuffer_side, setup.gbuffer_side)
+    size = (params.gbuffer_side, params.gbuffer_side)
     computed = gbuffer_bytes(size)
     with ShadingRenderer(sphere_stack(0, grid=1, layers=1), size) as r:
         storage = r.gbuffer_storage()
@@ -576,370 +563,310 @@ UNIT_SCALE = {"L": 1.0, "VP": 1e6, "V": 1e6}  # ms per light, per megapixel, per
 
 
 def _fixed_label(f: dict[str, Any]) -> str:
-    """The fixed settings of a fit row, short: ``512² L=8 s=2``."""
-    parts = [f"{f['side']}²"] if "side" in f else []
-    parts += [f"L={f['lights']}"] if "lights" in f else []
+    """The fixed settings of a fit row, short: ``512² L=8``."""
+    parts = [f"{int(f['side'])}²"] if "side" in f else []
+    parts += [f"L={int(f['lights'])}"] if "lights" in f else []
     return " ".join(parts) or f["path"]
 
 
-def _claim(claim: str, document: str, measured: str, agrees: bool | None) -> dict[str, Any]:
-    verdict = "n/a" if agrees is None else ("agrees" if agrees else "differs")
-    return {"claim": claim, "document": document, "measured": measured, "verdict": verdict}
+# -- the frames -------------------------------------------------------------------------------
 
 
-def check_claims(
-    rows: Sequence[dict[str, Any]],
-    fit_rows: Sequence[dict[str, Any]],
-    cross: Sequence[dict[str, Any]],
-    gbuffer: dict[str, Any],
-    clock: str = CLAIM_CLOCK,
-) -> list[dict[str, Any]]:
-    """The lecture's statements against our measurements on ``clock`` (default CPU time: the
-    work W(n) the lecture counts, and robust to other processes on the cores), one verdict
-    each."""
+def _image_frame(images: dict[str, Any] | None) -> pd.DataFrame:
+    """The reference frame forward and deferred and the g-buffer, one row per pixel,
+    subsampled to at most :data:`IMAGE_SIDE` pixels a side; the full-resolution differences
+    as columns."""
+    if not images:
+        return pd.DataFrame()
+    g = images["gbuffer"]
+    side = images["forward"].shape[0]
+    step = max(1, math.ceil(side / IMAGE_SIDE))
+    fwd = images["forward"][::step, ::step]
+    h, w = fwd.shape[:2]
+    y, x = np.mgrid[0:h, 0:w]
+    cols: dict[str, Any] = {"y": y.ravel(), "x": x.ravel()}
+    for name, img in (("forward", fwd), ("deferred", images["deferred"][::step, ::step]),
+                      ("diffuse", g["diffuse"][::step, ::step])):  # fmt: skip
+        for k, c in enumerate("rgb"):
+            cols[f"{name}_{c}"] = img[..., k].ravel()
+    n = g["normal"][::step, ::step]
+    cols["normal_0"], cols["normal_1"] = n[..., 0].ravel(), n[..., 1].ravel()
+    cols["depth"] = g["depth"][::step, ::step].ravel()
+    cols["material"] = g["material"][::step, ::step].ravel().astype(int)
+    df = pd.DataFrame(cols)
+    for k in ("max_abs_diff_loop", "max_abs_diff_passes", "max_abs_diff_uint8"):
+        df[k] = images[k]
+    df["side"] = side
+    return df
+
+
+def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
+    """``times``: one row per sweep point × path (wall ``ms_*`` and CPU ``cpu_*`` medians per
+    stage and in total, fragments, overdraw); ``fits``: log-log slopes per clock, sweep, path
+    and fixed setting; ``crossovers``: where deferred overtakes forward along L;
+    ``gbuffer``: one row per g-buffer texture at ``gbuffer_side``² (bytes computed and read
+    from GL); ``images``: the reference frame and its g-buffer, one row per pixel."""
+    rows, extra = measure(params, progress=progress)
+    g = extra["gbuffer"]
+    gb = pd.DataFrame(g["textures"])
+    for k in ("resolution", "mib_computed", "mib_read", "mb_computed", "lecture_mb"):
+        gb[k] = g[k]
+    return {
+        "times": pd.DataFrame(rows),
+        "fits": pd.DataFrame(fits(rows)),
+        "crossovers": pd.DataFrame(crossovers(rows)),
+        "gbuffer": gb,
+        "images": _image_frame(extra.get("images")),
+    }
+
+
+def _records(df: pd.DataFrame) -> list[dict[str, Any]]:
+    """A frame as row dicts, NaN (a column a row lacks) dropped."""
+    return [{k: v for k, v in r.items() if not (isinstance(v, float) and v != v)}
+            for r in df.to_dict("records")]  # fmt: skip
+
+
+# -- claims -----------------------------------------------------------------------------------
+
+CLAIM_CLOCK = "cpu"  # the claims are judged on work (CPU ms of all threads), the lecture's W(n)
+
+
+def claims(frames, params: Params) -> pd.DataFrame:
+    """The lecture's complexity statements against our slopes and ratios on CPU time (the
+    work W(n); absolute llvmpipe times are not compared with anything), the g-buffer's
+    memory against its 25 MB."""
+    rows_t = _records(frames["times"])
+    fit_rows = [f for f in _records(frames["fits"]) if f["clock"] == CLAIM_CLOCK]
+    cross = [c for c in _records(frames["crossovers"]) if c["clock"] == CLAIM_CLOCK]
+    metric = CLOCKS[CLAIM_CLOCK]
+    worst = ORDERS[0]
     out = []
-    metric = CLOCKS[clock]
-    cross = [c for c in cross if c["clock"] == clock]
 
     def fit(sweep, path, **kw):
-        return [
-            f
-            for f in fit_rows
-            if (f["clock"], f["sweep"], f["path"]) == (clock, sweep, path)
-            and all(f.get(k) == v for k, v in kw.items())
-        ]
+        return [f for f in fit_rows if (f["sweep"], f["path"]) == (sweep, path)
+                and all(f.get(k) == v for k, v in kw.items())]  # fmt: skip
 
-    worst = ORDERS[0]
-
-    def linear(sweep, path, fitted):
-        """Linear fits T = a + b·x of the sweep's series behind the log-log fits ``fitted``."""
-        key, res = SWEEP_X[sweep], []
+    def linear_claim(item, document, sweep, path, fitted, unit):
+        key, lins = SWEEP_X[sweep], []
         for f in fitted:
-            pts = sorted(
-                (r for r in rows if (r["sweep"], r["path"]) == (sweep, path)
-                 and all(r[k] == f[k] for k in SWEEP_FIXED[sweep])),
-                key=lambda r: r[key],
-            )  # fmt: skip
-            res.append(linear_fit([r[key] for r in pts], [r[metric] for r in pts]))
-        return res
-
-    def linear_claim(claim, document, sweep, path, fitted, unit):
-        lin = linear(sweep, path, fitted)
-        out.append(
-            _claim(
-                claim,
-                document,
-                "; ".join(
-                    f"{_fixed_label(f)}: {fmt(x['b'] * UNIT_SCALE[sweep], 3)} ms per {unit}, "
-                    f"residual {x['residual_rel']:.0%}; log-log slope {f['slope_upper']:.2f} "
-                    f"from {f['upper_from']:,}"
-                    for f, x in zip(fitted, lin, strict=True)
-                ),
-                all(x["b"] > 0 and x["residual_rel"] <= LINEAR_RESIDUAL for x in lin),
-            )
+            pts = sorted((r for r in rows_t if (r["sweep"], r["path"]) == (sweep, path)
+                          and all(r[k] == f[k] for k in SWEEP_FIXED[sweep])),
+                         key=lambda r: r[key])  # fmt: skip
+            lins.append(linear_fit([r[key] for r in pts], [r[metric] for r in pts]))
+        ours = "; ".join(
+            f"{_fixed_label(f)}: {x['b'] * UNIT_SCALE[sweep]:.3g} ms per {unit}, residual "
+            f"{x['residual_rel']:.0%}, log-log slope {f['slope_upper']:.2f} from "
+            f"{f['upper_from']:,.0f}"
+            for f, x in zip(fitted, lins, strict=True)
         )
+        holds = all(x["b"] > 0 and x["residual_rel"] <= LINEAR_RESIDUAL for x in lins)
+        bad = [x for x in lins if not (x["b"] > 0 and x["residual_rel"] <= LINEAR_RESIDUAL)]
+        out.append(harness.claim(
+            item, document, ours, harness.TREND if holds else harness.DIFFERS,
+            basis=f"CPU time T = a + b·x with b > 0 and relative RMS residual <= "
+            f"{LINEAR_RESIDUAL:.0%} (the O-bound is linear in {sweep}): "
+            + ("holds" if holds else "does not hold"),
+            why="" if holds else "residuals " + ", ".join(f"{x['residual_rel']:.0%}" for x in bad)
+            + ": the time is not one line over the sweep (a fixed cost and llvmpipe's tiling "
+            "dominate its small end)",
+        ))  # fmt: skip
 
     fl = fit("L", "forward", order=worst)
     if fl:
-        linear_claim(
-            "forward time is linear in L (T = a + b·L, back to front)",
-            DOCUMENT["forward"], "L", "forward", fl, "light",
-        )  # fmt: skip
+        linear_claim("forward time is linear in L (back to front: every fragment lit)",
+                     DOC_FORWARD, "L", "forward", fl, "light")  # fmt: skip
     cw = [c for c in cross if c["order"] == worst and c["path"] == "deferred-loop"]
     if cw:
-        out.append(
-            _claim(
-                "deferred lights pixels, not fragments: forward's ms per light exceeds "
-                "deferred's by at least the overdraw",
-                DOCUMENT["deferred"],
-                ", ".join(
-                    f"{c['side']}²: {fmt(c['per_light_ratio'])}× (overdraw {c['overdraw']:.2f})"
-                    for c in cw
-                ),
-                all(
-                    c["per_light_ratio"] is not None and c["per_light_ratio"] >= c["overdraw"]
-                    for c in cw
-                ),
-            )
-        )
+        holds = all(c.get("per_light_ratio") is not None and c["per_light_ratio"] >= c["overdraw"]
+                    for c in cw)  # fmt: skip
+        out.append(harness.claim(
+            "deferred lights pixels, forward fragments: forward's ms per light over deferred's",
+            DOC_PASSES,
+            ", ".join(f"{c['side']}²: {c.get('per_light_ratio', float('nan')):.2f}× (fragments "
+                      f"per pixel {c['overdraw']:.2f})" for c in cw),
+            harness.TREND if holds else harness.DIFFERS,
+            basis="per-light cost ratio forward / deferred >= fragments per pixel at every "
+            "viewport (back to front): " + ("holds" if holds else "does not hold"),
+            why="" if holds else "deferred's per-light pass has a fixed cost per pixel (g-buffer "
+            "reads) that forward's fragment loop does not pay, so the ratio stays below the "
+            "overdraw",
+        ))  # fmt: skip
     for path in PATHS[1:]:
         for order in ORDERS:
             cs = [c for c in cross if (c["path"], c["order"]) == (path, order)]
             if not cs:
                 continue
-            overtakes = all(c["ratio_last"] < c["ratio_first"] and c["ratio_last"] < 1 for c in cs)
-            measured = "; ".join(
-                f"{c['side']}²: {c['ratio_first']:.2f} (L={c['l_first']}) → {c['ratio_last']:.2f} "
-                f"(L={c['l_last']}), L* ≈ {fmt(c['crossover_measured'])}"
+            ok = all(c["ratio_last"] < c["ratio_first"] and c["ratio_last"] < 1 for c in cs)
+            ours = "; ".join(
+                f"{c['side']}²: T_d/T_f {c['ratio_first']:.2f} (L={c['l_first']}) → "
+                f"{c['ratio_last']:.2f} (L={c['l_last']}), crossover L ≈ "
+                + (f"{c['crossover_measured']:.1f}" if c.get("crossover_measured") is not None
+                   else "none")
                 for c in cs
-            )
-            worst_case = order == worst
-            out.append(
-                _claim(
-                    f"{path} overtakes forward as L grows ({order}"
-                    + (": the lecture's worst case" if worst_case else ": beyond the lecture, "
-                       "forward lights ≈ 1 fragment per pixel") + "; T_d / T_f falls below 1)",
-                    DOCUMENT["light_passes"] if path.endswith("passes") else DOCUMENT["deferred"],
-                    measured,
-                    overtakes if worst_case else None,
-                )
             )  # fmt: skip
+            doc = DOC_PASSES if path.endswith("passes") else DOC_DEFERRED
+            if order != worst:
+                out.append(harness.claim(
+                    f"{path} vs forward as L grows, front to back (forward lights about one "
+                    "fragment per pixel)", doc, ours, harness.MEASURED,
+                    basis="goes beyond the lecture: its bound (20) is the worst case, drawn "
+                    "back to front",
+                ))  # fmt: skip
+                continue
+            out.append(harness.claim(
+                f"{path} overtakes forward as L grows (back to front: the worst case)",
+                doc, ours, harness.TREND if ok else harness.DIFFERS,
+                basis="at every viewport T_deferred / T_forward falls and ends below 1: "
+                + ("holds" if ok else "does not hold"),
+                why="" if ok else "the ratio does not end below 1 at "
+                + ", ".join(f"{c['side']}²" for c in cs if not c["ratio_last"] < 1)
+                + f" within L ≤ {max(c['l_last'] for c in cs)}",
+            ))  # fmt: skip
     for path in ("forward", "deferred-loop"):
         fv = fit("VP", path)
         if fv:
-            linear_claim(
-                f"{path} time is linear in VP (T = a + b·VP)",
-                DOCUMENT["forward"] if path == "forward" else DOCUMENT["deferred"],
-                "VP", path, fv, "megapixel",
-            )  # fmt: skip
-    vs = sorted({r["side"] for r in rows if r["sweep"] == "V"})
+            linear_claim(f"{path} time is linear in VP",
+                         DOC_FORWARD if path == "forward" else DOC_DEFERRED,
+                         "VP", path, fv, "megapixel")  # fmt: skip
+    vs = sorted({r["side"] for r in rows_t if r["sweep"] == "V"})
     if vs:
         fv = fit("V", "forward", side=vs[0])
         if fv:
-            linear_claim(
-                "time is linear in V (T = a + b·V, forward at the smallest VP)",
-                DOCUMENT["forward"], "V", "forward", fv, "million triangles",
-            )  # fmt: skip
+            linear_claim("time is linear in V (forward at the smallest VP)", DOC_CONSTANT_L,
+                         "V", "forward", fv, "million triangles")  # fmt: skip
     if len(vs) >= 2:
-        big = max(r["triangles"] for r in rows if r["sweep"] == "V")
-
-        def t(side):
-            return next(
-                r[metric]
-                for r in rows
-                if r["sweep"] == "V"
-                and r["path"] == "forward"
-                and r["side"] == side
-                and r["triangles"] == big
-            )
-
-        got, product = t(vs[-1]) / t(vs[0]), (vs[-1] / vs[0]) ** 2
+        big = max(r["triangles"] for r in rows_t if r["sweep"] == "V")
+        vrows = [
+            r for r in rows_t if (r["sweep"], r["path"], r["triangles"]) == ("V", "forward", big)
+        ]
+        t0, t1 = (next(r[metric] for r in vrows if r["side"] == s) for s in (vs[0], vs[-1]))
+        got, product = t1 / t0, (vs[-1] / vs[0]) ** 2
         like = got >= 0.8 * product
-        note = "" if like else "; the product is a worst-case bound, time here adds: a·V + b·VP"
-        out.append(
-            _claim(
-                "O(V × VP): at the largest V, time scales with VP like the product",
-                DOCUMENT["forward"],
-                f"{vs[0]}² → {vs[-1]}² at {big:,} triangles: ×{got:.2f} (product: "
-                f"×{product:.0f}{note})",
-                like,
-            )
-        )
-    out.append(
-        _claim(
-            "the g-buffer takes about 25 MB at 1024 × 1024",
-            DOCUMENT["gbuffer"],
-            f"computed {gbuffer['mib_computed']:.2f} MiB ({gbuffer['mb_computed']:.1f} MB), "
-            f"read from GL {gbuffer['mib_read']:.2f} MiB",
-            abs(gbuffer["mib_read"] - gbuffer["lecture_mb"]) <= 0.5
-            and gbuffer["bytes_read"] == gbuffer["bytes_computed"],
-        )
-    )
-    return out
-
-
-# -- tables -----------------------------------------------------------------------------------
-
-
-def reference_stages(rows: Sequence[dict[str, Any]], setup: ComplexitySetup) -> list[dict]:
-    """Stage timings at the reference setting (back to front), one row per path."""
-    side, lights = setup.reference
-    return [
-        r
-        for r in rows
-        if r["sweep"] == "L"
-        and r["order"] == ORDERS[0]
-        and r["side"] == side
-        and r["lights"] == lights
-    ]
-
-
-def format_stages(ref: Sequence[dict[str, Any]], setup: ComplexitySetup) -> str:
-    side, lights = setup.reference
-    tri = ref[0]["triangles"] if ref else 0
-    return format_table(
-        ["path", "clear", "shade", "gbuffer", "lighting", "total ms", "× forward", "CPU ms",
-         "× forward"],
-        [
-            [r["path"], r["ms_clear"], r["ms_shade"], r["ms_gbuffer"], r["ms_lighting"],
-             r["ms_total"], r["ms_total"] / ref[0]["ms_total"], r["cpu_total"],
-             r["cpu_total"] / ref[0]["cpu_total"]]
-            for r in ref
-        ],
-        f"seed 003 — stages at {side}², L = {lights}, {tri:,} triangles, back to front "
-        f"(overdraw {ref[0]['overdraw']:.2f})" if ref else "seed 003 — stages",
-    )  # fmt: skip
-
-
-def format_fits(fit_rows: Sequence[dict[str, Any]]) -> str:
-    rows = []
-    for f in fit_rows:
-        fixed = ", ".join(
-            f"{k} {f[k]}" for k in ("order", "side", "lights", "subdivisions") if k in f
-        )
-        rows.append(
-            [f"{f['clock']:<4} {f['sweep']:<2} {f['path']}", fixed, f["slope"], f["residual"],
-             f["slope_upper"], f["residual_upper"]]
-        )  # fmt: skip
-    return format_table(
-        ["clock sweep / path", "fixed", "slope", "resid", "slope (upper)", "resid"],
-        rows,
-        "log-log slopes of total time (lecture: 1 in each of V, VP, L for forward; "
-        "deferred O(V·VP + L·VP))",
-    )
-
-
-def format_crossovers(cross: Sequence[dict[str, Any]]) -> str:
-    return format_table(
-        ["clock order / VP / path", "overdraw", "ms/light fwd", "ms/light def", "ratio",
-         "L* fit", "L* measured", "T_d/T_f first→last"],
-        [
-            [f"{c['clock']:<4} {c['order']} {c['side']}² {c['path']}", c["overdraw"],
-             c["forward_ms_per_light"], c["deferred_ms_per_light"], c["per_light_ratio"],
-             c["crossover_fit"],
-             c["crossover_measured"],
-             f"{c['ratio_first']:.2f} (L={c['l_first']}) → {c['ratio_last']:.2f} "
-             f"(L={c['l_last']})"]
-            for c in cross
-        ],
-        "where deferred overtakes forward (L* from the linear fits T = a + b·L; measured: "
-        "first swept L from which deferred stays faster)",
-    )  # fmt: skip
-
-
-def format_gbuffer(g: dict[str, Any]) -> str:
-    from soc.rendering.shading import MIB
-
-    rows = [
-        [t["texture"], t["lecture"], t["format"], t["bits"], t["bits_read"],
-         t["bytes_computed"] / MIB, t["bytes_read"] / MIB]
-        for t in g["textures"]
-    ]  # fmt: skip
-    rows.append(["total", "", "", "", "", g["mib_computed"], g["mib_read"]])
-    return format_table(
-        ["texture", "lecture", "format", "bits", "bits (GL)", "MiB", "MiB (GL)"],
-        rows,
-        f"g-buffer at {g['resolution']} (lecture: ≈ {g['lecture_mb']:.0f} MB)",
-    )
-
-
-def format_claims(claims: Sequence[dict[str, Any]]) -> str:
-    lines = ["seed 003's claims vs ours:"]
-    lines += [f"  {c['verdict']:<7}  {c['claim']}: {c['measured']}" for c in claims]
-    return "\n".join(lines)
+        b = (t1 - t0) / (vs[-1] ** 2 - vs[0] ** 2)
+        a = t0 - b * vs[0] ** 2
+        out.append(harness.claim(
+            "O(V × VP): at the largest V, time grows with VP like the product",
+            DOC_CONSTANT_L,
+            f"{vs[0]}² → {vs[-1]}² at {big:,} triangles: CPU time ×{got:.2f} (pixels "
+            f"×{product:.0f})",
+            harness.TREND if like else harness.DIFFERS,
+            basis="the time ratio is at least 0.8 × the pixel ratio: "
+            + ("holds" if like else "does not hold"),
+            why="" if like else f"from the two points T = a + b·VP with a = {a:.0f} ms (the "
+            f"triangles: {a / t0:.0%} of the time at {vs[0]}²) and b = {b * 1e6:.1f} ms per "
+            "megapixel: the costs add; the product is the bound for every triangle covering "
+            "the screen",
+        ))  # fmt: skip
+    g = frames["gbuffer"].iloc[0]
+    read, computed = frames["gbuffer"].bytes_read.sum(), frames["gbuffer"].bytes_computed.sum()
+    ok = abs(g.mib_read - g.lecture_mb) <= 0.5 and read == computed
+    out.append(harness.claim(
+        "g-buffer memory at 1024 × 1024 (depth 24, normal 2×32, diffuse 3×32, material 16 bit)",
+        DOC_GBUFFER,
+        f"computed {g.mib_computed:.2f} MiB ({g.mb_computed:.1f} · 10^6 bytes), read from GL "
+        f"{g.mib_read:.2f} MiB",
+        harness.NUMBERS if ok else harness.DIFFERS,
+        basis="within 0.5 of 25, in MiB (the lecture's MB are 2^20 bytes: 25 bytes per "
+        "pixel), and GL's allocated bytes equal the computed ones",
+        why="" if ok else f"GL reports {read:,} bytes against {computed:,} computed",
+    ))  # fmt: skip
+    return harness.claims_frame(out)
 
 
 # -- plots ------------------------------------------------------------------------------------
 
 STYLE = {"forward": "-", "deferred-loop": "--", "deferred-passes": ":"}
+CLOCK_LABEL = {"wall": "wall ms", "cpu": "CPU ms (all threads: the work)"}
 
 
-def _plt():
-    import matplotlib
+def plot_lights(frames, params: Params):
+    """CPU time (all threads: the work) against the number of lights L, drawn back to front
+    (top: every fragment passes the depth test, the lecture's worst case) and front to back
+    (bottom: each pixel lit about once). Left: time of forward (solid), deferred with one
+    lighting loop (dashed) and deferred with one pass per light (dotted), one colour per
+    viewport; right: deferred / forward time (below 1: deferred faster), a vertical line
+    where deferred (loop) overtakes forward. Medians of the timed frames; wall times are in
+    the ``times`` frame. The x axis is linear up to 1 and logarithmic beyond (L = 0 shown)."""
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-CLOCK_LABEL = {"wall": "wall ms", "cpu": "CPU ms (all threads: work)"}
-
-
-def plot_lights(rows, cross):
-    """Per draw order: wall and CPU time vs L (log-log), and the deferred / forward ratio
-    (CPU solid, wall faint) with the measured crossover (CPU) marked."""
-    plt = _plt()
-    sel = [r for r in rows if r["sweep"] == "L"]
-    orders = list(dict.fromkeys(r["order"] for r in sel))
-    fig, axes = plt.subplots(len(orders), 3, figsize=(19, 4.8 * len(orders)), squeeze=False)
-    cmap = plt.get_cmap("tab10")
+    t = frames["times"]
+    sel = t[t.sweep == "L"]
+    cross = frames["crossovers"]
+    cross = cross[(cross.clock == CLAIM_CLOCK) & (cross.path == "deferred-loop")]
+    orders = [o for o in ORDERS if o in set(sel.order)]
+    sides = sorted(set(sel.side))
+    colours = {s: c for s, c in zip(sides, ("tab:blue", "tab:orange", "tab:green", "tab:red",
+                                            "tab:purple"), strict=False)}  # fmt: skip
+    metric = CLOCKS[CLAIM_CLOCK]
+    fig = Figure(figsize=(13, 4.3 * len(orders) + 0.8))
+    axes = fig.subplots(len(orders), 2, squeeze=False)
     for i, order in enumerate(orders):
-        sides = sorted({r["side"] for r in sel if r["order"] == order})
-        for k, side in enumerate(sides):
-            series = {
-                path: sorted(
-                    (r for r in sel if (r["order"], r["side"], r["path"]) == (order, side, path)),
-                    key=lambda r: r["lights"],
-                )
-                for path in PATHS
-            }
-            lights = [r["lights"] for r in series["forward"]]
-            for j, metric in enumerate(CLOCKS.values()):
-                for path, pts in series.items():
-                    axes[i, j].plot(
-                        lights, [r[metric] for r in pts], STYLE[path], marker="o", ms=3,
-                        color=cmap(k), label=f"{side}² {path}",
-                    )  # fmt: skip
-                for path in PATHS[1:]:
-                    ratio = [
-                        d[metric] / f[metric]
-                        for d, f in zip(series[path], series["forward"], strict=True)
-                    ]
-                    cpu = metric == CLOCKS["cpu"]
-                    axes[i, 2].plot(
-                        lights, ratio, STYLE[path], marker="o" if cpu else None, ms=3,
-                        color=cmap(k), alpha=1.0 if cpu else 0.3,
-                        label=f"{side}² {path}" + ("" if cpu else " (wall)"),
-                    )  # fmt: skip
-            for c in cross:
-                key = (c["clock"], c["order"], c["side"], c["path"])
-                if key == ("cpu", order, side, "deferred-loop") and c["crossover_measured"]:
-                    axes[i, 2].axvline(c["crossover_measured"], color=cmap(k), lw=0.8, alpha=0.5)
-        od = next(r["overdraw"] for r in sel if r["order"] == order)
-        for j, clock in enumerate(CLOCKS):
-            axes[i, j].set_title(f"{order} (fragments per pixel {od:.2f}): {CLOCK_LABEL[clock]}",
-                                 fontsize=10)  # fmt: skip
-            axes[i, j].set_ylabel(CLOCK_LABEL[clock])
-        axes[i, 2].set_title(f"{order}: deferred / forward (< 1: deferred faster)", fontsize=10)
-        axes[i, 2].axhline(1.0, color="black", lw=1)
-        axes[i, 2].set_ylabel("time ratio")
+        o = sel[sel.order == order]
+        for side in sides:
+            s = o[o.side == side]
+            series = {p: s[s.path == p].sort_values("lights") for p in PATHS}
+            f = series["forward"]
+            for p, d in series.items():
+                axes[i, 0].plot(d.lights, d[metric], STYLE[p], marker="o", ms=3,
+                                color=colours[side])  # fmt: skip
+                if p != "forward":
+                    axes[i, 1].plot(d.lights, d[metric].to_numpy() / f[metric].to_numpy(),
+                                    STYLE[p], marker="o", ms=3, color=colours[side])  # fmt: skip
+            c = cross[(cross.order == order) & (cross.side == side)].crossover_measured
+            if len(c) and c.notna().iloc[0]:
+                axes[i, 1].axvline(float(c.iloc[0]), color=colours[side], lw=0.8, alpha=0.6)
+        od = o.overdraw.iloc[0]
+        axes[i, 0].set_title(f"{order} ({od:.2f} fragments per pixel): CPU time", fontsize=10)
+        axes[i, 0].set_ylabel("CPU ms per frame")
+        axes[i, 0].set_yscale("log")
+        axes[i, 1].set_title(f"{order}: deferred / forward (< 1: deferred faster)", fontsize=10)
+        axes[i, 1].axhline(1.0, color="black", lw=1)
+        axes[i, 1].set_ylabel("time ratio")
         for ax in axes[i]:
-            ax.set_xscale("symlog", base=2, linthresh=1.0)  # L = 0 included
-            ax.set_xlim(0, 1.15 * max(r["lights"] for r in sel))
-            ax.set_yscale("log")
+            ax.set_xscale("symlog", base=2, linthresh=1.0)
+            ax.set_xlim(0, 1.15 * sel.lights.max())
             ax.set_xlabel("lights L")
             ax.grid(alpha=0.3, which="both")
-            ax.legend(fontsize=6)
-    fig.suptitle("Seed 003 — forward O(V·VP·L) vs deferred O(V·VP + L·VP): time against L")
-    fig.tight_layout()
+    handles = [Line2D([], [], color=colours[s], lw=2, label=f"viewport {s}²") for s in sides]
+    handles += [Line2D([], [], color="black", ls=STYLE[p], label=p) for p in PATHS]
+    handles += [Line2D([], [], color="grey", lw=0.8, label="crossover (deferred-loop)")]
+    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=9,
+               frameon=False)  # fmt: skip
+    fig.suptitle("Seed 003 — forward O(V·VP·L) vs deferred O(V·VP + L·VP): CPU time against L")
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
     return fig
 
 
-def _sweep_plot(rows, fit_rows, sweep: str, series_key: str | None, xlabel: str, title: str):
+def _sweep_plot(frames, sweep: str, series_key: str | None, xlabel: str, title: str):
     """Wall and CPU time against the sweep's x (log-log), the fitted slopes in the legend."""
-    plt = _plt()
+    from matplotlib.figure import Figure
+
+    t, fr = frames["times"], frames["fits"]
     key = SWEEP_X[sweep]
-    sel = [r for r in rows if r["sweep"] == sweep]
-    groups = sorted({r[series_key] for r in sel}) if series_key else [None]
-    fig, axes = plt.subplots(1, 2, figsize=(15, 5.5))
-    cmap = plt.get_cmap("tab10")
+    sel = t[t.sweep == sweep]
+    groups = sorted(set(sel[series_key])) if series_key else [None]
+    fig = Figure(figsize=(14, 5.2))
+    axes = fig.subplots(1, 2)
+    cmap = ("tab:blue", "tab:orange", "tab:green", "tab:red")
     for ax, (clock, metric) in zip(axes, CLOCKS.items(), strict=True):
         for k, g in enumerate(groups):
             for path in PATHS:
-                pts = sorted(
-                    (r for r in sel if r["path"] == path and (g is None or r[series_key] == g)),
-                    key=lambda r: r[key],
-                )
-                f = next(
-                    (f for f in fit_rows
-                     if (f["clock"], f["sweep"], f["path"]) == (clock, sweep, path)
-                     and (g is None or f.get(series_key) == g)),
-                    None,
-                )  # fmt: skip
-                lab = f"{path}" + (f" {g}²" if g is not None else "")
-                if f:
-                    lab += f": slope {f['slope']:.2f} (upper {f['slope_upper']:.2f})"
-                color = cmap(k if series_key else PATHS.index(path))
-                ax.plot([r[key] for r in pts], [r[metric] for r in pts], STYLE[path],
-                        marker="o", ms=3, color=color, label=lab)  # fmt: skip
-        x = np.array(sorted({r[key] for r in sel}), float)
-        y0 = min(r[metric] for r in sel)
+                pts = sel[(sel.path == path) & ((sel[series_key] == g) if g is not None else True)]
+                pts = pts.sort_values(key)
+                f = fr[(fr.clock == clock) & (fr.sweep == sweep) & (fr.path == path)]
+                if g is not None:
+                    f = f[f[series_key] == g]
+                lab = path + (f" {g}²" if g is not None else "")
+                if len(f):
+                    lab += f": slope {f.slope.iloc[0]:.2f} (upper {f.slope_upper.iloc[0]:.2f})"
+                color = cmap[k if series_key else PATHS.index(path)]
+                ax.plot(pts[key], pts[metric], STYLE[path], marker="o", ms=3, color=color,
+                        label=lab)  # fmt: skip
+        x = np.array(sorted(set(sel[key])), float)
+        y0 = float(sel[metric].min())
         ax.plot(x, y0 * x / x[0], color="grey", lw=0.8, alpha=0.6, label="slope 1 (linear)")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel(CLOCK_LABEL[clock])
+        ax.set(xscale="log", yscale="log", xlabel=xlabel, ylabel=CLOCK_LABEL[clock])
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=7)
     fig.suptitle(title, fontsize=11)
@@ -947,279 +874,123 @@ def _sweep_plot(rows, fit_rows, sweep: str, series_key: str | None, xlabel: str,
     return fig
 
 
-def plot_stages(ref: Sequence[dict[str, Any]], setup: ComplexitySetup):
-    """Stacked stage times per path at the reference setting, wall and CPU."""
-    plt = _plt()
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
-    for ax, (clock, prefix) in zip(axes, (("wall", "ms"), ("cpu", "cpu")), strict=True):
+def plot_viewport(frames, params: Params):
+    """Wall (left) and CPU time (right) per frame against the viewport's pixels VP, log-log,
+    at fixed V and L (back to front); forward solid, deferred loop dashed, deferred passes
+    dotted; the legend gives each path's fitted slope over all points and over the upper half
+    (the lecture's bound: slope 1, grey)."""
+    return _sweep_plot(
+        frames,
+        "VP",
+        None,
+        "viewport pixels VP",
+        f"Seed 003 — time vs VP (L = {params.fixed_lights}, back to front)",
+    )
+
+
+def plot_triangles(frames, params: Params):
+    """Wall (left) and CPU time (right) per frame against the triangles V drawn, log-log, at
+    two viewports (colours) and fixed L (back to front); forward solid, deferred loop dashed,
+    deferred passes dotted; fitted slopes in the legend (the lecture's bound: slope 1, grey)."""
+    return _sweep_plot(
+        frames,
+        "V",
+        "side",
+        "triangles V",
+        f"Seed 003 — time vs V (L = {params.fixed_lights}, back to front)",
+    )
+
+
+def plot_stages(frames, params: Params):
+    """Median wall (left) and CPU time (right) of each path's stages at the reference setting
+    (viewport side and L of ``reference``, back to front), stacked: clear, forward shading,
+    g-buffer pass, lighting."""
+    from matplotlib.figure import Figure
+
+    t = frames["times"]
+    side, lights = params.reference
+    ref = t[(t.sweep == "L") & (t.order == ORDERS[0]) & (t.side == side) & (t.lights == lights)]
+    fig = Figure(figsize=(12, 4.2))
+    for ax, (clock, prefix) in zip(fig.subplots(1, 2), (("wall", "ms"), ("cpu", "cpu")),
+                                   strict=True):  # fmt: skip
         bottom = np.zeros(len(ref))
         for stage in ("clear", "shade", "gbuffer", "lighting"):
-            v = np.array([r[f"{prefix}_{stage}"] or 0.0 for r in ref])
-            ax.bar([r["path"] for r in ref], v, bottom=bottom, label=stage)
+            v = ref[f"{prefix}_{stage}"].fillna(0.0).to_numpy(float)
+            ax.bar(ref.path, v, bottom=bottom, label=stage)
             bottom += v
         ax.set_ylabel(f"{CLOCK_LABEL[clock]} (median)")
         ax.legend(fontsize=8)
-    side, lights = setup.reference
-    fig.suptitle(f"Stages at {side}², L = {lights} (back to front)", fontsize=10)
+    fig.suptitle(f"Seed 003 — stages at {side}², L = {lights} (back to front)", fontsize=10)
     fig.tight_layout()
     return fig
 
 
-def plot_images(images: dict[str, Any], setup: ComplexitySetup):
-    """Forward and deferred images, their difference, and the four g-buffer textures."""
+def plot_images(frames, params: Params):
+    """The reference frame forward and deferred (loop), their largest per-pixel difference,
+    and the four g-buffer textures: depth, octahedral normal, diffuse colour, material id
+    (subsampled to at most 128 pixels a side)."""
+    from matplotlib.figure import Figure
+
     from soc.rendering.shading import SKY_MATERIAL, oct_decode
 
-    plt = _plt()
-    g = images["gbuffer"]
-    drawn = g["material"] != SKY_MATERIAL
-    n = oct_decode(g["normal"])
-    depth = np.where(drawn, g["depth"], np.nan)
-    diff = np.abs(images["forward"] - images["deferred"]).max(axis=-1)
-    panels = [
-        ("forward", _to_uint8(images["forward"]), None),
-        ("deferred (loop)", _to_uint8(images["deferred"]), None),
-        (f"|forward − deferred| max {diff.max():.1e}", diff, "magma"),
-        ("g-buffer depth (24 bit)", depth, "viridis"),
-        ("normal (RG32F, octahedral)", np.where(drawn[..., None], 0.5 + 0.5 * n, 0), None),
-        ("diffuse (RGB32F)", np.clip(g["diffuse"], 0, 1), None),
-        ("material id (R16UI)", np.where(drawn, g["material"], np.nan), "tab10"),
-    ]
-    fig, axes = plt.subplots(2, 4, figsize=(16, 8.4))
-    for ax, (title, img, cmap) in zip(axes.flat, panels, strict=False):
-        im = ax.imshow(img, cmap=cmap)
-        if cmap:
-            fig.colorbar(im, ax=ax, fraction=0.046)
-        ax.set_title(title, fontsize=9)
+    df = frames["images"]
+    fig = Figure(figsize=(16, 8.4))
+    axes = fig.subplots(2, 4)
     for ax in axes.flat:
         ax.axis("off")
-    side, lights = setup.reference
+    if df.empty:
+        return fig
+    h, w = int(df.y.max()) + 1, int(df.x.max()) + 1
+
+    def img(*cols):
+        return np.stack([df[c].to_numpy() for c in cols], -1).reshape(h, w, len(cols))
+
+    fwd, dfd = img("forward_r", "forward_g", "forward_b"), img("deferred_r", "deferred_g",
+                                                                 "deferred_b")  # fmt: skip
+    material = img("material")[..., 0]
+    drawn = material != SKY_MATERIAL
+    n = oct_decode(img("normal_0", "normal_1").astype(np.float32))
+    diff = np.abs(fwd - dfd).max(axis=-1)
+    panels = [
+        ("forward", np.clip(fwd, 0, 1), None),
+        ("deferred (loop)", np.clip(dfd, 0, 1), None),
+        (f"|forward − deferred|, max {df.max_abs_diff_loop.iloc[0]:.1e} at full size", diff,
+         "magma"),
+        ("g-buffer depth (24 bit)", np.where(drawn, img("depth")[..., 0], np.nan), "viridis"),
+        ("normal (RG32F, octahedral)", np.where(drawn[..., None], 0.5 + 0.5 * n, 0), None),
+        ("diffuse (RGB32F)", np.clip(img("diffuse_r", "diffuse_g", "diffuse_b"), 0, 1), None),
+        ("material id (R16UI)", np.where(drawn, material, np.nan), "tab10"),
+    ]  # fmt: skip
+    for ax, (title, im, cmap) in zip(axes.flat, panels, strict=False):
+        shown = ax.imshow(im, cmap=cmap)
+        if cmap:
+            fig.colorbar(shown, ax=ax, fraction=0.046)
+        ax.set_title(title, fontsize=9)
+    side, lights = params.reference
     fig.suptitle(f"Seed 003 — the same frame forward and deferred ({side}², L = {lights}), "
                  "and the g-buffer")  # fmt: skip
     fig.tight_layout()
     return fig
 
 
-# -- the experiment ---------------------------------------------------------------------------
-
-
-def write(out: Path, setup, rows, fit_rows, cross, claims, extra) -> list[Path]:
-    """CSV of every point, fits, crossovers, g-buffer; the JSON summary; five PNGs."""
-    plt = _plt()
-    ref = reference_stages(rows, setup)
-    images = extra.get("images")
-    figs = {
-        "seed003_lights.png": plot_lights(rows, cross),
-        "seed003_viewport.png": _sweep_plot(
-            rows, fit_rows, "VP", None, "viewport pixels VP",
-            f"Seed 003 — time vs VP (L = {setup.fixed_lights}, back to front)",
-        ),
-        "seed003_triangles.png": _sweep_plot(
-            rows, fit_rows, "V", "side", "triangles V",
-            f"Seed 003 — time vs V (L = {setup.fixed_lights}, back to front)",
-        ),
-        "seed003_stages.png": plot_stages(ref, setup),
-    }  # fmt: skip
-    if images:
-        figs["seed003_images.png"] = plot_images(images, setup)
-    files = [
-        write_csv(out / "seed003_times.csv", rows),
-        write_csv(out / "seed003_fits.csv", fit_rows),
-        write_csv(out / "seed003_crossover.csv", cross),
-        write_csv(out / "seed003_gbuffer.csv", extra["gbuffer"]["textures"]),
-    ]
-    for name, fig in figs.items():
-        files.append(save_figure(fig, out / name))
-        plt.close(fig)
-    summary = {
-        "setup": asdict(setup),
-        "document": DOCUMENT,
-        "reference_stages_ms": {
-            r["path"]: {k[3:]: r[k] for k in r if k.startswith("ms_") and r[k] is not None}
-            for r in ref
-        },
-        "reference_stages_cpu_ms": {
-            r["path"]: {k[4:]: r[k] for k in r if k.startswith("cpu_") and r[k] is not None}
-            for r in ref
-        },
-        "fits": fit_rows,
-        "crossovers": cross,
-        "gbuffer": extra["gbuffer"],
-        "claims": claims,
-        "forward_vs_deferred": {
-            k: images[k] for k in ("max_abs_diff_loop", "max_abs_diff_passes", "max_abs_diff_uint8")
-        }
-        if images
-        else None,
-        "timing": "ctx.finish() + time.perf_counter() (wall) and time.process_time() (CPU of "
-        "all threads: llvmpipe's workers are this process's) around each stage; median of up "
-        f"to {setup.repeats} frames per point after a warm-up; paths interleaved; claims "
-        f"judged on the {CLAIM_CLOCK} clock",
-        "seconds": extra["seconds"],
-    }
-    files.append(write_json(out / "seed003_summary.json", summary))
-    return files
-
-
-def run(
-    quick: bool, out: Path | None = None, verbose: bool = True, *, progress: bool = True
-) -> dict[str, Any]:
-    """Run seed 003 (the quick sweep when ``quick``), write CSV/JSON/PNG into ``out``
-    (default ``default_out(quick)/seed003_complexity``) and print the tables if ``verbose``.
-
-    Returns the summary: ``rows``, ``fits``, ``crossovers``, ``claims``, ``gbuffer``,
-    ``reference`` (stage rows), ``files``, ``seconds``, ``setup``.
-    """
-    setup = make_setup(quick)
-    out = Path(out) if out is not None else default_out(quick) / NAME
-    t0 = time.perf_counter()
-    rows, extra = measure(setup, progress=progress)
-    fit_rows = fits(rows)
-    cross = crossovers(rows)
-    claims = check_claims(rows, fit_rows, cross, extra["gbuffer"])
-    files = write(out, setup, rows, fit_rows, cross, claims, extra)
-    ref = reference_stages(rows, setup)
-    seconds = time.perf_counter() - t0
-    if verbose:
-        print()
-        print(format_stages(ref, setup))
-        print()
-        print(format_fits(fit_rows))
-        print()
-        print(format_crossovers(cross))
-        print()
-        print(format_gbuffer(extra["gbuffer"]))
-        print()
-        print(format_claims(claims))
-        if extra.get("images"):
-            im = extra["images"]
-            print(
-                f"\nforward vs deferred, same frame: max |Δ| {im['max_abs_diff_loop']:.1e} "
-                f"(loop), {im['max_abs_diff_passes']:.1e} (passes), "
-                f"{im['max_abs_diff_uint8']} / 255 in 8 bit"
-            )
-        print(f"\n{len(files)} files written to {out}/ in {seconds:.0f} s")
-    return {
-        "setup": setup,
-        "rows": rows,
-        "fits": fit_rows,
-        "crossovers": cross,
-        "claims": claims,
-        "gbuffer": extra["gbuffer"],
-        "reference": ref,
-        "files": files,
-        "seconds": seconds,
-    }
-
-
-# -- the notebook -----------------------------------------------------------------------------
-
-NOTEBOOK = Path(__file__).resolve().parents[1] / "notebooks" / f"{NAME}.ipynb"
-
-NB_INTRO = """\
-# Seed 003 — forward vs deferred shading: complexity in V, VP and L
-
-The lecture bounds forward rasterization by O(V · VP · L) in the worst case (every fragment
-lit by every light before the depth test) and deferred shading by O(V · VP + L · VP) (the
-depth test first, into a g-buffer; then the lights over pixels), with a g-buffer of depth
-24 bit, normal 2 × 32 bit, diffuse 3 × 32 bit and material 16 bit: ≈ 25 MB at 1024 × 1024.
-
-Here both paths (`soc.rendering.shading`) render a stack of tessellated spheres in front of a wall
-on
-this machine's GL context (Mesa llvmpipe), timed stage by stage with `ctx.finish()`, in
-wall time and in CPU time of all threads (the work; robust when other jobs share the cores). All the
-work is done by `experiments/seed003_complexity.py` (`python -m experiments.seed003_complexity`);
-this notebook calls it and shows its tables and pictures. Set `VISLOD_QUICK=1` for the quick
-sweep (well under a minute); the full one takes a few minutes on two cores."""
-
-NB_SETUP = """\
-from IPython.display import Image, display
-
-from experiments import seed003_complexity as s3
-from experiments.common import default_out, env_quick
-
-quick = env_quick()
-out = default_out(quick) / s3.NAME
-print(f"quick={quick}: {s3.make_setup(quick)}; results in {out}")"""
-
-NB_RUN = """\
-result = s3.run(quick, out, verbose=False)
-print(s3.format_stages(result["reference"], result["setup"]))"""
-
-NB_TABLES = """\
-print(s3.format_fits(result["fits"]))
-print()
-print(s3.format_crossovers(result["crossovers"]))
-print()
-print(s3.format_gbuffer(result["gbuffer"]))
-print()
-print(s3.format_claims(result["claims"]))"""
-
-NB_SECTIONS = [
-    (
-        "## Time against L; where deferred overtakes forward\n\nTop: drawn back to front (every "
-        "fragment passes the depth test, the lecture's worst case); bottom: front to back (the "
-        "early depth test lights each pixel about once, forward's best case).",
-        ["seed003_lights.png"],
-    ),
-    ("## Time against VP", ["seed003_viewport.png"]),
-    ("## Time against V (triangles)", ["seed003_triangles.png"]),
-    ("## Stages at the reference setting", ["seed003_stages.png"]),
-    (
-        "## The same frame, forward and deferred, and the g-buffer",
-        ["seed003_images.png"],
-    ),
-]
-
-
-def build_notebook():
-    """``notebooks/seed003_complexity.ipynb`` as an ``nbformat`` node (no outputs)."""
-    from nbformat import v4
-
-    from experiments.notebooks import image_cell, notebook
-
-    cells = [
-        v4.new_markdown_cell(NB_INTRO),
-        v4.new_code_cell(NB_SETUP),
-        v4.new_markdown_cell("## Run, and the stage timings at the reference setting"),
-        v4.new_code_cell(NB_RUN),
-        v4.new_markdown_cell("## Fitted slopes, crossovers, g-buffer memory, the claims"),
-        v4.new_code_cell(NB_TABLES),
-    ]
-    for text, images in NB_SECTIONS:
-        cells += [v4.new_markdown_cell(text), v4.new_code_cell(image_cell(images))]
-    return notebook(cells, "seed003-complexity")
-
-
-def write_notebook(path: str | Path = NOTEBOOK) -> Path:
-    """Write the notebook (without outputs), atomically."""
-    import nbformat
-
-    from experiments.common import atomic_write
-
-    nb = build_notebook()
-    return atomic_write(path, lambda p: nbformat.write(nb, str(p)))
-
-
-# -- command line -----------------------------------------------------------------------------
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m experiments.seed003_complexity [--quick] [--out DIR] [--no-progress]
-    [--notebook]``; returns the exit status."""
-    p = argparse.ArgumentParser(prog="python -m experiments.seed003_complexity",
-                                description=__doc__.split("\n\n")[0])  # fmt: skip
-    p.add_argument("--quick", action="store_true", help="the quick sweep (also VISLOD_QUICK=1)")
-    p.add_argument("--out", default=None, help=f"results folder (default results/{NAME}/)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--notebook", action="store_true", help=f"only (re)write {NOTEBOOK.name}")
-    args = p.parse_args(argv)
-    if args.notebook:
-        print(write_notebook())
-        return 0
-    quick = args.quick or env_quick()
-    run(quick, Path(args.out) if args.out else None, progress=not args.no_progress)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+EXPERIMENT = harness.experiment(
+    "seed003",
+    seed="003",
+    title="forward vs deferred shading: time against triangles, pixels and lights; g-buffer",
+    params=Params,
+    compute=compute,
+    plots=[plot_lights, plot_viewport, plot_triangles, plot_stages, plot_images],
+    claims=claims,
+    quick={
+        "subdivisions": (1, 2, 3),
+        "v_sides": (128, 256),
+        "vp_sides": (128, 256, 512),
+        "light_counts": (0, 1, 4, 16, 64),
+        "l_sides": (128, 256),
+        "reference": (256, 16),
+        "repeats": 2,
+        "budget_ms": 300.0,
+    },
+    minutes=3.0,
+    notebook="seed003_complexity",
+)

@@ -75,7 +75,7 @@ def test_a_writable_output_folder_is_probed_and_left_as_it_was(monkeypatch, tmp_
     """The probe creates the folder and a file, then removes both: a mistake found later
     (e.g. by the command's own checks) leaves nothing behind."""
     ran = []
-    monkeypatch.setitem(cli.COMMANDS, "grid", lambda args: ran.append(args.out) or 0)
+    monkeypatch.setattr(cli, "run_command", lambda exp, args: ran.append(args.out) or 0)
     out = tmp_path / "new" / "folder"
     assert cli.main(["grid", "--quick", "--out", str(out)]) == 0
     assert ran == [str(out)] and list(tmp_path.iterdir()) == []

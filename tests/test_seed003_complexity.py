@@ -1,6 +1,6 @@
 """Seed 003's complexity experiment: the fits recover known exponents and crossovers from
 synthetic data, the sphere stack has the triangle counts the sweep claims, and one quick run
-writes every file with deferred's time ratio to forward falling as L grows."""
+gives frames with deferred's time ratio to forward falling as L grows."""
 
 from __future__ import annotations
 
@@ -10,22 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from experiments import harness
 from experiments import seed003_complexity as s3
-from experiments.common import read_csv
 
 ROOT = Path(__file__).resolve().parents[1]
-FILES = [
-    "seed003_times.csv",
-    "seed003_fits.csv",
-    "seed003_crossover.csv",
-    "seed003_gbuffer.csv",
-    "seed003_summary.json",
-    "seed003_lights.png",
-    "seed003_viewport.png",
-    "seed003_triangles.png",
-    "seed003_stages.png",
-    "seed003_images.png",
-]
 
 
 # -- the fits on synthetic data -------------------------------------------------------------
@@ -111,87 +99,72 @@ def test_sphere_stack_counts(sub):
     assert sorted(far) == sorted(near)
 
 
-# -- one quick run --------------------------------------------------------------------------
+# -- one quick run ----------------------------------------------------------------------------
 
 
 @pytest.fixture(scope="module")
-def quick_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("seed003")
-    return out, s3.run(True, out, verbose=False, progress=False)
+def quick_run():
+    """The quick sweep, a little smaller, in memory."""
+    return harness.run(
+        "seed003", quick=True, write=False, progress=False, vp_sides=(128, 256),
+        subdivisions=(1, 2), light_counts=(0, 1, 16, 64),
+    )  # fmt: skip
 
 
-def test_quick_run_writes_every_file(quick_run):
-    out, result = quick_run
-    for name in FILES:
-        assert (out / name).is_file() and (out / name).stat().st_size > 0, name
-    assert sorted(p.name for p in result["files"]) == sorted(FILES)
-    assert not list(out.glob(".*.tmp"))
-
-
-def test_quick_run_rows_cover_every_point_and_path(quick_run):
-    out, result = quick_run
-    setup = result["setup"]
-    rows = read_csv(out / "seed003_times.csv")
-    per = {sweep: {r["path"] for r in rows if r["sweep"] == sweep} for sweep in ("L", "VP", "V")}
-    assert all(p == set(s3.PATHS) for p in per.values()), per
-    n_l = len(s3.ORDERS) * len(setup.l_sides) * len(setup.light_counts)
-    n_vp = len(setup.vp_sides)
-    n_v = len(setup.subdivisions) * len(setup.v_sides)
-    assert len(rows) == (n_l + n_vp + n_v) * len(s3.PATHS)
-    for r in rows:
-        assert float(r["ms_total"]) > 0 and float(r["cpu_total"]) > 0
-        assert int(r["fragments"]) >= int(r["pixels"])
-    v = sorted({int(r["triangles"]) for r in rows if r["sweep"] == "V"})
-    assert v == [12 + 100 * 20 * 4**s for s in setup.subdivisions]
+def test_quick_run_frames_cover_every_point_and_path(quick_run):
+    t, params = quick_run.frames["times"], quick_run.params
+    assert list(quick_run.frames) == list(s3.FRAMES)
+    for sweep in ("L", "VP", "V"):
+        assert set(t[t.sweep == sweep].path) == set(s3.PATHS)
+    n_l = len(s3.ORDERS) * len(params.l_sides) * len(params.light_counts)
+    n_v = len(params.subdivisions) * len(params.v_sides)
+    assert len(t) == (n_l + len(params.vp_sides) + n_v) * len(s3.PATHS)
+    assert (t.ms_total > 0).all() and (t.cpu_total > 0).all() and (t.fragments >= t.pixels).all()
+    v = sorted(set(t[t.sweep == "V"].triangles))
+    assert v == [12 + 100 * 20 * 4**s for s in params.subdivisions]
+    fits = quick_run.frames["fits"]
+    assert set(fits.sweep) == {"L", "VP", "V"} and set(fits.clock) == {"wall", "cpu"}
 
 
 def test_quick_run_deferred_gains_on_forward_as_lights_grow(quick_run):
-    """Back to front (every fragment shaded): deferred's time relative to forward's is
-    smaller at L = 64 than at L = 1, at every viewport — a ratio of times measured side by
-    side, robust to the machine's noise; and forward pays more per light than deferred."""
-    _, result = quick_run
-    rows = [r for r in result["rows"] if r["sweep"] == "L" and r["order"] == "back-to-front"]
-
-    def t(path, side, n):  # CPU time: the work, robust to other processes on the cores
-        return next(
-            r["cpu_total"] for r in rows if (r["path"], r["side"], r["lights"]) == (path, side, n)
-        )
-
-    for side in result["setup"].l_sides:
-        first = t("deferred-loop", side, 1) / t("forward", side, 1)
-        last = t("deferred-loop", side, 64) / t("forward", side, 64)
-        assert last < 0.8 * first, (side, first, last)
-        assert last < 1.0
-    for c in result["crossovers"]:
-        if (c["clock"], c["order"], c["path"]) == ("cpu", "back-to-front", "deferred-loop"):
-            assert c["forward_ms_per_light"] > c["deferred_ms_per_light"] > 0
+    """Back to front (every fragment shaded): deferred's CPU time relative to forward's is
+    smaller at L = 64 than at L = 1, at every viewport (a ratio of times measured side by
+    side, robust to the machine's noise); and forward pays more per light than deferred."""
+    t = quick_run.frames["times"]
+    t = t[(t.sweep == "L") & (t.order == "back-to-front")].set_index(["path", "side", "lights"])
+    for side in quick_run.params.l_sides:
+        first = t.cpu_total["deferred-loop", side, 1] / t.cpu_total["forward", side, 1]
+        last = t.cpu_total["deferred-loop", side, 64] / t.cpu_total["forward", side, 64]
+        assert last < 0.8 * first and last < 1.0, (side, first, last)
+    c = quick_run.frames["crossovers"]
+    c = c[(c.clock == "cpu") & (c.order == "back-to-front") & (c.path == "deferred-loop")]
+    assert (c.forward_ms_per_light > c.deferred_ms_per_light).all()
+    assert (c.deferred_ms_per_light > 0).all()
 
 
-def test_quick_run_summary_has_gbuffer_images_and_claims(quick_run):
-    out, _ = quick_run
-    data = json.loads((out / "seed003_summary.json").read_text())
-    g = data["gbuffer"]
-    assert g["bytes_read"] == g["bytes_computed"] == 25 * 2**20
-    assert g["lecture_mb"] == 25.0
-    assert data["forward_vs_deferred"]["max_abs_diff_uint8"] <= 1
-    assert {c["verdict"] for c in data["claims"]} <= {"agrees", "differs", "n/a"}
-    assert any("25 MB" in c["claim"] and c["verdict"] == "agrees" for c in data["claims"])
-    assert set(data["reference_stages_ms"]) == set(s3.PATHS)
-    assert set(data["reference_stages_ms"]["deferred-loop"]) >= {"gbuffer", "lighting", "total"}
-    assert set(data["reference_stages_cpu_ms"]["forward"]) >= {"clear", "shade", "total"}
-    fits = read_csv(out / "seed003_fits.csv")
-    assert {f["sweep"] for f in fits} == {"L", "VP", "V"}
-    assert {f["clock"] for f in fits} == {"wall", "cpu"}
+def test_quick_run_gbuffer_images_and_claims(quick_run):
+    g = quick_run.frames["gbuffer"]
+    assert g.bytes_read.sum() == g.bytes_computed.sum() == 25 * 2**20
+    assert quick_run.frames["images"].max_abs_diff_uint8.iloc[0] <= 1
+    c = quick_run.claims
+    assert list(c.columns) == list(harness.CLAIM_COLUMNS)
+    mem = c[c.item.str.startswith("g-buffer memory")]
+    assert list(mem.verdict) == [harness.NUMBERS]
+    assert "25 MB" in mem.document.iloc[0]
+    assert (c[c.verdict == harness.DIFFERS].why.str.len() > 0).all()
+    assert (c[c.item.str.contains("front to back")].verdict == harness.MEASURED).all()
+    figs = quick_run.draw()
+    assert set(figs) == {f"seed003_{n}" for n in ("lights", "viewport", "triangles", "stages",
+                                                  "images")}  # fmt: skip
+    lights = figs["seed003_lights"]
+    assert all(ax.get_legend() is None for ax in lights.axes)  # one shared legend
+    assert len(lights.legends) == 1
 
 
-def test_notebook_is_committed_without_outputs_and_matches_the_generator():
-    nbformat = pytest.importorskip("nbformat")
+def test_notebook_computes_and_draws_no_png_files():
     path = ROOT / "notebooks" / "seed003_complexity.ipynb"
     nb = json.loads(path.read_text())
     code = [c for c in nb["cells"] if c["cell_type"] == "code"]
     assert code and all(c["outputs"] == [] and c["execution_count"] is None for c in code)
-    assert "env_quick" in json.dumps(nb)
-    assert nbformat.reads(path.read_text(), as_version=4) == s3.build_notebook(), (
-        "notebooks/seed003_complexity.ipynb is stale: run "
-        "python -m experiments.seed003_complexity --notebook"
-    )
+    text = json.dumps(nb)
+    assert "Image(filename" not in text and "seed003_complexity.plot_lights" in text
