@@ -135,6 +135,8 @@ def required_extras(args: argparse.Namespace) -> dict[str, str]:
     for m in _named_methods(args):
         for extra in METHOD_EXTRAS.get(m, ()):
             need.setdefault(extra, f"method {m!r}")
+    if getattr(args, "view", None):
+        need.setdefault("viz", "--view")
     if args.command == "figures" and not args.list:
         from experiments.figures import FIGURES
         from experiments.harness import experiments
@@ -256,6 +258,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--oracle",
         action="store_true",
         help="also count false culls / keeps against the exact visibility oracle",
+    )
+    cull.add_argument(
+        "--view",
+        metavar="PNG",
+        default=None,
+        help="write a picture of the last frame's cull there (soc.viz.plot_cull, viz extra)",
     )
 
     lodp = sub.add_parser(
@@ -404,10 +412,16 @@ def cmd_cull(args: argparse.Namespace) -> int:
             culler.cull(cams[0])  # warm-up, untimed
             for i, cam in enumerate(cams):
                 truth = oracle.visible(cam) if oracle is not None else None
-                rows.append({"frame": i, **culler.cull(cam, truth=truth).stats.as_row()})
+                result = culler.cull(cam, truth=truth)
+                rows.append({"frame": i, **result.stats.as_row()})
     finally:
         if oracle is not None:
             oracle.close()
+    if args.view:
+        from soc.viz import plot_cull
+
+        plot_cull(scene, cams[-1], result, truth, path=cams, screenshot=args.view)
+        print(f"wrote {args.view}")
 
     cols = [
         "models_visible",
