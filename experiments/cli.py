@@ -8,7 +8,8 @@
                                                      (= vislod grid)
     vislod portals [--frames 200] [--rooms 6x4] [--floors 1] [--display WxH] [--quick]
                    [--out results]                   (= vislod seed001-portals)
-    vislod lod [--frames 150] [--budget-ms MS] [--recalibrate] [--quick] [--out results]
+    vislod lod [--frames 150] [--budget-ms MS] [--recalibrate yes] [--quick] [--out results]
+                                                     (= vislod seed001-lod)
     vislod lod-quality [--data DIR] [--quick] [--out results]
     vislod image-based [--display 800x600] [--views 8] [--quick] [--out results]
                                                      (= vislod seed001-image-based)
@@ -77,7 +78,6 @@ EXTRA_MODULES: dict[str, tuple[str, ...]] = {
 COMMAND_EXTRAS: dict[str, tuple[str, ...]] = {
     "demo": (),
     "cull": (),
-    "lod": (),
     "lod-quality": (),
     "figures": (),  # and what its chosen figures need (experiments.figures.Figure.extras)
     "sweep": ("sweep",),  # Dask distributed
@@ -266,25 +266,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="write a picture of the last frame's cull there (soc.viz.plot_cull, viz extra)",
     )
 
-    lodp = sub.add_parser(
-        "lod", help="seed 001: LOD picture pair and strategies over a flight under a frame budget"
-    )
-    lodp.add_argument(
-        "--frames", type=int, default=None, help="flight frames (default 150; 12 quick)"
-    )
-    lodp.add_argument(
-        "--budget-ms",
-        type=float,
-        default=None,
-        help="target frame ms (default 0.35 x no-LOD; document: 100)",
-    )
-    lodp.add_argument("--quick", action="store_true", help="small scene, 480x270 (VISLOD_QUICK=1)")
-    lodp.add_argument("--data", default=None, help="mesh folder for the prototypes")
-    lodp.add_argument(
-        "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
-    )
-    lodp.add_argument("--recalibrate", action="store_true", help="re-measure the cost model")
-    lodp.add_argument("--no-progress", action="store_true", help="no progress bar")
     lq = sub.add_parser(
         "lod-quality", help="seed 001: quadric vs Melax; naive vs exact screen size"
     )
@@ -336,11 +317,6 @@ def check_inputs(args: argparse.Namespace) -> None:
         check_writable(out)
     if hasattr(args, "scene"):
         _validate_scene(args)
-    if args.command == "lod" and args.data is not None:
-        folder = Path(args.data).expanduser()
-        if not folder.is_dir():
-            what = "is a file, not a folder" if folder.exists() else "does not exist"
-            raise UsageError(f"mesh folder {str(folder)!r} (--data) {what}")
 
 
 def _check_method_culls(method: str, scene_name: str, scene=None) -> None:
@@ -449,25 +425,6 @@ def cmd_cull(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_lod(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from experiments import seed001_lod_budget
-
-    out = Path(args.out or default_out(args.quick)) / "seed001_lod"
-    seed001_lod_budget.run(
-        args.quick,
-        out,
-        args.data,
-        args.budget_ms,
-        args.frames,
-        verbose=True,
-        progress=not args.no_progress,
-        force_calibration=args.recalibrate,
-    )
-    return 0
-
-
 def cmd_lod_quality(args: argparse.Namespace) -> int:
     import os
     from pathlib import Path
@@ -504,7 +461,6 @@ def cmd_figures(args: argparse.Namespace) -> int:
 COMMANDS = {
     "demo": cmd_demo,
     "cull": cmd_cull,
-    "lod": cmd_lod,
     "lod-quality": cmd_lod_quality,
     "figures": cmd_figures,
     "sweep": cmd_sweep,

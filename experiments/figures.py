@@ -113,12 +113,6 @@ def _seed001_lod_quality_check(quick: bool, data: str | None) -> str | None:
     return None
 
 
-def _seed001_lod(quick: bool, out: Path, data: str | None) -> None:
-    from experiments import seed001_lod_budget
-
-    seed001_lod_budget.run(quick, out / "seed001_lod", None, progress=True)
-
-
 def _seed001_lod_quality(quick: bool, out: Path, data: str | None) -> None:
     from experiments import seed001_lod_quality
 
@@ -138,16 +132,6 @@ FIGURES: tuple[Figure, ...] = (
         extras=("fit",),  # every method, the adaptive one (JAX) included
         uses_data=True,
         check=_seed000_scene,
-    ),
-    Figure(
-        "seed001-lod",
-        "001",
-        "levels of detail under a frame budget: the picture pair, strategies over a flight",
-        "seed001_lod/seed001_lod_summary.json",
-        _seed001_lod,
-        4.0,
-        "seed001_lod/seed001_lod_*.png",
-        module="experiments.seed001_lod_budget",
     ),
     Figure(
         "seed001-lod-quality",

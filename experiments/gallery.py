@@ -36,16 +36,17 @@ SHOTS = (
         "vislod figures --only seed000",
     ),
     Shot(
-        "seed001_lod/seed001_lod_pictures.png",
+        "seed001-lod/seed001_lod_pictures.png",
         "seed001_lod_pictures.png",
-        "Seed 001: no detail elision vs Funkhouser–Séquin at a target frame time; darker grey "
-        "= more detail",
+        "Seed 001: no detail elision vs Funkhouser–Séquin at a target frame time (changed "
+        "pixels in magenta); the chosen levels, darker grey = more detail, with a key",
         "vislod lod",
     ),
     Shot(
-        "seed001_lod/seed001_lod_flight.png",
+        "seed001-lod/seed001_lod_flight.png",
         "seed001_lod_flight.png",
-        "Seed 001: frame time per frame against the budget — reactive overshoots, predictive holds",
+        "Seed 001: frame time per frame against the budget for five LOD strategies, and the "
+        "share of frames over it (measured and by the cost model)",
         "vislod lod",
     ),
     Shot(

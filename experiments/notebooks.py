@@ -221,28 +221,21 @@ picture pair: *no detail elision, 19,821 polygons* vs *optimization, 1,389 polyg
 The cost model `max(C1·Poly + C2·Vert, C3·Pixels)` is measured on this GL context, as
 Funkhouser and Séquin did, by drawing every level of every object at several sizes.
 
-All the work is done by `experiments/seed001_lod_budget.py` (`vislod lod`) and
-`experiments/seed001_lod_quality.py` (`vislod lod-quality`). `VISLOD_QUICK=1`: small scenes
-and meshes (seconds); the full runs take a few minutes each."""
+All the work is done by `experiments/seed001_lod_budget.py` (`vislod seed001-lod`, or
+`vislod lod`) and `experiments/seed001_lod_quality.py` (`vislod lod-quality`). `VISLOD_QUICK=1`:
+small scenes and meshes (seconds); the full runs take a few minutes each."""
 
-LOD_SETUP = """\
+LOD_QUALITY = """\
 import os
 
 from IPython.display import Image, display
 
-from experiments import seed001_lod_budget, seed001_lod_quality
+from experiments import seed001_lod_quality
 from experiments.common import default_out, env_quick
 
 quick = env_quick()
 out = default_out(quick) / "seed001_lod"
 data = None if quick else os.environ.get("VISLOD_DATA")  # test meshes, when present
-print(f"quick={quick}: results in {out}")"""
-
-LOD_BUDGET = """\
-budget = seed001_lod_budget.run(quick, out, verbose=False, progress=False)
-print(seed001_lod_budget.format_summary(budget))"""
-
-LOD_QUALITY = """\
 quality = seed001_lod_quality.run(quick, out, data, verbose=False)
 print(seed001_lod_quality.format_simplifiers(quality["simplifiers"]))
 print()
@@ -250,27 +243,12 @@ print(seed001_lod_quality.format_screen_size(quality["screen_size"]))"""
 
 
 def build_lod():
-    """``seed001_lod.ipynb`` as an ``nbformat`` node (no outputs)."""
+    """``seed001_lod.ipynb``: the introduction, the budget experiment's cells
+    (:func:`experiment_cells`), then the quality experiment."""
     from nbformat import v4
 
-    cells = [
-        v4.new_markdown_cell(LOD_INTRO),
-        v4.new_code_cell(LOD_SETUP),
-        v4.new_markdown_cell(
-            "## Under a frame budget\n\nThe picture pair and the chosen levels (darker grey = "
-            "more detail); frame time per frame over a flight for no LOD, static, reactive, "
-            "predictive and incremental selection against the budget; the cost model's fit."
-        ),
-        v4.new_code_cell(LOD_BUDGET),
-        v4.new_code_cell(
-            image_cell(
-                [
-                    "seed001_lod_pictures.png",
-                    "seed001_lod_flight.png",
-                    "seed001_lod_calibration.png",
-                ]
-            )
-        ),
+    cells = [v4.new_markdown_cell(LOD_INTRO), *experiment_cells("seed001-lod")]
+    cells += [
         v4.new_markdown_cell(
             "## Quality\n\nHausdorff error and time against triangles, quadric vs Melax; the "
             "error of the naive and the exact screen-size estimate against rasterized pixels."

@@ -193,48 +193,6 @@ def _seed000(s: dict[str, Any]) -> list[Row]:
 # -- seed 001 ---------------------------------------------------------------------------------
 
 
-def _seed001_lod(s: dict[str, Any]) -> list[Row]:
-    doc, pics, cal = s["document"], s["pictures"], s["calibration"]
-    budget = pics["budget_ms"]
-    full, opt = pics["no_elision"], pics["optimized"]
-    ratio = s["pictures_compared"]
-    by = {r["strategy"]: r for r in s["summary"]}
-    rows = [
-        Row(
-            "picture pair: no detail elision vs Funkhouser–Séquin at a target frame time",
-            f"{doc['no_elision_polygons']:,} vs {doc['optimized_polygons']:,} polygons at "
-            f"{doc['target_s']} s/frame ({ratio['document_polygon_ratio']:.1f}×)",
-            f"{full['polygons']:,} polygons in {full['ms']:.0f} ms vs {opt['polygons']:,} in "
-            f"{opt['ms']:.0f} ms at a {budget:.0f} ms target ({ratio['polygon_ratio']:.1f}×)",
-            "reproduced" if opt["ms"] <= 1.15 * budget else "differs",
-            "the polygon ratio depends on scene and budget; llvmpipe at 1080p is partly "
-            "fill-bound, so fewer polygons buy less time than on their machine",
-        ),
-        Row("darker grey = more detail", "picture of the chosen levels", "rendered", "image"),
-        Row(
-            "Cost = max(C1·Poly + C2·Vert, C3·Pixels), constants measured by rendering",
-            "measured experimentally (no values given)",
-            f"{cal['variant']}: C1 {cal['model']['per_polygon']:.2e}, C2 "
-            f"{cal['model']['per_vertex']:.2e}, C3 {cal['model']['per_pixel']:.2e} ms; "
-            f"held-out RMS error {100 * cal['held_out']['rms']:.0f} %",
-            "measured",
-        ),
-    ]
-    if {"reactive", "predictive"} <= by.keys():
-        re_, pr = by["reactive"], by["predictive"]
-        rows.append(
-            Row(
-                "reactive selection overshoots, predictive holds the budget",
-                "; ".join(doc["claims"]),
-                f"frames over budget: reactive {100 * re_['frac_over_budget']:.0f} % (p95 "
-                f"{re_['p95_over_budget']:.2f}× budget), predictive "
-                f"{100 * pr['frac_over_budget']:.0f} % (p95 {pr['p95_over_budget']:.2f}×)",
-                _verdict(pr["p95_over_budget"] < re_["p95_over_budget"]),
-            )
-        )
-    return rows
-
-
 def _seed001_lod_quality(s: dict[str, Any]) -> list[Row]:
     rows = [
         Row(
@@ -272,7 +230,6 @@ def _seed001_lod_quality(s: dict[str, Any]) -> list[Row]:
 
 ROWS: dict[str, Callable[[dict[str, Any]], list[Row]]] = {
     "seed000": _seed000,
-    "seed001-lod": _seed001_lod,
     "seed001-lod-quality": _seed001_lod_quality,
 }
 

@@ -145,11 +145,10 @@ def test_every_method_either_culls_the_cli_scenes_or_says_what_it_needs():
     assert rejected == set(cli.METHOD_NEEDS)
 
 
-def test_a_lod_mesh_folder_that_is_a_file_is_an_error(monkeypatch, capsys, tmp_path):
-    monkeypatch.setitem(cli.COMMANDS, "lod", _never)
+def test_a_lod_mesh_folder_that_is_a_file_is_an_error(capsys, tmp_path):
     a_file = tmp_path / "meshes.obj"
     a_file.write_text("")
-    argv = ["lod", "--quick", "--data", str(a_file), "--out", str(tmp_path / "o")]
+    argv = ["lod", "--quick", "--meshes", str(a_file), "--out", str(tmp_path / "o")]
     _one_line_error(capsys, argv, "is a file")
 
 

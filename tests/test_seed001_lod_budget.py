@@ -1,92 +1,88 @@
-"""Seed 001 LOD budget experiment end to end in quick mode: files, the predictive selection's
-promise (predicted cost within the budget), measured frame times against no LOD as ratios
-within one run, the static tuning, the level picture, and bad input."""
+"""Seed 001 LOD budget experiment on the harness in quick mode: the frames, the predictive
+selection's promise (predicted cost within the budget), measured frame times against no LOD as
+ratios within one run, the static tuning, the level picture's greys, the claims' verdicts, and
+bad input refused before any work."""
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
 import pytest
 
+from experiments import harness
 from experiments import seed001_lod_budget as exp
-from experiments.common import UsageError, read_csv
+from experiments.common import UsageError
 
 FRAMES = 6
-FILES = [
-    "seed001_lod_pictures.png",
-    "seed001_lod_flight.png",
-    "seed001_lod_calibration.png",
-    "seed001_lod_flight_frames.csv",
-    "seed001_lod_flight_summary.csv",
-    "seed001_lod_calibration_samples.csv",
-    "seed001_lod_summary.json",
-]
 
 
 @pytest.fixture(scope="module")
-def quick_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("seed001_lod")
-    cache = tmp_path_factory.mktemp("calibration")
-    result = exp.run(True, out, frames=FRAMES, verbose=False, calibration_cache=cache)
-    return out, result
+def quick_run():
+    return harness.run("seed001-lod", quick=True, write=False, progress=False, frames=FRAMES)
 
 
-def test_files_are_written(quick_run):
-    out, result = quick_run
-    for name in FILES:
-        assert (out / name).is_file() and (out / name).stat().st_size > 0, name
-    rows = read_csv(out / "seed001_lod_flight_frames.csv")
-    assert len(rows) == FRAMES * len(exp.STRATEGIES)
-    summary = json.loads((out / "seed001_lod_summary.json").read_text())
-    assert summary["document"]["no_elision_polygons"] == 19821
-    assert (
-        summary["pictures"]["optimized"]["polygons"] == result["pictures"]["optimized"]["polygons"]
-    )
-    assert result["seconds"]["total"] < 60
+def test_frames_are_tidy(quick_run):
+    f = quick_run.frames
+    assert list(f) == list(exp.FRAMES)
+    assert len(f["flight"]) == FRAMES * len(exp.STRATEGIES)
+    assert set(f["flight"].strategy) == set(exp.STRATEGIES)
+    assert list(f["pictures"].panel) == ["no elision", "optimized", "levels"]
+    assert len(f["budgets"]) == len(exp.BUDGET_SWEEP)
+    assert f["model"].chosen.sum() == 1
+    assert set(quick_run.figures) == {
+        "seed001_lod_pictures",
+        "seed001_lod_flight",
+        "seed001_lod_calibration",
+    }
 
 
 def test_predictive_never_plans_over_the_budget(quick_run):
-    """The greedy's predicted frame (empty frame + chosen costs) stays within the budget, in
-    the picture and on every frame of the flight."""
-    _, result = quick_run
-    budget = result["pictures"]["budget_ms"]
-    assert result["pictures"]["optimized"]["predicted_ms"] <= budget * (1 + 1e-9)
-    for r in result["rows"]:
-        if r["strategy"] in ("predictive", "incremental"):
-            assert r["predicted_ms"] <= budget * (1 + 1e-9), r
+    fl = quick_run.frames["flight"]
+    pr = fl[fl.strategy == "predictive"]
+    assert (pr.predicted_ms <= pr.budget_ms * (1 + 1e-9)).all()
 
 
-def test_predictive_frame_is_closer_to_the_budget_than_no_lod(quick_run):
-    """Measured in the same run (ratios, not absolute times): the optimized picture is nearer
-    the budget than the full-detail one and draws fewer polygons; over the flight the
-    predictive strategy's worst frames are lighter than no-LOD's."""
-    _, result = quick_run
-    pp = result["pictures"]
-    budget = pp["budget_ms"]
-    ne, op = pp["no_elision"], pp["optimized"]
-    assert abs(op["ms"] - budget) < abs(ne["ms"] - budget)
-    assert op["polygons"] < ne["polygons"]
-    assert op["ms"] < 0.8 * ne["ms"]
-    by = {s["strategy"]: s for s in result["summary"]}
-    assert by["predictive"]["polygons_mean"] < by["none"]["polygons_mean"]
-    assert by["predictive"]["ms_p95"] < by["none"]["ms_p95"]
+def test_predictive_frame_is_cheaper_than_no_lod(quick_run):
+    """Measured in the same run, frame by frame: predictive draws fewer polygons and, on the
+    median, less time than no LOD (ratios, not absolute ms)."""
+    fl = quick_run.frames["flight"].pivot(index="frame", columns="strategy")
+    assert (fl.polygons.predictive <= fl.polygons.none).all()
+    assert np.median(fl.ms.predictive / fl.ms.none) < 1.0
 
 
-def test_no_lod_draws_everything_in_view_at_full_detail(quick_run):
-    _, result = quick_run
-    for r in result["rows"]:
-        if r["strategy"] == "none":
-            assert r["objects"] == r["in_view"]
-    pp = result["pictures"]
-    assert pp["no_elision"]["level_counts"][0] == pp["no_elision"]["objects"]
+def test_no_lod_draws_everything_in_view(quick_run):
+    fl = quick_run.frames["flight"]
+    none = fl[fl.strategy == "none"]
+    assert (none.objects == none.in_view).all()
+
+
+def test_claims_judge_both_halves_of_the_picture_pair(quick_run):
+    c = quick_run.claims.set_index("item")
+    ratio = c.loc["picture pair: polygon ratio, no elision ÷ optimized"]
+    assert "19,821" in ratio.document and "1,389" in ratio.document
+    assert ratio.verdict in (harness.NUMBERS, harness.DIFFERS)
+    if ratio.verdict == harness.DIFFERS:
+        assert "budget" in ratio.why
+    assert (
+        c.loc["reactive selection has outliers"].document
+        == "«Reaktive LOD-Selektion hat Ausreißer»"
+    )
+    assert set(c.verdict) <= set(harness.VERDICTS)
+
+
+def test_measured_budget_verdict_follows_the_numbers(quick_run):
+    s = quick_run.frames["summary"].set_index("strategy")
+    row = quick_run.claims.set_index("item").loc[
+        "predictive holds the measured budget (fewer frames over it than reactive)"
+    ]
+    better = s.frac_over_budget.predictive < s.frac_over_budget.reactive
+    assert row.verdict == (harness.TREND if better else harness.DIFFERS)
 
 
 def test_static_tuning_meets_the_budget_at_the_viewpoint(tmp_path):
     """The tuned static bands cost at most the budget at the viewpoint, and a little more
     detail (bands 10 % further out) would not."""
-    import lod
     from lod import lod_scene
     from lod.benefit import CostModel
     from lod.selection import total_cost
@@ -101,13 +97,7 @@ def test_static_tuning_meets_the_budget_at_the_viewpoint(tmp_path):
     pb = exp.problem(ls, cam, model, budget, 0.0)
     scale = exp.tune_static_scale(ls, cam, pb)
     bands = exp.static_bands(ls, cam)
-
-    def cost(s):
-        lv = lod.select(
-            pb.benefit, pb.cost, math.inf, method="static", distance=pb.distance, bands=s * bands
-        )
-        return total_cost(np.where(pb.in_view, lv, -1), pb.cost)
-
+    cost = lambda s: total_cost(exp._static(pb, s * bands), pb.cost)  # noqa: E731
     assert cost(scale) <= budget < cost(1.1 * scale)
 
 
@@ -117,22 +107,22 @@ def test_level_greys_darker_means_finer():
         object_ids = np.array([[0, 1, 2], [3, 4, 5]])
         scene = [None] * 6
 
-    g = exp.level_greys(Tiny)
+    g = exp._colors(Tiny, greys=True)
     assert g.shape == (6, 3) and (g[:, 0] == g[:, 1]).all()
     assert g[0, 0] < g[1, 0] < g[2, 0] and g[3, 0] == g[0, 0]
 
 
 @pytest.mark.parametrize(
     "kw",
-    [{"frames": 1}, {"budget_ms": -5.0}, {"budget_ms": float("nan")}, {"frames": 2.5}],
+    [
+        {"frames": 1},
+        {"budget_ms": -5.0},
+        {"budget_ms": float("nan")},
+        {"budget_fraction": 0.0},
+        {"meshes": "/nonexistent/meshes"},
+    ],
 )
-def test_bad_setup_raises_usage_error(kw):
+def test_bad_params_refused_before_the_work(kw, tmp_path):
     with pytest.raises(UsageError):
-        exp.make_setup(quick=True, **kw)
-
-
-def test_main_reports_bad_data_path(tmp_path, capsys):
-    code = exp.main(["--quick", "--data", str(tmp_path / "missing"), "--out", str(tmp_path)])
-    assert code == 2
-    assert "does not exist" in capsys.readouterr().err
-    assert not list(tmp_path.glob("*.png"))
+        harness.run("seed001-lod", quick=True, out=tmp_path, progress=False, **kw)
+    assert not list(tmp_path.rglob("*.png"))
