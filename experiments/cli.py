@@ -10,7 +10,8 @@
                    [--out results]                   (= vislod seed001-portals)
     vislod lod [--frames 150] [--budget-ms MS] [--recalibrate yes] [--quick] [--out results]
                                                      (= vislod seed001-lod)
-    vislod lod-quality [--data DIR] [--quick] [--out results]
+    vislod lod-quality [--data DIR] [--boxes 300] [--quick] [--out results]
+                                                     (= vislod seed001-lod-quality)
     vislod image-based [--display 800x600] [--views 8] [--quick] [--out results]
                                                      (= vislod seed001-image-based)
     vislod state-sorting [--frames 100] [--method hiz-gpu] [--ks 1,2,...] [--quick] [--out DIR]
@@ -78,7 +79,6 @@ EXTRA_MODULES: dict[str, tuple[str, ...]] = {
 COMMAND_EXTRAS: dict[str, tuple[str, ...]] = {
     "demo": (),
     "cull": (),
-    "lod-quality": (),
     "figures": (),  # and what its chosen figures need (experiments.figures.Figure.extras)
     "sweep": ("sweep",),  # Dask distributed
 }
@@ -266,16 +266,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="write a picture of the last frame's cull there (soc.viz.plot_cull, viz extra)",
     )
 
-    lq = sub.add_parser(
-        "lod-quality", help="seed 001: quadric vs Melax; naive vs exact screen size"
-    )
-    lq.add_argument("--quick", action="store_true", help="small meshes, < 30 s (VISLOD_QUICK=1)")
-    lq.add_argument(
-        "--data", default=None, help="folder holding meshes/ (full runs; default $VISLOD_DATA)"
-    )
-    lq.add_argument(
-        "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
-    )
     figs = sub.add_parser(
         "figures", help="every figure of the source documents, then results/REPORT.md"
     )
@@ -425,18 +415,6 @@ def cmd_cull(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_lod_quality(args: argparse.Namespace) -> int:
-    import os
-    from pathlib import Path
-
-    from experiments import seed001_lod_quality
-
-    out = Path(args.out or default_out(args.quick)) / "seed001_lod"
-    data = args.data or os.environ.get("VISLOD_DATA") or None
-    seed001_lod_quality.run(args.quick, out, data, verbose=True)
-    return 0
-
-
 def cmd_figures(args: argparse.Namespace) -> int:
     import os
 
@@ -461,7 +439,6 @@ def cmd_figures(args: argparse.Namespace) -> int:
 COMMANDS = {
     "demo": cmd_demo,
     "cull": cmd_cull,
-    "lod-quality": cmd_lod_quality,
     "figures": cmd_figures,
     "sweep": cmd_sweep,
 }

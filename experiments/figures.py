@@ -105,20 +105,6 @@ def _seed000(quick: bool, out: Path, data: str | None) -> None:
     demo(make_setup(quick=quick), scene_name=scene, out=out, methods=["all"], data=data)
 
 
-def _seed001_lod_quality_check(quick: bool, data: str | None) -> str | None:
-    """A full run reads fandisk and kitten from ``<data>/meshes``: check they are there."""
-    from experiments import seed001_lod_quality
-
-    seed001_lod_quality.make_setup(quick, data)
-    return None
-
-
-def _seed001_lod_quality(quick: bool, out: Path, data: str | None) -> None:
-    from experiments import seed001_lod_quality
-
-    seed001_lod_quality.run(quick, out / "seed001_lod", data, verbose=True)
-
-
 FIGURES: tuple[Figure, ...] = (
     Figure(
         "seed000",
@@ -132,18 +118,6 @@ FIGURES: tuple[Figure, ...] = (
         extras=("fit",),  # every method, the adaptive one (JAX) included
         uses_data=True,
         check=_seed000_scene,
-    ),
-    Figure(
-        "seed001-lod-quality",
-        "001",
-        "LOD quality: quadric vs Melax edge collapse, naive vs exact screen-size estimate",
-        "seed001_lod/simplifiers_summary.json",
-        _seed001_lod_quality,
-        2.0,
-        "seed001_lod/s[ci]*_*.png",
-        module="experiments.seed001_lod_quality",
-        uses_data=True,
-        check=_seed001_lod_quality_check,
     ),
 )
 

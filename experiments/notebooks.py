@@ -222,44 +222,18 @@ The cost model `max(C1·Poly + C2·Vert, C3·Pixels)` is measured on this GL con
 Funkhouser and Séquin did, by drawing every level of every object at several sizes.
 
 All the work is done by `experiments/seed001_lod_budget.py` (`vislod seed001-lod`, or
-`vislod lod`) and `experiments/seed001_lod_quality.py` (`vislod lod-quality`). `VISLOD_QUICK=1`:
+`vislod lod`) and `experiments/seed001_lod_quality.py` (`vislod seed001-lod-quality`, or
+`vislod lod-quality`; its meshes from `VISLOD_DATA` in full runs). `VISLOD_QUICK=1`:
 small scenes and meshes (seconds); the full runs take a few minutes each."""
 
-LOD_QUALITY = """\
-import os
-
-from IPython.display import Image, display
-
-from experiments import seed001_lod_quality
-from experiments.common import default_out, env_quick
-
-quick = env_quick()
-out = default_out(quick) / "seed001_lod"
-data = None if quick else os.environ.get("VISLOD_DATA")  # test meshes, when present
-quality = seed001_lod_quality.run(quick, out, data, verbose=False)
-print(seed001_lod_quality.format_simplifiers(quality["simplifiers"]))
-print()
-print(seed001_lod_quality.format_screen_size(quality["screen_size"]))"""
-
-
 def build_lod():
-    """``seed001_lod.ipynb``: the introduction, the budget experiment's cells
-    (:func:`experiment_cells`), then the quality experiment."""
+    """``seed001_lod.ipynb``: the introduction, then the budget and the quality experiments'
+    cells (:func:`experiment_cells`)."""
     from nbformat import v4
 
-    cells = [v4.new_markdown_cell(LOD_INTRO), *experiment_cells("seed001-lod")]
-    cells += [
-        v4.new_markdown_cell(
-            "## Quality\n\nHausdorff error and time against triangles, quadric vs Melax; the "
-            "error of the naive and the exact screen-size estimate against rasterized pixels."
-        ),
-        v4.new_code_cell(LOD_QUALITY),
-        v4.new_code_cell(
-            image_cell(
-                ["simplifiers_error_time.png", "simplifiers_picture.png", "screen_size_errors.png"]
-            )
-        ),
-    ]
+    cells = [v4.new_markdown_cell(LOD_INTRO)]
+    for key in ("seed001-lod", "seed001-lod-quality"):
+        cells += experiment_cells(key)
     return notebook(cells, "seed001-lod")
 
 

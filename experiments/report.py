@@ -193,44 +193,8 @@ def _seed000(s: dict[str, Any]) -> list[Row]:
 # -- seed 001 ---------------------------------------------------------------------------------
 
 
-def _seed001_lod_quality(s: dict[str, Any]) -> list[Row]:
-    rows = [
-        Row(
-            f"quadric vs Melax edge collapse, {c['label']}",
-            "quadric error (Garland, QSlim) is the reference; Melax: ‖U−V‖·curv(U)",
-            f"Melax error {c['melax_over_quadric_error_median']:.2f}× quadric's (median over "
-            f"ratios), time {c['melax_over_quadric_time_median']:.0f}×; quadric better at "
-            f"{c['ratios_quadric_better']}/{c['ratios']} ratios",
-            "reproduced" if c["ratios_quadric_better"] >= c["ratios"] - 1 else "differs",
-            "" if c["quadric_better_everywhere"] else "Melax keeps flat regions exact at 1/2",
-        )
-        for c in s["claims"]
-    ]
-    screen = Path(s["_folder"]) / "screen_size_summary.json"
-    if screen.is_file():
-        ss = json.loads(screen.read_text())
-        by = {(r["category"], r["estimate"]): r for r in ss["summary"]}
-        for cat in dict.fromkeys(r["category"] for r in ss["summary"]):
-            naive, exact = by.get((cat, "naive")), by.get((cat, "exact"))
-            if naive is None or exact is None:
-                continue
-            rows.append(
-                Row(
-                    f"screen size, naive vs exact, {cat}",
-                    "naive = 2D box of the 8 projected corners; exact = silhouette polygon",
-                    f"relative error vs GL pixels, median / p95: naive "
-                    f"{naive['median_abs_rel_error']:.3f} / {naive['p95_abs_rel_error']:.3f}, "
-                    f"exact {exact['median_abs_rel_error']:.4f} / "
-                    f"{exact['p95_abs_rel_error']:.4f} ({exact['cases']} boxes)",
-                    _verdict(exact["p95_abs_rel_error"] < 0.05 and ss["naive_ge_exact_all"]),
-                )
-            )
-    return rows
-
-
 ROWS: dict[str, Callable[[dict[str, Any]], list[Row]]] = {
     "seed000": _seed000,
-    "seed001-lod-quality": _seed001_lod_quality,
 }
 
 

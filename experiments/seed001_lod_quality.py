@@ -1,141 +1,128 @@
-"""Seed 001 reproduced: LOD preprocessing quality and the runtime size estimate.
+"""Seed 001: LOD preprocessing quality and the runtime size estimate (Zachmann's VR lecture,
+the LOD half; it gives no numbers for either).
 
-Seed 001 (Zachmann's VR lecture, the LOD half) teaches two things we measure here; it gives
-no numbers for either.
+1. *Simplifiers.* The lecture orders edge collapses by «Ein einfaches Kostenmaß für einen
+   Edge-Collapse von U auf V»: Melax's ``cost(U, V) = ‖U − V‖ · curv(U)``. We simplify the
+   same meshes to 1/2 … 1/32 of their triangles with it (:func:`lod.melax.melax_levels`, one
+   pass with snapshots) and with the quadric error of Garland & Heckbert as the reference
+   (:func:`lod.chain.quadric_simplify`, the LOD chain's own step), and measure the sampled
+   symmetric Hausdorff error to the full mesh (:mod:`lod.mesh_error`) and the wall time.
+2. *Screen size.* The lecture's «Naive Methode» (2D box of the 8 projected corners) and its
+   «Genauere Methode» (the box's silhouette from the 27-region lookup table),
+   :func:`lod.projected_area`, against the box's pixels rasterized by OpenGL (the oracle's id
+   render), on random boxes and cameras by category: on screen, cut by the viewport, crossing
+   the near plane, eye inside.
 
-1. *Simplifiers* (files ``simplifiers_*``). The lecture orders edge collapses by Melax's cost
-   ``cost(U, V) = ‖U − V‖ · curv(U)`` and names "quadric error (Garland, QSlim)" as the
-   reference. We simplify the same meshes to 1/2 … 1/32 of their triangles with both —
-   quadric edge collapse through fast-simplification (:func:`lod.chain.quadric_simplify`,
-   the LOD chain's own step) and :func:`lod.melax.melax_levels` (one pass with snapshots) —
-   and measure the sampled symmetric Hausdorff error to the full mesh (:mod:`lod.mesh_error`;
-   the full mesh's samples are shared by both simplifiers) and the wall time. A picture shows
-   the full mesh and both simplified ones side by side at one ratio.
-2. *Screen size* (files ``screen_size_*``). The naive estimate (2D bounding box of the 8
-   projected corners) and the exact one (the box's silhouette from the 27-region lookup
-   table), :func:`lod.projected_area`, against the true pixel count of the box rasterized by
-   OpenGL (the oracle's id render: no culling, pixel-centre sampling), on random boxes and
-   cameras, by category: in front and on screen, in front but cut by the viewport, crossing
-   the near plane, eye inside the box.
-
-Stages: :func:`load_meshes` → :func:`compare_simplifiers` → :func:`render_picture`;
-:func:`screen_size_cases` → :func:`measure_screen_size` → :func:`summarize_screen_size`;
-then :func:`write`. :func:`run` and :func:`main` are the entry points.
-
-    python -m experiments.seed001_lod_quality [--quick] [--data PATH] [--out DIR]
+Stages: :func:`compute` (:func:`load_meshes` → :func:`compare_simplifiers` →
+:func:`render_picture`; :func:`screen_size_cases` → :func:`measure_screen_size` →
+:func:`summarize_screen_size`) → :func:`plot_simplifiers`, :func:`plot_picture`,
+:func:`plot_screen_size` → :func:`claims`. Generated meshes always; fandisk and kitten from
+``<data>/meshes`` in full runs when a data folder is given.
 """
 
 from __future__ import annotations
 
-import argparse
-import os
-import sys
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
-from experiments.common import (
-    UsageError,
-    default_out,
-    env_quick,
-    format_table,
-    res_str,
-    save_figure,
-    write_csv,
-    write_json,
-)
+from experiments import harness
+from experiments.common import UsageError
+from experiments.seed000_pictures import decode, encode
 
-SUBDIR = "seed001_lod"
-RATIOS = (1 / 2, 1 / 4, 1 / 8, 1 / 16, 1 / 32)
-# Generated meshes (always): a sphere with 0.5 % radial noise (a smooth surface with small
-# bumps to remove) and a torus (smooth, saddle regions). Subdivision 5 = 20,480 triangles;
-# the torus 128 × 80 × 2 = 20,480. Quick: 5,120 and 3,072 (Melax runs in Python).
+FRAMES = ("simplifiers", "picture", "screen_size", "screen_summary")
+# Generated meshes: a sphere with 0.5 % radial noise (a smooth surface with small bumps to
+# remove) and a torus (smooth, saddle regions); subdivision 5 = 20,480 triangles, the torus
+# 128 × 80 × 2 = 20,480 (quick: 5,120 and 3,072: Melax runs in Python).
 SPHERE_NOISE = 0.005
-SPHERE_SUBDIVISIONS, QUICK_SPHERE_SUBDIVISIONS = 5, 4
-TORUS_SECTIONS, QUICK_TORUS_SECTIONS = (128, 80), (48, 32)
 TORUS_RADII = (1.0, 0.35)
-# Meshes read from ``<data>/meshes/`` when a data folder is given, full runs only (Melax
-# takes ≈ 10 s on fandisk alone in Python: the quick run would not stay under 30 s).
+# Meshes read from ``<data>/meshes/`` in full runs (Melax takes ≈ 10 s on fandisk alone).
 DATA_MESHES = ("fandisk_13k.obj", "kitten_29k.obj")
-# Surface samples per mesh for the Hausdorff error (lod.mesh_error.SAMPLES in a full run).
-SAMPLES, QUICK_SAMPLES = 50_000, 20_000
-PICTURE_RATIO = 1 / 8
 PICTURE_SIZE = (330, 250)  # pixels per panel
-# Screen size: boxes, cameras per box (cycling through the camera kinds) and the viewport.
-BOXES, QUICK_BOXES = 300, 60
-CAMS_PER_BOX = 8
-RESOLUTION, QUICK_RESOLUTION = (512, 384), (256, 192)
-# Relative errors are taken over boxes covering at least this many pixels: below it the
-# boundary pixels (pixel-centre sampling) dominate any estimate.
+# Relative errors over boxes covering at least this many pixels: below it the boundary pixels
+# (pixel-centre sampling) dominate any estimate.
 MIN_PIXELS = 100
 CATEGORIES = ("on screen", "cut by viewport", "crossing near plane", "eye inside")
 ESTIMATES = ("naive", "exact")
-
-DOCUMENT = {
-    "source": "seed 001 (001_2d1336254317ef40.txt), Zachmann, VR lecture: LOD",
-    "simplifiers": "progressive meshes by edge collapses ordered by a cost; simple cost "
-    "(Melax) cost(U,V) = |U - V| * curv(U); quadric error (Garland, QSlim) is the reference",
-    "screen_size": "naive: project the 8 bbox corners, 2D axis-aligned bbox area; exact: "
-    "area of the projected box silhouette (27 eye regions, lookup table of 4 or 6 vertices)",
-    "numbers": "none",
-}
-
-
-# -- setup -----------------------------------------------------------------------------------
+# Median |relative error| the exact estimate may exceed the naive's by and still count as the
+# closer: with the eye inside a box both cover the whole screen (errors ~0 for both).
+CLOSER_TOLERANCE = 1e-3
+DOC_COST = "Ein einfaches Kostenmaß für einen Edge-Collapse von U auf V: cost(U,V) = ‖U−V‖·curv(U)"
+DOC_ORDER = "Führe zunächst Edge Collapses mit kleinster Auswirkung aus"
+DOC_NAIVE = "Naive Methode: … Bestimme 2D-Bbox (achsenparallel)"
+DOC_EXACT = "Genauere Methode: Bestimme wahre Fläche der projizierten 3D-Bbox auf dem Screen"
 
 
 @dataclass(frozen=True)
-class LodQualitySetup:
-    """One run: the meshes (generated names ``sphere``/``torus`` or files under
-    ``<data>/meshes``), simplification ``ratios``, Hausdorff ``samples``, the picture's ratio,
-    and the screen-size sweep (``boxes`` × ``cams_per_box`` at ``resolution`` pixels)."""
+class Params:
+    """One run.
 
-    meshes: tuple[str, ...]
-    ratios: tuple[float, ...] = RATIOS
-    sphere_subdivisions: int = SPHERE_SUBDIVISIONS
-    torus_sections: tuple[int, int] = TORUS_SECTIONS
-    samples: int = SAMPLES
-    picture_ratio: float = PICTURE_RATIO
-    boxes: int = BOXES
-    cams_per_box: int = CAMS_PER_BOX
-    resolution: tuple[int, int] = RESOLUTION
+    Attributes
+    ----------
+    ratios : tuple of float
+        Target fractions of the triangles.
+    sphere_subdivisions : int
+        Icosphere subdivisions of the noisy sphere.
+    torus_sections : (major, minor)
+        Torus sections.
+    samples : int
+        Surface samples per mesh for the Hausdorff error.
+    picture_ratio : float
+        The ratio drawn side by side.
+    boxes, cams_per_box : int
+        Screen-size sweep: random boxes, cameras per box.
+    resolution : (width, height)
+        Viewport of the screen-size sweep, pixels.
+    seed : int
+        Meshes' noise, boxes and cameras.
+    data : str or None
+        Folder holding ``meshes/`` (full runs add :data:`DATA_MESHES`).
+    quick : bool
+        Generated meshes only.
+    """
+
+    ratios: tuple[float, ...] = (1 / 2, 1 / 4, 1 / 8, 1 / 16, 1 / 32)
+    sphere_subdivisions: int = 5
+    torus_sections: tuple[int, int] = (128, 80)
+    samples: int = 50_000
+    picture_ratio: float = 1 / 8
+    boxes: int = 300
+    cams_per_box: int = 8
+    resolution: tuple[int, int] = (512, 384)
+    seed: int = 0
     data: str | None = None
     quick: bool = False
-    seed: int = 0
 
+    @property
+    def meshes(self) -> tuple[str, ...]:
+        """The meshes: ``sphere``, ``torus``, and the data meshes in a full run with data."""
+        extra = DATA_MESHES if self.data is not None and not self.quick else ()
+        return ("sphere", "torus", *extra)
 
-def make_setup(quick: bool = False, data: str | os.PathLike | None = None) -> LodQualitySetup:
-    """The full setup (two generated meshes of 20k triangles, plus fandisk and kitten when
-    ``data`` is given; 300 boxes × 8 cameras at 512×384) or the quick one (< 30 s: generated
-    meshes of 5k and 3k triangles only, ``data`` unused; 60 boxes at 256×192).
-    :class:`UsageError` when a full run's ``data`` folder or a mesh in it is missing."""
-    if quick:
-        return LodQualitySetup(
-            ("sphere", "torus"),
-            sphere_subdivisions=QUICK_SPHERE_SUBDIVISIONS,
-            torus_sections=QUICK_TORUS_SECTIONS,
-            samples=QUICK_SAMPLES,
-            boxes=QUICK_BOXES,
-            resolution=QUICK_RESOLUTION,
-            quick=True,
-        )
-    names = ["sphere", "torus"]
-    if data is not None:
-        folder = Path(data).expanduser() / "meshes"
-        if not folder.is_dir():
+    def check(self) -> None:
+        """:class:`UsageError` for bad values, and when a data folder was given that lacks
+        ``meshes/`` or one of :data:`DATA_MESHES` (quick runs too: the path was asked for)."""
+        if not self.ratios or not all(0 < r < 1 for r in self.ratios):
+            raise UsageError(f"ratios must lie in (0, 1), got {self.ratios}")
+        if not any(np.isclose(self.picture_ratio, r) for r in self.ratios):
+            raise UsageError(f"picture_ratio must be one of ratios, got {self.picture_ratio}")
+        if self.samples < 100 or self.boxes < 1 or self.cams_per_box < 1:
             raise UsageError(
-                f"data folder {str(data)!r} has no meshes/ folder (see data/README.md)"
+                f"samples >= 100, boxes and cams_per_box >= 1, got {self.samples}, "
+                f"{self.boxes}, {self.cams_per_box}"
             )
-        for name in DATA_MESHES:
-            if not (folder / name).is_file():
-                raise UsageError(f"mesh {name!r} not found in {str(folder)!r}")
-            names.append(name)
-        data = str(Path(data).expanduser())
-    return LodQualitySetup(tuple(names), data=data)
+        if self.data is not None:
+            folder = Path(self.data).expanduser() / "meshes"
+            if not folder.is_dir():
+                raise UsageError(f"data folder {self.data!r} has no meshes/ folder")
+            for name in DATA_MESHES:
+                if not (folder / name).is_file():
+                    raise UsageError(f"mesh {name!r} not found in {str(folder)!r}")
 
 
 # -- part 1: simplifiers ---------------------------------------------------------------------
@@ -152,7 +139,7 @@ class NamedMesh:
     faces: np.ndarray
 
 
-def load_meshes(setup: LodQualitySetup) -> list[NamedMesh]:
+def load_meshes(setup: Params) -> list[NamedMesh]:
     """The setup's meshes: generated ones seeded, files read with trimesh (vertices at equal
     positions merged, so both simplifiers see the same connected surface)."""
     import trimesh
@@ -243,39 +230,6 @@ def compare_simplifiers(
             if keep is not None and np.isclose(r, keep):
                 kept[simplifier] = (sv, sf)
     return rows, kept
-
-
-def simplifier_claims(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Per mesh: is the quadric error ≤ Melax's at every ratio (counts equal within 5 %)?
-    and the error and time ratios Melax ÷ quadric (medians over the ratios)."""
-    out = []
-    for mesh in dict.fromkeys(r["mesh"] for r in rows):
-        q = [r for r in rows if r["mesh"] == mesh and r["simplifier"] == "quadric"]
-        m = [r for r in rows if r["mesh"] == mesh and r["simplifier"] == "melax"]
-        err = np.array(
-            [
-                b["error"] / a["error"] if a["error"] > 0 else np.inf
-                for a, b in zip(q, m, strict=True)
-            ]
-        )
-        sec = np.array([b["seconds"] / a["seconds"] for a, b in zip(q, m, strict=True)])
-        same_count = all(
-            abs(a["triangles"] - b["triangles"]) <= 0.05 * a["target"]
-            for a, b in zip(q, m, strict=True)
-        )
-        out.append(
-            {
-                "mesh": mesh,
-                "label": q[0]["label"],
-                "quadric_better_everywhere": bool(np.all(err >= 1.0)),
-                "ratios_quadric_better": int(np.sum(err >= 1.0)),
-                "ratios": len(q),
-                "melax_over_quadric_error_median": float(np.median(err)),
-                "melax_over_quadric_time_median": float(np.median(sec)),
-                "counts_match": same_count,
-            }
-        )
-    return out
 
 
 def render_picture(
@@ -442,32 +396,23 @@ def summarize_screen_size(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]
     return out
 
 
-# -- results ---------------------------------------------------------------------------------
+# -- pictures -------------------------------------------------------------------------------
 
 
-@dataclass
-class LodQualityResult:
-    """What :func:`lod_quality_experiment` measured and wrote."""
+def plot_simplifiers(frames: dict[str, pd.DataFrame], params: Params):
+    """Left: sampled symmetric Hausdorff error (% of the bounding-box diagonal) against
+    triangles; right: wall time from the full mesh against triangles; log-log, one colour per
+    mesh, solid circles = quadric (fast-simplification), dashed squares = Melax's cost."""
+    import matplotlib
+    from matplotlib.figure import Figure
 
-    simplifier_rows: list[dict[str, Any]]
-    claims: list[dict[str, Any]]
-    screen_rows: list[dict[str, Any]]
-    screen_summary: list[dict[str, Any]]
-    picture: np.ndarray | None = None
-    picture_mesh: str = ""
-    files: list[Path] = field(default_factory=list)
-    seconds: dict[str, float] = field(default_factory=dict)
-
-
-def plot_simplifiers(rows: Sequence[dict[str, Any]]):
-    """Error (% of the bounding-box diagonal) and time against triangles, log-log, one colour
-    per mesh, solid = quadric, dashed = Melax."""
-    import matplotlib.pyplot as plt
-
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(12, 4.6))
+    rows = _records(frames["simplifiers"])
+    tab10 = matplotlib.colormaps["tab10"]
+    fig = Figure(figsize=(12, 4.6))
+    ax, bx = fig.subplots(1, 2)
     meshes = list(dict.fromkeys(r["mesh"] for r in rows))
     for k, mesh in enumerate(meshes):
-        color = plt.cm.tab10(k)
+        color = tab10(k)
         for simp, style in (("quadric", "-o"), ("melax", "--s")):
             rs = [r for r in rows if r["mesh"] == mesh and r["simplifier"] == simp]
             label = f"{rs[0]['label']} — {'quadric' if simp == 'quadric' else 'Melax'}"
@@ -491,18 +436,23 @@ def plot_simplifiers(rows: Sequence[dict[str, Any]]):
     return fig
 
 
-def plot_picture(result: LodQualityResult, ratio: float):
-    """The side-by-side rendering with triangle counts and errors in the titles."""
-    import matplotlib.pyplot as plt
+def plot_picture(frames: dict[str, pd.DataFrame], params: Params):
+    """One mesh drawn flat-shaded from the same camera: full, simplified by the quadric error
+    and by Melax's cost to the same fraction of its triangles; titles give triangles and the
+    Hausdorff error (% of the bounding-box diagonal)."""
+    from matplotlib.figure import Figure
 
+    pic = frames["picture"].set_index("panel")
+    ratio = params.picture_ratio
     rows = {
         r["simplifier"]: r
-        for r in result.simplifier_rows
-        if r["mesh"] == result.picture_mesh and np.isclose(r["ratio"], ratio)
+        for r in _records(frames["simplifiers"])
+        if r["mesh"] == pic["mesh"].iloc[0] and np.isclose(r["ratio"], ratio)
     }
-    img = result.picture
-    w = img.shape[1] // 3
-    fig, axes = plt.subplots(1, 3, figsize=(3 * w / 100, img.shape[0] / 100 + 0.5))
+    imgs = [decode(pic.loc[p, "png"]) for p in ("full", "quadric", "melax")]
+    h, w = imgs[0].shape[:2]
+    fig = Figure(figsize=(3 * w / 100, h / 100 + 0.5))
+    axes = fig.subplots(1, 3)
     q, m = rows["quadric"], rows["melax"]
     titles = [
         f"full: {q['triangles_full']:,} triangles",
@@ -510,7 +460,7 @@ def plot_picture(result: LodQualityResult, ratio: float):
         f"Melax: {m['triangles']:,} tris, error {m['error_pct']:.2f} %",
     ]
     for k, (ax, title) in enumerate(zip(axes, titles, strict=True)):
-        ax.imshow(img[:, k * w : (k + 1) * w])
+        ax.imshow(imgs[k])
         ax.set_title(title, fontsize=8)
         ax.axis("off")
     fig.suptitle(f"{q['label']} at 1/{round(1 / ratio)} of its triangles", fontsize=9)
@@ -518,14 +468,19 @@ def plot_picture(result: LodQualityResult, ratio: float):
     return fig
 
 
-def plot_screen_size(rows: Sequence[dict[str, Any]]):
-    """Left: CDF of |relative error| per category (solid exact, dashed naive); right:
-    histogram of estimate ÷ pixels over all measured cases."""
-    import matplotlib.pyplot as plt
+def plot_screen_size(frames: dict[str, pd.DataFrame], params: Params):
+    """Left: cumulative share of cases against |estimate − rasterized pixels| / pixels per
+    category (colour), solid = exact (silhouette), dashed = naive (2D box); boxes of at least
+    100 pixels. Right: histogram of estimate ÷ rasterized pixels over all those cases."""
+    import matplotlib
+    from matplotlib.figure import Figure
 
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(12, 4.6))
+    rows = _records(frames["screen_size"])
+    tab10 = matplotlib.colormaps["tab10"]
+    fig = Figure(figsize=(12, 4.6))
+    ax, bx = fig.subplots(1, 2)
     for k, cat in enumerate(CATEGORIES):
-        color = plt.cm.tab10(k)
+        color = tab10(k)
         for est, style in (("exact", "-"), ("naive", "--")):
             e = np.sort(
                 np.abs(
@@ -570,226 +525,123 @@ def plot_screen_size(rows: Sequence[dict[str, Any]]):
     return fig
 
 
-def format_simplifiers(rows: Sequence[dict[str, Any]]) -> str:
-    """Printed table: per mesh and ratio, both simplifiers' triangles, error (%) and time."""
-    table = []
-    for q in (r for r in rows if r["simplifier"] == "quadric"):
-        m = next(
-            r
-            for r in rows
-            if r["simplifier"] == "melax" and r["mesh"] == q["mesh"] and r["ratio"] == q["ratio"]
-        )
-        table.append(
-            [
-                q["label"],
-                f"1/{round(1 / q['ratio'])}",
-                f"{q['triangles']:,}",
-                f"{m['triangles']:,}",
-                f"{q['error_pct']:.3f}",
-                f"{m['error_pct']:.3f}",
-                f"{q['seconds']:.3f}",
-                f"{m['seconds']:.2f}",
-            ]
-        )
-    return format_table(
-        ["mesh", "ratio", "tris Q", "tris M", "err Q %", "err M %", "s Q", "s M"],
-        table,
-        "Simplifiers (Q = quadric / fast-simplification, M = Melax; error = Hausdorff, % of "
-        "the bbox diagonal):",
-    )
+# -- compute ---------------------------------------------------------------------------------
 
 
-def format_screen_size(summary: Sequence[dict[str, Any]]) -> str:
-    """Printed table: per category, median and 95th percentile of |relative error|."""
-    table = []
-    for cat in (*CATEGORIES, "all"):
-        n, e = (
-            next(s for s in summary if s["category"] == cat and s["estimate"] == est)
-            for est in ("naive", "exact")
-        )
-        table.append(
-            [
-                cat,
-                n["cases"],
-                n["measured"],
-                n["median_abs_rel_error"],
-                n["p95_abs_rel_error"],
-                e["median_abs_rel_error"],
-                e["p95_abs_rel_error"],
-            ]
-        )
-    return format_table(
-        [
-            "category",
-            "cases",
-            f"≥{MIN_PIXELS}px",
-            "naive med",
-            "naive p95",
-            "exact med",
-            "exact p95",
-        ],
-        [
-            [r[0], str(r[1]), str(r[2]), *(f"{x:.4f}" if x is not None else "—" for x in r[3:])]
-            for r in table
-        ],
-        "Screen size: |estimate − rasterized pixels| / pixels",
-    )
-
-
-def write(result: LodQualityResult, setup: LodQualitySetup, out: str | os.PathLike) -> list[Path]:
-    """CSV, JSON and PNG files, prefixed ``simplifiers_`` and ``screen_size_``, into ``out``."""
-    import matplotlib.pyplot as plt
-
-    out = Path(out)
-    files = [
-        write_csv(out / "simplifiers_errors.csv", result.simplifier_rows),
-        write_csv(out / "screen_size_cases.csv", result.screen_rows),
-        write_csv(out / "screen_size_summary.csv", result.screen_summary),
-    ]
-    fig = plot_simplifiers(result.simplifier_rows)
-    files.append(save_figure(fig, out / "simplifiers_error_time.png"))
-    plt.close(fig)
-    if result.picture is not None:
-        fig = plot_picture(result, setup.picture_ratio)
-        files.append(save_figure(fig, out / "simplifiers_picture.png"))
-        plt.close(fig)
-    fig = plot_screen_size(result.screen_rows)
-    files.append(save_figure(fig, out / "screen_size_errors.png"))
-    plt.close(fig)
-    common = {
-        "setup": {
-            "meshes": list(setup.meshes),
-            "ratios": list(setup.ratios),
-            "samples": setup.samples,
-            "boxes": setup.boxes,
-            "cams_per_box": setup.cams_per_box,
-            "resolution": res_str(setup.resolution),
-            "min_pixels": MIN_PIXELS,
-            "quick": setup.quick,
-            "seed": setup.seed,
-        },
-        "document": DOCUMENT,
-        "seconds": result.seconds,
-    }
-    files.append(
-        write_json(
-            out / "simplifiers_summary.json",
-            common | {"claims": result.claims, "rows": result.simplifier_rows},
-        )
-    )
-    pairs = result.screen_rows
-    files.append(
-        write_json(
-            out / "screen_size_summary.json",
-            common
-            | {
-                "summary": result.screen_summary,
-                "naive_ge_exact_all": all(r["naive"] >= r["exact"] * (1 - 1e-9) for r in pairs),
-                "cases": len(pairs),
-            },
-        )
-    )
-    return files
-
-
-def lod_quality_experiment(
-    setup: LodQualitySetup,
-    out: str | os.PathLike,
-    *,
-    progress: bool = True,
-    verbose: bool = True,
-) -> LodQualityResult:
-    """Run both parts, write the results into ``out`` and print the tables."""
+def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
+    """Both parts: per mesh × simplifier × ratio the error and time; the picture's three
+    panels (PNG text); per (box, camera) the screen-size estimates; per category × estimate
+    the summary."""
     from tqdm.auto import tqdm
 
-    t0 = time.perf_counter()
-    meshes = load_meshes(setup)
+    meshes = load_meshes(params)
     rows: list[dict[str, Any]] = []
-    picture, picture_mesh = None, ""
-    # the picture: the first file mesh when there is one, else the torus (the bumps of the
-    # noisy sphere are hard to see at this size)
+    pictures: list[dict[str, Any]] = []
+    # the picture: the first file mesh, else the torus (the sphere's bumps are hard to see)
     shown = next((m.name for m in meshes if m.name not in ("sphere", "torus")), "torus")
     for mesh in tqdm(meshes, desc="seed 001 simplifiers", unit="mesh", disable=not progress):
         mesh_rows, kept = compare_simplifiers(
-            mesh, setup.ratios, setup.samples, keep=setup.picture_ratio
+            mesh, params.ratios, params.samples, keep=params.picture_ratio
         )
         rows += mesh_rows
         if mesh.name == shown and kept:
-            picture, picture_mesh = render_picture(mesh, kept), mesh.name
-    t1 = time.perf_counter()
-    cases = screen_size_cases(setup.boxes, setup.cams_per_box, setup.resolution, setup.seed)
-    with tqdm(
-        total=len(cases), desc="seed 001 screen size", unit="box", disable=not progress
-    ) as bar:
-        screen_rows = measure_screen_size(cases, bar=bar)
-    t2 = time.perf_counter()
-    result = LodQualityResult(
-        rows,
-        simplifier_claims(rows),
-        screen_rows,
-        summarize_screen_size(screen_rows),
-        picture,
-        picture_mesh,
-        seconds={"simplifiers": t1 - t0, "screen_size": t2 - t1},
-    )
-    result.files = write(result, setup, out)
-    result.seconds["total"] = time.perf_counter() - t0
-    if verbose:
-        print()
-        print(format_simplifiers(rows))
-        print()
-        print(format_screen_size(result.screen_summary))
-        print(f"{len(result.files)} files written to {out}/ in {result.seconds['total']:.0f} s")
-    return result
-
-
-def run(
-    quick: bool = False,
-    out: str | os.PathLike | None = None,
-    data: str | None = None,
-    verbose: bool = True,
-) -> dict[str, Any]:
-    """Entry point for the CLI and notebooks: run into ``out`` (default
-    ``default_out(quick)/seed001_lod``); returns a summary dict (files, claims, the
-    screen-size table, seconds). ``data``: folder holding ``meshes/`` (None: generated only)."""
-    setup = make_setup(quick, data)
-    out = Path(out) if out is not None else default_out(quick) / SUBDIR
-    result = lod_quality_experiment(setup, out, progress=verbose, verbose=verbose)
+            img = render_picture(mesh, kept)
+            w = img.shape[1] // 3
+            for k, panel in enumerate(("full", "quadric", "melax")):
+                pictures.append({"mesh": mesh.name, "panel": panel,
+                                 "png": encode(img[:, k * w : (k + 1) * w])})  # fmt: skip
+    cases = screen_size_cases(params.boxes, params.cams_per_box, params.resolution, params.seed)
+    t0 = time.perf_counter()
+    with tqdm(total=len(cases), desc="seed 001 screen size", unit="box",
+              disable=not progress) as bar:  # fmt: skip
+        screen = measure_screen_size(cases, bar=bar)
+    screen_df = pd.DataFrame(screen)
+    screen_df["seconds_total"] = time.perf_counter() - t0
     return {
-        "out": out,
-        "files": result.files,
-        "claims": result.claims,
-        "simplifiers": result.simplifier_rows,
-        "screen_size": result.screen_summary,
-        "seconds": result.seconds,
+        "simplifiers": pd.DataFrame(rows),
+        "picture": pd.DataFrame(pictures, columns=["mesh", "panel", "png"]),
+        "screen_size": screen_df,
+        "screen_summary": pd.DataFrame(summarize_screen_size(screen)),
     }
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m experiments.seed001_lod_quality``; reads ``VISLOD_QUICK`` and
-    ``VISLOD_DATA`` when the flags are absent (and says so)."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="small meshes and sweep (< 30 s)")
-    ap.add_argument(
-        "--data", default=None, help="folder holding meshes/ (default $VISLOD_DATA; full runs)"
-    )
-    ap.add_argument("--out", default=None, help=f"output folder (default results/{SUBDIR})")
-    ap.add_argument("--quiet", action="store_true", help="no progress bars or tables")
-    args = ap.parse_args(argv)
-    if not args.quick and env_quick():
-        args.quick = True
-        print("VISLOD_QUICK is set: quick mode", file=sys.stderr)
-    data = args.data
-    if data is None and os.environ.get("VISLOD_DATA") and not args.quick:
-        data = os.environ["VISLOD_DATA"]
-        print(f"meshes from VISLOD_DATA={data}", file=sys.stderr)
-    try:
-        run(args.quick, args.out, data, verbose=not args.quiet)
-    except UsageError as e:
-        print(f"seed001_lod_quality: error: {e}", file=sys.stderr)
-        return 2
-    return 0
+def _records(df: pd.DataFrame) -> list[dict[str, Any]]:
+    """Rows as dicts with NaN as None (the screen-size rows below :data:`MIN_PIXELS`)."""
+    return [{k: (None if isinstance(v, float) and v != v else v) for k, v in r.items()}
+            for r in df.to_dict("records")]  # fmt: skip
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+# -- claims ----------------------------------------------------------------------------------
+
+
+def claims(frames: dict[str, pd.DataFrame], params: Params) -> pd.DataFrame:
+    """Per mesh Melax against the quadric reference (the lecture gives no numbers: measured);
+    per category the naive and exact screen size against rasterized pixels (trend: the exact
+    estimate is the closer one and never larger than the naive)."""
+    s = frames["simplifiers"]
+    rows = []
+    for _, g in s.groupby("mesh", sort=False):
+        q = g[g.simplifier == "quadric"].set_index("ratio")
+        m = g[g.simplifier == "melax"].set_index("ratio")
+        err = (m.error / q.error.replace(0, np.nan)).to_numpy()
+        sec = (m.seconds / q.seconds).to_numpy()
+        rows.append(harness.claim(
+            f"Melax's cost vs the quadric error, {q.label.iloc[0]}",
+            f"«{DOC_COST}»; «{DOC_ORDER}» (no numbers)",
+            f"Melax's Hausdorff error {np.nanmedian(err):.2f}× the quadric's (median over "
+            f"{len(err)} ratios; smaller at {int(np.sum(err < 1))}), time "
+            f"{np.median(sec):.0f}× (Melax in Python)",
+            harness.MEASURED,
+            basis="the lecture gives the cost, not its quality: the quadric (Garland & "
+            "Heckbert) is our reference, the error sampled (symmetric Hausdorff)",
+        ))  # fmt: skip
+    ss = frames["screen_size"]
+    summ = frames["screen_summary"].set_index(["category", "estimate"])
+    for cat in (*CATEGORIES, "all"):
+        if (cat, "exact") not in summ.index or not summ.loc[(cat, "exact"), "measured"]:
+            continue
+        n, e = summ.loc[(cat, "naive")], summ.loc[(cat, "exact")]
+        sel = ss if cat == "all" else ss[ss.category == cat]
+        low = sel[sel.naive < sel.exact * (1 - 1e-9)]
+        never_larger = low.empty
+        gap = float(((low.exact - low.naive) / low.exact).max()) if len(low) else 0.0
+        closer = e.median_abs_rel_error <= n.median_abs_rel_error + CLOSER_TOLERANCE
+        holds = never_larger and closer
+        rows.append(harness.claim(
+            f"screen size of a box, naive vs exact: {cat}",
+            f"«{DOC_NAIVE}» vs «{DOC_EXACT}» (no numbers)",
+            f"|estimate − GL pixels| / pixels, median / p95: naive "
+            f"{n.median_abs_rel_error:.3f} / {n.p95_abs_rel_error:.3f}, exact "
+            f"{e.median_abs_rel_error:.4f} / {e.p95_abs_rel_error:.4f} ({int(e.measured)} of "
+            f"{int(e.cases)} cases ≥ {MIN_PIXELS} px)",
+            harness.TREND if holds else harness.DIFFERS,
+            basis="the exact estimate is never larger than the naive one, and its median error "
+            f"is at most the naive's + {CLOSER_TOLERANCE}: "
+            + ("holds" if holds else "does not hold"),
+            why="" if holds else f"naive < exact in {len(low)} of {len(sel)} cases (by up to "
+            f"{gap:.1%} of the exact); median errors exact {e.median_abs_rel_error:.2g}, naive "
+            f"{n.median_abs_rel_error:.2g}",
+        ))  # fmt: skip
+    return harness.claims_frame(rows)
+
+
+EXPERIMENT = harness.experiment(
+    "seed001-lod-quality",
+    seed="001",
+    title="LOD quality: quadric vs Melax edge collapse, naive vs exact screen-size estimate",
+    params=Params,
+    compute=compute,
+    plots=[plot_simplifiers, plot_picture, plot_screen_size],
+    claims=claims,
+    quick={
+        "sphere_subdivisions": 4,
+        "torus_sections": (48, 32),
+        "samples": 20_000,
+        "boxes": 60,
+        "resolution": (256, 192),
+    },
+    minutes=2.0,
+    uses_data=True,
+    aliases=("lod-quality",),
+    notebook="seed001_lod",
+)
