@@ -1,7 +1,7 @@
 """The ``vislod`` command line.
 
-    vislod demo [--scene market|castle|clutter] [--frames 100] [--resolutions 320x192 ...]
-                [--methods NAME ...] [--quick] [--out results]
+    vislod demo [--scene market|castle|clutter] [--frames 100] [--resolutions 320x192,...]
+                [--methods A,B|all] [--quick] [--out results]     (= vislod seed000)
     vislod cull --method NAME [--scene market|castle|clutter] [--resolution 1920x1080]
                 [--frames N] [--oracle]
     vislod seed002 [--frames 100] [--grid-sizes 16,32,64] [--display WxH] [--quick] [--out DIR]
@@ -55,7 +55,6 @@ from experiments.common import (
     env_quick,
     fmt,
     format_table,
-    make_setup,
     parse_resolution,
     res_str,
     scaled,
@@ -77,7 +76,6 @@ EXTRA_MODULES: dict[str, tuple[str, ...]] = {
 }
 # Command → the extras it always needs (every command is listed; () = the core only).
 COMMAND_EXTRAS: dict[str, tuple[str, ...]] = {
-    "demo": (),
     "cull": (),
     "figures": (),  # and what its chosen figures need (experiments.figures.Figure.extras)
     "sweep": ("sweep",),  # Dask distributed
@@ -108,12 +106,8 @@ def _named_methods(args: argparse.Namespace) -> list[str]:
     """The culling methods a command will run, from its options (``all`` expanded)."""
     if args.command == "cull":
         return [args.method]
-    if args.command in ("demo", "sweep"):
+    if args.command == "sweep":
         if args.methods is None:
-            if args.command == "demo":
-                from experiments.seed000_demo import DEMO_METHODS
-
-                return list(DEMO_METHODS)
             from experiments.sweep import DEFAULT_METHODS
 
             return list(DEFAULT_METHODS)
@@ -180,10 +174,6 @@ def _resolution(text: str) -> tuple[int, int]:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
-def _resolutions(text: str) -> list[tuple[int, int]]:
-    return [_resolution(t) for t in text.split(",") if t.strip()]
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The ``vislod`` argument parser (sub-commands ``demo``, ``cull``, ``grid``, ``portals``)."""
     p = _Parser(
@@ -221,29 +211,6 @@ def build_parser() -> argparse.ArgumentParser:
             default=None,
             help="camera (display) resolution WxH (default 1920x1080, quick 480x270)",
         )
-
-    demo = sub.add_parser("demo", help="seed 000: Abb. 1, 4, 6-10 with the document's numbers")
-    common(demo, "market")
-    demo.add_argument(
-        "--resolutions",
-        type=_resolutions,
-        nargs="+",
-        default=None,
-        metavar="WxH",
-        help="depth-buffer resolutions of Abb. 8 (default: the document's six)",
-    )
-    demo.add_argument(
-        "--methods",
-        nargs="+",
-        default=None,
-        metavar="NAME",
-        help="methods for Abb. 8 left and Abb. 10 (default: none frustum queries hiz-gpu; "
-        "'all': every registered method)",
-    )
-    demo.add_argument(
-        "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
-    )
-    demo.add_argument("--no-progress", action="store_true", help="no progress bar")
 
     cull = sub.add_parser("cull", help="cull the flight with one method, print per-frame stats")
     common(cull, "market")
@@ -333,30 +300,6 @@ def _validate_scene(args: argparse.Namespace) -> None:
         castle_path(args.data)  # raises before any work when the data is missing
 
 
-def cmd_demo(args: argparse.Namespace) -> int:
-    from experiments.seed000_demo import check_methods, demo
-
-    _validate_scene(args)
-    res = None if args.resolutions is None else [r for group in args.resolutions for r in group]
-    setup = make_setup(args.quick, args.frames, res, args.display)
-    methods = check_methods(args.methods)
-    out = args.out or default_out(setup.quick)
-    if args.quick:
-        print(
-            f"quick mode: {setup.frames} frames, display {res_str(setup.display)}", file=sys.stderr
-        )
-    demo(
-        setup,
-        scene_name=args.scene,
-        out=out,
-        methods=methods,
-        seed=args.seed,
-        data=args.data,
-        progress=not args.no_progress,
-    )
-    return 0
-
-
 def cmd_cull(args: argparse.Namespace) -> int:
     import soc
     from experiments.common import load_scene, mean
@@ -437,7 +380,6 @@ def cmd_figures(args: argparse.Namespace) -> int:
 
 
 COMMANDS = {
-    "demo": cmd_demo,
     "cull": cmd_cull,
     "figures": cmd_figures,
     "sweep": cmd_sweep,

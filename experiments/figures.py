@@ -30,10 +30,8 @@ from typing import Any
 
 from experiments.common import (
     UsageError,
-    castle_path,
     check_writable,
     default_out,
-    make_setup,
     write_json,
 )
 
@@ -89,37 +87,7 @@ class Figure:
 # -- how each experiment is run (imports are lazy: `vislod --help` stays fast) ---------------
 
 
-def _seed000_scene(quick: bool, data: str | None) -> str:
-    """The castle when a data path is given (which must hold it: :class:`UsageError`
-    otherwise), else the generated market."""
-    if data is None:
-        return "market"
-    castle_path(data)
-    return "castle"
-
-
-def _seed000(quick: bool, out: Path, data: str | None) -> None:
-    from experiments.seed000_demo import demo
-
-    scene = _seed000_scene(quick, data)
-    demo(make_setup(quick=quick), scene_name=scene, out=out, methods=["all"], data=data)
-
-
-FIGURES: tuple[Figure, ...] = (
-    Figure(
-        "seed000",
-        "000",
-        "software occlusion culling: Abb. 1, 4, 6-10 with every culling method",
-        "seed000_summary.json",
-        _seed000,
-        40.0,
-        "seed000_abb*.png",
-        module="experiments.seed000_demo",
-        extras=("fit",),  # every method, the adaptive one (JAX) included
-        uses_data=True,
-        check=_seed000_scene,
-    ),
-)
+FIGURES: tuple[Figure, ...] = ()
 
 
 def _fields(params: Any) -> dict[str, Any]:

@@ -29,7 +29,7 @@ class Shot:
 
 SHOTS = (
     Shot(
-        "seed000_abb1.png",
+        "seed000/seed000_abb1.png",
         "seed000_abb1.png",
         "Seed 000, Abb. 1: the frame with the kept objects outlined, and what occlusion culling "
         "removed",

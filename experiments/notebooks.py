@@ -1,13 +1,13 @@
 """Writes the thin notebooks that call the experiments and show their tables and pictures:
-``notebooks/seed000_methods.ipynb`` (seed 000's Abb. 8 left and Abb. 10 for every culling
-method), ``notebooks/seed001_rendering.ipynb`` (seed 001's portal culling, state sorting and
-image-based techniques) and ``notebooks/seed002_grid.ipynb`` (seed 002's grid experiment).
+``notebooks/seed000_soc.ipynb`` (seed 000), ``notebooks/seed000_methods.ipynb`` (seed 000
+with every culling method), ``notebooks/seed001_rendering.ipynb`` (seed 001's portal
+culling, state sorting and image-based techniques) and ``notebooks/seed002_grid.ipynb`` (seed
+002's grid experiment).
 Quick mode when ``VISLOD_QUICK`` is set.
 
 The notebooks are generated without outputs, so that they stay a view of the experiments
-rather than a second copy of them: ``python -m experiments.notebooks`` (the seed-000
-notebook has its own generator, :mod:`experiments.seed000_notebook`). Needs ``nbformat`` (the
-``notebooks`` extra).
+rather than a second copy of them: ``python -m experiments.notebooks``. Needs ``nbformat``
+(the ``notebooks`` extra).
 """
 
 from __future__ import annotations
@@ -17,57 +17,43 @@ from pathlib import Path
 
 FOLDER = Path(__file__).resolve().parents[1] / "notebooks"
 
-# -- seed 000: every method ---------------------------------------------------------------------
+# -- seed 000 ----------------------------------------------------------------------------------
+
+SOC_INTRO = """\
+# Seed 000 — OpenGL occlusion culling on Mesa (llvmpipe) in Intel's SOC framework
+
+This notebook computes seed 000's experiment into DataFrames (one row per frame × culling
+configuration, the oracle's exact visible set beside every frame), draws Abb. 1, 4, 6–10 from
+them, and sets our claims beside the document's numbers. `VISLOD_QUICK=1`: 6 frames at a
+quarter of the resolution on the small market (seconds); the full run (100 frames at 1080p,
+six depth resolutions, 27,025 objects) takes about a quarter of an hour on two CPU cores."""
 
 METHODS_INTRO = """\
 # Seed 000 — the five culling methods, and every other method we have
 
 Seed 000 compares five culling methods on Intel's castle flight: % of triangles culled per
 frame at a 1920×1080 depth buffer (Abb. 8 left) and frames per second per method (Abb. 10).
-Here every registered culling method (`soc.method_names()`) flies the same 100-frame flight
-over the market; each is drawn at the display resolution, its frame time = cull + draw is
-measured on this machine, and its false culls are counted against an exact per-object id
-render (the oracle).
+Here every registered culling method (`soc.method_names()`, `methods=("all",)`) flies the same
+flight; each is drawn at the display resolution, its frame time = cull + draw is measured on
+this machine, and its false culls are counted against an exact per-object id render (the
+oracle). `VISLOD_QUICK=1`: 6 frames at a quarter of the resolution on the small market; the
+full run takes about half an hour on two CPU cores."""
 
-All the work is done by `experiments/seed000_demo.py` (`vislod demo --methods all`); this
-notebook only calls it and shows the results. Set `VISLOD_QUICK=1` for a quick run (6 frames,
-a quarter of the resolution, the small market); the full run takes about half an hour on two
-CPU cores."""
 
-METHODS_SETUP = """\
-from IPython.display import Image, display
+def build_soc():
+    """``seed000_soc.ipynb`` as an ``nbformat`` node (no outputs)."""
+    from nbformat import v4
 
-from experiments.common import default_out, env_quick, make_setup
-from experiments.seed000_demo import demo
+    return notebook([v4.new_markdown_cell(SOC_INTRO), *experiment_cells("seed000")], "seed000")
 
-quick = env_quick()
-setup = make_setup(quick=quick)
-out = default_out(quick) / "seed000_methods"  # apart from `vislod demo`'s default results
-print(f"quick={quick}: {setup.frames} frames, display {setup.display}; results in {out}")"""
 
-METHODS_RUN = """\
-# Every registered method (Abb. 8 left, Abb. 10) plus the query method at the six depth
-# resolutions (Abb. 8 right) and the stage switches (Abb. 9): CSV/JSON/PNG into `out`.
-result = demo(setup, scene_name="market", out=out, methods=["all"], verbose=False)
-methods = result["abb8"]["methods"]
-print("methods:", ", ".join(m["method"] for m in methods))"""
+def build_methods():
+    """``seed000_methods.ipynb`` as an ``nbformat`` node (no outputs)."""
+    from nbformat import v4
 
-METHODS_TABLES = """\
-from experiments import seed000_frametimes, seed000_resolutions
+    cells = experiment_cells("seed000", overrides={"methods": ("all",)})
+    return notebook([v4.new_markdown_cell(METHODS_INTRO), *cells], "seed000-methods")
 
-runs = result["runs"]
-print(seed000_resolutions.format_methods(result["abb8"]["methods"], runs))
-print()
-print(seed000_frametimes.format_summary(result["abb10"]["summary"], runs))"""
-
-METHODS_SECTIONS = [
-    (
-        "## Abb. 8 left — triangles culled per frame, every method\n\nThe oracle's ideal is "
-        "dashed; a method above it culls objects that are visible (false culls, tabled above).",
-        ["seed000_abb8_left.png"],
-    ),
-    ("## Abb. 10 — frame time and FPS per method on this machine", ["seed000_abb10.png"]),
-]
 
 # -- seed 002: grid ----------------------------------------------------------------------------
 
@@ -109,9 +95,10 @@ def notebook(cells, prefix: str):
     return nb
 
 
-def experiment_cells(key: str) -> list:
+def experiment_cells(key: str, overrides: dict | None = None) -> list:
     """The cells that show one harness experiment: its introduction, parameters at the top
-    (quick with ``VISLOD_QUICK``), the computation, every DataFrame, every picture drawn inline
+    (quick with ``VISLOD_QUICK``; ``overrides``: parameters the notebook sets), the
+    computation, every DataFrame, every picture drawn inline
     from the frames by the experiment's importable plotting functions (caption above), and
     the claims beside the document's numbers."""
     from nbformat import v4
@@ -120,6 +107,7 @@ def experiment_cells(key: str) -> list:
 
     exp = harness.get(key)
     mod = exp.module.rsplit(".", 1)[-1]
+    given = "".join(f", {k}={v!r}" for k, v in (overrides or {}).items())
     cells = [
         v4.new_markdown_cell(f"## Seed {exp.seed} — {exp.title}\n\n{exp.intro}"),
         v4.new_code_cell(
@@ -129,7 +117,7 @@ def experiment_cells(key: str) -> list:
             f'exp = harness.get("{exp.key}")\n'
             "quick = env_quick()  # VISLOD_QUICK=1: small and fast\n"
             "# Change any parameter here, e.g. exp.make_params(quick, frames=30):\n"
-            "params = exp.make_params(quick)\n"
+            f"params = exp.make_params(quick{given})\n"
             "params"
         ),
         v4.new_code_cell("frames = exp.compute(params, progress=True)\nlist(frames)"),
@@ -153,22 +141,6 @@ def _frame_names(exp) -> list[str]:
 def image_cell(names) -> str:
     """Code that displays the PNGs ``names`` from the notebook's ``out`` folder."""
     return "\n".join(f'display(Image(filename=str(out / "{name}")))' for name in names)
-
-
-def build_methods():
-    """``seed000_methods.ipynb`` as an ``nbformat`` node (no outputs)."""
-    from nbformat import v4
-
-    cells = [
-        v4.new_markdown_cell(METHODS_INTRO),
-        v4.new_code_cell(METHODS_SETUP),
-        v4.new_code_cell(METHODS_RUN),
-        v4.new_markdown_cell("## The tables, ours (document)"),
-        v4.new_code_cell(METHODS_TABLES),
-    ]
-    for text, images in METHODS_SECTIONS:
-        cells += [v4.new_markdown_cell(text), v4.new_code_cell(image_cell(images))]
-    return notebook(cells, "seed000-methods")
 
 
 def build_grid():
@@ -293,6 +265,7 @@ def build_seed004():
 
 NOTEBOOKS = {
     "seed000_methods.ipynb": build_methods,
+    "seed000_soc.ipynb": build_soc,
     "seed001_lod.ipynb": build_lod,
     "seed001_rendering.ipynb": build_rendering,
     "seed002_grid.ipynb": build_grid,

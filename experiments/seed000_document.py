@@ -58,21 +58,10 @@ QUANTITIES: dict[str, str] = {
     "models_visible": "models visible",
 }
 
-# Claims in the text that Abb. 10 lets us check (the document gives no FPS numbers in tables).
-CLAIMS: dict[str, str] = {
-    "frustum_speedup": "frustum culling brings 'over 200 %' (FPS frustum / FPS none > 2)",
-    "queries_vs_none": "with their occlusion queries, performance was best WITHOUT occlusion "
-    "culling (query read-back stalls)",
-    "hasselgren": "occlusion culling: 1.5–7× shorter frame time than frustum culling alone "
-    "(Hasselgren et al., for MOC)",
-    "moc_vs_hiz": "MOC culls about 2 % fewer triangles than HiZ yet is faster (Hasselgren et "
-    "al., 1920×1080, one core)",
-}
-# The claim above is cited from Hasselgren et al.; the document's own comparison of its methods
-# with MOC is a placeholder (its Abb. 8/9 text: "VERGLEICH MIT MOC FEHLT NOCH"), so our row
-# (masked vs hiz-gpu on the same flight) goes beyond the document.
+# The document cites Hasselgren et al. for MOC vs HiZ; its own comparison with MOC is a
+# placeholder (after Abb. 8/9), so our row (masked on the same flight) goes beyond it.
 MOC_COMPARISON_MISSING = "VERGLEICH MIT MOC FEHLT NOCH"
-# "About 2 % fewer": reproduced when MOC culls fewer triangles than HiZ by at most this many
+# "About 2 % fewer": holds when MOC culls fewer triangles than HiZ by at most this many
 # percent (relative to HiZ's culled triangles), and culls faster.
 MOC_FEWER_TOLERANCE_PCT = 5.0
 

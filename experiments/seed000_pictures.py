@@ -1,4 +1,5 @@
-"""Seed 000's pictures, rendered by our own GL renderer and laid out with matplotlib:
+"""Seed 000's pictures (Abb. 1, 4, 6, 7), rendered by our own GL renderer into DataFrames and
+drawn from them with matplotlib:
 
 - Abb. 1: a frame with red AABB outlines of the objects the query method keeps; beside it, the
   objects it classifies occluded (in the frustum, culled by the depth test), drawn alone.
@@ -6,41 +7,56 @@
 - Abb. 6: a frame and its occluder depth buffer (linearized to world distance, grey).
 - Abb. 7: the flight over a top view of the scene (AABB footprints), start / mid / exit
   marked and view directions drawn as arrows.
+
+A rendered image is kept as a PNG (base64 text) in one row per picture panel, so that the
+pictures are data like the rest and are drawn from the frames alone; images wider than
+:data:`STORED_WIDTH` are averaged down by an integer factor first.
 """
 
 from __future__ import annotations
 
-import os
+import base64
+import io
 from collections.abc import Sequence
-from pathlib import Path
-from typing import Any
 
 import numpy as np
+import pandas as pd
 
-from experiments.common import res_str, save_figure
+from experiments.common import res_str
 
 QUERY_METHOD = "queries"
-PICTURE_FRAME = 0.2  # where on the flight the pictures are taken, fraction of its length
+STORED_WIDTH = 960  # px: a panel is ~880 px wide in the 16-inch, 110-dpi figures
 ARROWS = 12  # view-direction arrows along the flight in Abb. 7
+PICTURES = 3  # rendered pictures (progress-bar steps)
 
 
-def picture_frame(frames: int, at: float = PICTURE_FRAME) -> int:
-    """Index of the flight frame the pictures show when no culling results are at hand."""
-    return round(at * (frames - 1))
-
-
-def telling_frame(rows: Sequence[dict[str, Any]]) -> int:
+def telling_frame(frames: pd.DataFrame) -> int:
     """The frame that shows both halves of Abb. 1 best: the most objects both kept and
-    occlusion-culled (max of min) in per-frame rows of the query method; earliest on ties."""
-    score = [min(r["models_visible"], r["occlusion_culled"]) for r in rows]
-    return int(rows[int(np.argmax(score))]["frame"])
+    occlusion-culled (max of min) in the query method's per-frame rows; earliest on ties."""
+    score = np.minimum(frames["models_visible"], frames["occlusion_culled"]).to_numpy()
+    return int(frames["frame"].to_numpy()[int(np.argmax(score))])
 
 
-def _renderer(scene, resolution):
-    from soc.gl.context import default_context
-    from soc.rendering.renderer import Renderer
+def encode(img: np.ndarray) -> str:
+    """(H, W[, 3]) uint8 image → base64 PNG text, averaged down to at most
+    :data:`STORED_WIDTH` px wide."""
+    from matplotlib.image import imsave
 
-    return Renderer(default_context().geometry(scene), resolution)
+    k = -(-img.shape[1] // STORED_WIDTH)
+    if k > 1:
+        h, w = img.shape[0] // k * k, img.shape[1] // k * k
+        blocks = img[:h, :w].reshape(h // k, k, w // k, k, *img.shape[2:]).astype(np.float32)
+        img = blocks.mean(axis=(1, 3)).round().astype(np.uint8)
+    buf = io.BytesIO()
+    imsave(buf, img, format="png", cmap="gray" if img.ndim == 2 else None, vmin=0, vmax=255)
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def decode(text: str) -> np.ndarray:
+    """Base64 PNG text → (H, W, C) float image in [0, 1]."""
+    from matplotlib.image import imread
+
+    return imread(io.BytesIO(base64.b64decode(text)), format="png")
 
 
 def _render(renderer, camera, ids: np.ndarray, outline: np.ndarray | None = None) -> np.ndarray:
@@ -50,179 +66,254 @@ def _render(renderer, camera, ids: np.ndarray, outline: np.ndarray | None = None
     return renderer.image()
 
 
-def _pair_figure(images: Sequence[np.ndarray], titles: Sequence[str], suptitle: str):
-    from matplotlib.figure import Figure
-
-    h, w = images[0].shape[:2]
-    fig = Figure(figsize=(16, 16 / 2 * h / w + 0.9), layout="constrained")
-    for ax, img, title in zip(fig.subplots(1, len(images)), images, titles, strict=True):
-        if img.ndim == 2:
-            im = ax.imshow(img, cmap="gray")
-            fig.colorbar(im, ax=ax, shrink=0.8, label="distance from the eye (world units)")
-        else:
-            ax.imshow(img)
-        ax.set_title(title, fontsize=10)
-        ax.set_axis_off()
-    fig.suptitle(suptitle, fontsize=11)
-    return fig
-
-
-def abb1(scene, camera, label: str = "") -> tuple[Any, dict[str, int]]:
-    """Abb. 1 figure and the counts it shows (kept, occlusion culled, frustum culled, false
-    culls against the oracle at the camera's resolution)."""
-    import soc
-
-    with soc.Culler(scene, QUERY_METHOD, camera.resolution) as culler:
-        result = culler.cull(camera)
-    with soc.Oracle(scene) as oracle:
-        truth = oracle.visible(camera)
-    in_frustum = soc.aabbs_in_frustum(scene.aabbs, camera.planes)
-    kept = result.visible_ids
-    occluded = np.flatnonzero(in_frustum & ~result.visible)
-    counts = {
-        "kept": len(kept),
-        "occlusion_culled": len(occluded),
-        "frustum_culled": int((~in_frustum).sum()),
-        "false_culls": int((truth & ~result.visible).sum()),
-    }
-    r = _renderer(scene, camera.resolution)
-    try:
-        left = _render(r, camera, kept, outline=kept)
-        right = _render(r, camera, occluded)
-    finally:
-        r.release()
-    fig = _pair_figure(
-        [left, right],
-        [
-            f"kept by '{QUERY_METHOD}' ({len(kept):,} objects), red: their AABBs",
-            f"classified occluded ({len(occluded):,} objects in the frustum), drawn alone",
-        ],
-        f"Seed 000 Abb. 1 — depth buffer {res_str(camera.resolution)}; "
-        f"{counts['frustum_culled']:,} outside the frustum; false culls vs oracle: "
-        f"{counts['false_culls']} — {label}",
-    )
-    return fig, counts
-
-
-def abb4(scene, camera, label: str = ""):
-    """Abb. 4 figure: occluders only, and the other objects only, from the same camera."""
-    r = _renderer(scene, camera.resolution)
-    try:
-        occ = _render(r, camera, np.flatnonzero(scene.occluder))
-        rest = _render(r, camera, np.flatnonzero(~scene.occluder))
-    finally:
-        r.release()
-    n_occ = int(scene.occluder.sum())
-    tri = scene.triangle_counts
-    return _pair_figure(
-        [occ, rest],
-        [
-            f"occluders only ({n_occ:,} objects, {int(tri[scene.occluder].sum()):,} triangles)",
-            f"occludees only ({len(scene) - n_occ:,} objects, "
-            f"{int(tri[~scene.occluder].sum()):,} triangles)",
-        ],
-        f"Seed 000 Abb. 4 — same camera — {label}",
-    )
-
-
-def occluder_depth(scene, camera, resolution: tuple[int, int] | None = None) -> np.ndarray:
-    """(H, W) float64 eye distance (world units) in the occluder depth buffer, top row first;
-    NaN where no occluder was drawn. Resolution: the camera's unless given."""
+def occluder_depth(scene, camera) -> np.ndarray:
+    """(H, W) float64 eye distance (world units) in the occluder depth buffer at the camera's
+    resolution, top row first; NaN where no occluder was drawn."""
     import soc
     from soc.culling.depth_prepass import DepthTarget, render_occluders
     from soc.gl.context import default_context
 
     glctx = default_context()
-    geometry = glctx.geometry(scene)
-    target = DepthTarget(glctx, resolution or camera.resolution)
+    target = DepthTarget(glctx, camera.resolution)
     try:
         in_frustum = soc.aabbs_in_frustum(scene.aabbs, camera.planes)
-        render_occluders(geometry, target, camera, np.flatnonzero(in_frustum & scene.occluder))
+        ids = np.flatnonzero(in_frustum & scene.occluder)
+        render_occluders(glctx.geometry(scene), target, camera, ids)
         depth = target.read()[::-1].astype(np.float64)
     finally:
         target.release()
     n, f = camera.near, camera.far
-    z_ndc = 2.0 * depth - 1.0
-    eye = 2.0 * f * n / (f + n - z_ndc * (f - n))
+    eye = 2.0 * f * n / (f + n - (2.0 * depth - 1.0) * (f - n))
     eye[depth >= 1.0] = np.nan
     return eye
 
 
-def abb6(scene, camera, label: str = ""):
-    """Abb. 6 figure: the frame, and the occluder depth buffer it is culled against."""
-    r = _renderer(scene, camera.resolution)
+def render(scene, cameras: Sequence, frame: int, *, bar=None) -> dict[str, pd.DataFrame]:
+    """Render Abb. 1, 4, 6 at camera ``frame`` and tabulate Abb. 7's flight and boxes.
+
+    Returns
+    -------
+    dict of DataFrame
+        ``pictures``: one row per panel — ``picture`` (``abb1``/``abb4``/``abb6``), ``panel``,
+        ``title``, ``frame``, ``objects`` (drawn in it), ``png`` (base64), ``depth_min``/
+        ``depth_max`` (world units that grey 0/254 stand for; Abb. 6's depth panel only; 255
+        = no occluder), ``false_culls`` (Abb. 1: against the oracle at this resolution);
+        ``cameras``: ``frame``, ``eye_x``/``eye_z``, ``forward_x``/``forward_z``;
+        ``boxes``: AABB footprints ``x0, z0, x1, z1`` and ``occluder``.
+    """
+    import soc
+    from soc.gl.context import default_context
+    from soc.rendering.renderer import Renderer
+
+    cam = cameras[frame]
+    with soc.Culler(scene, QUERY_METHOD, cam.resolution) as culler:
+        result = culler.cull(cam)
+    with soc.Oracle(scene) as oracle:
+        truth = oracle.visible(cam)
+    in_frustum = soc.aabbs_in_frustum(scene.aabbs, cam.planes)
+    kept = result.visible_ids
+    occluded = np.flatnonzero(in_frustum & ~result.visible)
+    false_culls = int((truth & ~result.visible).sum())
+    occ = np.flatnonzero(scene.occluder)
+    rest = np.flatnonzero(~scene.occluder)
+    tri = scene.triangle_counts
+    r = Renderer(default_context().geometry(scene), cam.resolution)
     try:
-        frame = _render(r, camera, np.arange(len(scene)))
+        images = [
+            (
+                "abb1",
+                f"kept by '{QUERY_METHOD}' ({len(kept):,} objects; red: their AABBs; "
+                f"{int((~in_frustum).sum()):,} outside the frustum)",
+                kept,
+                _render(r, cam, kept, outline=kept),
+            ),
+            (
+                "abb1",
+                f"classified occluded ({len(occluded):,} objects in the frustum), drawn "
+                f"alone; false culls vs oracle: {false_culls}",
+                occluded,
+                _render(r, cam, occluded),
+            ),
+        ]
+        if bar is not None:
+            bar.update(1)
+        images += [
+            (
+                "abb4",
+                f"occluders only ({len(occ):,} objects, {int(tri[occ].sum()):,} triangles)",
+                occ,
+                _render(r, cam, occ),
+            ),
+            (
+                "abb4",
+                f"occludees only ({len(rest):,} objects, {int(tri[rest].sum()):,} triangles)",
+                rest,
+                _render(r, cam, rest),
+            ),
+        ]
+        if bar is not None:
+            bar.update(1)
+        every = np.arange(len(scene))
+        images.append(("abb6", "frame (all objects)", every, _render(r, cam, every)))
     finally:
         r.release()
-    depth = occluder_depth(scene, camera)
-    shown = np.where(np.isnan(depth), np.nanmax(depth) if np.isfinite(depth).any() else 1.0, depth)
-    return _pair_figure(
-        [frame, shown],
-        [
-            "frame (all objects)",
-            f"occluder depth buffer {res_str(camera.resolution)} (dark = near; white = empty)",
-        ],
-        f"Seed 000 Abb. 6 — frame and its depth buffer — {label}",
+    rows = [
+        {
+            "picture": p,
+            "panel": i % 2,
+            "title": t,
+            "frame": frame,
+            "objects": len(ids),
+            "png": encode(img),
+        }
+        for i, (p, t, ids, img) in enumerate(images)
+    ]
+    rows[0]["false_culls"] = rows[1]["false_culls"] = false_culls
+    depth = occluder_depth(scene, cam)
+    lo, hi = (np.nanmin(depth), np.nanmax(depth)) if np.isfinite(depth).any() else (0.0, 1.0)
+    grey = np.where(np.isnan(depth), 255, np.round(254 * (depth - lo) / max(hi - lo, 1e-9)))
+    rows.append(
+        {
+            "picture": "abb6",
+            "panel": 1,
+            "frame": frame,
+            "objects": int(scene.occluder.sum()),
+            "title": f"occluder depth buffer {res_str(cam.resolution)} (dark = near; white = "
+            "no occluder)",
+            "png": encode(grey.astype(np.uint8)),
+            "depth_min": lo,
+            "depth_max": hi,
+        }
     )
+    if bar is not None:
+        bar.update(1)
+    boxes = scene.aabbs.astype(np.float64)
+    return {
+        "pictures": pd.DataFrame(rows),
+        "cameras": pd.DataFrame(
+            {
+                "frame": np.arange(len(cameras)),
+                "eye_x": [c.eye[0] for c in cameras],
+                "eye_z": [c.eye[2] for c in cameras],
+                "forward_x": [c.forward[0] for c in cameras],
+                "forward_z": [c.forward[2] for c in cameras],
+            }
+        ),
+        "boxes": pd.DataFrame(
+            {
+                "x0": boxes[:, 0, 0],
+                "z0": boxes[:, 0, 2],
+                "x1": boxes[:, 1, 0],
+                "z1": boxes[:, 1, 2],
+                "occluder": np.asarray(scene.occluder, bool),
+            }
+        ),
+    }
 
 
-def abb7(scene, cameras: Sequence, label: str = ""):
-    """Abb. 7 figure: the flight over the scene's AABB footprints, seen from above."""
+# -- drawing from the frames -------------------------------------------------------------------
+
+
+def _pair(frames, params, picture: str, suptitle: str):
+    from matplotlib.figure import Figure
+
+    rows = frames["pictures"].query("picture == @picture").sort_values("panel")
+    images = [decode(t) for t in rows.png]
+    h, w = images[0].shape[:2]
+    fig = Figure(figsize=(16, 16 / 2 * h / w + 0.9), layout="constrained")
+    for ax, img, (_, row) in zip(
+        fig.subplots(1, len(images)), images, rows.iterrows(), strict=True
+    ):
+        if "depth_min" in row and np.isfinite(row.get("depth_min", np.nan)):
+            from matplotlib.cm import ScalarMappable
+            from matplotlib.colors import Normalize
+
+            ax.imshow(img[..., 0] if img.ndim == 3 else img, cmap="gray", vmin=0, vmax=1)
+            norm = Normalize(
+                row.depth_min, row.depth_min + (row.depth_max - row.depth_min) * 255 / 254
+            )
+            label = "distance from the eye (world units)"
+            fig.colorbar(ScalarMappable(norm, "gray"), ax=ax, shrink=0.8, label=label)
+        else:
+            ax.imshow(img)
+        ax.set_title(row.title, fontsize=10)
+        ax.set_axis_off()
+    scene = frames["scene"].iloc[0]
+    fig.suptitle(f"{suptitle} — {scene.label}, frame {rows.frame.iloc[0]}", fontsize=11)
+    return fig
+
+
+def plot_abb1(frames, params):
+    """Abb. 1: left, the frame drawn from the objects the query method keeps, their AABBs
+    outlined in red; right, the objects in the frustum that it classified occluded, drawn
+    alone (false culls: of those, visible in the exact id render)."""
+    return _pair(frames, params, "abb1", "Seed 000 Abb. 1 — kept / classified occluded")
+
+
+def plot_abb4(frames, params):
+    """Abb. 4: the same camera drawing only the occluders (left) and only the occludees
+    (right)."""
+    return _pair(frames, params, "abb4", "Seed 000 Abb. 4 — occluders / occludees")
+
+
+def plot_abb6(frames, params):
+    """Abb. 6: the frame with every object (left) and the occluder depth buffer it is culled
+    against (right), as distance from the eye: dark = near, white = no occluder."""
+    return _pair(frames, params, "abb6", "Seed 000 Abb. 6 — frame and its depth buffer")
+
+
+def plot_abb7(frames, params):
+    """Abb. 7: the flight seen from above — AABB footprints (grey: occluders, blue:
+    occludees, dashed: the ground and the largest objects), the camera path in red with a
+    view-direction arrow every few frames, start (green circle), mid (orange diamond) and
+    exit (black cross)."""
     from matplotlib.collections import PolyCollection
     from matplotlib.figure import Figure
 
-    boxes = scene.aabbs.astype(np.float64)
-    lo, hi = boxes[:, 0][:, [0, 2]], boxes[:, 1][:, [0, 2]]
+    b, cams = frames["boxes"], frames["cameras"]
+    lo, hi = b[["x0", "z0"]].to_numpy(), b[["x1", "z1"]].to_numpy()
     quads = np.stack([lo, np.c_[hi[:, 0], lo[:, 1]], hi, np.c_[lo[:, 0], hi[:, 1]]], axis=1)
-    eyes = np.array([c.eye for c in cameras])[:, [0, 2]]
-    fwd = np.array([c.forward for c in cameras])[:, [0, 2]]
-
+    occluder = b.occluder.to_numpy(bool)
+    eyes = cams[["eye_x", "eye_z"]].to_numpy()
+    fwd = cams[["forward_x", "forward_z"]].to_numpy()
     fig = Figure(figsize=(10, 9.2), layout="constrained")
     ax = fig.subplots()
-    area = (hi - lo).prod(1)
-    extent = np.ptp(np.r_[lo, hi], axis=0).prod()
-    big = area > 0.25 * extent  # the ground and the like: outlined, or they hide everything
-    ax.add_collection(
-        PolyCollection(
-            quads[big],
-            facecolor="#f4f1ea",
-            edgecolor="#999999",
-            linewidth=0.8,
-            linestyle="--",
-            label="ground / largest objects",
-        )
-    )
-    ax.add_collection(
-        PolyCollection(
-            quads[~big & ~scene.occluder],
-            facecolor="#9fc5e8",
-            edgecolor="#6fa8dc",
-            linewidth=0.2,
-            label="occludee AABBs",
-        )
-    )
-    ax.add_collection(
-        PolyCollection(
-            quads[~big & scene.occluder],
-            facecolor="#555555",
-            edgecolor="#222222",
-            linewidth=0.4,
-            alpha=0.85,
-            label="occluder AABBs",
-        )
-    )
+    big = (hi - lo).prod(1) > 0.25 * np.ptp(np.r_[lo, hi], axis=0).prod()  # would hide all
+    for mask, style in (
+        (
+            big,
+            dict(
+                facecolor="#f4f1ea",
+                edgecolor="#999999",
+                linewidth=0.8,
+                linestyle="--",
+                label="ground / largest objects",
+            ),
+        ),
+        (
+            ~big & ~occluder,
+            dict(facecolor="#9fc5e8", edgecolor="#6fa8dc", linewidth=0.2, label="occludee AABBs"),
+        ),
+        (
+            ~big & occluder,
+            dict(
+                facecolor="#555555",
+                edgecolor="#222222",
+                linewidth=0.4,
+                alpha=0.85,
+                label="occluder AABBs",
+            ),
+        ),
+    ):
+        ax.add_collection(PolyCollection(quads[mask], **style))
     ax.plot(eyes[:, 0], eyes[:, 1], "-", color="tab:red", lw=1.5, label="camera path")
-    n = len(cameras)
-    step = max(1, n // ARROWS)
-    idx = np.arange(0, n, step)
+    n = len(eyes)
+    idx = np.arange(0, n, max(1, n // ARROWS))
     span = float(np.ptp(np.r_[lo, hi, eyes], axis=0).max())
     d = fwd[idx] / np.maximum(np.linalg.norm(fwd[idx], axis=1, keepdims=True), 1e-9)
     ax.quiver(
-        eyes[idx, 0],
-        eyes[idx, 1],
-        d[:, 0],
-        d[:, 1],
+        *eyes[idx].T,
+        *d.T,
         color="tab:red",
         angles="xy",
         scale_units="xy",
@@ -249,61 +340,8 @@ def abb7(scene, cameras: Sequence, label: str = ""):
     ax.set(
         xlabel="x (world units)",
         ylabel="z (world units)",
-        title=f"Seed 000 Abb. 7 — the {n}-frame flight over a top view\n{label}",
+        title=f"Seed 000 Abb. 7 — the {n}-frame flight over a top view\n"
+        f"{frames['scene'].label.iloc[0]}",
     )
     ax.legend(fontsize=8, loc="best", framealpha=0.9)
     return fig
-
-
-def render(
-    scene, cameras: Sequence, *, label: str = "", frame: int | None = None, bar=None
-) -> dict[str, Any]:
-    """Render Abb. 1, 4, 6, 7 from ``cameras`` (frame :func:`picture_frame` unless given).
-
-    Returns ``{"frame", "abb1_counts", "figures": {file name: Figure}}``. ``bar``: an open
-    tqdm bar, advanced once per picture.
-    """
-    frame = picture_frame(len(cameras)) if frame is None else frame
-    cam = cameras[frame]
-    frame_label = f"{label}, frame {frame}" if label else f"frame {frame}"
-    makers = {
-        "seed000_abb1.png": lambda: abb1(scene, cam, frame_label),
-        "seed000_abb4.png": lambda: abb4(scene, cam, frame_label),
-        "seed000_abb6.png": lambda: abb6(scene, cam, frame_label),
-        "seed000_abb7.png": lambda: abb7(scene, cameras, label),
-    }
-    figures, counts = {}, {}
-    for name, make in makers.items():
-        fig = make()
-        if isinstance(fig, tuple):
-            fig, counts = fig
-        figures[name] = fig
-        if bar is not None:
-            bar.update(1)
-    return {"frame": frame, "abb1_counts": counts, "figures": figures}
-
-
-PICTURES = 4  # figures made by :func:`render` (progress-bar steps)
-
-
-def save(rendered: dict[str, Any], out: str | os.PathLike) -> list[Path]:
-    """Write the figures of :func:`render` as PNG into ``out``."""
-    return [save_figure(fig, Path(out) / name) for name, fig in rendered["figures"].items()]
-
-
-def write(
-    scene,
-    cameras: Sequence,
-    out: str | os.PathLike,
-    *,
-    label: str = "",
-    frame: int | None = None,
-    bar=None,
-) -> dict[str, Any]:
-    """Render all pictures, then write them (nothing is written if rendering fails)."""
-    rendered = render(scene, cameras, label=label, frame=frame, bar=bar)
-    return {
-        "frame": rendered["frame"],
-        "abb1_counts": rendered["abb1_counts"],
-        "files": save(rendered, out),
-    }

@@ -5,7 +5,6 @@ line (exit status 2, no traceback)."""
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -89,13 +88,13 @@ def test_a_castle_path_without_the_castle_is_an_error(monkeypatch, capsys, tmp_p
     """A wrong VISLOD_DATA or --data is an error, never a fallback to the generated market
     (`vislod figures` used to run seed 000 on the market with exit 0)."""
     import experiments.figures
+    from experiments import seed000_demo
 
-    def run(quick, out, data):
-        raise AssertionError("a figure ran although the data path is wrong")
+    def run(*args, **kwargs):
+        raise AssertionError("seed 000 ran although the data path is wrong")
 
-    monkeypatch.setitem(cli.COMMANDS, "demo", _never)
-    seed000 = next(f for f in experiments.figures.FIGURES if f.key == "seed000")
-    monkeypatch.setattr(experiments.figures, "FIGURES", (replace(seed000, run=run),))
+    monkeypatch.setattr(seed000_demo, "load_scene", run)
+    monkeypatch.setattr(experiments.figures, "FIGURES", ())
     a_file = tmp_path / "castle.zip"
     a_file.write_text("")
     out = ["--out", str(tmp_path / "o")]

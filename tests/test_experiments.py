@@ -1,5 +1,5 @@
-"""The seed-000 experiments end to end in quick mode on the small clutter scene, and the CLI's
-error handling: a mistake gives exit status 2, one line on stderr and no files."""
+"""Seed 000 on the harness in quick mode on the small clutter scene (frames, claims, pictures),
+and the CLI's error handling: a mistake gives exit status 2, one line on stderr and no files."""
 
 from __future__ import annotations
 
@@ -7,16 +7,15 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import soc
-from experiments import cli, seed000_demo, seed000_pictures
+from experiments import cli, harness, seed000_demo, seed000_pictures
 from experiments import seed000_document as doc
-from experiments import seed000_resolutions as resolutions
 from experiments.common import (
     UsageError,
     atomic_write,
-    make_setup,
     parse_resolution,
     read_csv,
     res_str,
@@ -25,26 +24,8 @@ from experiments.common import (
 
 FRAMES = 3
 ROOT = Path(__file__).resolve().parents[1]
-
-PNGS = [
-    "seed000_abb1.png",
-    "seed000_abb4.png",
-    "seed000_abb6.png",
-    "seed000_abb7.png",
-    "seed000_abb8_left.png",
-    "seed000_abb8_right.png",
-    "seed000_abb9.png",
-    "seed000_abb10.png",
-]
-CSVS = [
-    "seed000_abb8_frames.csv",
-    "seed000_abb8_table.csv",
-    "seed000_abb8_methods.csv",
-    "seed000_abb9_frames.csv",
-    "seed000_abb9_table.csv",
-    "seed000_abb10_table.csv",
-    "seed000_frames.csv",
-]
+PNGS = [f"seed000_{n}.png" for n in ("abb1", "abb4", "abb6", "abb7", "abb8_left", "abb8_right")]
+PNGS += ["seed000_abb9.png", "seed000_abb10.png"]
 
 
 @pytest.fixture(scope="module")
@@ -53,176 +34,184 @@ def scene():
 
 
 @pytest.fixture(scope="module")
-def setup():
-    return make_setup(quick=True, frames=FRAMES)
-
-
-@pytest.fixture(scope="module")
-def demo_run(tmp_path_factory, scene, setup):
-    """One quick demo on clutter, shared by the tests that read its results."""
+def run(tmp_path_factory):
+    """One quick run on clutter with every method, written, shared by the tests."""
     out = tmp_path_factory.mktemp("results")
-    result = seed000_demo.demo(
-        setup,
-        scene_name="clutter",
-        scene=scene,
+    res = harness.run(
+        "seed000",
+        quick=True,
         out=out,
-        methods=["all"],
         progress=False,
-        verbose=False,
+        scene="clutter",
+        frames=FRAMES,
+        methods=("all",),
     )
-    return out, result
+    return res
 
 
-def _num(x: str) -> float:
-    return float(x) if x != "" else float("nan")
+def test_params_defaults_quick_and_checks():
+    exp = harness.get("demo")
+    assert exp.key == "seed000" and exp.uses_data
+    full, quick = exp.make_params(), exp.make_params(quick=True)
+    assert full.depth_resolutions() == list(doc.DEPTH_RESOLUTIONS)
+    assert quick.display == (480, 270) and quick.depth_resolutions()[0] == (80, 48)
+    assert full.method_list() == list(seed000_demo.DEMO_METHODS)
+    assert exp.make_params(methods=("all",)).method_list() == soc.method_names()
+    assert exp.make_params(methods=("none",)).method_list() == ["none", "queries"]
+    for bad in (
+        {"scene": "atlantis"},
+        {"frames": 1},
+        {"methods": ("telepathy",)},
+        {"resolutions": ()},
+    ):
+        with pytest.raises(UsageError):
+            exp.make_params(**bad).check()
 
 
-def test_demo_default_methods_fit_the_time_budget():
-    assert seed000_demo.check_methods(None) == list(seed000_demo.DEMO_METHODS)
-    assert seed000_demo.check_methods(["all"]) == soc.method_names()
-
-
-def test_demo_writes_every_file(demo_run):
-    out, result = demo_run
-    names = {p.name for p in out.iterdir()}
-    for name in [*PNGS, *CSVS, "seed000_summary.json"]:
+def test_every_file_is_written(run):
+    names = {p.name for p in run.folder.iterdir()}
+    for name in [*PNGS, *(f"{f}.csv" for f in seed000_demo.FRAMES), "claims.csv"]:
         assert name in names, f"{name} missing; written: {sorted(names)}"
-        assert (out / name).stat().st_size > 0
     for name in PNGS:
-        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert not [n for n in names if n.endswith(".tmp")], "temporary files left behind"
-    assert {Path(p).name for p in result["files"]} == names
+        assert (run.folder / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_abb8_table_lines_up_with_the_document(demo_run, setup):
-    """Quick mode runs at a quarter of the resolution; every column still maps to the
-    document's column of the same ratio, with the document's numbers beside ours."""
-    out, _ = demo_run
-    table = read_csv(out / "seed000_abb8_table.csv")
-    assert [r["depth_resolution"] for r in table] == [res_str(r) for r in setup.resolutions]
-    assert [r["document_resolution"] for r in table] == [res_str(r) for r in doc.DEPTH_RESOLUTIONS]
-    for r in table:
-        col = tuple(int(v) for v in r["document_resolution"].split("x"))
-        for q in doc.QUANTITIES:
-            assert _num(r[f"doc_{q}"]) == pytest.approx(doc.ABB8[col][q])
-        assert 0.0 <= _num(r["triangles_culled_pct"]) <= 100.0
-        assert _num(r["ms_cull"]) > 0 and _num(r["ms_draw"]) > 0
-        assert int(r["frames"]) == FRAMES
+def test_per_frame_rows_are_consistent(run, scene):
+    """Every frame × run: visible + culled = N, percentages in [0, 100], draw calls = visible
+    (one mesh per clutter object), frame time = cull + draw where drawn; one row per frame."""
+    df = run.frames["frames"]
+    runs = df.groupby("run")
+    assert (runs.size() == FRAMES).all() and (runs.frame.nunique() == FRAMES).all()
+    assert ((df.models_visible + df.models_culled) == len(scene)).all()
+    assert df.triangles_culled_pct.between(0, 100).all()
+    assert (df.draw_calls == df.models_visible).all()
+    drawn = df[df.drawn.astype(bool)]
+    np.testing.assert_allclose(drawn.ms_total, drawn.ms_cull + drawn.ms_draw, rtol=1e-4, atol=1e-3)
+    oracle = df[df.method == "oracle"]
+    assert len(oracle) == FRAMES and (oracle.ms_cull == 0).all()
 
 
-def test_per_frame_rows_are_consistent(demo_run, scene, setup):
-    """Every frame: visible + culled = N, percentages in [0, 100], draw calls = visible
-    (one mesh per clutter object), frame time = cull + draw."""
-    out, _ = demo_run
-    rows = read_csv(out / "seed000_frames.csv")
-    runs = {r["run"] for r in rows}
-    assert "oracle" in runs
-    assert len(rows) == FRAMES * len(runs)
-    for r in rows:
-        assert int(r["models_visible"]) + int(r["models_culled"]) == len(scene)
-        assert 0.0 <= _num(r["triangles_culled_pct"]) <= 100.0
-        assert int(r["draw_calls"]) == int(r["models_visible"])
-        if r["ms_draw"]:
-            total = _num(r["ms_cull"]) + _num(r["ms_draw"])
-            assert _num(r["ms_total"]) == pytest.approx(total, rel=1e-4, abs=1e-3)
+def test_conservative_runs_never_cull_a_visible_object(run):
+    """The query method at the display resolution and the conservative HiZ curve at every
+    depth resolution: no false culls against the oracle."""
+    df, p = run.frames["frames"], run.params
+    q = seed000_demo._rows(df, "queries", p.display)
+    assert len(q) == FRAMES and (q.false_culls == 0).all()
+    for r in p.depth_resolutions():
+        c = seed000_demo._conservative(df, r)
+        assert len(c) == FRAMES and (c.false_culls == 0).all(), res_str(r)
 
 
-def test_queries_at_display_resolution_never_cull_a_visible_object(demo_run, setup):
-    """The query method is conservative at the oracle's (display) resolution."""
-    _, result = demo_run
-    rows = result["runs"].get("queries", setup.display)
-    assert len(rows) == FRAMES
-    assert all(r["false_culls"] == 0 for r in rows)
+def test_abb8_left_has_every_method(run, scene):
+    s, p = run.frames["summary"], run.params
+    assert seed000_demo._methods(run.frames, p) == soc.method_names(scene)
+    assert seed000_demo._one(s, "none", p.display).triangles_culled_pct == 0.0
+    assert seed000_demo._one(s, "oracle", p.display).triangles_culled_pct > 0.0
 
 
-def test_abb8_left_has_every_method_and_the_ideal(demo_run, scene):
-    out, _ = demo_run
-    methods = [r["method"] for r in read_csv(out / "seed000_abb8_methods.csv")]
-    assert methods == [*soc.method_names(scene), "oracle (ideal)"]
-    ideal = read_csv(out / "seed000_abb8_methods.csv")[-1]
-    none = read_csv(out / "seed000_abb8_methods.csv")[methods.index("none")]
-    assert _num(none["triangles_culled_pct"]) == 0.0
-    assert _num(ideal["triangles_culled_pct"]) > 0.0
+def test_abb9_each_stage_culls_at_least_as_many(run):
+    """Per frame: nothing culls nothing, frustum culls at least that, the depth test more."""
+    df, d = run.frames["frames"], run.params.display
+    per = [
+        seed000_demo._rows(df, "queries", d, frustum=f, depth_test=t).models_culled.to_numpy()
+        for f, t in seed000_demo.SWITCHES.values()
+    ]
+    assert (per[0] == 0).all() and (per[0] <= per[1]).all() and (per[1] <= per[2]).all()
 
 
-def test_abb9_each_stage_culls_at_least_as_many(demo_run, scene):
-    """Depth test culls at least as many models as frustum only, which culls at least as many
-    as nothing — per frame, not only on average; nothing culls nothing."""
-    out, result = demo_run
-    table = read_csv(out / "seed000_abb9_table.csv")
-    assert [r["switches"] for r in table] == list(doc.SWITCHES)
-    assert result["abb9"]["trend_holds"]
-    frames = read_csv(out / "seed000_abb9_frames.csv")
-    by = {}
-    for r in frames:
-        key = (r["frustum"] == "True", r["depth_test"] == "True")
-        by.setdefault(key, {})[int(r["frame"])] = int(r["models_culled"])
-    for f in range(FRAMES):
-        assert by[(False, False)][f] == 0
-        assert by[(False, False)][f] <= by[(True, False)][f] <= by[(True, True)][f]
-    for r in table:
-        assert _num(r["models_visible"]) + _num(r["models_culled"]) == pytest.approx(len(scene))
-        expected = doc.ABB9[r["switches"]]["models_culled"]
-        assert _num(r["doc_models_culled"]) == pytest.approx(expected)
+def test_summary_fps_is_one_over_the_mean_frame(run):
+    s = run.frames["summary"]
+    np.testing.assert_allclose(s.fps_mean, 1e3 / s.ms_total, rtol=1e-6)
+    assert (s.frames == FRAMES).all()
 
 
-def test_abb10_summary(demo_run, setup, scene):
-    out, result = demo_run
-    table = read_csv(out / "seed000_abb10_table.csv")
-    groups = [r["group"] for r in table]
-    assert groups.count("method") == len(soc.method_names(scene))
-    assert groups.count("ideal") == 1
-    assert groups.count("depth resolution") == len(setup.resolutions)
-    for r in table:
-        assert _num(r["fps_mean"]) == pytest.approx(1e3 / _num(r["ms_total_mean"]), rel=1e-4)
-        assert _num(r["ms_total_median"]) > 0
-    ideal = next(r for r in table if r["group"] == "ideal")
-    assert _num(ideal["ms_cull_mean"]) == 0.0
-    assert {c["claim"] for c in result["abb10"]["claims"]} <= set(doc.CLAIMS.values())
-    # seed 000's MOC-vs-HiZ claim, measured with masked and hiz-gpu (beyond the document)
-    moc = next(c for c in result["abb10"]["claims"] if c["claim"] == doc.CLAIMS["moc_vs_hiz"])
-    assert doc.MOC_COMPARISON_MISSING in moc["document"] and "masked culls" in moc["measured"]
+def test_claims_verdicts_and_rows(run):
+    c = run.claims.set_index("item")
+    assert set(c.verdict) <= set(harness.VERDICTS)
+    moc = c.loc["comparison with MOC (beyond the document)"]
+    assert moc.verdict == "measured" and doc.MOC_COMPARISON_MISSING in moc.document
+    best = c.loc["best configuration of the OGL method"]
+    assert best.document == "Performance ist ohne OC, aber mit FC am besten"
+    assert "frustum" in best.ours and "none" in best.ours
+    # the document's rise at 2432x1440 and 3840x2160 is never matched as "numbers"
+    for col in ("2432x1440", "3840x2160"):
+        row = c.loc[next(i for i in c.index if i.startswith(f"Abb. 8 table, {col}"))]
+        assert row.verdict == "differs" and "rises" in row.why
 
 
-def test_summary_json(demo_run, scene):
-    out, _ = demo_run
-    summary = json.loads((out / "seed000_summary.json").read_text())
-    assert summary["scene"]["objects"] == len(scene)
-    assert summary["setup"]["quick"] is True
-    assert summary["document"]["abb8"]["1920x1080"]["triangles_culled_pct"] == 43.81
-    assert summary["pictures"]["abb1_counts"]["false_culls"] == 0
+def test_a_flat_curve_is_not_the_documents_numbers(run):
+    """Our level the same at every depth resolution and equal to the document's 3840x2160
+    value: the trend row differs and no column is "numbers"."""
+    frames = dict(run.frames)
+    s = frames["summary"].copy()
+    s.loc[s.method == "queries", "triangles_culled_pct"] = 75.0
+    frames["summary"] = s
+    c = seed000_demo.claims(frames, run.params).set_index("item")
+    trend = c.loc["Abb. 8 right, % triangles culled vs depth resolution"]
+    assert trend.verdict == "differs" and "same at every resolution" in trend.why
+    table = c[c.index.str.startswith("Abb. 8 table")]
+    assert len(table) == len(doc.DEPTH_RESOLUTIONS) and (table.verdict == "differs").all()
 
 
-def test_pictures_are_not_blank(demo_run):
-    """Each picture has more than a background: many distinct colours."""
+def test_pictures_are_not_blank_and_read_back(run):
+    """Each picture has more than a background; the run reads back with the same claims."""
     import matplotlib.image as mpimg
 
-    out, _ = demo_run
     for name in PNGS:
-        img = mpimg.imread(out / name)
+        img = mpimg.imread(run.folder / name)
         assert img.shape[0] > 300 and img.shape[1] > 300
         assert len(np.unique(img.reshape(-1, img.shape[-1]), axis=0)) > 50, name
+    pics = run.frames["pictures"]
+    assert sorted(pics.picture.unique()) == ["abb1", "abb4", "abb6"]
+    assert (pics.loc[pics.picture == "abb1", "false_culls"] == 0).all()
+    img = seed000_pictures.decode(pics.png.iloc[0])
+    assert img.shape[1] <= seed000_pictures.STORED_WIDTH and img.std() > 0
+    back = harness.load(run.experiment, run.folder.parent, run.params)
+    pd.testing.assert_frame_equal(back.claims, run.claims.astype(str))
 
 
-def test_a_failing_run_writes_nothing(tmp_path, scene, monkeypatch):
+def test_a_failing_run_writes_nothing(tmp_path, monkeypatch):
     """All work is done before the first file is written."""
 
     def broken(*a, **k):
         raise RuntimeError("picture failed")
 
-    monkeypatch.setattr(seed000_pictures, "render", broken)
-    setup = make_setup(quick=True, frames=2, resolutions=[(64, 36)])
+    monkeypatch.setattr(seed000_demo, "render", broken)
     with pytest.raises(RuntimeError, match="picture failed"):
-        seed000_demo.demo(
-            setup,
-            scene_name="clutter",
-            scene=scene,
+        harness.run(
+            "seed000",
+            quick=True,
             out=tmp_path / "r",
-            methods=["queries"],
             progress=False,
-            verbose=False,
+            scene="clutter",
+            frames=2,
+            resolutions=((64, 36),),
+            methods=("queries",),
         )
-    assert not (tmp_path / "r").exists()
+    assert not list((tmp_path / "r").rglob("*.csv"))
+
+
+def test_demo_alias_runs_quick(tmp_path, monkeypatch, capsys):
+    """`vislod demo --quick` (what `make demo` calls, with --scene) still works."""
+    monkeypatch.delenv("VISLOD_QUICK", raising=False)
+    argv = [
+        "demo",
+        "--quick",
+        "--scene",
+        "clutter",
+        "--frames",
+        "2",
+        "--methods",
+        "none",
+        "--resolutions",
+        "64x36",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+    ]
+    assert cli.main(argv) == 0
+    assert "seed000: written" in capsys.readouterr().out
+    assert (tmp_path / "seed000" / "seed000_abb10.png").is_file()
 
 
 def test_atomic_write_leaves_nothing_on_error(tmp_path):
@@ -277,6 +266,7 @@ def _run_cli(argv: list[str]) -> int:
     [
         ["demo", "--scene", "atlantis"],
         ["demo", "--scene", "clutter", "--resolutions", "1920by1080"],
+        ["demo", "--scene", "clutter", "--display", "0x10"],
         ["demo", "--scene", "clutter", "--resolutions", "0x10"],
         ["demo", "--scene", "clutter", "--methods", "telepathy"],
         ["demo", "--scene", "clutter", "--frames", "1"],
@@ -328,18 +318,3 @@ def test_notebook_is_committed_without_outputs():
     for c in code:
         assert c["outputs"] == [] and c["execution_count"] is None
     assert "VISLOD_QUICK" in json.dumps(nb) or "env_quick" in json.dumps(nb)
-
-
-def test_abb8_conservative_curve_never_culls_a_visible_object(demo_run, setup):
-    """The second Abb. 8 curve (hiz-gpu on a conservative occluder depth) at every depth
-    resolution: no false culls at the display, and its columns are in the table."""
-    out, result = demo_run
-    for r in setup.resolutions:
-        rows = result["runs"].get(
-            resolutions.CONSERVATIVE_METHOD, r, options=resolutions.CONSERVATIVE_OPTIONS
-        )
-        assert len(rows) == FRAMES
-        assert all(x["false_culls"] == 0 for x in rows), res_str(r)
-    table = read_csv(out / "seed000_abb8_table.csv")
-    assert all(_num(t["conservative_false_culls"]) == 0 for t in table)
-    assert all(0 <= _num(t["conservative_triangles_culled_pct"]) <= 100 for t in table)

@@ -120,16 +120,20 @@ def test_a_wrong_data_path_fails_before_any_figure_runs(tmp_path, monkeypatch):
 
 
 def test_seed000_uses_the_castle_only_when_data_holds_it(tmp_path):
-    seed000 = next(f for f in figures.FIGURES if f.key == "seed000")
-    assert seed000.check(True, None) == "market"
+    from experiments import harness
+
+    exp = harness.get("seed000")
+    assert exp.make_params().scene_name() == "market"
     (tmp_path / "file").write_text("x")
     for wrong in (tmp_path, tmp_path / "file", tmp_path / "missing"):
         with pytest.raises(UsageError):
-            seed000.check(True, str(wrong))
+            exp.make_params(data=str(wrong)).check()
     asset = tmp_path / "intel_castle" / "Asset"
     asset.mkdir(parents=True)
     (asset / "castle.set").write_text("")
-    assert seed000.check(True, str(tmp_path)) == "castle"
+    exp.make_params(data=str(tmp_path)).check()
+    assert exp.make_params(data=str(tmp_path)).scene_name() == "castle"
+    assert exp.make_params(True, data=str(tmp_path)).scene_name() == "market"  # quick: small
 
 
 def test_every_figure_names_its_module_and_known_extras():

@@ -80,4 +80,6 @@ def test_notebook_runs_in_quick_mode(path, tmp_path, monkeypatch):
         if o.get("output_type") == "error"
     ]
     assert not errors
-    assert any((tmp_path / "results").rglob("*")), "the notebook wrote no results"
+    # a harness notebook computes in memory (exp.compute) and writes nothing; others write
+    in_memory = any("exp.compute(" in c.source for c in nb.cells if c.cell_type == "code")
+    assert in_memory or any((tmp_path / "results").rglob("*")), "the notebook wrote no results"
