@@ -488,7 +488,8 @@ def claims(frames: dict[str, pd.DataFrame], params: Params) -> pd.DataFrame:
             + ", ".join(practical)
             + ": "
             + ", ".join(f"{s} {v:.3f}" for s, v in mean.items())
-            + f" (best {best})",
+            + f" (best {best}; Round-Robin {mean['round-robin'] / mean[best] - 1:+.1%} from it, "
+            f"Random-Choice {mean['random-choice'] / mean[best] - 1:+.1%})",
             harness.TREND if rr_ok else harness.DIFFERS,
             basis=f"Round-Robin's mean ratio within {ALIKE:.0%} of the best online strategy's: "
             + ("holds" if rr_ok else "does not hold"),
