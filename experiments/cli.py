@@ -42,7 +42,7 @@ import importlib.util
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import NoReturn
 
 from experiments.commands import add_parsers, run_command
 from experiments.common import (
@@ -54,7 +54,6 @@ from experiments.common import (
     default_out,
     env_quick,
     fmt,
-    format_table,
     parse_resolution,
     res_str,
     scaled,
@@ -116,6 +115,15 @@ def _named_methods(args: argparse.Namespace) -> list[str]:
 
             return soc.method_names()
         return list(args.methods)
+    for name in ("param_methods", "param_method"):  # harness experiments' method parameters
+        text = getattr(args, name, None)
+        if text:
+            methods = [m.strip() for m in text.split(",") if m.strip()]
+            if methods == ["all"]:
+                import soc
+
+                return soc.method_names()
+            return methods
     return []
 
 
@@ -123,19 +131,19 @@ def required_extras(args: argparse.Namespace) -> dict[str, str]:
     """Extras the parsed command needs → why ("" for the command itself, else the method or
     figure that needs it), from :data:`COMMAND_EXTRAS`, :data:`METHOD_EXTRAS` and the figures'
     ``extras``."""
-    if args.command in HARNESS:
-        return dict.fromkeys(HARNESS[args.command].extras, "")
-    need: dict[str, str] = dict.fromkeys(COMMAND_EXTRAS[args.command], "")
+    extras = (
+        HARNESS[args.command].extras if args.command in HARNESS else COMMAND_EXTRAS[args.command]
+    )
+    need: dict[str, str] = dict.fromkeys(extras, "")
     for m in _named_methods(args):
         for extra in METHOD_EXTRAS.get(m, ()):
             need.setdefault(extra, f"method {m!r}")
     if getattr(args, "view", None):
         need.setdefault("viz", "--view")
     if args.command == "figures" and not args.list:
-        from experiments.figures import FIGURES
         from experiments.harness import experiments
 
-        for fig in [*FIGURES, *experiments()]:
+        for fig in experiments():
             if not args.only or fig.key in args.only:
                 for extra in fig.extras:
                     need.setdefault(extra, f"figure {fig.key!r}")
@@ -301,8 +309,10 @@ def _validate_scene(args: argparse.Namespace) -> None:
 
 
 def cmd_cull(args: argparse.Namespace) -> int:
+    import pandas as pd
+
     import soc
-    from experiments.common import load_scene, mean
+    from experiments.common import load_scene
 
     _validate_scene(args)
     _check_method_culls(args.method, args.scene)  # before loading a large scene
@@ -314,24 +324,17 @@ def cmd_cull(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene, seed=args.seed, quick=args.quick, data=args.data)
     _check_method_culls(args.method, args.scene, scene)
     cams = soc.scenes.paths.flight(scene, frames=frames, width=display[0], height=display[1])
-    rows: list[dict[str, Any]] = []
-    oracle = soc.Oracle(scene) if args.oracle else None
-    try:
-        with soc.Culler(scene, method=args.method, resolution=resolution) as culler:
-            culler.cull(cams[0])  # warm-up, untimed
-            for i, cam in enumerate(cams):
-                truth = oracle.visible(cam) if oracle is not None else None
-                result = culler.cull(cam, truth=truth)
-                rows.append({"frame": i, **result.stats.as_row()})
-    finally:
-        if oracle is not None:
-            oracle.close()
-    if args.view:
-        from soc.viz import plot_cull
+    with soc.Culler(scene, method=args.method, resolution=resolution) as culler:
+        culler.cull(cams[0])  # warm-up, untimed
+        df = soc.fly(culler, cams, truth="oracle" if args.oracle else None, progress=False)
+        if args.view:
+            from soc.viz import plot_cull
 
-        plot_cull(scene, cams[-1], result, truth, path=cams, screenshot=args.view)
-        print(f"wrote {args.view}")
-
+            truth = soc.exact_visibility(scene, cams[-1]) if args.oracle else None
+            plot_cull(
+                scene, cams[-1], culler.cull(cams[-1]), truth, path=cams, screenshot=args.view
+            )
+            print(f"wrote {args.view}")
     cols = [
         "models_visible",
         "models_culled",
@@ -340,31 +343,29 @@ def cmd_cull(args: argparse.Namespace) -> int:
         "triangles_culled_pct",
         "draw_calls",
         "queries",
+        *(["false_culls", "false_keeps"] if args.oracle else []),
+        "ms_cull",
     ]
-    if args.oracle:
-        cols += ["false_culls", "false_keeps"]
-    cols += ["ms_cull"]
-    table = [[str(r["frame"]), *(r[c] for c in cols)] for r in rows]
-    table.append(["mean", *(mean(rows, c) for c in cols)])
+    table = df.set_index("frame")[cols]
+    table.loc["mean"] = table.mean()
     print(
-        format_table(
-            ["frame", *cols],
-            table,
-            f"{args.method!r} on {args.scene} ({len(scene):,} objects), depth buffer "
-            f"{res_str(resolution)}, display {res_str(display)}, {frames} frames",
-        )
+        f"{args.method!r} on {args.scene} ({len(scene):,} objects), depth buffer "
+        f"{res_str(resolution)}, display {res_str(display)}, {frames} frames"
     )
-    print(f"mean cull time {fmt(mean(rows, 'ms_cull'))} ms")
+    with pd.option_context("display.width", 200, "display.float_format", "{:,.2f}".format):
+        print(table.to_string())
+    print(f"mean cull time {fmt(df.ms_cull.mean())} ms")
     return 0
 
 
 def cmd_figures(args: argparse.Namespace) -> int:
     import os
 
-    from experiments.figures import FIGURES, run_figures
+    from experiments.figures import run_figures
+    from experiments.harness import experiments
 
     if args.list:
-        for f in FIGURES:
+        for f in experiments():
             print(f"{f.key:24s} seed {f.seed}  ~{f.minutes:g} min  {f.title}")
         return 0
     data = args.data or os.environ.get("VISLOD_DATA") or None

@@ -14,8 +14,7 @@ import math
 import os
 import re
 import tempfile
-from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -135,11 +134,6 @@ def read_csv(path: str | os.PathLike) -> list[dict[str, str]]:
         return list(csv.DictReader(f))
 
 
-def save_figure(fig, path: str | os.PathLike, dpi: int = 110) -> Path:
-    """Save a matplotlib ``Figure`` as PNG, atomically."""
-    return atomic_write(path, lambda p: fig.savefig(p, format="png", dpi=dpi))
-
-
 # -- resolutions -------------------------------------------------------------------------------
 
 _RES = re.compile(r"^\s*(\d+)\s*[x×X]\s*(\d+)\s*$")
@@ -166,55 +160,6 @@ def res_str(resolution: Sequence[int]) -> str:
 def scaled(resolution: Sequence[int], scale: float) -> tuple[int, int]:
     """``resolution`` times ``scale``, each side rounded to a multiple of 2 and at least 8."""
     return tuple(max(8, 2 * round(v * scale / 2)) for v in resolution)  # type: ignore[return-value]
-
-
-@dataclass(frozen=True)
-class Setup:
-    """Flight length and resolutions of one seed-000 run.
-
-    Attributes
-    ----------
-    frames : int
-        Cameras on the flight.
-    display : (width, height)
-        Camera (display) resolution, pixels: the oracle and all drawing run at it.
-    resolutions : tuple of (width, height)
-        Depth-buffer resolutions of the Abb. 8 sweep, pixels.
-    quick : bool
-    """
-
-    frames: int
-    display: tuple[int, int]
-    resolutions: tuple[tuple[int, int], ...]
-    quick: bool = False
-
-
-def make_setup(
-    quick: bool = False,
-    frames: int | None = None,
-    resolutions: Iterable[tuple[int, int]] | None = None,
-    display: tuple[int, int] | None = None,
-) -> Setup:
-    """The seed-000 setup (100 frames, 1080p, the document's six depth resolutions), or its
-    quick version (6 frames, everything at a quarter of the resolution). Arguments override;
-    a given ``display`` scales the default depth resolutions with it."""
-    from experiments.seed000_document import DEPTH_RESOLUTIONS
-
-    frames = frames if frames is not None else (QUICK_FRAMES if quick else FRAMES)
-    if frames < 2:
-        raise UsageError(f"--frames must be at least 2, got {frames}")
-    if display is None:
-        scale = QUICK_SCALE if quick else 1.0
-        display = scaled(DISPLAY, scale)
-    else:  # the depth resolutions keep their ratio to the display
-        display = (int(display[0]), int(display[1]))
-        scale = display[0] / DISPLAY[0]
-    if resolutions is None:
-        resolutions = [scaled(r, scale) for r in DEPTH_RESOLUTIONS]
-    res = tuple(tuple(int(v) for v in r) for r in resolutions)
-    if not res:
-        raise UsageError("need at least one depth resolution")
-    return Setup(frames, display, res, quick)  # type: ignore[arg-type]
 
 
 # -- scenes ------------------------------------------------------------------------------------
@@ -344,12 +289,6 @@ def scene_info(scene, name: str | None = None) -> dict[str, Any]:
 # -- numbers and small tables -------------------------------------------------------------------
 
 
-def mean(rows: Sequence[Mapping[str, Any]], key: str) -> float:
-    """Mean of ``row[key]`` over ``rows`` (None/missing skipped; NaN when nothing is left)."""
-    v = [float(r[key]) for r in rows if r.get(key) is not None and r.get(key) != ""]
-    return float(np.mean(v)) if v else float("nan")
-
-
 def median(rows: Sequence[Mapping[str, Any]], key: str) -> float:
     """Median of ``row[key]`` over ``rows`` (None/missing skipped; NaN when nothing is left)."""
     v = [float(r[key]) for r in rows if r.get(key) is not None and r.get(key) != ""]
@@ -370,42 +309,4 @@ def fmt(x: Any, digits: int = 2) -> str:
     return f"{x:,.{digits}f}"
 
 
-def format_table(header: Sequence[str], rows: Sequence[Sequence[Any]], title: str = "") -> str:
-    """A plain-text table: first column left-aligned, the others right-aligned."""
-    cells = [[str(h) for h in header]] + [
-        [c if isinstance(c, str) else fmt(c) for c in r] for r in rows
-    ]
-    widths = [max(len(r[i]) for r in cells) for i in range(len(header))]
-    lines = [title] if title else []
-    for k, r in enumerate(cells):
-        rest = zip(r[1:], widths[1:], strict=True)
-        parts = [r[0].ljust(widths[0])] + [c.rjust(w) for c, w in rest]
-        lines.append("  ".join(parts).rstrip())
-        if k == 0:
-            lines.append("  ".join("-" * w for w in widths))
-    return "\n".join(lines)
-
-
 # -- `python -m experiments.<module>` entry points ----------------------------------------------
-
-
-def module_main(
-    module: str,
-    description: str,
-    add_arguments: Callable[[Any], None],
-    command: Callable[[Any], int],
-    argv: Sequence[str] | None = None,
-) -> int:
-    """``python -m experiments.<module>``: parse ``argv`` with ``add_arguments``, run
-    ``command``; a :class:`UsageError` prints one line and returns 2."""
-    import argparse
-    import sys
-
-    p = argparse.ArgumentParser(prog=f"python -m experiments.{module}", description=description)
-    add_arguments(p)
-    args = p.parse_args(argv)
-    try:
-        return command(args)
-    except UsageError as e:
-        print(f"{module.replace('_', '-')}: error: {e}", file=sys.stderr)
-        return 2

@@ -77,6 +77,7 @@ computed into DataFrames, its pictures are drawn from them and its claims set be
 thesis's words. `VISLOD_QUICK=1`: a few frames at a quarter of the resolution (seconds); the
 full run takes a few minutes on two CPU cores."""
 
+
 def notebook(cells, prefix: str):
     """Cells → a validated notebook with stable cell ids (``prefix-NN``) and no outputs."""
     import nbformat
@@ -197,6 +198,7 @@ All the work is done by `experiments/seed001_lod_budget.py` (`vislod seed001-lod
 `vislod lod`) and `experiments/seed001_lod_quality.py` (`vislod seed001-lod-quality`, or
 `vislod lod-quality`; its meshes from `VISLOD_DATA` in full runs). `VISLOD_QUICK=1`:
 small scenes and meshes (seconds); the full runs take a few minutes each."""
+
 
 def build_lod():
     """``seed001_lod.ipynb``: the introduction, then the budget and the quality experiments'

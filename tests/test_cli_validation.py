@@ -87,14 +87,12 @@ def test_a_writable_output_folder_is_probed_and_left_as_it_was(monkeypatch, tmp_
 def test_a_castle_path_without_the_castle_is_an_error(monkeypatch, capsys, tmp_path, how):
     """A wrong VISLOD_DATA or --data is an error, never a fallback to the generated market
     (`vislod figures` used to run seed 000 on the market with exit 0)."""
-    import experiments.figures
     from experiments import seed000_demo
 
     def run(*args, **kwargs):
         raise AssertionError("seed 000 ran although the data path is wrong")
 
     monkeypatch.setattr(seed000_demo, "load_scene", run)
-    monkeypatch.setattr(experiments.figures, "FIGURES", ())
     a_file = tmp_path / "castle.zip"
     a_file.write_text("")
     out = ["--out", str(tmp_path / "o")]

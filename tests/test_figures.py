@@ -1,41 +1,84 @@
-"""`vislod figures`: runs each figure once, skips what is done (same inputs: mode, version,
-module source, data and scene) unless forced, checks every chosen figure's data first, rejects
-unknown names before running anything, and writes REPORT.md with a verdict per row from
-whatever summaries exist, linking only images tracked in git."""
+"""`vislod figures`: runs each experiment once, skips what is done (same inputs: parameters,
+data path, version, module source) unless forced, checks every chosen experiment's parameters
+and data first, rejects unknown names before running anything, and writes REPORT.md with a
+verdict per row from whatever results exist, linking only images tracked in git."""
 
 from __future__ import annotations
 
-import json
-from dataclasses import replace
+from dataclasses import dataclass
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
-from experiments import figures, report
+from experiments import figures, harness, report
 from experiments.common import UsageError
 
 
-def _fake(key: str, calls: list[str]) -> figures.Figure:
-    def run(quick, out, data):
-        calls.append(key)
-        claims = [
-            {"claim": "holds", "measured": "1", "verdict": "agrees"},
-            {"claim": "makes a frame slower", "measured": "2", "verdict": "differs",
-             "why": "the queries cost more than they hide"},
-        ]
-        (out / key).mkdir(parents=True, exist_ok=True)
-        (out / key / "summary.json").write_text(json.dumps({"claims": claims}))
+@dataclass(frozen=True)
+class FakeParams:
+    frames: int = 3
+    data: str | None = None
+    quick: bool = False
 
-    return figures.Figure(key, "009", f"fake {key}", f"{key}/summary.json", run, 0.1)
+    def check(self) -> None:
+        if self.data is not None and not (Path(self.data) / "castle").exists():
+            raise UsageError(f"no castle in {self.data!r}")
+
+
+def _fake(key: str, calls: list[str], uses_data: bool = False) -> harness.Experiment:
+    def compute(params, progress=False):
+        calls.append(key)
+        return {"frames": pd.DataFrame({"frame": range(params.frames), "ms": 1.0})}
+
+    def plot_ms(frames, params):
+        """Milliseconds per frame."""
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(2, 2))
+        fig.subplots().plot(frames["frames"].frame, frames["frames"].ms)
+        return fig
+
+    def claims(frames, params):
+        return harness.claims_frame(
+            [
+                harness.claim("holds", "claim", 1, harness.TREND, basis="ms never rises: holds"),
+                harness.claim(
+                    "makes a frame slower",
+                    "claim",
+                    2,
+                    harness.DIFFERS,
+                    why="the queries cost more than they hide",
+                ),
+            ]
+        )
+
+    return harness.experiment(
+        key,
+        seed="009",
+        title=f"fake {key}",
+        params=FakeParams,
+        compute=compute,
+        plots=[plot_ms],
+        claims=claims,
+        uses_data=uses_data,
+        minutes=0.1,
+    )
 
 
 @pytest.fixture
-def fakes(monkeypatch):
-    from experiments import harness
+def registry(monkeypatch):
+    """Only the fakes registered: no real experiment runs here."""
+    monkeypatch.setattr(harness, "MODULES", ())
+    monkeypatch.setattr(harness, "_REGISTRY", {})
+    return harness._REGISTRY
 
+
+@pytest.fixture
+def fakes(registry):
     calls: list[str] = []
-    monkeypatch.setattr(figures, "FIGURES", (_fake("a", calls), _fake("b", calls)))
-    monkeypatch.setattr(harness, "experiments", lambda: [])  # no real experiment runs here
+    _fake("a", calls)
+    _fake("b", calls)
     return calls
 
 
@@ -59,64 +102,48 @@ def test_unknown_figure_is_rejected_before_anything_runs(tmp_path, fakes):
 def test_report_has_a_verdict_per_row_and_says_why_rows_differ(tmp_path, fakes):
     figures.run_figures(tmp_path, only=["a"], progress=False)
     text = (tmp_path / "REPORT.md").read_text()
-    assert "Rows: 1 differs, 1 reproduced." in text
-    assert "| holds | claim | 1 | **reproduced** |" in text
+    assert "Rows: 1 differs, 1 trend." in text
+    assert "| holds | claim | 1 | **trend** | ms never rises: holds |" in text
     assert "the queries cost more than they hide" in text
+    assert "*Milliseconds per frame.*" in text
     assert "_not run_ (`vislod figures --only b`)" in text
 
 
-def test_every_real_figure_has_a_report_builder():
-    assert {f.key for f in figures.FIGURES} <= set(report.ROWS)
-
-
-def _data_fake(key: str, calls: list[str], checked: list) -> figures.Figure:
-    """A figure that reads data: its check rejects a folder without a ``castle`` marker."""
-    fig = _fake(key, calls)
-
-    def check(quick, data):
-        checked.append(data)
-        if data is not None and not (Path(data) / "castle").exists():
-            raise UsageError(f"no castle in {data!r}")
-        return "castle" if data else "market"
-
-    return replace(fig, uses_data=True, check=check)
-
-
-def test_resume_keys_on_the_data_and_scene_not_only_mode_and_version(tmp_path, monkeypatch):
+def test_resume_keys_on_the_data_path(tmp_path, registry):
     """Issue 14: a market run must not be 'already done' for a later castle run."""
-    from experiments import harness
-
-    calls, checked = [], []
-    monkeypatch.setattr(figures, "FIGURES", (_data_fake("d", calls, checked),))
-    monkeypatch.setattr(harness, "experiments", lambda: [])  # no real experiment runs here
+    calls: list[str] = []
+    _fake("d", calls, uses_data=True)
     castle = tmp_path / "data"
     (castle / "castle").mkdir(parents=True)
     out = tmp_path / "out"
-    figures.run_figures(out, progress=False)  # market
+    figures.run_figures(out, progress=False)  # no data
     figures.run_figures(out, data=str(castle), progress=False)  # castle: inputs changed
     figures.run_figures(out, data=str(castle), progress=False)  # same inputs: skipped
     assert calls == ["d", "d"]
-    stamp = json.loads((out / figures.STAMPS / "d.json").read_text())
-    assert stamp["scene"] == "castle" and stamp["data"] == str(castle.resolve())
 
 
 def test_resume_keys_on_the_module_source(tmp_path, monkeypatch, fakes):
     figures.run_figures(tmp_path, only=["a"], progress=False)
-    monkeypatch.setattr(figures, "_source_hash", lambda module: "edited")
+    monkeypatch.setattr(harness, "_source_hash", lambda module: "edited")
     figures.run_figures(tmp_path, only=["a"], progress=False)
     assert fakes == ["a", "a"]
 
 
-def test_a_wrong_data_path_fails_before_any_figure_runs(tmp_path, monkeypatch):
+def test_a_wrong_data_path_fails_before_any_figure_runs(tmp_path, registry):
     """No silent fallback to the market, and no figure run before the error."""
-    from experiments import harness
-
-    calls, checked = [], []
-    monkeypatch.setattr(figures, "FIGURES", (_fake("a", calls), _data_fake("d", calls, checked)))
-    monkeypatch.setattr(harness, "experiments", lambda: [])  # no real experiment runs here
+    calls: list[str] = []
+    _fake("a", calls)
+    _fake("d", calls, uses_data=True)
     with pytest.raises(UsageError, match="no castle"):
-        figures.run_figures(tmp_path, data=str(tmp_path), progress=False)
+        figures.run_figures(tmp_path / "out", data=str(tmp_path), progress=False)
     assert calls == []
+
+
+def test_an_unwritable_output_fails_before_any_figure_runs(tmp_path, fakes):
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(UsageError):
+        figures.run_figures(tmp_path / "file" / "sub", progress=False)
+    assert fakes == []
 
 
 def test_seed000_uses_the_castle_only_when_data_holds_it(tmp_path):
@@ -136,12 +163,15 @@ def test_seed000_uses_the_castle_only_when_data_holds_it(tmp_path):
     assert exp.make_params(True, data=str(tmp_path)).scene_name() == "market"  # quick: small
 
 
-def test_every_figure_names_its_module_and_known_extras():
+def test_every_experiment_names_its_module_and_known_extras():
     from experiments.cli import EXTRA_MODULES
 
-    for f in figures.FIGURES:
-        assert f.module and figures._source_hash(f.module), f.key
-        assert set(f.extras) <= set(EXTRA_MODULES), f.key
+    exps = harness.experiments()
+    assert {e.key for e in exps} >= {"seed000", "seed002", "seed003", "seed004-adaptive"}
+    for e in exps:
+        assert e.module and harness._source_hash(e.module), e.key
+        assert set(e.extras) <= set(EXTRA_MODULES), e.key
+        assert e.plots and e.notebook, e.key
 
 
 def test_report_links_only_tracked_images(tmp_path):
@@ -172,6 +202,4 @@ def test_every_image_link_of_the_tracked_report_resolves():
 def test_a_report_outside_the_checkouts_results_shows_every_png_beside_it(tmp_path, fakes):
     """Only the tracked results/REPORT.md is limited to tracked images."""
     figures.run_figures(tmp_path, only=["a"], progress=False)
-    (tmp_path / "a" / "plot.png").write_bytes(b"")
-    fig = report.write_report(tmp_path, [replace(figures.FIGURES[0], images="a/*.png")])
-    assert "![plot](a/plot.png)" in fig.read_text()
+    assert "![a_ms](a/a_ms.png)" in (tmp_path / "REPORT.md").read_text()

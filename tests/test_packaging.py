@@ -121,7 +121,7 @@ def _never(args):
         (
             ["figures", "--quick"],
             ("jax",),
-            "vislod figures needs the 'fit' extra (for figure 'seed000'): "
+            "vislod figures needs the 'fit' extra (for figure 'seed004-model'): "
             "pip install 'vislod[fit]'",
         ),
     ],
