@@ -346,7 +346,7 @@ def cmd_cull(args: argparse.Namespace) -> int:
         *(["false_culls", "false_keeps"] if args.oracle else []),
         "ms_cull",
     ]
-    table = df.set_index("frame")[cols]
+    table = df.set_index("frame")[cols].astype(float)
     table.loc["mean"] = table.mean()
     print(
         f"{args.method!r} on {args.scene} ({len(scene):,} objects), depth buffer "
