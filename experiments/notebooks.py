@@ -40,11 +40,50 @@ oracle). `VISLOD_QUICK=1`: 6 frames at a quarter of the resolution on the small 
 full run takes about half an hour on two CPU cores."""
 
 
+def scene_view_cells(method: str = "hiz-gpu") -> list:
+    """One frame of the flight seen from outside in 3D (:func:`soc.viz.plot_cull`, the
+    ``viz`` extra): kept and visible, false keeps, occlusion- and frustum-culled objects, false
+    culls in red, the camera's frustum and the flight path."""
+    from nbformat import v4
+
+    return [
+        v4.new_markdown_cell(
+            f"## One frame in 3D: what `{method}` kept (`soc.viz.plot_cull`)\n\n"
+            "Green: visible and kept; orange: hidden but kept (false keeps); blue: culled by "
+            "occlusion; grey: culled by the frustum; red: a visible object culled (none for a "
+            "conservative method). Occluders outlined; the camera's frustum and the flight "
+            "path drawn. Off-screen (EGL) here; `off_screen=False` gives an interactive view."
+        ),
+        v4.new_code_cell(
+            "import tempfile\n\n"
+            "from matplotlib.figure import Figure\n\n"
+            "import soc\n"
+            "import soc.viz\n"
+            "from experiments.common import load_scene\n\n"
+            'scene = load_scene("market", quick=quick)\n'
+            "cams = soc.scenes.paths.flight(scene, frames=12, width=480, height=270)\n"
+            f'with soc.Culler(scene, "{method}", (480, 270)) as culler:\n'
+            "    result = culler.cull(cams[6])\n"
+            'png = tempfile.NamedTemporaryFile(suffix=".png").name\n'
+            "image = soc.viz.plot_cull(\n"
+            '    scene, cams[6], result, truth="oracle", path=cams, screenshot=png, '
+            "window_size=(960, 600)\n"
+            ")\n"
+            "fig = Figure(figsize=(9.6, 6))\n"
+            "ax = fig.add_axes((0, 0, 1, 1))\n"
+            "ax.imshow(image)\n"
+            'ax.axis("off")\n'
+            "fig"
+        ),
+    ]
+
+
 def build_soc():
     """``seed000_soc.ipynb`` as an ``nbformat`` node (no outputs)."""
     from nbformat import v4
 
-    return notebook([v4.new_markdown_cell(SOC_INTRO), *experiment_cells("seed000")], "seed000")
+    cells = [v4.new_markdown_cell(SOC_INTRO), *experiment_cells("seed000"), *scene_view_cells()]
+    return notebook(cells, "seed000")
 
 
 def build_methods():
@@ -52,6 +91,7 @@ def build_methods():
     from nbformat import v4
 
     cells = experiment_cells("seed000", overrides={"methods": ("all",)})
+    cells += scene_view_cells("masked")
     return notebook([v4.new_markdown_cell(METHODS_INTRO), *cells], "seed000-methods")
 
 
