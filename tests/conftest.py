@@ -61,3 +61,18 @@ def check_conservative(scene, cameras, resolution, methods, **options) -> int:
         report = soc.testing.assert_conservative(m, [case], reset=True, **options.get(m, {}))
         culled_something = report.culled_views
     return culled_something
+
+
+def cli_usage_error(argv: list[str], capsys) -> str:
+    """Run ``vislod argv`` and assert a user mistake: exit status 2 (argparse's own errors
+    included) and one line on stderr starting ``vislod: error:``; returns that line."""
+    from experiments import cli
+
+    try:
+        status = cli.main(argv)
+    except SystemExit as e:  # argparse's own errors
+        status = int(e.code)
+    err = capsys.readouterr().err.strip()
+    assert status == 2, (status, err)
+    assert err.startswith("vislod: error:") and len(err.splitlines()) == 1, err
+    return err

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import cli_usage_error
 
 import soc
 from experiments import cli, harness, seed000_demo, seed000_pictures
@@ -254,13 +255,6 @@ def test_document_columns():
 # -- the command line ---------------------------------------------------------------------------
 
 
-def _run_cli(argv: list[str]) -> int:
-    try:
-        return cli.main(argv)
-    except SystemExit as e:  # argparse's own errors
-        return int(e.code)
-
-
 @pytest.mark.parametrize(
     "argv",
     [
@@ -287,11 +281,7 @@ def test_cli_mistakes_exit_2_with_one_line_and_no_files(argv, tmp_path, monkeypa
     out = tmp_path / "results"
     if argv[0] == "demo":
         argv = [*argv, "--out", str(out), "--no-progress"]
-    assert _run_cli(argv) == 2
-    err = capsys.readouterr().err.strip()
-    assert err.startswith("vislod: error:"), err
-    assert len(err.splitlines()) == 1, err
-    assert "Traceback" not in err
+    cli_usage_error(argv, capsys)
     assert not out.exists()
     assert list(tmp_path.iterdir()) == []
 

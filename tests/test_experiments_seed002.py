@@ -5,8 +5,9 @@ and the CLI's handling of mistakes: exit status 2, one line on stderr and no fil
 from __future__ import annotations
 
 import pytest
+from conftest import cli_usage_error
 
-from experiments import cli, harness
+from experiments import harness
 
 FRAMES = 4
 DISPLAY = (240, 136)
@@ -87,12 +88,5 @@ def test_grid_alias_is_the_same_experiment():
 def test_cli_mistakes_exit_2_with_one_line_and_no_files(argv, tmp_path, monkeypatch, capsys):
     monkeypatch.delenv("VISLOD_QUICK", raising=False)
     out = tmp_path / "results"
-    try:
-        status = cli.main([*argv, "--out", str(out), "--no-progress"])
-    except SystemExit as e:  # argparse's own errors
-        status = int(e.code)
-    assert status == 2
-    err = capsys.readouterr().err.strip()
-    assert err.startswith("vislod: error:"), err
-    assert len(err.splitlines()) == 1, err
+    cli_usage_error([*argv, "--out", str(out), "--no-progress"], capsys)
     assert not out.exists() or not any(out.rglob("*.csv"))

@@ -5,6 +5,7 @@ picture drawn from the frames, and mistakes refused before any work (exit 2, one
 from __future__ import annotations
 
 import pytest
+from conftest import cli_usage_error
 
 from experiments import cli, harness
 from experiments import seed001_portals as exp
@@ -70,15 +71,7 @@ def test_check_refuses_bad_values(override, needle):
 )
 def test_cli_mistakes_exit_2_with_one_line_and_no_files(argv, tmp_path, monkeypatch, capsys):
     monkeypatch.delenv("VISLOD_QUICK", raising=False)
-    out = tmp_path / "results"
-    try:
-        status = cli.main([*argv, "--out", str(out), "--no-progress"])
-    except SystemExit as e:  # argparse's own errors
-        status = int(e.code)
-    assert status == 2
-    err = capsys.readouterr().err.strip()
-    assert err.startswith("vislod: error:"), err
-    assert len(err.splitlines()) == 1, err
+    cli_usage_error([*argv, "--out", str(tmp_path / "results"), "--no-progress"], capsys)
     assert list(tmp_path.iterdir()) == []
 
 
