@@ -90,8 +90,8 @@ from soc.culling.software_raster import (
     EDGE_MARGIN_PX,
     RECORD,
     _edge,
-    _row_limits,
     occluder_triangles,
+    pixel_rows,
     setup_triangles,
 )
 
@@ -241,12 +241,7 @@ def rasterize(records, count, width, height, mask, z0, z1, margin):  # pragma: n
             records[t, 9],
             records[t, 10],
         )
-        y_lo, y_hi = min(y0, min(y1, y2)), max(y0, max(y1, y2))
-        y_lo, y_hi = _row_limits(x0, y0, x1, y1, margin, y_lo, y_hi)
-        y_lo, y_hi = _row_limits(x1, y1, x2, y2, margin, y_lo, y_hi)
-        y_lo, y_hi = _row_limits(x2, y2, x0, y0, margin, y_lo, y_hi)
-        j_lo = max(0, math.ceil(min(max(y_lo - 0.5, -1.0), height)))
-        j_hi = min(height - 1, math.floor(min(max(y_hi - 0.5, -1.0), height)))
+        j_lo, j_hi = pixel_rows(x0, y0, x1, y1, x2, y2, margin, height)
         i_min = max(0, math.ceil(min(max(min(x0, min(x1, x2)) - 0.5, -1.0), fw)))
         i_max = min(width - 1, math.floor(min(max(max(x0, max(x1, x2)) - 0.5, -1.0), fw)))
         if j_lo > j_hi or i_min > i_max:

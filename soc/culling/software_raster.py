@@ -290,6 +290,20 @@ def _row_limits(x0, y0, x1, y1, margin, y_lo, y_hi):
     return y_lo, y_hi
 
 
+@numba.njit(cache=True, inline="always")
+def pixel_rows(x0, y0, x1, y1, x2, y2, margin, height):
+    """The rows ``j_lo..j_hi`` (clamped to ``[0, height)``; empty when ``j_lo > j_hi``) whose
+    pixel centres ``j + 0.5`` can lie ``margin`` inside a triangle: its vertical extent,
+    narrowed by its horizontal edges (:func:`_row_limits`). Shared by both rasterizers."""
+    y_lo, y_hi = min(y0, min(y1, y2)), max(y0, max(y1, y2))
+    y_lo, y_hi = _row_limits(x0, y0, x1, y1, margin, y_lo, y_hi)
+    y_lo, y_hi = _row_limits(x1, y1, x2, y2, margin, y_lo, y_hi)
+    y_lo, y_hi = _row_limits(x2, y2, x0, y0, margin, y_lo, y_hi)
+    j_lo = max(0, math.ceil(min(max(y_lo - 0.5, -1.0), height)))
+    j_hi = min(height - 1, math.floor(min(max(y_hi - 0.5, -1.0), height)))
+    return j_lo, j_hi
+
+
 def triangle_records(triangles, view_proj: np.ndarray, resolution: tuple[int, int]) -> np.ndarray:
     """Set up a flat list of world triangles (:func:`setup_triangles` without grouping).
 
@@ -343,12 +357,7 @@ def rasterize_records(records, count, depth, margin):  # pragma: no cover - comp
             records[t, 5],
         )
         a, b, c, zvmax = records[t, 6], records[t, 7], records[t, 8], records[t, 9]
-        y_lo, y_hi = min(y0, min(y1, y2)), max(y0, max(y1, y2))
-        y_lo, y_hi = _row_limits(x0, y0, x1, y1, margin, y_lo, y_hi)
-        y_lo, y_hi = _row_limits(x1, y1, x2, y2, margin, y_lo, y_hi)
-        y_lo, y_hi = _row_limits(x2, y2, x0, y0, margin, y_lo, y_hi)
-        j_lo = max(0, math.ceil(min(max(y_lo - 0.5, -1.0), height)))
-        j_hi = min(height - 1, math.floor(min(max(y_hi - 0.5, -1.0), height)))
+        j_lo, j_hi = pixel_rows(x0, y0, x1, y1, x2, y2, margin, height)
         l0x, l0q, r0x, r0q = _edge(x0, y0, x1, y1, margin)
         l1x, l1q, r1x, r1q = _edge(x1, y1, x2, y2, margin)
         l2x, l2q, r2x, r2q = _edge(x2, y2, x0, y0, margin)
