@@ -53,7 +53,6 @@ from experiments.common import (
     check_writable,
     default_out,
     env_quick,
-    fmt,
     parse_resolution,
     res_str,
     scaled,
@@ -354,7 +353,7 @@ def cmd_cull(args: argparse.Namespace) -> int:
     )
     with pd.option_context("display.width", 200, "display.float_format", "{:,.2f}".format):
         print(table.to_string())
-    print(f"mean cull time {fmt(df.ms_cull.mean())} ms")
+    print(f"mean cull time {df.ms_cull.mean():.2f} ms")
     return 0
 
 

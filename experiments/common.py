@@ -1,5 +1,5 @@
 """What every experiment shares: where results go, writing them atomically, choosing a scene,
-parsing resolutions, quick mode, and printing small tables.
+parsing resolutions and quick mode.
 
 Experiments take every setting as an argument; only the entry points (the CLI, notebooks)
 read the environment (``VISLOD_QUICK``, ``VISLOD_DATA``) and say so when they do.
@@ -7,14 +7,12 @@ read the environment (``VISLOD_QUICK``, ``VISLOD_DATA``) and say so when they do
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 import math
 import os
 import re
 import tempfile
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -99,39 +97,6 @@ def write_json(path: str | os.PathLike, data: Any) -> Path:
     """Write ``data`` as indented JSON (numpy scalars and arrays allowed), atomically."""
     text = json.dumps(data, indent=2, default=_jsonable, allow_nan=False)
     return atomic_write(path, lambda p: p.write_text(text + "\n"))
-
-
-def write_csv(path: str | os.PathLike, rows: Sequence[Mapping[str, Any]]) -> Path:
-    """Write ``rows`` (dicts; columns = union of keys in first-seen order), atomically.
-
-    ``None`` is written as an empty cell, floats rounded to 6 decimals.
-    """
-    columns: dict[str, None] = {}
-    for r in rows:
-        columns.update(dict.fromkeys(r))
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=list(columns), lineterminator="\n")
-    w.writeheader()
-    for r in rows:
-        w.writerow({k: _cell(v) for k, v in r.items()})
-    text = buf.getvalue()
-    return atomic_write(path, lambda p: p.write_text(text))
-
-
-def _cell(v: Any) -> Any:
-    if v is None:
-        return ""
-    if isinstance(v, np.generic):
-        v = v.item()
-    if isinstance(v, float):
-        return repr(round(v, 6)) if math.isfinite(v) else str(v)
-    return v
-
-
-def read_csv(path: str | os.PathLike) -> list[dict[str, str]]:
-    """Rows of a CSV written by :func:`write_csv`, as dicts of strings."""
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
 
 
 # -- resolutions -------------------------------------------------------------------------------
@@ -287,26 +252,3 @@ def scene_info(scene, name: str | None = None) -> dict[str, Any]:
 
 
 # -- numbers and small tables -------------------------------------------------------------------
-
-
-def median(rows: Sequence[Mapping[str, Any]], key: str) -> float:
-    """Median of ``row[key]`` over ``rows`` (None/missing skipped; NaN when nothing is left)."""
-    v = [float(r[key]) for r in rows if r.get(key) is not None and r.get(key) != ""]
-    return float(np.median(v)) if v else float("nan")
-
-
-def fmt(x: Any, digits: int = 2) -> str:
-    """A number for a printed table (``—`` for None/NaN, integers without decimals)."""
-    if x is None:
-        return "—"
-    if isinstance(x, str):
-        return x
-    x = float(x)
-    if not math.isfinite(x):
-        return "—"
-    if x == int(x) and abs(x) >= 1000:
-        return f"{int(x):,}"
-    return f"{x:,.{digits}f}"
-
-
-# -- `python -m experiments.<module>` entry points ----------------------------------------------

@@ -18,9 +18,7 @@ from experiments.common import (
     UsageError,
     atomic_write,
     parse_resolution,
-    read_csv,
     res_str,
-    write_csv,
 )
 
 FRAMES = 3
@@ -223,11 +221,6 @@ def test_atomic_write_leaves_nothing_on_error(tmp_path):
     with pytest.raises(OSError):
         atomic_write(tmp_path / "x.csv", half)
     assert list(tmp_path.iterdir()) == []
-    write_csv(tmp_path / "y.csv", [{"a": 1, "b": None}, {"a": 2.5, "c": "z"}])
-    assert read_csv(tmp_path / "y.csv") == [
-        {"a": "1", "b": "", "c": ""},
-        {"a": "2.5", "b": "", "c": "z"},
-    ]
 
 
 @pytest.mark.parametrize(
