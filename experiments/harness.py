@@ -32,6 +32,7 @@ import importlib.util
 import inspect
 import json
 import time
+import types
 import typing
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -448,7 +449,7 @@ def parse_value(text: str, kind: Any) -> Any:
     ``WxH`` resolution for ``tuple[int, int]``, or a tuple/list of those, comma-separated)."""
     origin = typing.get_origin(kind)
     args = [a for a in typing.get_args(kind) if a is not type(None)]
-    if origin in (typing.Union, getattr(__import__("types"), "UnionType", None)) and args:
+    if origin in (typing.Union, types.UnionType) and args:
         if text.lower() in ("none", ""):
             return None
         return parse_value(text, args[0])

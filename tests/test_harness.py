@@ -140,7 +140,7 @@ def test_command_line_options_and_alias(toy, tmp_path, capsys):
     assert pd.read_csv(tmp_path / "toy" / "frames.csv").ms.iloc[-1] == 16.0
 
 
-def test_report_section_and_notebook_cells(toy, tmp_path):
+def test_report_section_shows_pictures_captions_and_claims(toy, tmp_path):
     from experiments.report import experiment_lines
 
     harness.run(toy, quick=True, out=tmp_path, progress=False)
