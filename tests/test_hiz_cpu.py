@@ -127,6 +127,22 @@ def test_culls_most_of_what_queries_culls(small_market):
     assert culled["hiz-cpu"] >= 0.8 * culled["queries"], culled
 
 
+def test_threads_cull_the_same_objects_with_the_same_depth(clutter_scenes):
+    scene = clutter_scenes[0]
+    res = (333, 197)
+    cams = random_cameras(scene, 5, seed=12, width=res[0], height=res[1])
+    with (
+        soc.Culler(scene, method="hiz-cpu", resolution=res, threads=1) as one,
+        soc.Culler(scene, method="hiz-cpu", resolution=res, threads=3) as three,
+    ):
+        for cam in cams:
+            a, b = one.cull(cam), three.cull(cam)
+            np.testing.assert_array_equal(a.visible, b.visible)
+            np.testing.assert_array_equal(one.method.last_depth, three.method.last_depth)
+    with pytest.raises(ValueError, match="threads must be >= 1"):
+        soc.Culler(scene, method="hiz-cpu", resolution=res, threads=0)
+
+
 @pytest.mark.heavy
 def test_runs_at_every_abb8_resolution_on_the_full_market():
     scene = soc.scenes.market()

@@ -266,6 +266,32 @@ def test_depth_is_never_nearer_than_gl_occluder_depth(clutter_scenes, resolution
     assert covered > 0.5 * total, (covered, total)
 
 
+@pytest.mark.parametrize("resolution", [(320, 192), (333, 197), (1283, 725)])
+def test_parallel_bands_give_the_serial_buffer_bit_for_bit(clutter_scenes, resolution):
+    """Bands own whole subtile rows and merge in triangle order, so 2, 3 or 7 threads' buffer
+    is the serial one exactly (stripe borders, partial tiles and odd sizes included)."""
+    width, height = resolution
+    for k, scene in enumerate(clutter_scenes[:2]):
+        buf = MaskedBuffer(scene, resolution, threads=1)
+        for cam in random_cameras(scene, 6, seed=90 + k, width=width, height=height):
+            buf.render(cam)
+            serial = (buf.mask.copy(), buf.z0.copy(), buf.z1.copy(), buf.last_stats)
+            assert serial[3].subtile_updates > 0
+            for bands in (2, 3, 7):
+                buf.bands = bands
+                buf.render(cam)
+                assert buf.last_stats == serial[3]
+                np.testing.assert_array_equal(buf.mask, serial[0])
+                np.testing.assert_array_equal(buf.z0, serial[1])
+                np.testing.assert_array_equal(buf.z1, serial[2])
+            buf.bands = 1
+
+
+def test_threads_must_be_positive(clutter_scenes):
+    with pytest.raises(ValueError, match="threads must be >= 1"):
+        MaskedBuffer(clutter_scenes[0], (64, 32), threads=0)
+
+
 # -- conservative against the oracle, and it culls -------------------------------------------
 
 

@@ -134,3 +134,38 @@ def test_a_screen_filling_quad_has_the_exact_depth():
     assert covered.mean() > 0.95
     assert depth[covered].min() >= expected - 1e-7
     assert depth[covered].max() <= expected + 2e-6
+
+
+@pytest.mark.parametrize("resolution", [(320, 192), (333, 197)])
+def test_threads_give_the_records_and_depth_of_one_thread(clutter_scenes, resolution):
+    """Runs of occluders set up on several threads are moved together in order, and stripes
+    of rows rasterized on several threads take the same min: same records, same depth."""
+    from soc.culling.software_raster import (
+        EDGE_MARGIN_PX,
+        RECORD,
+        rasterize_depth_records,
+        setup_occluders,
+    )
+    from soc.culling.software_raster import (
+        occluder_triangles as grouped,
+    )
+
+    width, height = resolution
+    for k, scene in enumerate(clutter_scenes[:2]):
+        _, triangles, offsets, closed = grouped(scene)
+        order = np.arange(len(offsets) - 1)[::-1].copy()  # any order: it must be kept
+        for cam in random_cameras(scene, 4, seed=40 + k, width=width, height=height):
+            vp = np.ascontiguousarray(cam.view_proj, np.float64)
+            results = []
+            for threads in (1, 2, 3, 7):
+                out = np.full((2 * len(triangles), RECORD), np.nan)
+                n = setup_occluders(triangles, offsets, order, closed, vp, width, height, out,
+                                    threads)  # fmt: skip
+                depth = np.ones((height, width), np.float32)
+                frags = rasterize_depth_records(out, n, depth, EDGE_MARGIN_PX, threads)
+                results.append((out[:n], depth, frags))
+            assert results[0][2] > 0
+            for recs, depth, frags in results[1:]:
+                np.testing.assert_array_equal(recs, results[0][0])
+                np.testing.assert_array_equal(depth, results[0][1])
+                assert frags == results[0][2]

@@ -22,12 +22,13 @@ Stages of a frame, in the order :class:`MaskedBuffer` runs them:
 1. :func:`occluder_order` (numpy) — the occluders whose AABB is in the frustum, sorted front
    to back by their AABB's nearest view depth (the merge rule culls best when near occluders
    arrive first).
-2. :func:`soc.culling.software_raster.setup_triangles` (numba) — transform (float64, with bounds on
-   GL's float32 error), clip against the near plane (a crossing triangle becomes one or two
-   triangles, never dropped), drop triangles outside one frustum plane, degenerate ones and
-   back faces of closed meshes, orient counter-clockwise, and compute the conservative depth
-   plane.
-3. :func:`rasterize` (numba) — per triangle, per 8×4 subtile it touches: the coverage bits of
+2. :func:`soc.culling.software_raster.setup_occluders` (numba, runs of occluders on parallel
+   threads) — transform (float64, with bounds on GL's float32 error), clip against the near
+   plane (a crossing triangle becomes one or two triangles, never dropped), drop triangles
+   outside one frustum plane, degenerate ones and back faces of closed meshes, orient
+   counter-clockwise, and compute the conservative depth plane.
+3. :func:`rasterize` (numba, stripes of the screen on parallel threads, the result independent
+   of their number) — per triangle, per 8×4 subtile it touches: the coverage bits of
    the pixel centres lying :data:`EDGE_MARGIN_PX` inside all three edges, the triangle's
    farthest depth over those centres (its depth plane at the farthest covered corner, clamped
    to its farthest vertex), merged into the subtile by :func:`_update_subtile` — the paper's
@@ -92,6 +93,8 @@ from soc.culling.software_raster import (
     _edge,
     occluder_triangles,
     pixel_rows,
+    raster_threads,
+    setup_occluders,
     setup_triangles,
 )
 
@@ -188,8 +191,13 @@ def _byte(lo, hi, x0):
     return ((1 << (c1 - c0 + 1)) - 1) << c0
 
 
-@numba.njit(cache=True)
-def rasterize(records, count, width, height, mask, z0, z1, margin):  # pragma: no cover
+# Subtile rows per stripe of the screen: stripe k is rasterized by band ``k % bands``
+# (interleaved, so that the bands share the work of a view whose occluders crowd one part of
+# the screen; 32 px keeps the triangles that cross a stripe border, set up twice, few).
+STRIPE_SUBTILE_ROWS = 8
+
+
+def rasterize(records, count, width, height, mask, z0, z1, margin, bands=1) -> int:
     """Rasterize ``records[:count]`` (:func:`setup_triangles`) in order into the buffer.
 
     Parameters
@@ -204,12 +212,47 @@ def rasterize(records, count, width, height, mask, z0, z1, margin):  # pragma: n
     margin : float
         A pixel centre is covered when it lies this many pixels inside all three edges
         (:data:`EDGE_MARGIN_PX` for a conservative raster).
+    bands : int
+        Threads: the screen's stripes of :data:`STRIPE_SUBTILE_ROWS` subtile rows are dealt
+        to ``bands`` bands, each rasterizing every triangle's rows in its stripes, in order.
+        A subtile belongs to one band, and within it the triangles merge in the same order, so
+        the buffer is the same bit for bit whatever ``bands`` is.
 
     Returns
     -------
     int
         Subtile updates (merges).
     """
+    if bands == 1:  # no thread pool: its start costs more than it gains on small frames
+        return int(_rasterize_band(records, count, width, height, mask, z0, z1, margin, 0, 1))
+    return int(_rasterize_parallel(records, count, width, height, mask, z0, z1, margin, bands))
+
+
+@numba.njit(cache=True, parallel=True)
+def _rasterize_parallel(
+    records, count, width, height, mask, z0, z1, margin, bands
+):  # pragma: no cover - compiled
+    """:func:`rasterize` with ``bands`` bands on numba's threads."""
+    per_band = np.zeros(bands, np.int64)
+    for band in numba.prange(bands):
+        per_band[band] = _rasterize_band(
+            records, count, width, height, mask, z0, z1, margin, band, bands
+        )
+    return per_band.sum()
+
+
+@numba.njit(cache=True, inline="always")
+def _in_band(sr_lo, sr_hi, band, bands):
+    """Whether one of the subtile rows ``sr_lo..sr_hi`` lies in a stripe of ``band``."""
+    k_lo, k_hi = sr_lo // STRIPE_SUBTILE_ROWS, sr_hi // STRIPE_SUBTILE_ROWS
+    return k_hi - k_lo + 1 >= bands or (band - k_lo) % bands <= k_hi - k_lo
+
+
+@numba.njit(cache=True)
+def _rasterize_band(
+    records, count, width, height, mask, z0, z1, margin, band, bands
+):  # pragma: no cover - compiled
+    """:func:`rasterize` restricted to the subtile rows of stripes ``band (mod bands)``."""
     updates = 0
     span = np.empty((SUB_H, 2), np.int64)
     sub_rows = (height + SUB_H - 1) // SUB_H
@@ -246,10 +289,14 @@ def rasterize(records, count, width, height, mask, z0, z1, margin):  # pragma: n
         i_max = min(width - 1, math.floor(min(max(max(x0, max(x1, x2)) - 0.5, -1.0), fw)))
         if j_lo > j_hi or i_min > i_max:
             continue
+        if bands > 1 and not _in_band(j_lo // SUB_H, j_hi // SUB_H, band, bands):
+            continue
         l0x, l0q, r0x, r0q = _edge(x0, y0, x1, y1, margin)
         l1x, l1q, r1x, r1q = _edge(x1, y1, x2, y2, margin)
         l2x, l2q, r2x, r2q = _edge(x2, y2, x0, y0, margin)
         for sr in range(j_lo // SUB_H, j_hi // SUB_H + 1):
+            if bands > 1 and (sr // STRIPE_SUBTILE_ROWS) % bands != band:
+                continue
             ty, s_row = sr // 2, (sr % 2) * 4
             # Coarse test (the library's per-tile one): skip the row when the triangle is behind
             # the reference layer of every subtile under its bounding box (front-to-back order
@@ -416,6 +463,10 @@ class MaskedBuffer:
     """A masked hierarchical depth buffer of ``resolution = (W, H)`` pixels for one scene's
     occluders: :meth:`render` draws a frame's occluders, :meth:`classify` tests boxes.
 
+    ``threads`` bands (default: numba's thread count,
+    :func:`soc.culling.software_raster.raster_threads`) set up and rasterize in parallel; the
+    buffer is the same for every value (:func:`rasterize`).
+
     Attributes
     ----------
     mask : (TY, TX, 8) uint32
@@ -424,8 +475,18 @@ class MaskedBuffer:
         Reference and working depth per subtile (window depth, larger = farther).
     """
 
-    def __init__(self, scene, resolution: tuple[int, int], *, backface: bool = True):
+    def __init__(
+        self,
+        scene,
+        resolution: tuple[int, int],
+        *,
+        backface: bool = True,
+        threads: int | None = None,
+    ):
         self.resolution = (int(resolution[0]), int(resolution[1]))
+        self.bands = raster_threads() if threads is None else int(threads)
+        if self.bands < 1:
+            raise ValueError(f"threads must be >= 1 (or None: numba's thread count), got {threads}")
         shape = (*buffer_shape(self.resolution), 8)
         self.mask = np.zeros(shape, np.uint32)
         self.z0 = np.full(shape, Z_FAR)
@@ -460,21 +521,16 @@ class MaskedBuffer:
             order = occluder_order(self.aabbs, camera, in_frustum)
         with stage(timings, "transform"):
             vp = np.ascontiguousarray(camera.view_proj, np.float64)
-            n = setup_triangles(
-                self.triangles,
-                self.offsets,
-                order,
-                self.backface,
-                vp,
-                width,
-                height,
-                self._records,
-            )
+            n = setup_occluders(
+                self.triangles, self.offsets, order, self.backface, vp, width, height,
+                self._records, self.bands,
+            )  # fmt: skip
         with stage(timings, "raster"):
             self.clear()
             updates = rasterize(
-                self._records, n, width, height, self.mask, self.z0, self.z1, EDGE_MARGIN_PX
-            )
+                self._records, n, width, height, self.mask, self.z0, self.z1, EDGE_MARGIN_PX,
+                self.bands,
+            )  # fmt: skip
         self.last_stats = MaskedStats(len(order), int(n), int(updates))
 
     def classify(self, rects: np.ndarray, z_near: np.ndarray) -> np.ndarray:
@@ -556,7 +612,12 @@ def _warm_up() -> None:
     )
     mask = np.zeros((1, 1, 8), np.uint32)
     z0, z1 = np.full((1, 1, 8), Z_FAR), np.full((1, 1, 8), Z_EMPTY)
-    rasterize(rec, n, 8, 4, mask, z0, z1, EDGE_MARGIN_PX)
+    two = np.array([0, 1, 2], np.int64)
+    tris = np.concatenate([tri, tri])
+    setup_occluders(tris, two, np.array([0, 1], np.int64), np.array([True, True]), vp, 8, 4,
+                    np.empty((4, RECORD)), 2)  # fmt: skip
+    rasterize(rec, n, 8, 4, mask, z0, z1, EDGE_MARGIN_PX, 1)
+    rasterize(rec, n, 8, 4, mask, z0, z1, EDGE_MARGIN_PX, 2)
     test_boxes(np.zeros((1, 4), np.int64), np.zeros(1), mask, z0, z1, np.empty(1, np.uint8))
     aabbs = np.zeros((1, 2, 3), np.float32)
     aabbs.flags.writeable = False  # as Scene.aabbs (numba compiles read-only arrays apart)

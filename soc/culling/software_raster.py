@@ -262,6 +262,45 @@ def setup_triangles(
     return n
 
 
+def setup_occluders(
+    triangles, offsets, order, backface, view_proj, width, height, out, threads: int = 1
+) -> int:
+    """:func:`setup_triangles` on ``threads`` threads: ``order`` is cut into runs of about
+    equal triangle counts, each set up into its own part of ``out`` at once, and the records
+    are then moved together; the records and their order are those of one thread."""
+    order = np.asarray(order, np.int64)
+    if threads <= 1 or len(order) < threads:
+        return int(setup_triangles(triangles, offsets, order, backface, view_proj, width,
+                                   height, out))  # fmt: skip
+    counts = offsets[order + 1] - offsets[order]
+    before = np.concatenate([[0], np.cumsum(counts)])  # triangles before each occluder of order
+    cuts = np.searchsorted(before, np.linspace(0, before[-1], threads + 1)[1:-1])
+    runs = np.concatenate([[0], cuts, [len(order)]]).astype(np.int64)
+    written = np.zeros(threads, np.int64)
+    _setup_runs(triangles, offsets, order, backface, view_proj, width, height, out, runs,
+                before, written)  # fmt: skip
+    n = int(written[0])
+    for k in range(1, threads):  # move run k's records down behind run k - 1's
+        start = 2 * int(before[runs[k]])
+        out[n : n + written[k]] = out[start : start + written[k]]
+        n += int(written[k])
+    return n
+
+
+@numba.njit(cache=True, parallel=True)
+def _setup_runs(
+    triangles, offsets, order, backface, view_proj, width, height, out, runs, before, written
+):  # pragma: no cover - compiled
+    """Run ``k`` of ``order`` (``runs[k]:runs[k + 1]``) set up into ``out`` from row
+    ``2 · before[runs[k]]`` (room for every triangle clipped into two)."""
+    for k in numba.prange(len(runs) - 1):
+        start = 2 * before[runs[k]]
+        written[k] = setup_triangles(
+            triangles, offsets, order[runs[k] : runs[k + 1]], backface, view_proj, width,
+            height, out[start:],
+        )  # fmt: skip
+
+
 @numba.njit(cache=True, inline="always")
 def _edge(x0, y0, x1, y1, margin):
     """Edge from ``(x0, y0)`` to ``(x1, y1)`` of a counter-clockwise triangle as bounds on x
@@ -335,14 +374,44 @@ def triangle_records(triangles, view_proj: np.ndarray, resolution: tuple[int, in
     return out[:n]
 
 
+def raster_threads() -> int:
+    """Threads the CPU rasterizers use by default: numba's thread count (``NUMBA_NUM_THREADS``,
+    all cores unless set)."""
+    return max(1, numba.get_num_threads())
+
+
+# Pixel rows per stripe of the screen when several threads rasterize: stripe k belongs to
+# thread k % threads (interleaved, so that occluders crowding one part of the screen are
+# shared; 32 rows keep the triangles set up by two threads few).
+STRIPE_ROWS = 32
+
+
+def rasterize_depth_records(records, count, depth, margin, threads: int = 1) -> int:
+    """:func:`rasterize_records` on ``threads`` threads, each writing the rows of its stripes
+    (:data:`STRIPE_ROWS`); the depth is the same for any ``threads`` (a ``min`` per pixel)."""
+    if threads <= 1:
+        return int(rasterize_records(records, count, depth, margin))
+    fragments = np.zeros(threads, np.int64)
+    _rasterize_records_bands(records, count, depth, margin, fragments)
+    return int(fragments.sum())
+
+
+@numba.njit(cache=True, parallel=True)
+def _rasterize_records_bands(records, count, depth, margin, fragments):  # pragma: no cover
+    bands = len(fragments)
+    for band in numba.prange(bands):
+        fragments[band] = rasterize_records(records, count, depth, margin, band, bands)
+
+
 @numba.njit(cache=True)
-def rasterize_records(records, count, depth, margin):  # pragma: no cover - compiled
+def rasterize_records(records, count, depth, margin, band=0, bands=1):  # pragma: no cover
     """Write ``records[:count]`` into ``depth`` (H, W) float32 with a ``min`` per pixel.
 
     A pixel centre ``(i + 0.5, j + 0.5)`` (row 0 at the bottom) is covered when it lies at
     least ``margin`` pixels inside all three edges (:data:`EDGE_MARGIN_PX` is conservative; a
-    negative margin grows triangles, for tests that bound the edge band). Returns the number
-    of fragments written.
+    negative margin grows triangles, for tests that bound the edge band). With ``bands > 1``
+    only the rows of the stripes ``band (mod bands)`` are written
+    (:func:`rasterize_depth_records`). Returns the number of fragments written.
     """
     height, width = depth.shape
     fw = float(width)
@@ -362,6 +431,8 @@ def rasterize_records(records, count, depth, margin):  # pragma: no cover - comp
         l1x, l1q, r1x, r1q = _edge(x1, y1, x2, y2, margin)
         l2x, l2q, r2x, r2q = _edge(x2, y2, x0, y0, margin)
         for j in range(j_lo, j_hi + 1):
+            if bands > 1 and (j // STRIPE_ROWS) % bands != band:
+                continue
             yc = j + 0.5
             left = max(max(l0x + l0q * (yc - y0), l1x + l1q * (yc - y1)), l2x + l2q * (yc - y2))
             right = min(min(r0x + r0q * (yc - y0), r1x + r1q * (yc - y1)), r2x + r2q * (yc - y2))

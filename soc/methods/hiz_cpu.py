@@ -32,6 +32,9 @@ class HiZCpuCulling(CullMethod):
     backface : bool
         Skip back-facing triangles of closed, consistently oriented occluder meshes (default
         True; open meshes are always drawn two-sided).
+    threads : int or None
+        Threads of the transform and the raster (default None: numba's thread count); the
+        depth is the same for any number.
 
     After :meth:`cull`, :attr:`last_depth` holds the frame's (H, W) float32 occluder depth and
     :attr:`last_stats` its work counters (``triangles``, ``fragments``).
@@ -41,21 +44,30 @@ class HiZCpuCulling(CullMethod):
     conservative = True
     temporal = False
 
-    def __init__(self, geometry, resolution, config, *, backface: bool = True):
-        from soc.culling.software_raster import RECORD, occluder_triangles
+    def __init__(
+        self, geometry, resolution, config, *, backface: bool = True, threads: int | None = None
+    ):
+        from soc.culling.software_raster import RECORD, occluder_triangles, raster_threads
 
         super().__init__(geometry, resolution, config)
         self._ids, self._triangles, self._offsets, closed = occluder_triangles(self.scene)
         self._backface = closed & bool(backface)
         self._aabbs = np.asarray(self.scene.aabbs, np.float64)[self._ids]
         self._records = np.empty((2 * len(self._triangles), RECORD))
+        self.threads = raster_threads() if threads is None else int(threads)
+        if self.threads < 1:
+            raise ValueError(f"threads must be >= 1 (or None: numba's thread count), got {threads}")
         self.last_depth: np.ndarray | None = None
         self.last_stats: dict[str, int] = {}
 
     def cull(self, camera) -> MethodOutput:
         from soc.culling.frustum import aabbs_in_frustum
         from soc.culling.hiz_cpu import VIEW_CULLED, VISIBLE, build_pyramid, classify_objects
-        from soc.culling.software_raster import EDGE_MARGIN_PX, rasterize_records, setup_triangles
+        from soc.culling.software_raster import (
+            EDGE_MARGIN_PX,
+            rasterize_depth_records,
+            setup_occluders,
+        )
 
         timings: dict[str, float] = {}
         if not self.config.depth_test:
@@ -70,13 +82,15 @@ class HiZCpuCulling(CullMethod):
                 order = np.flatnonzero(aabbs_in_frustum(self._aabbs, camera.planes))
         with stage(timings, "transform"):
             vp = np.ascontiguousarray(camera.view_proj, np.float64)
-            n = setup_triangles(
+            n = setup_occluders(
                 self._triangles, self._offsets, order, self._backface, vp, width, height,
-                self._records,
+                self._records, self.threads,
             )  # fmt: skip
         with stage(timings, "raster"):
             depth = np.ones((height, width), np.float32)
-            fragments = rasterize_records(self._records, n, depth, EDGE_MARGIN_PX)
+            fragments = rasterize_depth_records(
+                self._records, n, depth, EDGE_MARGIN_PX, self.threads
+            )
         with stage(timings, "pyramid"):
             pyramid = build_pyramid(depth)
         with stage(timings, "test"):
