@@ -290,7 +290,8 @@ def run_task(
     data : str, optional
         Folder holding ``intel_castle/`` (castle only; default ``VISLOD_DATA``).
     gl_threads : int, optional
-        llvmpipe threads of this process's GL context (fixed by the first task it runs).
+        llvmpipe threads of this process's GL context (fixed by the first task it runs), and
+        numba's threads of the CPU rasterizers.
     crash_marker : str, optional
         Tests only: the worker kills itself halfway through the chunk, once (see
         :func:`_crash_once`).
@@ -313,6 +314,10 @@ def run_task(
 
     t0 = time.perf_counter()
     glctx = default_context(gl_threads)
+    if gl_threads:  # the CPU rasterizers (masked, hiz-cpu) get the same share of the cores
+        import numba
+
+        numba.set_num_threads(min(gl_threads, numba.config.NUMBA_NUM_THREADS))
     loaded = _scene(task.scene, data)
     scene = loaded.scene
     if task.oracle and loaded.oracle is None:
