@@ -287,9 +287,18 @@ def test_parallel_bands_give_the_serial_buffer_bit_for_bit(clutter_scenes, resol
             buf.bands = 1
 
 
-def test_threads_must_be_positive(clutter_scenes):
+def test_threads_must_be_positive_and_the_method_takes_them(clutter_scenes):
     with pytest.raises(ValueError, match="threads must be >= 1"):
         MaskedBuffer(clutter_scenes[0], (64, 32), threads=0)
+    scene, res = clutter_scenes[1], (97, 61)
+    cams = random_cameras(scene, 4, seed=5, width=res[0], height=res[1])
+    with (
+        soc.Culler(scene, method="masked", resolution=res, threads=1) as one,
+        soc.Culler(scene, method="masked", resolution=res, threads=2) as two,
+    ):
+        assert (one.method.buffer.bands, two.method.buffer.bands) == (1, 2)
+        for cam in cams:
+            np.testing.assert_array_equal(one.cull(cam).visible, two.cull(cam).visible)
 
 
 # -- conservative against the oracle, and it culls -------------------------------------------

@@ -30,6 +30,9 @@ class MaskedCulling(CullMethod):
     backface : bool
         Skip back-facing triangles of closed, consistently oriented occluder meshes (default
         True; open meshes are always drawn two-sided).
+    threads : int or None
+        Threads of the transform and the raster (default None: numba's thread count,
+        ``NUMBA_NUM_THREADS``); the buffer, and so what is culled, is the same for any number.
 
     After :meth:`cull`, :attr:`last_codes` holds one code per object
     (:data:`soc.culling.masked.OCCLUDED`,
@@ -40,9 +43,11 @@ class MaskedCulling(CullMethod):
     conservative = True
     temporal = False
 
-    def __init__(self, geometry, resolution, config, *, backface: bool = True):
+    def __init__(
+        self, geometry, resolution, config, *, backface: bool = True, threads: int | None = None
+    ):
         super().__init__(geometry, resolution, config)
-        self.buffer = MaskedBuffer(self.scene, resolution, backface=backface)
+        self.buffer = MaskedBuffer(self.scene, resolution, backface=backface, threads=threads)
         self.last_codes = np.zeros(len(self.scene), np.uint8)
 
     def cull(self, camera) -> MethodOutput:
