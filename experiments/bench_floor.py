@@ -40,14 +40,20 @@ from soc.rendering.renderer import Renderer
 
 DISPLAY = (1920, 1080)
 # Extra rows beside every registered method: options issue 10 asks to compare (a finer box
-# footprint; a low-resolution inner-conservative occluder depth, OCCLUDER_DIVISOR per axis).
+# footprint; a low-resolution inner-conservative occluder depth, OCCLUDER_DIVISOR per axis)
+# and the CPU rasterizers on one thread (as the MOC reference was measured).
 OCCLUDER_DIVISOR = 4
 
 
 def extra_specs(resolution: tuple[int, int] = DISPLAY) -> tuple[str, ...]:
     """Option rows beside the registered methods at ``resolution`` (pixels)."""
     w, h = (max(1, n // OCCLUDER_DIVISOR) for n in resolution)
-    return ("hiz-gpu(footprint=4)", f"hiz-gpu(occluder_resolution=({w}, {h}))")
+    return (
+        "hiz-gpu(footprint=4)",
+        f"hiz-gpu(occluder_resolution=({w}, {h}))",
+        "masked(threads=1)",
+        "hiz-cpu(threads=1)",
+    )
 
 
 # Methods that run on the CPU (issue 10's ">= 10x cheaper than queries" target for them).
