@@ -41,7 +41,8 @@ from soc.rendering.renderer import Renderer
 DISPLAY = (1920, 1080)
 # Extra rows beside every registered method: options issue 10 asks to compare (a finer box
 # footprint; a low-resolution inner-conservative occluder depth, OCCLUDER_DIVISOR per axis)
-# and the CPU rasterizers on one thread (as the MOC reference was measured).
+# the two-phase method choosing next frame's set from the finished frame, and the CPU
+# rasterizers on one thread (as the MOC reference was measured).
 OCCLUDER_DIVISOR = 4
 
 
@@ -51,6 +52,7 @@ def extra_specs(resolution: tuple[int, int] = DISPLAY) -> tuple[str, ...]:
     return (
         "hiz-gpu(footprint=4)",
         f"hiz-gpu(occluder_resolution=({w}, {h}))",
+        "hiz-2phase(next_from='final')",
         "masked(threads=1)",
         "hiz-cpu(threads=1)",
     )
