@@ -90,6 +90,7 @@ from soc.culling.hiz_cpu import (  # the result codes are shared: OCCLUDED, VISI
 from soc.culling.software_raster import (
     EDGE_MARGIN_PX,
     RECORD,
+    STRIPE_ROWS,
     _edge,
     occluder_triangles,
     pixel_rows,
@@ -191,10 +192,9 @@ def _byte(lo, hi, x0):
     return ((1 << (c1 - c0 + 1)) - 1) << c0
 
 
-# Subtile rows per stripe of the screen: stripe k is rasterized by band ``k % bands``
-# (interleaved, so that the bands share the work of a view whose occluders crowd one part of
-# the screen; 32 px keeps the triangles that cross a stripe border, set up twice, few).
-STRIPE_SUBTILE_ROWS = 8
+# Subtile rows per stripe of the screen: stripe k is rasterized by band ``k % bands``, the
+# stripes of the per-pixel rasterizer (software_raster.STRIPE_ROWS, why there).
+STRIPE_SUBTILE_ROWS = STRIPE_ROWS // SUB_H
 
 
 def rasterize(records, count, width, height, mask, z0, z1, margin, bands=1) -> int:
@@ -223,7 +223,7 @@ def rasterize(records, count, width, height, mask, z0, z1, margin, bands=1) -> i
     int
         Subtile updates (merges).
     """
-    if bands == 1:  # no thread pool: its start costs more than it gains on small frames
+    if bands == 1:  # serial: no thread pool to start
         return int(_rasterize_band(records, count, width, height, mask, z0, z1, margin, 0, 1))
     return int(_rasterize_parallel(records, count, width, height, mask, z0, z1, margin, bands))
 
@@ -484,9 +484,7 @@ class MaskedBuffer:
         threads: int | None = None,
     ):
         self.resolution = (int(resolution[0]), int(resolution[1]))
-        self.bands = raster_threads() if threads is None else int(threads)
-        if self.bands < 1:
-            raise ValueError(f"threads must be >= 1 (or None: numba's thread count), got {threads}")
+        self.bands = raster_threads(threads)
         shape = (*buffer_shape(self.resolution), 8)
         self.mask = np.zeros(shape, np.uint32)
         self.z0 = np.full(shape, Z_FAR)

@@ -374,10 +374,20 @@ def triangle_records(triangles, view_proj: np.ndarray, resolution: tuple[int, in
     return out[:n]
 
 
-def raster_threads() -> int:
-    """Threads the CPU rasterizers use by default: numba's thread count (``NUMBA_NUM_THREADS``,
-    all cores unless set)."""
-    return max(1, numba.get_num_threads())
+def raster_threads(threads: int | None = None) -> int:
+    """Threads of the CPU rasterizers: ``threads``, or by default numba's thread count
+    (``NUMBA_NUM_THREADS``, all cores unless set).
+
+    Raises
+    ------
+    ValueError
+        If ``threads`` is below 1.
+    """
+    if threads is None:
+        return max(1, numba.get_num_threads())
+    if int(threads) < 1:
+        raise ValueError(f"threads must be >= 1 (or None: numba's thread count), got {threads}")
+    return int(threads)
 
 
 # Pixel rows per stripe of the screen when several threads rasterize: stripe k belongs to

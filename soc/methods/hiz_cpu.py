@@ -54,9 +54,7 @@ class HiZCpuCulling(CullMethod):
         self._backface = closed & bool(backface)
         self._aabbs = np.asarray(self.scene.aabbs, np.float64)[self._ids]
         self._records = np.empty((2 * len(self._triangles), RECORD))
-        self.threads = raster_threads() if threads is None else int(threads)
-        if self.threads < 1:
-            raise ValueError(f"threads must be >= 1 (or None: numba's thread count), got {threads}")
+        self.threads = raster_threads(threads)
         self.last_depth: np.ndarray | None = None
         self.last_stats: dict[str, int] = {}
 
