@@ -167,6 +167,61 @@ def test_box_covering_no_pixel_centre_is_culled_and_one_covering_a_centre_is_kep
         target.release()
 
 
+def _needle_expected(p0, p1, needle, footprint, refine, levels):
+    """The refined test's answer for a depth buffer that is near (0) everywhere but one far
+    (1) pixel ``needle``: the box, covering the pixel centres [p0, p1] (inclusive, per axis),
+    is kept iff the needle lies in a texel of its leaf level (``refine`` levels below the
+    level where the range spans < ``footprint`` texels) that holds a pixel of the range."""
+    lvl = 0
+    while lvl < levels - 1 and np.any((p1 >> lvl) - (p0 >> lvl) >= footprint):
+        lvl += 1
+    leaf = max(lvl - refine, 0)
+    n = np.asarray(needle) >> leaf
+    return bool(np.all((p0 >> leaf <= n) & (n <= p1 >> leaf)))
+
+
+@pytest.mark.parametrize("size", [(64, 64), (61, 45)])
+def test_refined_test_reads_every_leaf_texel_of_the_range(size):
+    """The depth-first refinement (descending only into texels a box is not behind) answers
+    exactly as reading every texel of its leaf level: boxes over random pixel rectangles of a
+    depth buffer near everywhere but one far pixel, at footprints 2 and 4, refine 0 to level 0.
+    The box (a thin slab at mid depth) is kept iff the far pixel lies in a leaf texel that
+    holds one of its pixel centres (:func:`_needle_expected`)."""
+    w, h = size
+    glctx = default_context()
+    # Looking down -z at a slab at z = 0: the view spans [-10, 10] vertically, pixels are
+    # 20 / h world units, and the slab's edges sit on pixel borders (between centres).
+    cam = soc.Camera.look_at((0, 0, 10), (0, 0, 0), fov_y=90.0, width=w, height=h, near=1, far=20)
+    unit = 20.0 / h
+    rng = np.random.default_rng(w)
+    corners = np.sort(rng.integers(0, [w + 1, h + 1], size=(300, 2, 2)), axis=1)  # borders
+    corners[:, 1] += corners[:, 0] == corners[:, 1]  # at least one pixel per axis
+    corners = np.minimum(corners, [w, h])
+    world = (corners - np.array([w, h]) / 2.0) * unit
+    boxes = np.concatenate([world, np.array([[[-1e-3], [1e-3]]]).repeat(300, 0)], axis=2)
+    p0, p1 = corners[:, 0], corners[:, 1] - 1  # pixel centres covered, inclusive
+    target, pyramid = DepthTarget(glctx, size), DepthPyramid(glctx, size)
+    testers = {(f, r): HizTest(glctx, f, r) for f in (2, 4) for r in (0, 1, 2, 23)}
+    try:
+        for needle in rng.integers(0, [w, h], size=(12, 2)):
+            depth = np.zeros((h, w), np.float32)
+            depth[needle[1], needle[0]] = 1.0
+            target.texture.write(depth.tobytes())
+            pyramid.build(target.texture)
+            for (footprint, refine), tester in testers.items():
+                got = tester.test_boxes(pyramid, cam, boxes, diagonal=1e-3)
+                want = [
+                    _needle_expected(a, b, needle, footprint, refine, len(pyramid))
+                    for a, b in zip(p0, p1, strict=True)
+                ]
+                assert got.tolist() == want, (needle, footprint, refine)
+    finally:
+        for tester in testers.values():
+            tester.release()
+        pyramid.release()
+        target.release()
+
+
 def test_shader_frustum_test_culls_only_what_the_numpy_test_culls(clutter_scenes):
     """The test shader's OUTSIDE code (grown boxes, float32 with a rounding allowance) is a
     subset of :func:`soc.culling.frustum.aabbs_in_frustum`'s outside set, and misses almost none."""

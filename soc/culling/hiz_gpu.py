@@ -14,7 +14,9 @@ Stages, in the order a frame runs them:
    ``ceil(size_k / 2)`` texels per axis and each texel is the max of its 2×2 texels of level k,
    with the odd last row/column clamped away (``hiz_reduce*.frag.glsl``, one full-viewport
    triangle a level, levels 1 and 2 in one pass: llvmpipe writes render targets 2–3× faster
-   than SSBOs or images, and its cost is mostly per fragment).
+   than SSBOs or images, and its cost is mostly per fragment; the small top levels in one
+   pass from the first level of at most :data:`TOP_SOURCE_TEXELS` texels, each texel the max
+   of its block of that level: a pass costs about 0.07 ms on llvmpipe however small).
    By induction texel ``x`` of level k stands for exactly the level-0 columns
    ``[x·2^k, min((x+1)·2^k, W))`` (likewise rows), so the levels cover every pixel at every
    resolution, powers of two or not. Levels 1–2 are packed in one RGBA texture and levels
@@ -74,9 +76,10 @@ HIZ_PIXEL_MARGIN = 1.0 / 32.0
 # or 4 (≤ 16 reads, one level finer, tighter for boxes that straddle texel borders).
 FOOTPRINTS = (2, 4)
 
-# Most refinement levels (:class:`HizTest` ``refine``): each level finer reads up to 4x more
-# texels per refined box; beyond 3 a box reads up to 1024.
-MAX_REFINE = 3
+# Most refinement levels (:class:`HizTest` ``refine``): down to level 0 from the top of the
+# largest pyramid. The test descends only into texels a box is not behind, so a deep refine
+# costs reads where boxes are nearly occluded, not everywhere.
+MAX_REFINE = 23
 
 # Compute work-group size of hiz_test.comp (must match its ``local_size``).
 TEST_GROUP = 64  # boxes
@@ -92,6 +95,11 @@ OCCLUDED, VISIBLE, OUTSIDE = 0, 1, 2
 # the magnitudes summed, 1.2e-7 each, with a wide margin): a box is reported outside only
 # when it is outside by more than this and FRUSTUM_SLACK; nearer boxes go to the HiZ test.
 PLANE_ROUNDING = 1e-5
+
+# The pyramid's top levels are written in one pass from the first level with at most this many
+# texels (level 5, 60×34, at 1080p), each texel reading its whole block of it: the top 1×1
+# texel reads them all, about as long as the ~0.07 ms a pass of its own costs on llvmpipe.
+TOP_SOURCE_TEXELS = 2048
 
 # Texture units the shaders sample the depth texture, the quads and the atlas from.
 _DEPTH_UNIT = 0
@@ -192,9 +200,13 @@ class DepthPyramid:
         self.atlas_fbo = ctx.framebuffer(color_attachments=[self.atlas])
         self.programs = [
             glctx.program("hiz_reduce.vert", f"{name}.frag")
-            for name in ("hiz_reduce_depth", "hiz_reduce_quad", "hiz_reduce")
+            for name in ("hiz_reduce_depth", "hiz_reduce_quad", "hiz_reduce", "hiz_reduce_levels")
         ]
         self.vaos = [ctx.vertex_array(p, []) for p in self.programs]
+        info = np.zeros((MAX_LEVELS, 4), np.int32)
+        info[: len(self.sizes), 0:2] = self.corners
+        info[: len(self.sizes), 2:4] = self.sizes
+        self._level_info = info.tobytes()
         self.depth = None
 
     def __len__(self) -> int:
@@ -221,7 +233,9 @@ class DepthPyramid:
     def build(self, depth_texture) -> None:
         """Reduce ``depth_texture`` (moderngl depth texture of :attr:`resolution`) into the
         levels 1..: one full-viewport triangle per level (levels 1 and 2 together), with a
-        texture barrier between the atlas levels (the next one reads what this one wrote).
+        texture barrier between the atlas levels (the next one reads what this one wrote),
+        until the level read has at most :data:`TOP_SOURCE_TEXELS` texels: the levels above
+        it are then written at once, each texel the max of its block of that level.
 
         The texture's compare mode is switched off (the shaders need raw depths) and its
         wrap mode set to clamp-to-edge. Leaves the depth test off.
@@ -240,8 +254,8 @@ class DepthPyramid:
         depth_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.depth = depth_texture
         self.glctx.ctx.enable_only(moderngl.NOTHING)
-        depth_prog, quad_prog, atlas_prog = self.programs
-        depth_vao, quad_vao, atlas_vao = self.vaos
+        depth_prog, quad_prog, level_prog, top_prog = self.programs
+        depth_vao, quad_vao, level_vao, top_vao = self.vaos
 
         self.quads_fbo.use()  # levels 1 and 2
         self.bind(depth_prog)
@@ -251,9 +265,21 @@ class DepthPyramid:
         fbo = self.atlas_fbo
         fbo.use()
         for k in range(3, len(self.sizes)):
-            prog, vao = (quad_prog, quad_vao) if k == 3 else (atlas_prog, atlas_vao)
             if k > 3:
                 self.glctx.raw.glTextureBarrier()  # level k-1 was rendered, now it is read
+            w, h = self.sizes[k - 1]
+            if k > 4 and w * h <= TOP_SOURCE_TEXELS:  # the rest at once from level k-1
+                self.bind(top_prog)
+                top_prog["src"].value = k - 1
+                top_prog["first"].value = k
+                top_prog["count"].value = len(self.sizes) - k
+                top_prog["level_info"].write(self._level_info)
+                x, y = self.corners[k]
+                fbo.viewport = fbo.scissor = (x, y, self.sizes[k][0], self.atlas.size[1] - y)
+                top_vao.render(moderngl.TRIANGLES, vertices=3)
+                break
+            prog, vao = (quad_prog, quad_vao) if k == 3 else (level_prog, level_vao)
+            if k > 3:
                 prog["src_offset"].value = self.corners[k - 1]
                 prog["src_size"].value = self.sizes[k - 1]
             self.bind(prog)
@@ -289,9 +315,11 @@ class HizTest:
     footprint : int
         Texels per axis read at the chosen level, one of :data:`FOOTPRINTS`.
     refine : int
-        Levels a box that is not occluded at its level is re-read one level finer (up to
-        ``(2 footprint)²`` reads each); 0 (default) is the classic single read. Tighter
-        (a finer level's maxima are no larger), never looser, equally conservative.
+        Levels finer than its own a box that is not occluded at its level is judged at
+        (clamped at level 0); 0 (default) is the classic single read. The shader descends
+        depth first, only into texels the box is not behind, and stops at the first finest
+        texel it is not behind: the answer of reading every texel ``refine`` levels finer,
+        tighter (a finer level's maxima are no larger), never looser, equally conservative.
     """
 
     def __init__(self, glctx, footprint: int = 2, refine: int = 0):

@@ -60,7 +60,7 @@ import time
 import numpy as np
 
 from soc.culling.frustum import aabbs_in_frustum
-from soc.culling.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
+from soc.culling.hiz_gpu import MAX_REFINE, OUTSIDE, VISIBLE, DepthPyramid, HizTest
 from soc.methods.base import CullMethod, MethodOutput, register, stage
 
 NEXT_FROM = ("early", "final")
@@ -81,7 +81,13 @@ class TwoPhaseCulling(CullMethod):
     Options
     -------
     footprint : int
-        Texels per axis read per box at its pyramid level, 2 (default) or 4.
+        Texels per axis read per box at its pyramid level, 2 or 4 (default).
+    refine : int
+        Levels finer than its own a box not occluded at its pyramid level is judged at
+        (:class:`soc.culling.hiz_gpu.HizTest`; default :data:`~soc.culling.hiz_gpu.MAX_REFINE`,
+        down to the frame's own pixels; 0 is the classic single read). The test descends only
+        where the box is not behind the depth, so on the castle views of ``make bench`` this
+        draws 98 hidden objects a frame instead of 342 for 0.6 ms more test.
     next_from : {"early", "final"}
         Which depth chooses next frame's early set: the early pass's pyramid (default, no extra
         work) or the finished frame's (a second pyramid and test of the drawn objects, fewer
@@ -116,7 +122,8 @@ class TwoPhaseCulling(CullMethod):
         resolution,
         config,
         *,
-        footprint: int = 2,
+        footprint: int = 4,
+        refine: int = MAX_REFINE,
         next_from: str = "early",
         early_pass: str = "shaded",
         occluders: bool = False,
@@ -135,7 +142,7 @@ class TwoPhaseCulling(CullMethod):
         self.depth_fbo = self.glctx.ctx.framebuffer(depth_attachment=self.renderer.depth)
         self.depth_program = self.glctx.program("mesh.vert", "depth_only.frag")
         self.pyramid = DepthPyramid(self.glctx, self.renderer.resolution)
-        self.tester = HizTest(self.glctx, footprint)
+        self.tester = HizTest(self.glctx, footprint, refine)
         n = len(self.scene)
         self._all = np.arange(n, dtype=np.uint32)
         self.alive = np.ones(n, bool)

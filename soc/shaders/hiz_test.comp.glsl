@@ -30,7 +30,7 @@ uniform float min_w;        // corners with clip w below this: keep the box unte
 uniform float depth_bias;   // NDC units, pulls the box towards the camera
 uniform float pixel_margin; // pixels added around the projected rectangle
 uniform int footprint;      // texels per axis at the chosen level (2 or 4)
-uniform int refine;         // levels a box still visible is re-read one finer (0 = classic)
+uniform int refine;         // levels finer than its own a box is judged at (0 = classic)
 uniform int levels;         // number of levels including level 0
 uniform ivec4 level_info[24];  // per level: corner in `atlas` (levels 0-2: unused), width, height
 
@@ -44,16 +44,38 @@ float texel(int k, int x, int y) {
     return texelFetch(atlas, level_info[k].xy + ivec2(x, y), 0).r;
 }
 
-// Max of level `lvl` over the texels holding the level-0 texels [p0, p1].
-float range_max(int lvl, ivec2 p0, ivec2 p1) {
+// Does any texel of level `leaf` holding a level-0 texel of [p0, p1] reach `nearest` (max
+// depth >= nearest)? Depth first from the texels of level `lvl`, into the children of a texel
+// only when it reaches `nearest` itself: a texel's max bounds its children's, so a subtree
+// under a texel that does not reach it cannot either. Stops at the first leaf that does.
+// The answer is that of reading every leaf texel of the range (the max over them >= nearest),
+// at a fraction of the reads: occluded regions are skipped whole, visible boxes stop early.
+// The stack holds at most footprint² + 3 entries per level descended (a popped texel pushes
+// its <= 4 children): 16 + 3·23 < STACK.
+const int STACK = 96;
+
+bool reaches(int lvl, int leaf, ivec2 p0, ivec2 p1, float nearest) {
+    ivec3 stack[STACK];  // (x, y, level)
+    int top = 0;
     ivec2 t0 = p0 >> lvl, t1 = p1 >> lvl;
-    float m = 0.0;
     for (int y = t0.y; y <= t1.y; ++y) {
         for (int x = t0.x; x <= t1.x; ++x) {
-            m = max(m, texel(lvl, x, y));
+            stack[top++] = ivec3(x, y, lvl);
         }
     }
-    return m;
+    while (top > 0) {
+        ivec3 e = stack[--top];
+        if (texel(e.z, e.x, e.y) < nearest) continue;
+        if (e.z <= leaf) return true;
+        int l = e.z - 1;
+        ivec2 c0 = max(2 * e.xy, p0 >> l), c1 = min(2 * e.xy + 1, p1 >> l);
+        for (int y = c0.y; y <= c1.y; ++y) {
+            for (int x = c0.x; x <= c1.x; ++x) {
+                stack[top++] = ivec3(x, y, l);
+            }
+        }
+    }
+    return false;
 }
 
 // Pixels (i, j) of a `res` grid whose centres lie inside the NDC rectangle [rmin, rmax]
@@ -140,13 +162,8 @@ void main() {
         ++lvl;
     }
     float nearest = 0.5 * (zmin - depth_bias) + 0.5;  // window depth of the nearest corner
-    float occluder = range_max(lvl, p0, p1);
-    // Refinement: a box not behind the max at this level is read again one level finer (up to
-    // `refine` times, <= (2 footprint)^2 reads each). A finer level's texels cover the same
-    // pixels with maxima no larger, so this only turns boxes occluded, never the other way.
-    for (int r = 0; r < refine && nearest <= occluder && lvl > 0; ++r) {
-        --lvl;
-        occluder = range_max(lvl, p0, p1);
-    }
-    visible[k] = nearest <= occluder ? 1u : 0u;
+    // Refinement: a box not behind the texels at this level is judged at up to `refine`
+    // levels finer, whose texels cover the same pixels with maxima no larger: this only turns
+    // boxes occluded, never the other way.
+    visible[k] = reaches(lvl, max(lvl - refine, 0), p0, p1, nearest) ? 1u : 0u;
 }
