@@ -51,7 +51,10 @@ def extra_specs(resolution: tuple[int, int] = DISPLAY) -> tuple[str, ...]:
     w, h = (max(1, n // OCCLUDER_DIVISOR) for n in resolution)
     return (
         "hiz-gpu(footprint=4)",
+        "hiz-gpu(footprint=4, refine=23)",
         f"hiz-gpu(occluder_resolution=({w}, {h}))",
+        "hiz-2phase(footprint=2, refine=0)",
+        "hiz-2phase(octants=True)",
         "hiz-2phase(next_from='final')",
         "masked(threads=1)",
         "hiz-cpu(threads=1)",
@@ -402,7 +405,11 @@ def targets(result: FloorResult, summary: pd.DataFrame) -> pd.DataFrame:
             & (occ["queries ÷ this (cull)"] >= TARGET_QUERIES_RATIO_2114)
             & (occ["hidden kept"] <= MOC_HIDDEN_KEPT)
         ]
-        b = good.iloc[0] if not good.empty else occ.loc[occ["cull ms"].idxmin()]
+        # None meets all three: the fastest of those keeping no more hidden objects than MOC
+        # (the pair of conditions), else the fastest.
+        lean = occ[occ["hidden kept"] <= MOC_HIDDEN_KEPT]
+        pool = good if not good.empty else lean if not lean.empty else occ
+        b = pool.loc[pool["cull ms"].idxmin()]
         add(
             f"castle-2114: cull ≤ {limit:.2f} ms ({TARGET_MOC_FACTOR:.0f}× MOC's {MOC_MS} ms)",
             b["method"],

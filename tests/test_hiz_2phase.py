@@ -16,14 +16,17 @@ from soc.scenes.dynamic import subset
 from soc.scenes.paths import flight, random_cameras
 
 # Option sets (next set from the early or the finished depth; depth-only early pass; the
-# occluders drawn early too): every one must be conservative in every frame.
+# occluders drawn early too; octant boxes; the classic 2×2 test without refinement): every
+# one must be conservative in every frame.
 MODES = [
     {"next_from": "early"},
     {"next_from": "final"},
     {"early_pass": "depth"},
     {"next_from": "final", "early_pass": "depth", "occluders": True},
+    {"next_from": "final", "octants": True},
+    {"footprint": 2, "refine": 0},
 ]
-MODE_IDS = ["early", "final", "depth", "final-depth-occluders"]
+MODE_IDS = ["early", "final", "depth", "final-depth-occluders", "final-octants", "classic"]
 
 
 def _run(scene, cameras, resolution, *, options=None, draw=False, resets=(), alive=None):

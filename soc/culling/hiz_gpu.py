@@ -360,6 +360,7 @@ class HizTest:
         ids: np.ndarray,
         frustum: bool = True,
         display=None,
+        octants=None,
     ) -> np.ndarray:
         """Frustum and occlusion test of the boxes ``ids`` in one dispatch.
 
@@ -385,6 +386,10 @@ class HizTest:
             the
             texels holding the pixel centres the box may cover at every one of these
             resolutions.
+        octants : moderngl.Buffer, optional
+            (N, 8, 6) float32 octant boxes of the objects of ``boxes`` (same rows;
+            :func:`soc.culling.octant_boxes.grown_octant_aabbs`): a box that may be visible is
+            judged again by its octant boxes and reported visible only if one of them may be.
 
         Returns
         -------
@@ -419,10 +424,12 @@ class HizTest:
         prog["pixel_margin"].value = HIZ_PIXEL_MARGIN
         prog["footprint"].value = self.footprint
         prog["refine"].value = self.refine
+        prog["use_octants"].value = octants is not None
         pyramid.bind(prog)
         boxes.bind_to_storage_buffer(0)
         self._ids.bind_to_storage_buffer(1)
         self._out.bind_to_storage_buffer(2)
+        (boxes if octants is None else octants).bind_to_storage_buffer(3)  # unread without
         prog.run(-(-k // TEST_GROUP))
         self.glctx.ctx.memory_barrier()  # llvmpipe returns stale data without it
         return np.frombuffer(self._out.read(size=4 * k), np.uint32).copy()
@@ -434,10 +441,14 @@ class HizTest:
         boxes,
         ids: np.ndarray,
         display=None,
+        octants=None,
     ) -> np.ndarray:
         """Which of the boxes ``ids`` may be visible: (K,) bool, :meth:`classify` without the
         frustum test (False only for :data:`OCCLUDED`)."""
-        return self.classify(pyramid, camera, boxes, ids, frustum=False, display=display) == VISIBLE
+        codes = self.classify(
+            pyramid, camera, boxes, ids, frustum=False, display=display, octants=octants
+        )
+        return codes == VISIBLE
 
     def test_boxes(
         self,

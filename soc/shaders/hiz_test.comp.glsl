@@ -7,12 +7,14 @@
 // pixel centre of the depth buffer, or is farther than the occluder depth at every pixel
 // centre it may cover. Conservative (proof in soc/culling/hiz_gpu.py): every mesh sample of the object
 // lies inside the box, so its pixel lies inside the box's projected rectangle and its depth
-// is at least the box's nearest corner depth.
+// is at least the box's nearest corner depth. With `use_octants`, a box that may be visible
+// is judged again by the tight boxes of its object's octants, kept iff one of them may be.
 layout(local_size_x = 64) in;
 
 layout(std430, binding = 0) readonly buffer Boxes { float boxes[]; };  // (N, 6): lo, hi
 layout(std430, binding = 1) readonly buffer Ids { uint ids[]; };       // (K,) candidates
 layout(std430, binding = 2) writeonly buffer Visible { uint visible[]; };  // (K,) 0, 1, 2
+layout(std430, binding = 3) readonly buffer Octants { float octants[]; };  // (N, 8, 6): lo, hi
 
 uniform sampler2D depth;    // level 0: the occluder depth buffer (compare mode off)
 uniform sampler2D quads;    // levels 1 and 2: texel d holds level-1 texels 2d + (0,0), (1,0),
@@ -32,6 +34,7 @@ uniform float pixel_margin; // pixels added around the projected rectangle
 uniform int footprint;      // texels per axis at the chosen level (2 or 4)
 uniform int refine;         // levels finer than its own a box is judged at (0 = classic)
 uniform int levels;         // number of levels including level 0
+uniform bool use_octants;   // judge a box that may be visible again by its octant boxes
 uniform ivec4 level_info[24];  // per level: corner in `atlas` (levels 0-2: unused), width, height
 
 float texel(int k, int x, int y) {
@@ -89,29 +92,9 @@ bool centres(vec2 rmin, vec2 rmax, ivec2 res, out ivec2 c0, out ivec2 c1) {
     return all(lessThanEqual(c0, c1));
 }
 
-void main() {
-    uint k = gl_GlobalInvocationID.x;
-    if (k >= count) return;
-    uint b = 6u * ids[k];
-    vec3 lo = vec3(boxes[b], boxes[b + 1u], boxes[b + 2u]);
-    vec3 hi = vec3(boxes[b + 3u], boxes[b + 4u], boxes[b + 5u]);
-
-    if (frustum) {
-        // Signed distance of the box's most-inside corner; culled only when it is negative
-        // beyond the slack and beyond a bound on the float32 rounding of the sum.
-        vec3 c = 0.5 * (lo + hi), h = 0.5 * (hi - lo);
-        float slack = plane_slack * (1.0 + length(h));
-        for (int i = 0; i < 6; ++i) {
-            vec3 n = planes[i].xyz;
-            float d = dot(c, n) + planes[i].w + dot(h, abs(n));
-            float rounding = plane_rounding * (dot(abs(c), abs(n)) + abs(planes[i].w) + dot(h, abs(n)));
-            if (d < -(slack + rounding)) {
-                visible[k] = 2u;
-                return;
-            }
-        }
-    }
-
+// 1 unless the box [lo, hi] certainly covers no pixel centre or is behind the depth at every
+// pixel centre it may cover (or 1: it reaches the near plane, kept untested); else 0.
+uint judge(vec3 lo, vec3 hi) {
     // Project the 8 corners: clip-space bounds of the box.
     vec2 rmin = vec2(1e30), rmax = vec2(-1e30);
     float zmin = 1e30, wmin = 1e30;
@@ -126,8 +109,7 @@ void main() {
         zmin = min(zmin, ndc.z);
     }
     if (wmin < min_w) {  // reaches the near plane (or behind the eye): keep untested
-        visible[k] = 1u;
-        return;
+        return 1u;
     }
 
     // Pixel centres (i + 0.5, j + 0.5) inside the rectangle widened by the margin, at level
@@ -151,8 +133,7 @@ void main() {
         }
     }
     if (!any_centre) {  // covers no pixel centre at any of the resolutions
-        visible[k] = 0u;
-        return;
+        return 0u;
     }
 
     // The finest level at which the pixel range spans at most `footprint` texels per axis.
@@ -165,5 +146,45 @@ void main() {
     // Refinement: a box not behind the texels at this level is judged at up to `refine`
     // levels finer, whose texels cover the same pixels with maxima no larger: this only turns
     // boxes occluded, never the other way.
-    visible[k] = reaches(lvl, max(lvl - refine, 0), p0, p1, nearest) ? 1u : 0u;
+    return reaches(lvl, max(lvl - refine, 0), p0, p1, nearest) ? 1u : 0u;
+}
+
+void main() {
+    uint k = gl_GlobalInvocationID.x;
+    if (k >= count) return;
+    uint b = 6u * ids[k];
+    vec3 lo = vec3(boxes[b], boxes[b + 1u], boxes[b + 2u]);
+    vec3 hi = vec3(boxes[b + 3u], boxes[b + 4u], boxes[b + 5u]);
+
+    if (frustum) {
+        // Signed distance of the box's most-inside corner; culled only when it is negative
+        // beyond the slack and beyond a bound on the float32 rounding of the sum.
+        vec3 c = 0.5 * (lo + hi), h = 0.5 * (hi - lo);
+        float slack = plane_slack * (1.0 + length(h));
+        for (int i = 0; i < 6; ++i) {
+            vec3 n = planes[i].xyz;
+            float d = dot(c, n) + planes[i].w + dot(h, abs(n));
+            float rounding = plane_rounding * (dot(abs(c), abs(n)) + abs(planes[i].w) + dot(h, abs(n)));
+            if (d < -(slack + rounding)) {
+                visible[k] = 2u;
+                return;
+            }
+        }
+    }
+
+    uint result = judge(lo, hi);
+    // A box that may be visible is judged again by its object's octant boxes: every mesh
+    // point lies in one of them (soc/culling/octant_boxes.py), so the object is kept iff one
+    // passes. Empty octants (lo > hi) hold no mesh point.
+    if (result == 1u && use_octants) {
+        result = 0u;
+        uint o = 48u * ids[k];
+        for (int i = 0; i < 8 && result == 0u; ++i, o += 6u) {
+            vec3 a = vec3(octants[o], octants[o + 1u], octants[o + 2u]);
+            vec3 b = vec3(octants[o + 3u], octants[o + 4u], octants[o + 5u]);
+            if (any(greaterThan(a, b))) continue;
+            result = judge(a, b);
+        }
+    }
+    visible[k] = result;
 }
