@@ -359,7 +359,10 @@ def targets(result: FloorResult, summary: pd.DataFrame) -> pd.DataFrame:
 
     if occ.empty:
         return pd.DataFrame(columns=["target", "method", "measured", "met"])
-    if result.objects >= LARGE_SCENE:
+    has_queries = bool(occ["queries ÷ this (cull)"].notna().any())
+    if result.objects >= LARGE_SCENE and not has_queries:  # a --methods run without queries
+        add(f"≥ {TARGET_QUERIES_RATIO_27K:.0f}× cheaper than queries", "—", "no queries row", False)
+    elif result.objects >= LARGE_SCENE:
         b = occ.loc[occ["queries ÷ this (cull)"].idxmax()]
         r = b["queries ÷ this (cull)"]
         add(

@@ -172,3 +172,15 @@ def test_adaptive_section_draws_the_experiment_tables(monkeypatch, tmp_path):
     assert calls == [(bench.ADAPTIVE, tmp_path / "results")]
     assert "### summary" in body and "| scene1 | adaptive | 2.50 |" in body
     assert "### frames" not in body and "### switches" not in body  # per frame; empty
+
+
+def test_targets_of_a_run_without_queries(result):
+    """``--methods`` without ``queries`` on a large scene: the ratio targets say so instead of
+    failing after the run."""
+    import dataclasses
+
+    frames = result.frames[result.frames["method"] != "queries"]
+    run = dataclasses.replace(result, frames=frames, objects=bench_floor.LARGE_SCENE)
+    table = bench_floor.targets(run, bench_floor.summarize(run))
+    assert "no queries row" in table["measured"].tolist()
+    assert "best cull + draw ≤ 1.15× ideal" in table["target"].tolist()
