@@ -53,29 +53,36 @@ float texel(int k, int x, int y) {
 // under a texel that does not reach it cannot either. Stops at the first leaf that does.
 // The answer is that of reading every leaf texel of the range (the max over them >= nearest),
 // at a fraction of the reads: occluded regions are skipped whole, visible boxes stop early.
-// The stack holds at most footprint² + 3 entries per level descended (a popped texel pushes
-// its <= 4 children): 16 + 3·23 < STACK.
-const int STACK = 96;
-
+// Without a stack: the node (x, y, l) alone says where the walk is (its siblings are the
+// children of (x, y) >> 1 inside the range), because a local array costs llvmpipe more per
+// invocation than the whole walk.
 bool reaches(int lvl, int leaf, ivec2 p0, ivec2 p1, float nearest) {
-    ivec3 stack[STACK];  // (x, y, level)
-    int top = 0;
     ivec2 t0 = p0 >> lvl, t1 = p1 >> lvl;
-    for (int y = t0.y; y <= t1.y; ++y) {
-        for (int x = t0.x; x <= t1.x; ++x) {
-            stack[top++] = ivec3(x, y, lvl);
+    ivec2 node = t0;
+    int l = lvl;
+    while (true) {
+        if (texel(l, node.x, node.y) >= nearest) {
+            if (l <= leaf) return true;
+            --l;  // first child inside the range
+            node = max(2 * node, p0 >> l);
+            continue;
         }
-    }
-    while (top > 0) {
-        ivec3 e = stack[--top];
-        if (texel(e.z, e.x, e.y) < nearest) continue;
-        if (e.z <= leaf) return true;
-        int l = e.z - 1;
-        ivec2 c0 = max(2 * e.xy, p0 >> l), c1 = min(2 * e.xy + 1, p1 >> l);
-        for (int y = c0.y; y <= c1.y; ++y) {
-            for (int x = c0.x; x <= c1.x; ++x) {
-                stack[top++] = ivec3(x, y, l);
+        // Next sibling (row by row inside the parent's children and the range), else the
+        // parent's next sibling, and so on up to the texels of level `lvl`.
+        while (true) {
+            ivec2 lo = l == lvl ? t0 : max(2 * (node >> 1), p0 >> l);
+            ivec2 hi = l == lvl ? t1 : min(2 * (node >> 1) + 1, p1 >> l);
+            if (node.x < hi.x) {
+                ++node.x;
+                break;
             }
+            if (node.y < hi.y) {
+                node = ivec2(lo.x, node.y + 1);
+                break;
+            }
+            if (l == lvl) return false;
+            node >>= 1;
+            ++l;
         }
     }
     return false;
@@ -149,9 +156,8 @@ uint judge(vec3 lo, vec3 hi) {
     return reaches(lvl, max(lvl - refine, 0), p0, p1, nearest) ? 1u : 0u;
 }
 
-void main() {
-    uint k = gl_GlobalInvocationID.x;
-    if (k >= count) return;
+// The code of candidate k: 2 outside the frustum, else 1 may be visible, 0 occluded.
+uint classify(uint k) {
     uint b = 6u * ids[k];
     vec3 lo = vec3(boxes[b], boxes[b + 1u], boxes[b + 2u]);
     vec3 hi = vec3(boxes[b + 3u], boxes[b + 4u], boxes[b + 5u]);
@@ -166,8 +172,7 @@ void main() {
             float d = dot(c, n) + planes[i].w + dot(h, abs(n));
             float rounding = plane_rounding * (dot(abs(c), abs(n)) + abs(planes[i].w) + dot(h, abs(n)));
             if (d < -(slack + rounding)) {
-                visible[k] = 2u;
-                return;
+                return 2u;
             }
         }
     }
@@ -186,5 +191,15 @@ void main() {
             result = judge(a, b);
         }
     }
-    visible[k] = result;
+    return result;
+}
+
+// A fixed number of invocations, each classifying every stride-th candidate: llvmpipe spends
+// about as long starting an invocation of this shader as testing a box, so fewer invocations
+// with several boxes each cost less than one per box.
+void main() {
+    uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    for (uint k = gl_GlobalInvocationID.x; k < count; k += stride) {
+        visible[k] = classify(k);
+    }
 }
