@@ -10,7 +10,13 @@ from conftest import check_conservative
 
 import soc
 from soc.culling.depth_prepass import DepthTarget
-from soc.culling.hiz_gpu import DepthPyramid, HizTest, pyramid_sizes, reference_pyramid
+from soc.culling.hiz_gpu import (
+    MAX_REFINE,
+    DepthPyramid,
+    HizTest,
+    pyramid_sizes,
+    reference_pyramid,
+)
 from soc.gl.context import default_context
 from soc.scenes.paths import flight, random_cameras
 
@@ -87,7 +93,7 @@ def test_random_cameras_over_clutter_scenes(clutter_scenes, resolution):
     assert culled_something > 100  # the scenes really exercise culling
 
 
-@pytest.mark.parametrize(("footprint", "refine"), [(2, 1), (2, 3), (4, 2)])
+@pytest.mark.parametrize(("footprint", "refine"), [(2, 1), (2, 3), (4, 2), (4, MAX_REFINE)])
 def test_refined_tests_over_clutter_scenes(clutter_scenes, footprint, refine):
     """Re-reading visible boxes at finer levels stays conservative (3 scenes × 15 cameras at
     an odd resolution) and keeps no more than the classic test on the same cameras."""

@@ -41,16 +41,8 @@ def test_every_triangle_point_lies_in_an_octant_box(clutter_scenes):
 
 def test_octant_boxes_lie_in_the_object_box_and_empty_ones_are_marked():
     # An L of two slabs: the octant away from both (upper x, upper y) holds no triangle.
-    a = box_mesh((0, 0, 0), (4, 1, 1))
-    b = box_mesh((0, 0, 0), (1, 4, 1))
-    scene = soc.Scene.from_meshes([a, b], occluder=[True, True])
-    merged = soc.Scene(
-        np.concatenate([scene.vertices[:8], scene.vertices[8:]]),
-        np.concatenate([scene.faces[:12], scene.faces[12:] + 8]),
-        [16],
-        [24],
-        [True],
-    )
+    (va, fa), (vb, fb) = box_mesh((0, 0, 0), (4, 1, 1)), box_mesh((0, 0, 0), (1, 4, 1))
+    merged = soc.Scene(np.concatenate([va, vb]), np.concatenate([fa, fb + 8]), [16], [24], [True])
     boxes = octant_aabbs(merged)[0]
     empty = boxes[:, 0, 0] > boxes[:, 1, 0]
     # Octant 3 = upper x and upper y: beyond both slabs (the slabs end at 1 there).

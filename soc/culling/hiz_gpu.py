@@ -210,7 +210,7 @@ class DepthPyramid:
         info = np.zeros((MAX_LEVELS, 4), np.int32)
         info[: len(self.sizes), 0:2] = self.corners
         info[: len(self.sizes), 2:4] = self.sizes
-        self._level_info = info.tobytes()
+        self.level_info = info.tobytes()  # the shaders' ivec4 level_info[MAX_LEVELS]
         self.depth = None
 
     def __len__(self) -> int:
@@ -277,7 +277,7 @@ class DepthPyramid:
                 top_prog["src"].value = k - 1
                 top_prog["first"].value = k
                 top_prog["count"].value = len(self.sizes) - k
-                top_prog["level_info"].write(self._level_info)
+                top_prog["level_info"].write(self.level_info)
                 x, y = self.corners[k]
                 fbo.viewport = fbo.scissor = (x, y, self.sizes[k][0], self.atlas.size[1] - y)
                 top_vao.render(moderngl.TRIANGLES, vertices=3)
@@ -409,10 +409,7 @@ class HizTest:
         self._reserve(k)
         self._ids.write(ids)
         prog = self.program
-        info = np.zeros((MAX_LEVELS, 4), np.int32)
-        info[: len(pyramid), 0:2] = pyramid.corners
-        info[: len(pyramid), 2:4] = pyramid.sizes
-        prog["level_info"].write(info.tobytes())
+        prog["level_info"].write(pyramid.level_info)
         prog["levels"].value = len(pyramid)
         prog["size"].value = pyramid.resolution
         displays = _displays(display, pyramid.resolution)

@@ -58,6 +58,8 @@ class SceneGeometry:
         One indirect draw command per object (``baseInstance`` = object id).
     query_boxes : (N, 2, 3) float32
         The AABBs grown by the conservative margin, as drawn by occlusion tests.
+    diagonal : float
+        The scene's bounding-box diagonal, world units (the margin grows with it).
     """
 
     def __init__(self, glctx, scene, *, weak: bool = False):
@@ -79,8 +81,8 @@ class SceneGeometry:
             ],
             axis=1,
         )
-        diagonal = float(np.linalg.norm(np.subtract(*scene.bounds[::-1])))
-        self.query_boxes = grown_aabbs(scene.aabbs, diagonal)
+        self.diagonal = float(np.linalg.norm(np.subtract(*scene.bounds[::-1])))
+        self.query_boxes = grown_aabbs(scene.aabbs, self.diagonal)
 
         self.vbo = ctx.buffer(scene.vertices)
         self.ibo = ctx.buffer(scene.faces.astype(np.uint32))

@@ -155,8 +155,7 @@ class TwoPhaseCulling(CullMethod):
         self.tester = HizTest(self.glctx, footprint, refine)
         self.octants = None
         if octants:
-            diagonal = float(np.linalg.norm(np.subtract(*self.scene.bounds[::-1])))
-            boxes = grown_octant_aabbs(self.scene, diagonal)
+            boxes = grown_octant_aabbs(self.scene, self.geometry.diagonal)
             self.octants = self.glctx.ctx.buffer(np.ascontiguousarray(boxes.reshape(-1, 48)))
         n = len(self.scene)
         self._all = np.arange(n, dtype=np.uint32)
