@@ -9,7 +9,17 @@ import pytest
 from conftest import check_conservative
 
 import soc
-from soc.culling.hiz_cpu import boxes_visible, build_pyramid, project_boxes
+from soc.culling.hiz_cpu import (
+    OCCLUDED,
+    VISIBLE,
+    boxes_visible,
+    build_pyramid,
+    classify_objects,
+    empty_pyramid,
+    project_boxes,
+    reduce_pyramid,
+)
+from soc.gl.geometry import grown_aabbs
 from soc.scenes.paths import flight, random_cameras
 
 ABB8_RESOLUTIONS = [(320, 192), (640, 360), (1280, 720), (1920, 1080), (2432, 1440), (3840, 2160)]
@@ -38,6 +48,27 @@ def test_pyramid_texels_bound_the_pixels_they_stand_for(shape):
         full = np.zeros(level.shape, bool)
         full[: h // s, : w // s] = True
         np.testing.assert_array_equal(level[full], block_max[full])
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (1, 9), (13, 1), (61, 97), (1080, 1920)])
+def test_pyramid_is_the_same_on_any_number_of_threads(shape):
+    """Level 1 split into row stripes dealt to 2, 3 or 7 threads (fewer rows than stripes
+    included) is the serial pyramid bit for bit."""
+    depth = np.random.default_rng(shape[0]).uniform(0.2, 0.9, shape).astype(np.float32)
+    serial = build_pyramid(depth)
+    for threads in (2, 3, 7):
+        np.testing.assert_array_equal(build_pyramid(depth, threads).flat, serial.flat)
+
+
+def test_a_pyramid_reduced_in_place_is_the_one_built_from_a_copy():
+    depth = np.random.default_rng(3).uniform(0.2, 0.9, (37, 50)).astype(np.float32)
+    pyr = empty_pyramid(37, 50)
+    assert (pyr.level(0) == 1.0).all()
+    pyr.level(0)[:] = depth
+    reduce_pyramid(pyr, threads=2)
+    np.testing.assert_array_equal(pyr.flat, build_pyramid(depth).flat)
+    with pytest.raises(ValueError, match="at least one texel"):
+        empty_pyramid(0, 5)
 
 
 def test_pyramid_rejects_a_bad_shape():
@@ -141,6 +172,23 @@ def test_threads_cull_the_same_objects_with_the_same_depth(clutter_scenes):
             np.testing.assert_array_equal(one.method.last_depth, three.method.last_depth)
     with pytest.raises(ValueError, match="threads must be >= 1"):
         soc.Culler(scene, method="hiz-cpu", resolution=res, threads=0)
+
+
+def test_parallel_box_tests_give_the_serial_codes(small_market):
+    """The objects' blocks dealt to 2, 3 or 7 threads (1,500 objects: 3 blocks, so a thread
+    gets several, one or none) give the serial codes and count of boxes tested."""
+    scene, res = small_market, (320, 192)
+    boxes = grown_aabbs(scene.aabbs, float(np.linalg.norm(np.subtract(*scene.bounds[::-1]))))
+    with soc.Culler(scene, method="hiz-cpu", resolution=res, threads=1) as c:
+        for cam in flight(scene, 40, width=res[0], height=res[1])[::8]:
+            c.cull(cam)
+            pyramid = build_pyramid(c.method.last_depth)
+            serial, tested = classify_objects(pyramid, cam, scene.aabbs, boxes)
+            assert (serial == OCCLUDED).any() and (serial == VISIBLE).any()
+            for threads in (2, 3, 7):
+                codes, n = classify_objects(pyramid, cam, scene.aabbs, boxes, threads=threads)
+                np.testing.assert_array_equal(codes, serial)
+                assert n == tested
 
 
 @pytest.mark.heavy

@@ -23,6 +23,7 @@ from soc.culling.masked import (
 )
 from soc.culling.software_raster import RECORD, setup_triangles
 from soc.gl.context import default_context
+from soc.gl.geometry import grown_aabbs
 from soc.scenes.clutter import box_mesh
 from soc.scenes.paths import flight, random_cameras
 
@@ -299,6 +300,24 @@ def test_threads_must_be_positive_and_the_method_takes_them(clutter_scenes):
         assert (one.method.buffer.bands, two.method.buffer.bands) == (1, 2)
         for cam in cams:
             np.testing.assert_array_equal(one.cull(cam).visible, two.cull(cam).visible)
+
+
+def test_parallel_box_tests_give_the_serial_codes(small_market):
+    """The objects' blocks dealt to 2, 3 or 7 threads (1,500 objects: 3 blocks, so a thread
+    gets several, one or none) give the serial codes and count of boxes tested."""
+    scene, res = small_market, (320, 192)
+    buf = MaskedBuffer(scene, res, threads=1)
+    boxes = grown_aabbs(scene.aabbs, float(np.linalg.norm(np.subtract(*scene.bounds[::-1]))))
+    for cam in flight(scene, 40, width=res[0], height=res[1])[::8]:
+        buf.render(cam)
+        buf.bands = 1
+        serial = buf.classify_objects(cam, scene.aabbs, boxes)
+        tested = buf.last_tested
+        assert (serial == OCCLUDED).any() and (serial == VISIBLE).any()
+        for bands in (2, 3, 7):
+            buf.bands = bands
+            np.testing.assert_array_equal(buf.classify_objects(cam, scene.aabbs, boxes), serial)
+            assert buf.last_tested == tested
 
 
 # -- conservative against the oracle, and it culls -------------------------------------------

@@ -77,17 +77,12 @@ class Pyramid:
         return self.flat[o : o + h * w].reshape(h, w)
 
 
-def build_pyramid(depth: np.ndarray) -> Pyramid:
-    """Max pyramid of ``depth`` (H, W) float32 window depth, down to a single texel.
-
-    Texel ``(y, x)`` of level ``k`` is >= every level-0 texel in rows ``y * 2**k ...`` and
-    columns ``x * 2**k ...`` (equal to their max when no padding was needed).
-    """
-    depth = np.asarray(depth, dtype=np.float32)
-    if depth.ndim != 2 or depth.size == 0:
-        raise ValueError(f"depth must be a non-empty (H, W) array, got shape {depth.shape}")
-    h, w = depth.shape
-    heights, widths = [h], [w]
+def empty_pyramid(height: int, width: int) -> Pyramid:
+    """Storage for the max pyramid of an (``height``, ``width``) depth buffer: level 0 at the
+    far plane (1.0), to be written (e.g. rasterized into) and then :func:`reduce_pyramid`."""
+    if height < 1 or width < 1:
+        raise ValueError(f"a pyramid needs at least one texel, got {height} × {width}")
+    heights, widths = [int(height)], [int(width)]
     while heights[-1] > 1 or widths[-1] > 1:
         heights.append(-(-heights[-1] // 2))
         widths.append(-(-widths[-1] // 2))
@@ -95,30 +90,81 @@ def build_pyramid(depth: np.ndarray) -> Pyramid:
     sizes = heights * widths
     offsets = np.cumsum(sizes) - sizes
     flat = np.empty(int(sizes.sum()), np.float32)
-    flat[: h * w] = depth.reshape(-1)
-    _reduce_levels(flat, offsets, widths, heights)
+    flat[: height * width] = 1.0
     return Pyramid(flat, offsets, widths, heights)
 
 
+def reduce_pyramid(pyramid: Pyramid, threads: int = 1) -> None:
+    """Fill levels 1.. of ``pyramid`` from its level 0, in place. Texel ``(y, x)`` of level
+    ``k`` is >= every level-0 texel in rows ``y * 2**k ...`` and columns ``x * 2**k ...``
+    (equal to their max when no padding was needed). ``threads`` numba threads share level 1
+    (the same levels for any value)."""
+    p = pyramid
+    first = 1
+    if threads > 1 and p.levels > 1:
+        _reduce_first_level(p.flat, p.offsets, p.widths, p.heights, int(threads))
+        first = 2
+    _reduce_levels(p.flat, p.offsets, p.widths, p.heights, first)
+
+
+def build_pyramid(depth: np.ndarray, threads: int = 1) -> Pyramid:
+    """Max pyramid of ``depth`` (H, W) float32 window depth, down to a single texel
+    (:func:`reduce_pyramid` of a copy of ``depth``)."""
+    depth = np.asarray(depth, dtype=np.float32)
+    if depth.ndim != 2 or depth.size == 0:
+        raise ValueError(f"depth must be a non-empty (H, W) array, got shape {depth.shape}")
+    pyramid = empty_pyramid(*depth.shape)
+    pyramid.level(0)[:] = depth
+    reduce_pyramid(pyramid, threads)
+    return pyramid
+
+
+# Rows per stripe of a level when several threads reduce it: stripe k belongs to thread
+# k % threads.
+REDUCE_STRIPE_ROWS = 16
+
+
+@numba.njit(cache=True, inline="always")
+def _reduce_row(flat, src, dst, sw, sh, dw, y):  # pragma: no cover - compiled
+    """Row ``y`` of a level from the level below (:func:`_reduce_levels`)."""
+    one = np.float32(1.0)
+    r0 = src + 2 * y * sw
+    out = dst + y * dw
+    pairs = sw // 2  # texels with both columns inside; an odd edge column comes after
+    if 2 * y + 1 < sh:
+        r1 = r0 + sw
+        for x in range(pairs):
+            a = max(flat[r0 + 2 * x], flat[r0 + 2 * x + 1])
+            b = max(flat[r1 + 2 * x], flat[r1 + 2 * x + 1])
+            flat[out + x] = max(a, b)
+        if pairs < dw:
+            flat[out + pairs] = one
+    else:  # the row past an odd top edge counts as far
+        for x in range(dw):
+            flat[out + x] = one
+
+
 @numba.njit(cache=True)
-def _reduce_levels(flat, offsets, widths, heights):  # pragma: no cover - compiled
-    """Fill levels 1.. of ``flat`` from level 0: each texel the max of its 2×2 texels below,
-    with texels past an odd edge counting as 1.0 (far)."""
-    for k in range(1, len(offsets)):
+def _reduce_levels(flat, offsets, widths, heights, first):  # pragma: no cover - compiled
+    """Fill levels ``first``.. of ``flat`` from the level below each: every texel the max of
+    its 2×2 texels below, texels past an odd edge counting as 1.0 (far)."""
+    for k in range(first, len(offsets)):
         src, dst = offsets[k - 1], offsets[k]
         sw, sh, dw, dh = widths[k - 1], heights[k - 1], widths[k], heights[k]
         for y in range(dh):
-            y0, y1 = 2 * y, 2 * y + 1
-            for x in range(dw):
-                x0, x1 = 2 * x, 2 * x + 1
-                v = flat[src + y0 * sw + x0]
-                v = max(v, flat[src + y0 * sw + x1] if x1 < sw else np.float32(1.0))
-                if y1 < sh:
-                    v = max(v, flat[src + y1 * sw + x0])
-                    v = max(v, flat[src + y1 * sw + x1] if x1 < sw else np.float32(1.0))
-                else:
-                    v = max(v, np.float32(1.0))
-                flat[dst + y * dw + x] = v
+            _reduce_row(flat, src, dst, sw, sh, dw, y)
+
+
+@numba.njit(cache=True, parallel=True)
+def _reduce_first_level(flat, offsets, widths, heights, bands):  # pragma: no cover
+    """Level 1 (three quarters of the work) on ``bands`` threads, stripes of
+    :data:`REDUCE_STRIPE_ROWS` rows interleaved."""
+    src, dst = offsets[0], offsets[1]
+    sw, sh, dw, dh = widths[0], heights[0], widths[1], heights[1]
+    for band in numba.prange(bands):
+        for start in range(band * REDUCE_STRIPE_ROWS, dh, bands * REDUCE_STRIPE_ROWS):
+            for y in range(start, min(start + REDUCE_STRIPE_ROWS, dh)):
+                _reduce_row(flat, src, dst, sw, sh, dw, y)
 
 
 def project_boxes(
@@ -284,29 +330,59 @@ def _boxes_visible(flat, offsets, widths, levels, rect, z_near, out):  # pragma:
         )  # fmt: skip
 
 
+# Objects per block when several threads classify: block b belongs to thread b % threads
+# (interleaved, since the objects in the frustum crowd some index ranges; a block writes
+# 512 bytes of codes, so two threads rarely share a cache line).
+OBJECT_BLOCK = 512
+
+
 @numba.njit(cache=True)
 def _classify_objects(
     aabbs, boxes, planes, frustum, forward, eye_depth, min_depth, m, width, height,
-    flat, offsets, widths, levels, out,
+    flat, offsets, widths, levels, out, band=0, bands=1,
 ):  # pragma: no cover - compiled  # fmt: skip
-    """:func:`classify_objects`' loop over objects (numba)."""
+    """:func:`classify_objects`' loop over the objects of the blocks of :data:`OBJECT_BLOCK`
+    ``band, band + bands, …`` (one thread's share; default all)."""
     am = np.abs(m)
     tested = 0
-    for k in range(len(aabbs)):
-        if frustum and outside_frustum(aabbs[k], planes):
-            out[k] = VIEW_CULLED
-        elif crosses_near_plane(boxes[k], forward, eye_depth, min_depth):
-            out[k] = VISIBLE
-        else:
-            x0, y0, x1, y1, zn = project_box(boxes[k], m, am, width, height)
-            visible = _pyramid_test(x0, y0, x1, y1, zn, flat, offsets, widths, levels)
-            out[k] = VISIBLE if visible else OCCLUDED
-            tested += 1
+    n = len(aabbs)
+    for start in range(band * OBJECT_BLOCK, n, bands * OBJECT_BLOCK):
+        for k in range(start, min(start + OBJECT_BLOCK, n)):
+            if frustum and outside_frustum(aabbs[k], planes):
+                out[k] = VIEW_CULLED
+            elif crosses_near_plane(boxes[k], forward, eye_depth, min_depth):
+                out[k] = VISIBLE
+            else:
+                x0, y0, x1, y1, zn = project_box(boxes[k], m, am, width, height)
+                visible = _pyramid_test(x0, y0, x1, y1, zn, flat, offsets, widths, levels)
+                out[k] = VISIBLE if visible else OCCLUDED
+                tested += 1
     return tested
 
 
+@numba.njit(cache=True, parallel=True)
+def _classify_objects_parallel(
+    aabbs, boxes, planes, frustum, forward, eye_depth, min_depth, m, width, height,
+    flat, offsets, widths, levels, out, bands,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:func:`_classify_objects` with the blocks dealt to ``bands`` numba threads (each
+    object is judged alone: the codes are those of the serial loop)."""
+    per_band = np.zeros(bands, np.int64)
+    for band in numba.prange(bands):
+        per_band[band] = _classify_objects(
+            aabbs, boxes, planes, frustum, forward, eye_depth, min_depth, m, width, height,
+            flat, offsets, widths, levels, out, band, bands,
+        )  # fmt: skip
+    return per_band.sum()
+
+
 def classify_objects(
-    pyramid: Pyramid, camera, aabbs: np.ndarray, boxes: np.ndarray, frustum: bool = True
+    pyramid: Pyramid,
+    camera,
+    aabbs: np.ndarray,
+    boxes: np.ndarray,
+    frustum: bool = True,
+    threads: int = 1,
 ) -> tuple[np.ndarray, int]:
     """Frustum test, near-plane test, projection and pyramid test of every object in one pass.
 
@@ -322,6 +398,8 @@ def classify_objects(
         Their grown query boxes, for the near-plane test (as
         :func:`soc.culling.queries.near_plane_straddlers`: crossing boxes are kept untested) and the
         pyramid test (:func:`project_boxes`, :func:`boxes_visible`).
+    threads : int
+        numba threads sharing the objects (the codes do not depend on it).
 
     Returns
     -------
@@ -337,11 +415,13 @@ def classify_objects(
     forward = -np.asarray(camera.view, np.float64)[2, :3]
     out = np.empty(len(aabbs), np.uint8)
     width, height = int(pyramid.widths[0]), int(pyramid.heights[0])
-    tested = _classify_objects(
+    args = (
         aabbs, boxes, np.ascontiguousarray(camera.planes, np.float64), bool(frustum), forward,
         float(forward @ np.asarray(camera.eye, np.float64)),
         camera.near * (1.0 + NEAR_PLANE_MARGIN),
         np.ascontiguousarray(camera.view_proj, np.float64), width, height,
         pyramid.flat, pyramid.offsets, pyramid.widths, pyramid.levels, out,
     )  # fmt: skip
-    return out, int(tested)
+    if threads <= 1:  # serial: no thread pool to start
+        return out, int(_classify_objects(*args))
+    return out, int(_classify_objects_parallel(*args, int(threads)))

@@ -409,10 +409,16 @@ def test_boxes(rects, z_near, mask, z0, z1, out):  # pragma: no cover - compiled
         )
 
 
+# Objects per block when several threads classify: block b belongs to thread b % threads
+# (interleaved, since the objects in the frustum crowd some index ranges; a block writes
+# 512 bytes of codes, so two threads rarely share a cache line).
+OBJECT_BLOCK = 512
+
+
 @numba.njit(cache=True)
 def classify_objects(
     aabbs, boxes, planes, frustum, forward, eye_depth, min_depth, m, width, height,
-    mask, z0, z1, out,
+    mask, z0, z1, out, band=0, bands=1,
 ):  # pragma: no cover - compiled  # fmt: skip
     """Frustum test, near-plane test, projection and masked test of every object, in one pass.
 
@@ -435,6 +441,9 @@ def classify_objects(
     mask, z0, z1 : the buffer (:func:`rasterize`).
     out : (N,) uint8
         Receives :data:`VIEW_CULLED`, :data:`VISIBLE` or :data:`OCCLUDED`.
+    band, bands : int
+        Only the blocks of :data:`OBJECT_BLOCK` objects ``band, band + bands, …`` (one thread's
+        share, :func:`classify_objects_parallel`); default all.
 
     Returns
     -------
@@ -443,17 +452,35 @@ def classify_objects(
     """
     am = np.abs(m)
     tested = 0
-    for k in range(len(aabbs)):
-        if frustum and outside_frustum(aabbs[k], planes):
-            out[k] = VIEW_CULLED
-            continue
-        if crosses_near_plane(boxes[k], forward, eye_depth, min_depth):
-            out[k] = VISIBLE  # kept untested
-            continue
-        x0, y0, x1, y1, zn = project_box(boxes[k], m, am, width, height)
-        out[k] = _test_rect(x0, y0, x1, y1, zn, mask, z0, z1)
-        tested += 1
+    n = len(aabbs)
+    for start in range(band * OBJECT_BLOCK, n, bands * OBJECT_BLOCK):
+        for k in range(start, min(start + OBJECT_BLOCK, n)):
+            if frustum and outside_frustum(aabbs[k], planes):
+                out[k] = VIEW_CULLED
+                continue
+            if crosses_near_plane(boxes[k], forward, eye_depth, min_depth):
+                out[k] = VISIBLE  # kept untested
+                continue
+            x0, y0, x1, y1, zn = project_box(boxes[k], m, am, width, height)
+            out[k] = _test_rect(x0, y0, x1, y1, zn, mask, z0, z1)
+            tested += 1
     return tested
+
+
+@numba.njit(cache=True, parallel=True)
+def classify_objects_parallel(
+    aabbs, boxes, planes, frustum, forward, eye_depth, min_depth, m, width, height,
+    mask, z0, z1, out, bands,
+):  # pragma: no cover - compiled  # fmt: skip
+    """:func:`classify_objects` with the objects' blocks dealt to ``bands`` numba threads
+    (each object is judged alone, so the codes are those of the serial loop)."""
+    per_band = np.zeros(bands, np.int64)
+    for band in numba.prange(bands):
+        per_band[band] = classify_objects(
+            aabbs, boxes, planes, frustum, forward, eye_depth, min_depth, m, width, height,
+            mask, z0, z1, out, band, bands,
+        )  # fmt: skip
+    return per_band.sum()
 
 
 # -- the buffer ------------------------------------------------------------------------------
@@ -568,13 +595,17 @@ class MaskedBuffer:
         forward = -np.asarray(camera.view, np.float64)[2, :3]
         out = np.empty(len(aabbs), np.uint8)
         width, height = self.resolution
-        self.last_tested = classify_objects(
+        args = (
             aabbs, boxes, np.ascontiguousarray(camera.planes, np.float64), bool(frustum),
             forward, float(forward @ np.asarray(camera.eye, np.float64)),
             camera.near * (1.0 + NEAR_PLANE_MARGIN),
             np.ascontiguousarray(camera.view_proj, np.float64), width, height,
             self.mask, self.z0, self.z1, out,
         )  # fmt: skip
+        if self.bands == 1:  # serial: no thread pool to start
+            self.last_tested = int(classify_objects(*args))
+        else:
+            self.last_tested = int(classify_objects_parallel(*args, self.bands))
         return out
 
     def depth(self) -> np.ndarray:
@@ -620,8 +651,10 @@ def _warm_up() -> None:
     aabbs = np.zeros((1, 2, 3), np.float32)
     aabbs.flags.writeable = False  # as Scene.aabbs (numba compiles read-only arrays apart)
     planes = np.zeros((6, 4))
-    classify_objects(
+    args = (
         aabbs, np.zeros((1, 2, 3), np.float32), planes, True, np.array([0.0, 0.0, -1.0]), 0.0,
         0.1, vp, 8, 4, mask, z0, z1, np.empty(1, np.uint8),
     )  # fmt: skip
+    classify_objects(*args)
+    classify_objects_parallel(*args, 2)
     _WARM = True

@@ -33,10 +33,12 @@ class HiZCpuCulling(CullMethod):
         Skip back-facing triangles of closed, consistently oriented occluder meshes (default
         True; open meshes are always drawn two-sided).
     threads : int or None
-        Threads of the transform and the raster (default None: numba's thread count); the
-        depth is the same for any number.
+        Threads of the transform, the raster, the pyramid's first level and the box tests
+        (default None: numba's thread count); the depth and the codes are the same for any
+        number.
 
-    After :meth:`cull`, :attr:`last_depth` holds the frame's (H, W) float32 occluder depth and
+    After :meth:`cull`, :attr:`last_depth` holds the frame's (H, W) float32 occluder depth (level
+    0 of the method's pyramid, overwritten by the next cull: copy it to keep it) and
     :attr:`last_stats` its work counters (``triangles``, ``fragments``).
     """
 
@@ -54,13 +56,17 @@ class HiZCpuCulling(CullMethod):
         self._backface = closed & bool(backface)
         self._aabbs = np.asarray(self.scene.aabbs, np.float64)[self._ids]
         self._records = np.empty((2 * len(self._triangles), RECORD))
+        from soc.culling.hiz_cpu import empty_pyramid
+
         self.threads = raster_threads(threads)
+        width, height = self.resolution
+        self._pyramid = empty_pyramid(height, width)  # one allocation, written every frame
         self.last_depth: np.ndarray | None = None
         self.last_stats: dict[str, int] = {}
 
     def cull(self, camera) -> MethodOutput:
         from soc.culling.frustum import aabbs_in_frustum
-        from soc.culling.hiz_cpu import VIEW_CULLED, VISIBLE, build_pyramid, classify_objects
+        from soc.culling.hiz_cpu import VIEW_CULLED, VISIBLE, classify_objects, reduce_pyramid
         from soc.culling.software_raster import (
             EDGE_MARGIN_PX,
             rasterize_depth_records,
@@ -85,15 +91,22 @@ class HiZCpuCulling(CullMethod):
                 self._records, self.threads,
             )  # fmt: skip
         with stage(timings, "raster"):
-            depth = np.ones((height, width), np.float32)
+            depth = self._pyramid.level(0)
+            depth.fill(1.0)
             fragments = rasterize_depth_records(
                 self._records, n, depth, EDGE_MARGIN_PX, self.threads
             )
         with stage(timings, "pyramid"):
-            pyramid = build_pyramid(depth)
+            pyramid = self._pyramid
+            reduce_pyramid(pyramid, self.threads)
         with stage(timings, "test"):
             codes, tested = classify_objects(
-                pyramid, camera, self.scene.aabbs, self.geometry.query_boxes, self.config.frustum
+                pyramid,
+                camera,
+                self.scene.aabbs,
+                self.geometry.query_boxes,
+                self.config.frustum,
+                self.threads,
             )
         self.last_depth = depth
         self.last_stats = {"triangles": int(n), "fragments": int(fragments)}
