@@ -53,11 +53,13 @@ def extra_specs(resolution: tuple[int, int] = DISPLAY) -> tuple[str, ...]:
         "hiz-gpu(footprint=4)",
         "hiz-gpu(footprint=4, refine=23)",
         f"hiz-gpu(occluder_resolution=({w}, {h}))",
+        "hiz-2phase(test='gpu')",
         "hiz-2phase(footprint=2, refine=0)",
         "hiz-2phase(octants=True)",
         "hiz-2phase(next_from='final')",
         "masked(threads=1)",
         "hiz-cpu(threads=1)",
+        "hiz-cpu(footprint=4, refine=23)",
     )
 
 

@@ -16,8 +16,9 @@ from soc.scenes.dynamic import subset
 from soc.scenes.paths import flight, random_cameras
 
 # Option sets (next set from the early or the finished depth; depth-only early pass; the
-# occluders drawn early too; octant boxes; the classic 2×2 test without refinement): every
-# one must be conservative in every frame.
+# occluders drawn early too; octant boxes; the classic 2×2 test without refinement; the
+# pyramid and test in GL or in numba, "auto" choosing numba on llvmpipe): every one must be
+# conservative in every frame.
 MODES = [
     {"next_from": "early"},
     {"next_from": "final"},
@@ -25,8 +26,21 @@ MODES = [
     {"next_from": "final", "early_pass": "depth", "occluders": True},
     {"next_from": "final", "octants": True},
     {"footprint": 2, "refine": 0},
+    {"test": "gpu"},
+    {"test": "gpu", "next_from": "final", "footprint": 2, "refine": 0},
+    {"test": "cpu", "next_from": "final", "early_pass": "depth"},
 ]
-MODE_IDS = ["early", "final", "depth", "final-depth-occluders", "final-octants", "classic"]
+MODE_IDS = [
+    "early",
+    "final",
+    "depth",
+    "final-depth-occluders",
+    "final-octants",
+    "classic",
+    "gpu",
+    "gpu-final-classic",
+    "cpu-final-depth",
+]
 
 
 def _run(scene, cameras, resolution, *, options=None, draw=False, resets=(), alive=None):
@@ -125,9 +139,44 @@ def test_objects_appearing_and_disappearing(clutter_scenes, options):
 def test_bad_options_and_alive_are_clear_errors(clutter_scenes):
     with pytest.raises(ValueError, match="next_from"):
         soc.Culler(clutter_scenes[0], "hiz-2phase", (64, 64), next_from="late")
+    with pytest.raises(ValueError, match="test must be one of"):
+        soc.Culler(clutter_scenes[0], "hiz-2phase", (64, 64), test="tpu")
+    with pytest.raises(ValueError, match="octants=True needs test='gpu'"):
+        soc.Culler(clutter_scenes[0], "hiz-2phase", (64, 64), octants=True, test="cpu")
+    with pytest.raises(ValueError, match="footprint"):
+        soc.Culler(clutter_scenes[0], "hiz-2phase", (64, 64), footprint=3, test="cpu")
     with soc.Culler(clutter_scenes[0], "hiz-2phase", (64, 64)) as c:
         with pytest.raises(ValueError, match="alive"):
             c.method.set_alive(np.ones(3, bool))
+
+
+def test_auto_tests_on_the_cpu_where_gl_runs_on_it_and_both_sides_judge_alike(small_market):
+    """ "auto" picks numba on llvmpipe (GL on the CPU) and GL otherwise; with one early set
+    (the same frames before), the GL and numba tests keep nearly the same objects, both
+    conservative; numba's a few fewer (its float64 transform needs smaller margins than
+    float32 GL, and its frustum test less slack)."""
+    res = (480, 270)
+    cams = flight(small_market, frames=100, width=res[0], height=res[1])[20:32]
+    with (
+        soc.Oracle(small_market) as oracle,
+        soc.Culler(small_market, "hiz-2phase", res) as auto,
+        soc.Culler(small_market, "hiz-2phase", res, test="gpu") as gpu,
+    ):
+        software = auto.geometry.glctx.software
+        assert auto.method.test == ("cpu" if software else "gpu")
+        assert software == ("llvmpipe" in auto.geometry.glctx.renderer.lower())
+        if not software:
+            pytest.skip("GL runs on a GPU here: 'auto' is the GL test")
+        for cam in cams:
+            truth = oracle.visible(cam, res)
+            a, b = auto.cull(cam, truth=truth), gpu.cull(cam, truth=truth)
+            assert_conservative(a.visible, truth, "numba test")
+            assert_conservative(b.visible, truth, "GL test")
+            only_numba = int((a.visible & ~b.visible).sum())
+            only_gl = int((b.visible & ~a.visible).sum())
+            kept = int(b.visible.sum())
+            assert only_numba <= 0.01 * kept + 2 and only_gl <= 0.05 * kept, (only_numba, only_gl)
+            auto.method.next_set = gpu.method.next_set.copy()  # the same early set next frame
 
 
 @pytest.mark.parametrize("early_pass", ["shaded", "depth"])
@@ -163,7 +212,8 @@ def test_it_culls_and_draws_the_frame_of_everything(small_market, early_pass):
     assert kept[0] > 0.5 * n and max(kept[2:]) < 0.3 * n, kept
 
 
-def test_stage_switches(clutter_scenes):
+@pytest.mark.parametrize("test", ["gpu", "cpu"])
+def test_stage_switches(clutter_scenes, test):
     """CullConfig: without the depth test the kept set is the frustum test's; without the
     frustum test the method is still conservative (boxes outside go through the HiZ test)."""
     from soc.culling.frustum import aabbs_in_frustum
@@ -172,12 +222,12 @@ def test_stage_switches(clutter_scenes):
     scene = clutter_scenes[3]
     res = (320, 192)
     cams = random_cameras(scene, 8, seed=21, width=res[0], height=res[1])
-    with soc.Culler(scene, "hiz-2phase", res, config=CullConfig(depth_test=False)) as c:
+    with soc.Culler(scene, "hiz-2phase", res, config=CullConfig(depth_test=False), test=test) as c:
         for cam in cams:
             assert np.array_equal(c.cull(cam).visible, aabbs_in_frustum(scene.aabbs, cam))
     with (
         soc.Oracle(scene) as oracle,
-        soc.Culler(scene, "hiz-2phase", res, config=CullConfig(frustum=False)) as c,
+        soc.Culler(scene, "hiz-2phase", res, config=CullConfig(frustum=False), test=test) as c,
     ):
         for i, cam in enumerate(cams):
             truth = oracle.visible(cam, res)

@@ -105,6 +105,54 @@ def test_box_covering_no_pixel_centre_is_hidden():
     assert not _wall_case(3.0, x=(0.001, 0.002), y=(0.001, 0.002))
 
 
+def _reference_read(pyr, rect, z, footprint, refine):
+    """Every texel of the judging level under each rectangle read (the slow definition)."""
+    out = []
+    for (x0, y0, x1, y1), zn in zip(rect, z, strict=True):
+        if x0 > x1 or y0 > y1:
+            out.append(False)
+            continue
+        k = 0
+        while k < pyr.levels - 1 and max((x1 >> k) - (x0 >> k), (y1 >> k) - (y0 >> k)) >= footprint:
+            k += 1
+        j = max(k - refine, 0)
+        block = pyr.level(j)[y0 >> j : (y1 >> j) + 1, x0 >> j : (x1 >> j) + 1]
+        out.append(bool((block >= zn).any()))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("shape", [(64, 64), (45, 61), (1, 37)])
+def test_footprint_and_refinement_read_what_the_definition_reads(shape):
+    """Needles: a near buffer with a few far pixels. For footprints 2 and 4 and refinement 0,
+    1, 2 and to the pixels, the depth-first walk answers as reading every texel of the judging
+    level under the rectangle, and refining to the pixels finds exactly the boxes over a
+    needle (nearer than it)."""
+    rng = np.random.default_rng(shape[1])
+    h, w = shape
+    depth = np.full(shape, 0.3, np.float32)
+    needles = rng.integers(0, [h, w], (6, 2))
+    depth[needles[:, 0], needles[:, 1]] = 0.9
+    pyr = build_pyramid(depth)
+    x = np.sort(rng.integers(-2, w + 2, (400, 2)), axis=1).clip(0, w - 1)
+    y = np.sort(rng.integers(-2, h + 2, (400, 2)), axis=1).clip(0, h - 1)
+    rect = np.stack([x[:, 0], y[:, 0], x[:, 1], y[:, 1]], axis=1)
+    rect[:5, 0] = rect[:5, 2] + 1  # empty rectangles: no pixel centre
+    z = rng.choice([0.2, 0.5, 0.95], 400)
+    exact = np.array([(r[0] <= r[2]) and (depth[r[1] : r[3] + 1, r[0] : r[2] + 1] >= zn).any()
+                      for r, zn in zip(rect, z, strict=True)])  # fmt: skip
+    assert exact.any() and not exact.all()
+    for footprint in (2, 4):
+        for refine in (0, 1, 2, 40):
+            got = boxes_visible(pyr, rect, z, footprint, refine)
+            np.testing.assert_array_equal(got, _reference_read(pyr, rect, z, footprint, refine))
+            assert (got >= exact).all()  # never less than the pixels say: conservative
+        np.testing.assert_array_equal(boxes_visible(pyr, rect, z, footprint, 40), exact)
+    with pytest.raises(ValueError, match="footprint"):
+        boxes_visible(pyr, rect, z, footprint=3)
+    with pytest.raises(ValueError, match="refine"):
+        boxes_visible(pyr, rect, z, refine=-1)
+
+
 # -- the method against the oracle (conservative) --------------------------------------------
 
 
@@ -116,6 +164,23 @@ def test_conservative_over_clutter_scenes(clutter_scenes, resolution):
         cams = random_cameras(scene, 30, seed=200 + k, width=resolution[0], height=resolution[1])
         culled_something += check_conservative(scene, cams, resolution, ["hiz-cpu"])
     assert culled_something > 50
+
+
+@pytest.mark.parametrize("options", [{"footprint": 4}, {"footprint": 4, "refine": 23}])
+def test_finer_reads_are_conservative_and_keep_fewer(clutter_scenes, options):
+    """A 4×4 footprint, and refinement down to the pixels, over 2 scenes × 20 cameras: no
+    visible object culled, and never more kept than the classic read."""
+    res = (333, 197)
+    for k, scene in enumerate(clutter_scenes[:2]):
+        cams = random_cameras(scene, 20, seed=240 + k, width=res[0], height=res[1])
+        assert check_conservative(scene, cams, res, ["hiz-cpu"], **{"hiz-cpu": options}) > 0
+        with (
+            soc.Culler(scene, method="hiz-cpu", resolution=res) as classic,
+            soc.Culler(scene, method="hiz-cpu", resolution=res, **options) as finer,
+        ):
+            for cam in cams:
+                kept, kept_finer = classic.cull(cam).visible, finer.cull(cam).visible
+                assert not (kept_finer & ~kept).any()
 
 
 def test_conservative_at_a_large_odd_resolution(clutter_scenes):

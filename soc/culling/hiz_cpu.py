@@ -280,7 +280,22 @@ def _project_boxes(boxes, m, width, height, rect, z_near):  # pragma: no cover -
         z_near[k] = z
 
 
-def boxes_visible(pyramid: Pyramid, rect: np.ndarray, z_near: np.ndarray) -> np.ndarray:
+# Texels per axis read at a box's pyramid level (as soc.culling.hiz_gpu.FOOTPRINTS): 2, the
+# classic HiZ read, or 4.
+FOOTPRINTS = (2, 4)
+
+# Rows of a walk's stack (:func:`_pyramid_test`): at most footprint² texels of the first
+# level, then at most 3 more per level descended (a texel popped, its ≤ 4 children pushed).
+WALK_STACK = 16 + 3 * 32
+
+
+def boxes_visible(
+    pyramid: Pyramid,
+    rect: np.ndarray,
+    z_near: np.ndarray,
+    footprint: int = 2,
+    refine: int = 0,
+) -> np.ndarray:
     """(K,) bool: True where a box may be visible (not hidden by the pyramid).
 
     Parameters
@@ -291,42 +306,88 @@ def boxes_visible(pyramid: Pyramid, rect: np.ndarray, z_near: np.ndarray) -> np.
         Inclusive pixel rectangles ``x0, y0, x1, y1`` (:func:`project_boxes`).
     z_near : (K,) float
         Nearest window depth of each box, bias already applied.
+    footprint : int
+        2 (default, the classic read) or 4: the box is judged at the finest level where its
+        rectangle spans at most ``footprint`` × ``footprint`` texels.
+    refine : int
+        Levels finer than that one the box is judged at (default 0; a large value, e.g.
+        :data:`soc.culling.hiz_gpu.MAX_REFINE`, judges it at level 0, the pixels).
 
-    A box is visible when its nearest depth is <= the max occluder depth over the (at most
-    2×2) texels covering its rectangle at the finest level where it spans at most 2×2.
+    A box is visible when some texel of the judging level ``max(k - refine, 0)`` under its
+    rectangle holds a depth >= its nearest depth. The walk reads the level-``k`` texels, then
+    only the children of texels that reach the box's depth (a texel's max bounds its
+    children's): the answer of reading every texel of the judging level, at a fraction of the
+    reads, as :class:`soc.culling.hiz_gpu.HizTest` does on the GPU.
     """
+    footprint, refine = check_test_options(footprint, refine)
     rect = np.ascontiguousarray(rect, np.int64).reshape(-1, 4)
     z_near = np.ascontiguousarray(z_near, np.float64).reshape(-1)
     out = np.empty(len(rect), np.bool_)
-    _boxes_visible(pyramid.flat, pyramid.offsets, pyramid.widths, pyramid.levels, rect, z_near, out)
+    _boxes_visible(
+        pyramid.flat, pyramid.offsets, pyramid.widths, pyramid.levels, rect, z_near,
+        footprint, refine, out,
+    )  # fmt: skip
     return out
 
 
+def check_test_options(footprint: int, refine: int) -> tuple[int, int]:
+    """``(footprint, refine)`` as ints, or a ValueError saying which is wrong."""
+    if footprint not in FOOTPRINTS:
+        raise ValueError(f"footprint must be one of {FOOTPRINTS}, got {footprint!r}")
+    if int(refine) != refine or refine < 0:
+        raise ValueError(f"refine must be an integer >= 0, got {refine!r}")
+    return int(footprint), int(refine)
+
+
 @numba.njit(cache=True, inline="always")
-def _pyramid_test(x0, y0, x1, y1, zn, flat, offsets, widths, levels):  # pragma: no cover
-    """Whether a rectangle at nearest depth ``zn`` may be visible (:func:`boxes_visible`)."""
+def _pyramid_test(
+    x0, y0, x1, y1, zn, flat, offsets, widths, levels, footprint, refine, stack
+):  # pragma: no cover - compiled
+    """Whether a rectangle at nearest depth ``zn`` may be visible (:func:`boxes_visible`);
+    ``stack`` (:data:`WALK_STACK`, 3) int64 scratch rows (x, y, level)."""
     if x0 > x1 or y0 > y1:
         return False  # no pixel centre: nothing of the box can be seen
-    # Finest level k where the rectangle spans at most 2×2 texels (the top one always does).
+    # Finest level k where the rectangle spans at most footprint² texels (the top one does).
+    span = footprint - 1
     k = 0
-    while k < levels - 1 and ((x1 >> k) - (x0 >> k) > 1 or (y1 >> k) - (y0 >> k) > 1):
+    while k < levels - 1 and ((x1 >> k) - (x0 >> k) > span or (y1 >> k) - (y0 >> k) > span):
         k += 1
+    leaf = max(k - refine, 0)
+    top = 0
     base, wk = offsets[k], widths[k]
-    tx0, tx1, ty0, ty1 = x0 >> k, x1 >> k, y0 >> k, y1 >> k
-    farthest = max(
-        max(flat[base + ty0 * wk + tx0], flat[base + ty0 * wk + tx1]),
-        max(flat[base + ty1 * wk + tx0], flat[base + ty1 * wk + tx1]),
-    )
-    return zn <= farthest
+    for ty in range(y0 >> k, (y1 >> k) + 1):
+        for tx in range(x0 >> k, (x1 >> k) + 1):
+            if flat[base + ty * wk + tx] >= zn:
+                if k == leaf:
+                    return True
+                stack[top, 0], stack[top, 1], stack[top, 2] = tx, ty, k
+                top += 1
+    while top > 0:  # depth first into the texels that reach zn
+        top -= 1
+        c = stack[top, 2] - 1
+        base, wc = offsets[c], widths[c]
+        cx0, cx1 = max(2 * stack[top, 0], x0 >> c), min(2 * stack[top, 0] + 1, x1 >> c)
+        cy0, cy1 = max(2 * stack[top, 1], y0 >> c), min(2 * stack[top, 1] + 1, y1 >> c)
+        for cy in range(cy0, cy1 + 1):
+            for cx in range(cx0, cx1 + 1):
+                if flat[base + cy * wc + cx] >= zn:
+                    if c == leaf:
+                        return True
+                    stack[top, 0], stack[top, 1], stack[top, 2] = cx, cy, c
+                    top += 1
+    return False
 
 
 @numba.njit(cache=True)
-def _boxes_visible(flat, offsets, widths, levels, rect, z_near, out):  # pragma: no cover
+def _boxes_visible(
+    flat, offsets, widths, levels, rect, z_near, footprint, refine, out
+):  # pragma: no cover - compiled
     """:func:`boxes_visible`'s loop over boxes (numba)."""
+    stack = np.empty((WALK_STACK, 3), np.int64)
     for n in range(len(rect)):
         out[n] = _pyramid_test(
             rect[n, 0], rect[n, 1], rect[n, 2], rect[n, 3], z_near[n], flat, offsets, widths,
-            levels,
+            levels, footprint, refine, stack,
         )  # fmt: skip
 
 
@@ -339,11 +400,12 @@ OBJECT_BLOCK = 512
 @numba.njit(cache=True)
 def _classify_objects(
     aabbs, boxes, planes, frustum, forward, eye_depth, min_depth, m, width, height,
-    flat, offsets, widths, levels, out, band=0, bands=1,
+    flat, offsets, widths, levels, footprint, refine, out, band=0, bands=1,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:func:`classify_objects`' loop over the objects of the blocks of :data:`OBJECT_BLOCK`
     ``band, band + bands, …`` (one thread's share; default all)."""
     am = np.abs(m)
+    stack = np.empty((WALK_STACK, 3), np.int64)
     tested = 0
     n = len(aabbs)
     for start in range(band * OBJECT_BLOCK, n, bands * OBJECT_BLOCK):
@@ -354,7 +416,9 @@ def _classify_objects(
                 out[k] = VISIBLE
             else:
                 x0, y0, x1, y1, zn = project_box(boxes[k], m, am, width, height)
-                visible = _pyramid_test(x0, y0, x1, y1, zn, flat, offsets, widths, levels)
+                visible = _pyramid_test(
+                    x0, y0, x1, y1, zn, flat, offsets, widths, levels, footprint, refine, stack
+                )
                 out[k] = VISIBLE if visible else OCCLUDED
                 tested += 1
     return tested
@@ -363,7 +427,7 @@ def _classify_objects(
 @numba.njit(cache=True, parallel=True)
 def _classify_objects_parallel(
     aabbs, boxes, planes, frustum, forward, eye_depth, min_depth, m, width, height,
-    flat, offsets, widths, levels, out, bands,
+    flat, offsets, widths, levels, footprint, refine, out, bands,
 ):  # pragma: no cover - compiled  # fmt: skip
     """:func:`_classify_objects` with the blocks dealt to ``bands`` numba threads (each
     object is judged alone: the codes are those of the serial loop)."""
@@ -371,7 +435,7 @@ def _classify_objects_parallel(
     for band in numba.prange(bands):
         per_band[band] = _classify_objects(
             aabbs, boxes, planes, frustum, forward, eye_depth, min_depth, m, width, height,
-            flat, offsets, widths, levels, out, band, bands,
+            flat, offsets, widths, levels, footprint, refine, out, band, bands,
         )  # fmt: skip
     return per_band.sum()
 
@@ -383,6 +447,8 @@ def classify_objects(
     boxes: np.ndarray,
     frustum: bool = True,
     threads: int = 1,
+    footprint: int = 2,
+    refine: int = 0,
 ) -> tuple[np.ndarray, int]:
     """Frustum test, near-plane test, projection and pyramid test of every object in one pass.
 
@@ -400,6 +466,8 @@ def classify_objects(
         pyramid test (:func:`project_boxes`, :func:`boxes_visible`).
     threads : int
         numba threads sharing the objects (the codes do not depend on it).
+    footprint, refine : int
+        How a box is read from the pyramid (:func:`boxes_visible`).
 
     Returns
     -------
@@ -408,6 +476,7 @@ def classify_objects(
     tested : int
         Boxes tested against the pyramid.
     """
+    footprint, refine = check_test_options(footprint, refine)
     aabbs = np.asarray(aabbs)
     boxes = np.asarray(boxes, np.float32)
     if aabbs.shape != boxes.shape or aabbs.shape[1:] != (2, 3):
@@ -420,7 +489,7 @@ def classify_objects(
         float(forward @ np.asarray(camera.eye, np.float64)),
         camera.near * (1.0 + NEAR_PLANE_MARGIN),
         np.ascontiguousarray(camera.view_proj, np.float64), width, height,
-        pyramid.flat, pyramid.offsets, pyramid.widths, pyramid.levels, out,
+        pyramid.flat, pyramid.offsets, pyramid.widths, pyramid.levels, footprint, refine, out,
     )  # fmt: skip
     if threads <= 1:  # serial: no thread pool to start
         return out, int(_classify_objects(*args))

@@ -227,6 +227,12 @@ class GLContext:
             self.threads = _process_threads
             self.raw = RawGL()  # entry points resolved now, with this context current
             info = mgl.info
+            # Whether GL runs on the CPU (Mesa's llvmpipe, softpipe or swrast): work that GL
+            # would do on a GPU may then be cheaper in numba without GL's per-pass overhead.
+            self.renderer = str(info.get("GL_RENDERER", ""))
+            self.software = any(
+                name in self.renderer.lower() for name in ("llvmpipe", "softpipe", "swrast")
+            )
             # Sizes a texture, renderbuffer or viewport may have, pixels (see check_size).
             self.max_size = {
                 "GL_MAX_TEXTURE_SIZE": int(info["GL_MAX_TEXTURE_SIZE"]),

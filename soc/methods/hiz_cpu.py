@@ -32,6 +32,12 @@ class HiZCpuCulling(CullMethod):
     backface : bool
         Skip back-facing triangles of closed, consistently oriented occluder meshes (default
         True; open meshes are always drawn two-sided).
+    footprint : int
+        Texels per axis read per box at its pyramid level: 2 (default, the classic HiZ read
+        of Intel's framework) or 4 (:func:`soc.culling.hiz_cpu.boxes_visible`).
+    refine : int
+        Levels finer than its own a box that is not behind its texels is judged at (default
+        0; :data:`soc.culling.hiz_gpu.MAX_REFINE` judges it at the pixels), as hiz-gpu's.
     threads : int or None
         Threads of the transform, the raster, the pyramid's first level and the box tests
         (default None: numba's thread count); the depth and the codes are the same for any
@@ -47,9 +53,20 @@ class HiZCpuCulling(CullMethod):
     temporal = False
 
     def __init__(
-        self, geometry, resolution, config, *, backface: bool = True, threads: int | None = None
+        self,
+        geometry,
+        resolution,
+        config,
+        *,
+        backface: bool = True,
+        footprint: int = 2,
+        refine: int = 0,
+        threads: int | None = None,
     ):
+        from soc.culling.hiz_cpu import check_test_options
         from soc.culling.software_raster import RECORD, occluder_triangles, raster_threads
+
+        self.footprint, self.refine = check_test_options(footprint, refine)
 
         super().__init__(geometry, resolution, config)
         self._ids, self._triangles, self._offsets, closed = occluder_triangles(self.scene)
@@ -107,6 +124,8 @@ class HiZCpuCulling(CullMethod):
                 self.geometry.query_boxes,
                 self.config.frustum,
                 self.threads,
+                self.footprint,
+                self.refine,
             )
         self.last_depth = depth
         self.last_stats = {"triangles": int(n), "fragments": int(fragments)}
