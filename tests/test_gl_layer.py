@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ctypes
 import subprocess
 import sys
 
@@ -83,6 +84,31 @@ def test_renderer_draws_only_the_given_objects_and_times_it():
     drawn = (img != sky).any(axis=-1)
     assert depth.shape == (90, 160)
     assert (depth[~drawn] == 1.0).all() and (depth[drawn] < 1.0).all()  # same orientation
+
+
+def test_renderer_depth_holds_32_bit_floats():
+    """The frame's depth is GL_DEPTH_COMPONENT32F, which llvmpipe reads back as a copy (the
+    24-bit format is converted pixel by pixel), and reads back as the wall's window depth."""
+    from soc.gl.raw import GL_DEPTH_COMPONENT32F, GL_TEXTURE_2D, GL_TEXTURE_INTERNAL_FORMAT
+
+    s = soc.Scene.from_meshes([quad((-50, -50, -7.3), (100, 0, 0), (0, 100, 0))])
+    cam = soc.Camera.look_at((0, 0, 0), (0, 0, -1), width=64, height=48, near=0.5, far=50)
+    glctx = default_context()
+    r = Renderer(glctx.geometry(s), (64, 48))
+    try:
+        with glctx.current():
+            fmt = ctypes.c_int()
+            glctx.raw.glBindTexture(GL_TEXTURE_2D, r.depth.glo)
+            glctx.raw.glGetTexLevelParameteriv(GL_TEXTURE_2D, 0, GL_TEXTURE_INTERNAL_FORMAT, fmt)
+            glctx.raw.glBindTexture(GL_TEXTURE_2D, 0)
+        r.draw(cam, np.array([0]))
+        depth = r.depth_image()
+    finally:
+        r.release()
+    assert fmt.value == GL_DEPTH_COMPONENT32F
+    clip = cam.projection @ np.array([0.0, 0.0, -7.3, 1.0])
+    expected = np.float32(0.5 * (clip[2] / clip[3] + 1.0))
+    assert np.abs(depth - expected).max() <= 1e-6
 
 
 def test_culler_reports_stage_timings_and_counts():

@@ -26,6 +26,12 @@ GL_TRIANGLES = 0x0004
 GL_UNSIGNED_INT = 0x1405
 GL_COLOR = 0x1800
 GL_DEPTH = 0x1801
+GL_TEXTURE_2D = 0x0DE1
+GL_TEXTURE_BINDING_2D = 0x8069
+GL_TEXTURE_INTERNAL_FORMAT = 0x1003
+GL_DEPTH_COMPONENT = 0x1902
+GL_DEPTH_COMPONENT32F = 0x8CAC
+GL_FLOAT = 0x1406
 
 _u = ctypes.c_uint
 _i = ctypes.c_int
@@ -48,6 +54,10 @@ _SIGNATURES = {
     "glFlush": (None, []),
     "glTextureBarrier": (None, []),
     "glGetError": (_u, []),
+    "glGetIntegerv": (None, [_u, ctypes.POINTER(_i)]),
+    "glBindTexture": (None, [_u, _u]),
+    "glTexImage2D": (None, [_u, _i, _i, _i, _i, _i, _u, _u, _p]),
+    "glGetTexLevelParameteriv": (None, [_u, _i, _u, ctypes.POINTER(_i)]),
 }
 
 
@@ -124,6 +134,26 @@ class RawGL:
         """Clear an integer colour attachment of the bound framebuffer to ``value`` (moderngl
         would clear it with the bit pattern of a float)."""
         self.glClearBufferuiv(GL_COLOR, draw_buffer, (_u * 4)(value, 0, 0, 0))
+
+    def float_depth(self, texture) -> None:
+        """Re-specify the moderngl depth ``texture`` (2D, level 0, no data) as 32-bit float
+        depths (``GL_DEPTH_COMPONENT32F``) of the same size; the texture binding of the active
+        unit is restored. Call before attaching it to a framebuffer."""
+        bound = _i()
+        self.glGetIntegerv(GL_TEXTURE_BINDING_2D, ctypes.byref(bound))
+        self.glBindTexture(GL_TEXTURE_2D, texture.glo)
+        w, h = texture.size
+        self.glTexImage2D(
+            GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT32F, w, h, 0, GL_DEPTH_COMPONENT, GL_FLOAT, None
+        )
+        fmt = _i()
+        self.glGetTexLevelParameteriv(GL_TEXTURE_2D, 0, GL_TEXTURE_INTERNAL_FORMAT, fmt)
+        self.glBindTexture(GL_TEXTURE_2D, bound.value)
+        if fmt.value != GL_DEPTH_COMPONENT32F:
+            raise GLUnavailableError(
+                f"this OpenGL made a depth texture of format 0x{fmt.value:x}, not "
+                "GL_DEPTH_COMPONENT32F"
+            )
 
     def clear_depth(self, value: float = 1.0) -> None:
         """Clear the bound framebuffer's depth attachment."""
