@@ -128,7 +128,7 @@ class TwoPhaseCulling(CullMethod):
         test, footprint and refinement, without ``octants``). ``"auto"`` (default): the CPU
         when GL itself runs on the CPU (:attr:`soc.gl.context.GLContext.software`, llvmpipe),
         where reading the depth back and testing in numba costs less than GL's passes
-        (make bench's floor: market 15.2 → 9.5 ms, castle-2114 8.4 → 6.7 ms), else GL.
+        (make bench's floor on castle-2114: 3.5 against 7.0 ms a frame), else GL.
     threads : int or None
         numba threads of the CPU test (default: numba's thread count).
 
