@@ -7,6 +7,9 @@ corner may be kept although outside (false keeps, never false culls).
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 
 from soc.constants import FRUSTUM_SLACK
@@ -37,19 +40,38 @@ def aabbs_in_frustum(aabbs, planes: np.ndarray | Camera) -> np.ndarray:
         False only where the box is fully outside at least one plane (by more than
         ``FRUSTUM_SLACK`` relative to the box size).
     """
-    a = as_aabbs(aabbs).astype(np.float64)
+    a = as_aabbs(aabbs)
     p = planes.planes if isinstance(planes, Camera) else np.asarray(planes, np.float64)
     if p.shape != (6, 4):
         raise ValueError(f"planes must have shape (6, 4), got {p.shape}")
-    center = 0.5 * (a[:, 0] + a[:, 1])  # (N, 3)
-    half = 0.5 * (a[:, 1] - a[:, 0])
-    # Signed distance of the box's most-inside corner: centre distance + projected half-extent.
-    # einsum, not `@`: a BLAS matmul wakes its thread pool, which fights llvmpipe's rasterizer
-    # threads for the cores (several times slower between GL frames).
-    dist = (
-        np.einsum("nk,pk->np", center, p[:, :3])
-        + p[:, 3]
-        + np.einsum("nk,pk->np", half, np.abs(p[:, :3]))
-    )  # (N, 6)
-    slack = FRUSTUM_SLACK * (1.0 + np.linalg.norm(half, axis=1, keepdims=True))
-    return (dist >= -slack).all(axis=1)
+    inside = np.empty(len(a), np.bool_)
+    _in_frustum(a, np.ascontiguousarray(p, np.float64), inside)
+    return inside
+
+
+@numba.njit(cache=True, inline="always")
+def outside_frustum(aabb, planes):  # pragma: no cover - compiled
+    """Whether the box ``aabb`` (2, 3) lies outside one of ``planes`` (6, 4) float64: its
+    most-inside corner behind the plane by more than ``FRUSTUM_SLACK`` relative to the box
+    size (:func:`aabbs_in_frustum` for every box; kernels testing boxes one by one call it)."""
+    hx = 0.5 * (np.float64(aabb[1, 0]) - np.float64(aabb[0, 0]))
+    hy = 0.5 * (np.float64(aabb[1, 1]) - np.float64(aabb[0, 1]))
+    hz = 0.5 * (np.float64(aabb[1, 2]) - np.float64(aabb[0, 2]))
+    cx = 0.5 * (np.float64(aabb[0, 0]) + np.float64(aabb[1, 0]))
+    cy = 0.5 * (np.float64(aabb[0, 1]) + np.float64(aabb[1, 1]))
+    cz = 0.5 * (np.float64(aabb[0, 2]) + np.float64(aabb[1, 2]))
+    slack = FRUSTUM_SLACK * (1.0 + math.sqrt(hx * hx + hy * hy + hz * hz))
+    for p in range(6):
+        nx, ny, nz = planes[p, 0], planes[p, 1], planes[p, 2]
+        dist = cx * nx + cy * ny + cz * nz + planes[p, 3]
+        dist += hx * abs(nx) + hy * abs(ny) + hz * abs(nz)
+        if dist < -slack:
+            return True
+    return False
+
+
+@numba.njit(cache=True)
+def _in_frustum(aabbs, planes, out):  # pragma: no cover - compiled
+    """:func:`aabbs_in_frustum`'s loop over boxes (numba: one pass, no (N, 6) temporaries)."""
+    for k in range(len(aabbs)):
+        out[k] = not outside_frustum(aabbs[k], planes)

@@ -30,7 +30,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from soc.constants import FRUSTUM_SLACK, NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
+from soc.constants import NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
+from soc.culling.frustum import outside_frustum
 
 # Results per box of :func:`classify_objects` (the codes of :mod:`soc.culling.hiz_gpu` and
 # :mod:`soc.culling.masked`, MaskedOcclusionCulling's OCCLUDED / VISIBLE / VIEW_CULLED).
@@ -196,27 +197,6 @@ def project_boxes(
     z_near = np.empty(len(boxes), np.float64)
     _project_boxes(np.ascontiguousarray(boxes), m, int(width), int(height), rect, z_near)
     return rect, z_near
-
-
-@numba.njit(cache=True, inline="always")
-def outside_frustum(aabb, planes):  # pragma: no cover - compiled
-    """Whether the box ``aabb`` (2, 3) lies outside one of ``planes`` (6, 4) float64: the same
-    test as :func:`soc.culling.frustum.aabbs_in_frustum` (most-inside corner behind a plane by more
-    than ``FRUSTUM_SLACK`` relative to the box size), for kernels testing boxes one by one."""
-    hx = 0.5 * (np.float64(aabb[1, 0]) - np.float64(aabb[0, 0]))
-    hy = 0.5 * (np.float64(aabb[1, 1]) - np.float64(aabb[0, 1]))
-    hz = 0.5 * (np.float64(aabb[1, 2]) - np.float64(aabb[0, 2]))
-    cx = 0.5 * (np.float64(aabb[0, 0]) + np.float64(aabb[1, 0]))
-    cy = 0.5 * (np.float64(aabb[0, 1]) + np.float64(aabb[1, 1]))
-    cz = 0.5 * (np.float64(aabb[0, 2]) + np.float64(aabb[1, 2]))
-    slack = FRUSTUM_SLACK * (1.0 + math.sqrt(hx * hx + hy * hy + hz * hz))
-    for p in range(6):
-        nx, ny, nz = planes[p, 0], planes[p, 1], planes[p, 2]
-        dist = cx * nx + cy * ny + cz * nz + planes[p, 3]
-        dist += hx * abs(nx) + hy * abs(ny) + hz * abs(nz)
-        if dist < -slack:
-            return True
-    return False
 
 
 @numba.njit(cache=True, inline="always")
