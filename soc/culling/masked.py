@@ -418,7 +418,7 @@ OBJECT_BLOCK = 512
 @numba.njit(cache=True)
 def classify_objects(
     aabbs, boxes, planes, frustum, forward, eye_depth, min_depth, m, width, height,
-    mask, z0, z1, out, band=0, bands=1,
+    mask, z0, z1, out, band, bands,
 ):  # pragma: no cover - compiled  # fmt: skip
     """Frustum test, near-plane test, projection and masked test of every object, in one pass.
 
@@ -443,7 +443,8 @@ def classify_objects(
         Receives :data:`VIEW_CULLED`, :data:`VISIBLE` or :data:`OCCLUDED`.
     band, bands : int
         Only the blocks of :data:`OBJECT_BLOCK` objects ``band, band + bands, …`` (one thread's
-        share, :func:`classify_objects_parallel`); default all.
+        share, :func:`classify_objects_parallel`; 0, 1: all). No defaults: numba compiles
+        omitted arguments into a version several times slower.
 
     Returns
     -------
@@ -603,7 +604,7 @@ class MaskedBuffer:
             self.mask, self.z0, self.z1, out,
         )  # fmt: skip
         if self.bands == 1:  # serial: no thread pool to start
-            self.last_tested = int(classify_objects(*args))
+            self.last_tested = int(classify_objects(*args, 0, 1))
         else:
             self.last_tested = int(classify_objects_parallel(*args, self.bands))
         return out
@@ -655,6 +656,6 @@ def _warm_up() -> None:
         aabbs, np.zeros((1, 2, 3), np.float32), planes, True, np.array([0.0, 0.0, -1.0]), 0.0,
         0.1, vp, 8, 4, mask, z0, z1, np.empty(1, np.uint8),
     )  # fmt: skip
-    classify_objects(*args)
+    classify_objects(*args, 0, 1)
     classify_objects_parallel(*args, 2)
     _WARM = True
