@@ -98,13 +98,13 @@ def empty_pyramid(height: int, width: int) -> Pyramid:
 def reduce_pyramid(pyramid: Pyramid, threads: int = 1) -> None:
     """Fill levels 1.. of ``pyramid`` from its level 0, in place. Texel ``(y, x)`` of level
     ``k`` is >= every level-0 texel in rows ``y * 2**k ...`` and columns ``x * 2**k ...``
-    (equal to their max when no padding was needed). ``threads`` numba threads share level 1
-    (the same levels for any value)."""
+    (equal to their max when no padding was needed). ``threads`` numba threads share levels
+    1 and 2 (the same levels for any value)."""
     p = pyramid
     first = 1
     if threads > 1 and p.levels > 1:
-        _reduce_first_level(p.flat, p.offsets, p.widths, p.heights, int(threads))
-        first = 2
+        _reduce_first_levels(p.flat, p.offsets, p.widths, p.heights, int(threads))
+        first = 3
     _reduce_levels(p.flat, p.offsets, p.widths, p.heights, first)
 
 
@@ -120,8 +120,8 @@ def build_pyramid(depth: np.ndarray, threads: int = 1) -> Pyramid:
     return pyramid
 
 
-# Rows per stripe of a level when several threads reduce it: stripe k belongs to thread
-# k % threads.
+# Level-1 rows per stripe when several threads reduce: stripe k belongs to thread k % threads
+# (even, so that a stripe's level-2 rows come from its own level-1 rows).
 REDUCE_STRIPE_ROWS = 16
 
 
@@ -157,15 +157,21 @@ def _reduce_levels(flat, offsets, widths, heights, first):  # pragma: no cover -
 
 
 @numba.njit(cache=True, parallel=True)
-def _reduce_first_level(flat, offsets, widths, heights, bands):  # pragma: no cover
-    """Level 1 (three quarters of the work) on ``bands`` threads, stripes of
-    :data:`REDUCE_STRIPE_ROWS` rows interleaved."""
-    src, dst = offsets[0], offsets[1]
+def _reduce_first_levels(flat, offsets, widths, heights, bands):  # pragma: no cover
+    """Levels 1 and 2 (nine tenths of the work) on ``bands`` threads, stripes of
+    :data:`REDUCE_STRIPE_ROWS` level-1 rows interleaved; a stripe's level-2 rows are made
+    right after its level-1 rows, from them alone (the stripe height is even), while they
+    are in the cache."""
     sw, sh, dw, dh = widths[0], heights[0], widths[1], heights[1]
+    second = len(offsets) > 2
     for band in numba.prange(bands):
         for start in range(band * REDUCE_STRIPE_ROWS, dh, bands * REDUCE_STRIPE_ROWS):
-            for y in range(start, min(start + REDUCE_STRIPE_ROWS, dh)):
-                _reduce_row(flat, src, dst, sw, sh, dw, y)
+            stop = min(start + REDUCE_STRIPE_ROWS, dh)
+            for y in range(start, stop):
+                _reduce_row(flat, offsets[0], offsets[1], sw, sh, dw, y)
+            if second:
+                for y in range(start // 2, min((stop + 1) // 2, heights[2])):
+                    _reduce_row(flat, offsets[1], offsets[2], dw, dh, widths[2], y)
 
 
 def project_boxes(
