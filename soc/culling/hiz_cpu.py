@@ -11,7 +11,14 @@ software rasterizers: every level holds, per texel, the *farthest* occluder dept
    centres, and nearest window depth (of the nearest corner; window depth is monotonic in
    view depth), pulled nearer by the query depth bias.
 3. :func:`boxes_visible` — per box, the pyramid level at which its rectangle spans at most 2×2
-   texels, and the comparison of its nearest depth with the max of those texels.
+   texels (``footprint=4``: 4×4), and the comparison of its nearest depth with the max of those
+   texels; with ``refine``, a box not behind them is judged again down to finer levels, depth
+   first into the texels it is not behind (the walk of :class:`soc.culling.hiz_gpu.HizTest`).
+
+:func:`empty_pyramid` + :func:`reduce_pyramid` build the pyramid in place over a depth written
+into its level 0 (a rasterizer's output, or a GL depth read back: ``hiz-2phase`` on llvmpipe);
+:func:`classify_objects` runs the frustum, near-plane and pyramid tests of every object in one
+numba pass, on several threads.
 
 Conservativeness promise: given an occluder depth buffer never nearer than GL's (as
 :mod:`soc.culling.software_raster` makes it), a box is reported hidden only when, at every pixel
