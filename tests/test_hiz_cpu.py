@@ -243,7 +243,7 @@ def test_parallel_box_tests_give_the_serial_codes(small_market):
     """The objects' blocks dealt to 2, 3 or 7 threads (1,500 objects: 3 blocks, so a thread
     gets several, one or none) give the serial codes and count of boxes tested."""
     scene, res = small_market, (320, 192)
-    boxes = grown_aabbs(scene.aabbs, float(np.linalg.norm(np.subtract(*scene.bounds[::-1]))))
+    boxes = grown_aabbs(scene.aabbs, scene.diagonal)
     with soc.Culler(scene, method="hiz-cpu", resolution=res, threads=1) as c:
         for cam in flight(scene, 40, width=res[0], height=res[1])[::8]:
             c.cull(cam)

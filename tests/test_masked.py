@@ -307,7 +307,7 @@ def test_parallel_box_tests_give_the_serial_codes(small_market):
     gets several, one or none) give the serial codes and count of boxes tested."""
     scene, res = small_market, (320, 192)
     buf = MaskedBuffer(scene, res, threads=1)
-    boxes = grown_aabbs(scene.aabbs, float(np.linalg.norm(np.subtract(*scene.bounds[::-1]))))
+    boxes = grown_aabbs(scene.aabbs, scene.diagonal)
     for cam in flight(scene, 40, width=res[0], height=res[1])[::8]:
         buf.render(cam)
         buf.bands = 1

@@ -113,7 +113,7 @@ class InvisibleEstimator:
         self.nodes_checked = _positive(nodes_checked, "nodes_checked")
         self.target = DepthTarget(self.glctx, resolution)
         scene = geometry.scene
-        diagonal = float(np.linalg.norm(np.subtract(*scene.bounds[::-1])))
+        diagonal = scene.diagonal
         self.queries = BoxQueries(self.glctx, diagonal)
 
     def release(self) -> None:

@@ -81,7 +81,7 @@ class SceneGeometry:
             ],
             axis=1,
         )
-        self.diagonal = float(np.linalg.norm(np.subtract(*scene.bounds[::-1])))
+        self.diagonal = scene.diagonal
         self.query_boxes = grown_aabbs(scene.aabbs, self.diagonal)
 
         self.vbo = ctx.buffer(scene.vertices)

@@ -379,7 +379,7 @@ class AdaptiveCulling(CullMethod):
         if self._box_queries is None:
             from soc.culling.box_queries import BoxQueries
 
-            diagonal = float(np.linalg.norm(np.subtract(*self.scene.bounds[::-1])))
+            diagonal = self.scene.diagonal
             self._box_queries = BoxQueries(self.glctx, diagonal)
         return self._box_queries
 

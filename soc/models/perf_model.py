@@ -950,7 +950,7 @@ class Calibration:
         small, large = self.setup.batch(NODE_QUERIES)
         large = min(large, len(nodes))
         pick = np.random.default_rng(self.setup.seed).permutation(len(nodes))[:large]
-        diagonal = float(np.linalg.norm(np.subtract(*scene.bounds[::-1])))
+        diagonal = scene.diagonal
         queries = BoxQueries(self.glctx, diagonal)
         self._owned.append(queries)
         r.draw(camera, np.arange(len(scene)))  # the depth buffer the nodes are tested against

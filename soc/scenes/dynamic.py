@@ -212,7 +212,7 @@ class DynamicScene:
 
     def cameras(self, width: int = 1280, height: int = 720, fov_y: float = 60.0) -> list[Camera]:
         """The scene's camera path, one camera per frame."""
-        far = 1.5 * float(np.linalg.norm(np.subtract(*self.scene.bounds)))
+        far = 1.5 * self.scene.diagonal
         return [
             Camera.look_at(e, t, fov_y=fov_y, width=width, height=height, near=0.5, far=far)
             for e, t in zip(self._eyes, self._targets, strict=True)

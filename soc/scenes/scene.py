@@ -231,6 +231,12 @@ class Scene:
         """(2, 3) float32: the whole scene's min and max corners."""
         return np.stack([self.aabbs[:, 0].min(0), self.aabbs[:, 1].max(0)])
 
+    @property
+    def diagonal(self) -> float:
+        """Length of the diagonal of :attr:`bounds`, world units (the scale that query boxes
+        are grown by and far planes are set from)."""
+        return float(np.linalg.norm(np.subtract(*self.bounds[::-1])))
+
     def subset(self, mask: np.ndarray) -> Scene:
         """A new scene holding the objects where ``mask`` (N,) is true."""
         idx = np.flatnonzero(np.asarray(mask, bool))
