@@ -133,23 +133,31 @@ REDUCE_STRIPE_ROWS = 16
 
 
 @numba.njit(cache=True, inline="always")
+def _far(a, b):  # pragma: no cover - compiled
+    """The farther of two depths, as a select (Python's ``max`` keeps a NaN rule that stops
+    LLVM from vectorizing the row loop)."""
+    return a if a > b else b
+
+
+@numba.njit(cache=True, inline="always")
 def _reduce_row(flat, src, dst, sw, sh, dw, y):  # pragma: no cover - compiled
-    """Row ``y`` of a level from the level below (:func:`_reduce_levels`)."""
-    one = np.float32(1.0)
-    r0 = src + 2 * y * sw
-    out = dst + y * dw
+    """Row ``y`` of a level from the level below (:func:`_reduce_levels`). The rows are
+    taken as slices so that LLVM sees three separate unit-stride arrays and vectorizes the
+    loop: 1080p level 1 on one thread 1.46 ms with indices into ``flat`` and ``max``, 0.47
+    with slices and :func:`_far`."""
+    out = flat[dst + y * dw : dst + (y + 1) * dw]
     pairs = sw // 2  # texels with both columns inside; an odd edge column comes after
     if 2 * y + 1 < sh:
-        r1 = r0 + sw
+        row0 = flat[src + 2 * y * sw : src + (2 * y + 1) * sw]
+        row1 = flat[src + (2 * y + 1) * sw : src + (2 * y + 2) * sw]
         for x in range(pairs):
-            a = max(flat[r0 + 2 * x], flat[r0 + 2 * x + 1])
-            b = max(flat[r1 + 2 * x], flat[r1 + 2 * x + 1])
-            flat[out + x] = max(a, b)
+            a = _far(row0[2 * x], row0[2 * x + 1])
+            b = _far(row1[2 * x], row1[2 * x + 1])
+            out[x] = _far(a, b)
         if pairs < dw:
-            flat[out + pairs] = one
+            out[pairs] = 1.0
     else:  # the row past an odd top edge counts as far
-        for x in range(dw):
-            flat[out + x] = one
+        out[:] = 1.0
 
 
 @numba.njit(cache=True)

@@ -448,11 +448,17 @@ def rasterize_records(records, count, depth, margin, band=0, bands=1):  # pragma
             right = min(min(r0x + r0q * (yc - y0), r1x + r1q * (yc - y1)), r2x + r2q * (yc - y2))
             i0 = max(0, math.ceil(min(max(left - 0.5, -1.0), fw)))
             i1 = min(width - 1, math.floor(min(max(right - 0.5, -1.0), fw)))
+            if i1 < i0:
+                continue
+            # The span as its own unit-stride array and selects instead of min(): LLVM
+            # vectorizes this loop only so (Python's min keeps a NaN rule).
+            span = depth[j, i0 : i1 + 1]
             zrow = b * yc + c
-            for i in range(i0, i1 + 1):
-                z = np.float32(min(a * (i + 0.5) + zrow, zvmax))
-                depth[j, i] = min(depth[j, i], z)  # branch-free: vectorizes
-            fragments += max(0, i1 - i0 + 1)
+            for k in range(len(span)):
+                z = a * (i0 + k + 0.5) + zrow
+                z = np.float32(z if z < zvmax else zvmax)
+                span[k] = z if z < span[k] else span[k]
+            fragments += i1 - i0 + 1
     return fragments
 
 
