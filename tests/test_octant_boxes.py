@@ -73,8 +73,7 @@ def test_octant_test_keeps_a_subset_of_the_box_test_and_every_visible_object(clu
     try:
         for k, scene in enumerate(clutter_scenes[:3]):
             geometry = glctx.geometry(scene)
-            diagonal = float(np.linalg.norm(np.subtract(*scene.bounds[::-1])))
-            octants = glctx.ctx.buffer(grown_octant_aabbs(scene, diagonal).reshape(-1, 48))
+            octants = glctx.ctx.buffer(grown_octant_aabbs(scene, geometry.diagonal).reshape(-1, 48))
             ids = np.arange(len(scene))
             with soc.Oracle(scene) as oracle:
                 for cam in random_cameras(scene, 12, seed=700 + k, width=333, height=197):
