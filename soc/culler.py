@@ -166,5 +166,7 @@ class Culler:
             queries=out.queries,
             timings_ms=timings,
             truth=truth,
+            gpu_ms=out.gpu_ms,
+            triangles_drawn=out.triangles_drawn,
         )
         return CullResult(visible, stats)

@@ -30,6 +30,12 @@ class FrameStats:
         Occlusion tests issued (GL queries, or boxes tested by a compute pass).
     timings_ms : Mapping[str, float]
         Wall time per stage, ms, measured with ``ctx.finish()`` around GL work.
+    gpu_ms : Mapping[str, float]
+        GL timer (``GL_TIME_ELAPSED``) per stage, ms, where the GL's clock is meaningful;
+        empty where it is not (llvmpipe's timer reads only part of the work).
+    triangles_drawn : int
+        Triangles drawn for the frame: the kept objects' triangles, or fewer for a method
+        that draws parts of objects (clusters).
     false_culls, false_keeps : int or None
         Against the oracle when it was given: visible objects culled (must be 0 for a
         conservative method) and hidden objects kept.
@@ -47,6 +53,8 @@ class FrameStats:
     timings_ms: Mapping[str, float] = field(default_factory=dict)
     false_culls: int | None = None
     false_keeps: int | None = None
+    gpu_ms: Mapping[str, float] = field(default_factory=dict)
+    triangles_drawn: int = 0
 
     @property
     def cull_ms(self) -> float:
@@ -60,10 +68,12 @@ class FrameStats:
 
     def as_row(self) -> dict:
         """Flat dict for CSV writing (timings as ``ms_<stage>`` columns)."""
-        row = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "timings_ms"}
+        skip = ("timings_ms", "gpu_ms")
+        row = {k: getattr(self, k) for k in self.__dataclass_fields__ if k not in skip}
         row.update({f"ms_{k}": v for k, v in self.timings_ms.items()})
         row["ms_cull"] = self.cull_ms
         row["ms_total"] = self.total_ms
+        row.update({f"gpu_ms_{k}": v for k, v in self.gpu_ms.items()})
         return row
 
 
@@ -75,6 +85,8 @@ def frame_stats(
     queries: int,
     timings_ms: Mapping[str, float],
     truth: np.ndarray | None = None,
+    gpu_ms: Mapping[str, float] | None = None,
+    triangles_drawn: int | None = None,
 ) -> FrameStats:
     """Count a frame's result (``visible`` (N,) bool) into a :class:`FrameStats`."""
     tri = scene.triangle_counts
@@ -101,6 +113,8 @@ def frame_stats(
         timings_ms=MappingProxyType(dict(timings_ms)),
         false_culls=false_culls,
         false_keeps=false_keeps,
+        gpu_ms=MappingProxyType(dict(gpu_ms or {})),
+        triangles_drawn=tri_vis if triangles_drawn is None else int(triangles_drawn),
     )
 
 

@@ -37,6 +37,11 @@ class MethodOutput:
     frustum_culled: int = 0
     queries: int = 0
     timings_ms: dict[str, float] = field(default_factory=dict)
+    # GL timer per stage (ms) where the GL's clock is meaningful; empty where it is not.
+    gpu_ms: dict[str, float] = field(default_factory=dict, kw_only=True)
+    # Triangles the method drew itself (a method drawing clusters draws fewer than its kept
+    # objects hold); None = the kept objects' triangles.
+    triangles_drawn: int | None = field(default=None, kw_only=True)
 
 
 class CullMethod:
