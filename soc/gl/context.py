@@ -11,6 +11,8 @@ itself, so every public entry that touches GL runs inside :meth:`GLContext.curre
 the :func:`uses_gl` decorator): it saves the caller's EGL state (display, draw and read
 surfaces, context — possibly none), makes vislod's context current, and gives the caller's
 state back on return. Nested entries find vislod's context current and cost one EGL call.
+(That machinery is :mod:`soc.gl.binding`, below this module and :mod:`soc.gl.geometry`, so the
+GL layer imports downward only; ``uses_gl`` here adds the process's default context.)
 vislod's contexts live on a display of their own (Mesa's surfaceless platform), because VTK
 terminates the device display it shares with moderngl's EGL backend when a plot closes.
 
@@ -21,28 +23,28 @@ display is first initialized, so ``threads`` can be chosen only once per process
 from __future__ import annotations
 
 import ctypes
-import functools
-import inspect
 import os
 import weakref
 from importlib import resources
-from typing import NamedTuple
 
 from soc.errors import GLError, GLUnavailableError
+from soc.gl import binding
+from soc.gl.binding import BindableContext, EGLState, current_egl_state
+from soc.gl.geometry import SceneGeometry
 from soc.gl.raw import (
     EGL_CONTEXT_MAJOR_VERSION,
     EGL_CONTEXT_MINOR_VERSION,
     EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
     EGL_CONTEXT_OPENGL_PROFILE_MASK,
-    EGL_DRAW,
     EGL_EXTENSIONS,
     EGL_NONE,
     EGL_OPENGL_API,
     EGL_PLATFORM_SURFACELESS_MESA,
-    EGL_READ,
     RawGL,
     egl,
 )
+
+__all__ = ["EGLState", "GLContext", "current_egl_state", "default_context", "uses_gl"]
 
 APT_HINT = "apt-get install -y libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri"
 
@@ -52,58 +54,6 @@ _process_threads: int | None = None  # llvmpipe threads of this process, once de
 # glGetError is read until it says GL_NO_ERROR, at most this many times (Mesa keeps one flag;
 # the spec allows one per error kind).
 _MAX_ERROR_FLAGS = 16
-
-
-class EGLState(NamedTuple):
-    """The calling thread's EGL binding: what :meth:`GLContext.current` saves and restores.
-
-    ``context`` 0 (``EGL_NO_CONTEXT``) means no context was current; ``api`` is the bound
-    client API (``eglQueryAPI``), itself per thread.
-    """
-
-    api: int
-    display: int
-    draw: int
-    read: int
-    context: int
-
-
-def current_egl_state() -> EGLState:
-    """The calling thread's current EGL display, surfaces and context, for the OpenGL API."""
-    e = egl()
-    api = e.eglQueryAPI()
-    if api != EGL_OPENGL_API:
-        e.eglBindAPI(EGL_OPENGL_API)
-    state = EGLState(
-        api,
-        e.eglGetCurrentDisplay() or 0,
-        e.eglGetCurrentSurface(EGL_DRAW) or 0,
-        e.eglGetCurrentSurface(EGL_READ) or 0,
-        e.eglGetCurrentContext() or 0,
-    )
-    if api != EGL_OPENGL_API:
-        e.eglBindAPI(api)
-    return state
-
-
-class _Binding:
-    """``with glctx.current():`` — vislod's context current inside, the caller's state after.
-
-    Re-entrant: an inner binding finds vislod's context current and restores nothing.
-    """
-
-    __slots__ = ("glctx", "saved")
-
-    def __init__(self, glctx: GLContext):
-        self.glctx = glctx
-        self.saved: EGLState | None = None
-
-    def __enter__(self) -> GLContext:
-        self.saved = self.glctx._bind()
-        return self.glctx
-
-    def __exit__(self, *exc) -> None:
-        self.glctx._unbind(self.saved)
 
 
 # OpenGL 4.5 core profile: what every shader of soc/shaders is written for.
@@ -166,7 +116,7 @@ class _Loader:
         g._egl.eglDestroyContext(g._display, g._handle)
 
 
-class GLContext:
+class GLContext(BindableContext):
     """A headless OpenGL 4.5 core context (moderngl over EGL) with shader and geometry caches.
 
     Parameters
@@ -257,54 +207,9 @@ class GLContext:
             self._bind()
         return self._mgl
 
-    def current(self) -> _Binding:
-        """Context manager: this context current inside; on exit the caller's EGL display,
-        draw/read surfaces and context (possibly none) are current again.
-
-        Re-entrant and cheap when this context is already current (one ``eglGetCurrentContext``
-        call). If the caller's context cannot be made current again (it was destroyed while
-        current, e.g. by moderngl's ``release()``), no context is left current.
-        """
-        return _Binding(self)
-
-    def _bind(self) -> EGLState | None:
-        """Make this context current; return the state to restore (None: it already was)."""
-        e = self._egl
-        if e.eglGetCurrentContext() == self._handle:
-            if self._doomed:
-                self._release_doomed()
-            return None
-        if self._released:
-            raise GLError("this GLContext was released; make a new one")
-        saved = current_egl_state()
-        if saved.api != EGL_OPENGL_API:
-            e.eglBindAPI(EGL_OPENGL_API)
-        if saved.context != self._handle:
-            if not e.eglMakeCurrent(self._display, None, None, self._handle):
-                code = e.eglGetError()
-                if saved.api != EGL_OPENGL_API:
-                    e.eglBindAPI(saved.api)
-                raise GLError(
-                    f"cannot make vislod's GL context current (EGL error 0x{code:x}); is it "
-                    "current on another thread?"
-                )
+    def _entered(self) -> None:
         if self._doomed:
             self._release_doomed()
-        return saved
-
-    def _unbind(self, saved: EGLState | None) -> None:
-        """Give the caller's EGL state back (``saved`` from :meth:`_bind`)."""
-        if saved is None:
-            return
-        e = self._egl
-        if saved.context != self._handle:
-            ok = saved.context and e.eglMakeCurrent(
-                saved.display, saved.draw or None, saved.read or None, saved.context
-            )
-            if not ok:  # none was current, or the caller's context is gone
-                e.eglMakeCurrent(self._display, None, None, None)
-        if saved.api != EGL_OPENGL_API:
-            e.eglBindAPI(saved.api)
 
     # -- lifetime ---------------------------------------------------------------------------
 
@@ -389,8 +294,6 @@ class GLContext:
 
         When ``scene`` is freed its GL buffers are released at this context's next use (a
         garbage-collection callback may run on any thread, inside anyone's GL calls)."""
-        from soc.gl.geometry import SceneGeometry
-
         entry = self._geometry.get(id(scene))
         if entry is not None and entry[0]() is scene:
             return entry[1]
@@ -441,46 +344,7 @@ def uses_gl(obj):
     renderer), else the process's :func:`default_context`. When the call raises, the GL
     error flags it left are cleared, so that the next call does not report them as its own.
     """
-    if inspect.isclass(obj):
-        names = {n for k in obj.__mro__[:-1] for n in vars(k)}  # inherited ones too
-        for name in names:
-            attr = inspect.getattr_static(obj, name)
-            if inspect.isfunction(attr) and (name == "__init__" or not name.startswith("_")):
-                setattr(obj, name, uses_gl(attr))
-        return obj
-    if getattr(obj, "__uses_gl__", False):
-        return obj
-
-    @functools.wraps(obj)
-    def entry(*args, **kwargs):
-        glctx = _context_of(args, kwargs)
-        saved = glctx._bind()
-        try:
-            return obj(*args, **kwargs)
-        except BaseException:
-            if not glctx._released:
-                glctx.pop_errors()
-            raise
-        finally:
-            glctx._unbind(saved)
-
-    entry.__uses_gl__ = True
-    return entry
-
-
-def _context_of(args: tuple, kwargs: dict) -> GLContext:
-    """The GL context a :func:`uses_gl` call runs on (see there)."""
-    if args:
-        own = getattr(args[0], "glctx", None)  # not set yet in a constructor
-        if isinstance(own, GLContext):
-            return own
-    for a in (*args, *kwargs.values()):
-        if isinstance(a, GLContext):
-            return a
-        carried = getattr(a, "glctx", None)
-        if isinstance(carried, GLContext):
-            return carried
-    return _default_context()
+    return binding.uses_gl(obj, default=_default_context)
 
 
 def _shader_source(name: str) -> str:
