@@ -45,7 +45,9 @@ def fly(
     -------
     pandas.DataFrame
         Columns ``frame``, ``method``, ``width``, ``height``, the FrameStats counters, and
-        ``ms_<stage>``, ``ms_cull``, ``ms_total`` (milliseconds).
+        ``ms_<stage>``, ``ms_cull``, ``ms_total`` (milliseconds). ``attrs["gl_renderer"]``
+        is the GL renderer string and ``attrs["gl"]`` the GL choice (:class:`GLContext`'s
+        ``gl``: auto, software, device:N).
 
     Examples
     --------
@@ -78,6 +80,9 @@ def fly(
     frame = pd.DataFrame(rows)
     ms = [c for c in frame.columns if c.startswith("ms_")]
     frame[ms] = frame[ms].fillna(0.0)
+    # Which GL measured these frames (a flight's numbers mean little without it).
+    frame.attrs["gl_renderer"] = culler.glctx.renderer
+    frame.attrs["gl"] = culler.glctx.gl
     return frame
 
 

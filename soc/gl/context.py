@@ -28,7 +28,7 @@ import weakref
 from importlib import resources
 
 from soc.errors import GLError, GLUnavailableError
-from soc.gl import binding
+from soc.gl import binding, display
 from soc.gl.binding import BindableContext, EGLState, current_egl_state
 from soc.gl.geometry import SceneGeometry
 from soc.gl.raw import (
@@ -36,17 +36,15 @@ from soc.gl.raw import (
     EGL_CONTEXT_MINOR_VERSION,
     EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
     EGL_CONTEXT_OPENGL_PROFILE_MASK,
-    EGL_EXTENSIONS,
     EGL_NONE,
     EGL_OPENGL_API,
-    EGL_PLATFORM_SURFACELESS_MESA,
     RawGL,
     egl,
 )
 
 __all__ = ["EGLState", "GLContext", "current_egl_state", "default_context", "uses_gl"]
 
-APT_HINT = "apt-get install -y libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri"
+APT_HINT = display.APT_HINT
 
 _default: GLContext | None = None
 _process_threads: int | None = None  # llvmpipe threads of this process, once decided
@@ -63,33 +61,6 @@ _CONTEXT_ATTRIBS = (ctypes.c_int * 7)(
     EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
     EGL_NONE,
 )  # fmt: skip
-_display: int | None = None
-
-
-def _vislod_display() -> int:
-    """vislod's own EGL display: Mesa's surfaceless platform (llvmpipe), initialized once.
-
-    Not the device-platform display that moderngl's and VTK's EGL code share: VTK terminates
-    that display when a render window closes, which destroys every context on it. Nobody
-    else gets this one, and vislod never terminates it (the process's exit does).
-    """
-    global _display
-    if _display is None:
-        e = egl()
-        extensions = (e.eglQueryString(None, EGL_EXTENSIONS) or b"").decode()
-        if "EGL_MESA_platform_surfaceless" not in extensions.split():
-            raise GLUnavailableError(
-                "this EGL has no EGL_MESA_platform_surfaceless (it is not Mesa's): vislod "
-                f"needs Mesa's EGL and llvmpipe: as root run `{APT_HINT}` (or `make setup`)"
-            )
-        dpy = e.eglGetPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, None, None)
-        if not dpy or not e.eglInitialize(dpy, None, None):
-            raise GLUnavailableError(
-                f"cannot open Mesa's surfaceless EGL display (EGL error 0x{e.eglGetError():x}): "
-                f"as root run `{APT_HINT}` (or `make setup`)"
-            )
-        _display = dpy
-    return _display
 
 
 class _Loader:
@@ -124,18 +95,50 @@ class GLContext(BindableContext):
     threads : int, optional
         llvmpipe rasterizer threads (0 = rasterize on the calling thread; default: Mesa's
         choice, one per core). Only the first context of a process can choose.
+    gl : {"auto", "software", "device:N"}, optional
+        Which GL (:mod:`soc.gl.display`): ``"auto"`` is Mesa's surfaceless platform (NVIDIA's
+        driver where it is installed, else a GPU Mesa drives, else llvmpipe); ``"software"``
+        is llvmpipe even on a machine with a GPU; ``"device:N"`` the N-th EGL device
+        (``eglQueryDevicesEXT``). Default: the ``VISLOD_GL`` environment variable, else
+        ``"auto"``; the argument wins over the variable. Anything else raises ``ValueError``
+        naming the accepted forms and this machine's EGL devices, before any GL state is made.
+
+    Attributes
+    ----------
+    gl : str
+        The choice (``"auto"``, ``"software"``, ``"device:N"``); :attr:`gl_where` says where it
+        went (the platform or device, and the EGL vendor).
+    renderer : str
+        ``GL_RENDERER`` (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)", "NVIDIA H100/PCIe/SSE2"):
+        recorded with every benchmark and flight.
+    software : bool
+        Whether GL runs on the CPU (llvmpipe, softpipe, swrast).
 
     Notes
     -----
     Making the context leaves the caller's EGL state as it was. Its moderngl context
     (:attr:`ctx`) makes itself current when it is fetched, so low-level code that drives
     moderngl objects directly should fetch ``ctx`` first or run inside :meth:`current`.
+
+    ``device:N`` opens the device platform's display of that device, which VTK and moderngl's
+    own EGL backend share when they use the same device (VTK terminates it when a plot
+    closes); ``auto`` and, where llvmpipe is the only device, ``software`` use the surfaceless
+    display nobody else opens.
+
+    Examples
+    --------
+    >>> with soc.gl.context.GLContext(gl="software") as glctx:          # doctest: +SKIP
+    ...     with soc.Culler(scene, "hiz-2phase", glctx=glctx) as c:
+    ...         c.cull(camera)
     """
 
-    def __init__(self, threads: int | None = None):
+    def __init__(self, threads: int | None = None, gl: str | None = None):
         global _process_threads
         import moderngl
 
+        self._doomed: list = []  # geometries of freed scenes, released at the next entry
+        # First the choice of GL: a bad one raises before any GL or process state is touched.
+        choice = display.resolve(gl)
         if threads is not None:
             if threads < 0:
                 raise ValueError(f"threads must be >= 0, got {threads}")
@@ -147,16 +150,17 @@ class GLContext(BindableContext):
             os.environ["LP_NUM_THREADS"] = str(threads)  # read by Mesa at screen creation
         e = egl()
         caller = current_egl_state()
-        self._display = _vislod_display()
+        self._display = display.display(choice)
         self._egl = e
+        self.gl = choice.name
         e.eglBindAPI(EGL_OPENGL_API)
         self._handle = e.eglCreateContext(self._display, None, None, _CONTEXT_ATTRIBS)
         if not self._handle or not e.eglMakeCurrent(self._display, None, None, self._handle):
             code = e.eglGetError()
             self._unbind(caller)
             raise GLUnavailableError(
-                f"no OpenGL 4.5 core context from Mesa's EGL (EGL error 0x{code:x}). vislod "
-                f"needs Mesa's EGL and llvmpipe: as root run `{APT_HINT}` (or `make setup`)"
+                f"no OpenGL 4.5 core context on the {choice.where} (EGL error 0x{code:x}). "
+                f"vislod needs Mesa's EGL and llvmpipe: as root run `{APT_HINT}` (or `make setup`)"
             )
         self._released = False
         try:
@@ -183,6 +187,11 @@ class GLContext(BindableContext):
             self.software = any(
                 name in self.renderer.lower() for name in ("llvmpipe", "softpipe", "swrast")
             )
+            self.gl_where = f"{choice.where}, EGL vendor {display.vendor(self._display)}"
+            if choice.name == "software" and not self.software:
+                raise GLUnavailableError(
+                    f"gl='software' gave {self.renderer!r} on the {self.gl_where}, not llvmpipe"
+                )
             # Sizes a texture, renderbuffer or viewport may have, pixels (see check_size).
             self.max_size = {
                 "GL_MAX_TEXTURE_SIZE": int(info["GL_MAX_TEXTURE_SIZE"]),
@@ -194,7 +203,10 @@ class GLContext(BindableContext):
             self._unbound = mgl.detect_framebuffer(0)
             self._programs: dict[tuple[str, ...], object] = {}
             self._geometry: dict[int, tuple[weakref.ref, object]] = {}
-            self._doomed: list = []  # geometries of freed scenes, released at the next entry
+        except BaseException:
+            self._released = True
+            mgl.release()  # _Loader.release destroys the EGL context
+            raise
         finally:
             self._unbind(caller)
 
