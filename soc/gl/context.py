@@ -41,6 +41,7 @@ from soc.gl.raw import (
     RawGL,
     egl,
 )
+from soc.gl.timer import GpuTimer, TimedFrame
 
 __all__ = ["EGLState", "GLContext", "current_egl_state", "default_context", "uses_gl"]
 
@@ -113,6 +114,13 @@ class GLContext(BindableContext):
         recorded with every benchmark and flight.
     software : bool
         Whether GL runs on the CPU (llvmpipe, softpipe, swrast).
+    timer_meaningful : bool
+        Whether the GL's timer queries measure the GL's work: not on a software renderer
+        (llvmpipe's read part of it: 126–138 ms for a 225–253 ms draw of the market).
+    gpu_clock : bool
+        Whether frames are timed on the GL's clock too (:meth:`timed_frame`; ``gpu_ms`` of
+        :class:`soc.FrameStats`). Default :attr:`timer_meaningful`; set it to force the
+        queries on (tests on llvmpipe) or off. :attr:`gpu_clock_note` says what it means.
 
     Notes
     -----
@@ -187,6 +195,10 @@ class GLContext(BindableContext):
             self.software = any(
                 name in self.renderer.lower() for name in ("llvmpipe", "softpipe", "swrast")
             )
+            # GL timer queries where they measure the GPU's work (see soc.gl.timer).
+            self.timer_meaningful = not self.software
+            self.gpu_clock = self.timer_meaningful
+            self._timer: GpuTimer | None = None
             self.gl_where = f"{choice.where}, EGL vendor {display.vendor(self._display)}"
             if choice.name == "software" and not self.software:
                 raise GLUnavailableError(
@@ -238,6 +250,9 @@ class GLContext(BindableContext):
             return
         with self.current():
             self._release_doomed()
+            if self._timer is not None:
+                self._timer.release()
+                self._timer = None
             for _, geom in self._geometry.values():
                 geom.release()
             self._geometry.clear()
@@ -320,6 +335,37 @@ class GLContext(BindableContext):
 
         self._geometry[key] = (weakref.ref(scene, _forget), geom)
         return geom
+
+    # -- the GL's clock -------------------------------------------------------------------------
+
+    @property
+    def gpu_clock_note(self) -> str:
+        """What the GL's clock means here: "" when frames are timed on a meaningful GL timer,
+        else why ``gpu_ms`` is empty (or, when forced on, not to be trusted)."""
+        name = self.renderer.split(" (")[0] or "this GL"
+        if self.timer_meaningful:
+            return "" if self.gpu_clock else "GL timer switched off (GLContext.gpu_clock)"
+        if self.gpu_clock:
+            return f"GL timer forced on {name}: not meaningful there"
+        return f"GL timer not meaningful on {name}"
+
+    def timed_frame(self) -> TimedFrame:
+        """Context manager around one frame: every :func:`soc.metrics.stage` inside is timed on
+        the GL's clock too when :attr:`gpu_clock` is on (else nothing is issued), read on
+        exit into the frame's ``gpu_ms`` (stage -> ms; empty when off).
+
+        >>> with glctx.timed_frame() as frame:                            # doctest: +SKIP
+        ...     with stage(timings, "prepass", glctx.finish):
+        ...         ...
+        >>> frame.gpu_ms                                                   # doctest: +SKIP
+        {'prepass': 0.41}
+        """
+        if not self.gpu_clock:
+            return TimedFrame(None)
+        if self._timer is None:
+            with self.current():
+                self._timer = GpuTimer(self)
+        return self._timer.frame()
 
     # -- errors -----------------------------------------------------------------------------
 
