@@ -72,6 +72,7 @@ def methods_table(result: bench_floor.FloorResult) -> pd.DataFrame:
     s = bench_floor.summarize(result)
     cols = ["method", "conservative", "cull ms", "queries ÷ this (cull)", "tests", "kept"]
     cols += ["hidden kept ÷ visible", "false culls (max)", "cull + draw ms", "÷ ideal"]
+    cols += [c for c in ("triangles ÷ ideal", "GPU cull + draw ms", "GPU ÷ ideal") if c in s]
     return s[cols].rename(
         columns={"tests": "queries or tests", "hidden kept ÷ visible": "false keeps ÷ visible"}
     )
@@ -89,7 +90,8 @@ def methods_markdown(result: bench_floor.FloorResult, command: str) -> str:
             "",
             f"{result.scene}: {result.objects:,} objects; {result.frames_n} consecutive frames of "
             f"the seed-000 flight at {w}×{h} (display and depth buffer); medians per frame, "
-            "ratios medians of per-frame ratios.",
+            "ratios medians of per-frame ratios. "
+            + bench_floor.gpu_clock_line(soc.gl.context.default_context()),
             "",
             markdown_table(methods_table(result), fmt),
             "",

@@ -78,6 +78,7 @@ from soc.culling.hiz_gpu import MAX_REFINE, OUTSIDE, VISIBLE, DepthPyramid, HizT
 from soc.culling.octant_boxes import grown_octant_aabbs
 from soc.culling.software_raster import raster_threads
 from soc.methods.base import CullMethod, MethodOutput, register, stage
+from soc.metrics import gpu_stage
 
 NEXT_FROM = ("early", "final")
 EARLY_PASSES = ("shaded", "depth")
@@ -254,23 +255,24 @@ class TwoPhaseCulling(CullMethod):
 
         ctx = self.glctx.ctx
         t0 = time.perf_counter()
-        if clear and (color or clear_color):
-            self.renderer.fbo.use()
-            self.renderer.fbo.depth_mask = True
-            self.renderer.fbo.clear(*SKY, 1.0, depth=1.0)
-        fbo = self.renderer.fbo if color else self.depth_fbo
-        fbo.use()
-        fbo.depth_mask = True
-        if clear and not (color or clear_color):
-            self.glctx.raw.clear_depth(1.0)
-        ctx.enable_only(moderngl.DEPTH_TEST)
-        ctx.depth_func = depth_func
-        program = self.renderer.program if color else self.depth_program
-        program["view_proj"].write(camera.gl_bytes(camera.view_proj))
-        if color:
-            program["light_dir"].value = LIGHT_DIR
-            program["eye"].value = tuple(camera.eye)
-        self.geometry.draw_objects(program, ids)
+        with gpu_stage("draw"):  # the GL clock of the "draw" stage (see cull)
+            if clear and (color or clear_color):
+                self.renderer.fbo.use()
+                self.renderer.fbo.depth_mask = True
+                self.renderer.fbo.clear(*SKY, 1.0, depth=1.0)
+            fbo = self.renderer.fbo if color else self.depth_fbo
+            fbo.use()
+            fbo.depth_mask = True
+            if clear and not (color or clear_color):
+                self.glctx.raw.clear_depth(1.0)
+            ctx.enable_only(moderngl.DEPTH_TEST)
+            ctx.depth_func = depth_func
+            program = self.renderer.program if color else self.depth_program
+            program["view_proj"].write(camera.gl_bytes(camera.view_proj))
+            if color:
+                program["light_dir"].value = LIGHT_DIR
+                program["eye"].value = tuple(camera.eye)
+            self.geometry.draw_objects(program, ids)
         ctx.finish()
         return 1e3 * (time.perf_counter() - t0)
 
