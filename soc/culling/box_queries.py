@@ -6,7 +6,8 @@ and read back later, blocking or not.
 them, draws each inside a ``GL_ANY_SAMPLES_PASSED`` query against a depth target, and returns
 a :class:`QueryBatch` whose results can be polled without stalling
 (``GL_QUERY_RESULT_AVAILABLE``) — what coherent methods (CHC, grid traversal) need to use a
-result in a later frame.
+result in a later frame. Batches are issued, polled and read by numba loops over the GL entry
+points (:mod:`soc.gl.compiled`); query objects are generated in blocks and pooled.
 
 Conservative like ``soc.culling.queries``: boxes are grown and depth-biased towards the camera, and
 boxes reaching the near plane are not drawn but reported visible.

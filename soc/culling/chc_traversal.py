@@ -203,6 +203,8 @@ def _render(gl, tree, frame, out, work):
         leaf = to_render[r]
         for pos in range(start[leaf], start[leaf] + count[leaf]):
             if selected[pos]:
+                if k == len(scratch):  # each leaf is drawn once a frame: cannot happen
+                    raise RuntimeError("chc traversal: more draws than objects in one frame")
                 obj = order[pos]
                 visible[obj] = True
                 for j in range(5):

@@ -2,10 +2,13 @@
 
 Each box is drawn with depth test LEQUAL and no depth or colour writes inside an
 ``GL_ANY_SAMPLES_PASSED`` query; results are read only after every query was issued, so the
-pipeline stalls once per frame rather than once per object. Boxes are the scene's AABBs grown
-by a small margin and pulled towards the camera by a small depth bias (see
-:mod:`soc.constants`), which makes the test conservative also for box-shaped occluders whose
-faces coincide with the query box, and for flat boxes.
+pipeline stalls once per frame rather than once per object. Issuing and reading run in numba
+loops over the GL entry points (:mod:`soc.gl.compiled`): no Python runs per object (seed 000's
+Python loop of ctypes calls is kept behind ``compiled=False`` as the tested reference).
+
+Boxes are the scene's AABBs grown by a small margin and pulled towards the camera by a small
+depth bias (see :mod:`soc.constants`), which makes the test conservative also for box-shaped
+occluders whose faces coincide with the query box, and for flat boxes.
 
 Boxes that reach the near plane are not queried but kept: clipping opens the box there, so
 the part of the object between the eye and the box's far faces would be tested against

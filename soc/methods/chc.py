@@ -24,6 +24,11 @@ Stages of one frame:
 3. at the end, outstanding queries are waited for; visibility is pulled up (a node is visible
    this frame iff it is a visible leaf or has a visible child) and kept for the next frame.
 
+Stages 2 and 3 run as one numba loop that calls GL itself (:mod:`soc.culling.chc_traversal`):
+Python runs once per frame (frustum test, refit, distances, uploading the node boxes), not per
+node or per query. The Python traversal (:class:`_Traversal`, ``compiled=False``) is the
+reference it is tested against, with ``poll=False`` so that neither depends on GL timing.
+
 Conservative, also with temporal reuse: an object is culled only if a query of a box holding
 it failed *this frame* (or it lies outside the frustum). Such a query tested the box against a
 depth buffer holding only real scene meshes rendered with the oracle's camera, resolution and
@@ -57,8 +62,8 @@ DEFAULT_BATCH_SIZE = 32
 # random phase so the revisits spread over frames).
 DEFAULT_REVISIT_INTERVAL = 5
 
-# Objects per BVH leaf: the unit of rendering and of queries. Larger leaves: fewer nodes in the
-# Python traversal, but more hidden objects drawn with a visible neighbour.
+# Objects per BVH leaf: the unit of rendering and of queries. Larger leaves: fewer nodes to
+# traverse and query, but more hidden objects drawn with a visible neighbour.
 DEFAULT_LEAF_SIZE = 8
 
 # Seed of the per-node revisit phases (deterministic runs).
