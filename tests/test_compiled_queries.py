@@ -25,6 +25,7 @@ GL_DEPTH_FUNC = 0x0B74
 GL_DEPTH_WRITEMASK = 0x0B72
 GL_CURRENT_PROGRAM = 0x8B8D
 GL_VERTEX_ARRAY_BINDING = 0x85B5
+GL_DRAW_INDIRECT_BUFFER_BINDING = 0x8F43
 
 # Each query method with options that give the small test scenes several hierarchy levels,
 # and the option that makes CHC's frame independent of GL timing (results consumed only when
@@ -135,6 +136,7 @@ def test_a_moderngl_draw_right_after_the_compiled_loops_works():
             assert _gl_int(glctx, GL_DEPTH_WRITEMASK) == 1
             assert _gl_int(glctx, GL_CURRENT_PROGRAM) == 0
             assert _gl_int(glctx, GL_VERTEX_ARRAY_BINDING) == 0
+            assert _gl_int(glctx, GL_DRAW_INDIRECT_BUFFER_BINDING) == 0
             render_occluders(geometry, target, cam, np.arange(len(scene)))
             np.testing.assert_array_equal(target.read(), depth)
             np.testing.assert_array_equal(oracle.id_buffer(cam), ids)

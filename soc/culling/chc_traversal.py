@@ -19,8 +19,8 @@ The GL work is the Python traversal's, command for command in effect:
   nodes reaching the near plane are not queried but passed;
 - polling: ``GL_QUERY_RESULT_AVAILABLE`` of a batch's last query; reading: ``GL_QUERY_RESULT``.
 
-On return the program and vertex array are unbound, depth writes are on and the depth
-function is ``GL_LESS``: the state the caller set through moderngl before the call.
+On return the program, vertex array and indirect buffer are unbound, depth writes are on and
+the depth function is ``GL_LESS``: the state the caller set through moderngl before the call.
 """
 
 from __future__ import annotations
@@ -156,6 +156,7 @@ def traverse(gl, tree, frame, out, batch_size, poll):
     _render(gl, tree, frame, out, work)
     # Back to the state the caller set through moderngl before the call.
     fns = gl[0]
+    glc.bind_buffer(fns, glc.GL_DRAW_INDIRECT_BUFFER, 0)
     glc.bind_vertex_array(fns, 0)
     glc.use_program(fns, 0)
     glc.depth_mask(fns, True)
