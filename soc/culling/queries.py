@@ -27,6 +27,7 @@ import numpy as np
 from soc.constants import NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
 from soc.gl import compiled
 from soc.gl import raw as glraw
+from soc.gl.context import uses_gl
 
 
 def near_plane_straddlers(boxes: np.ndarray, camera) -> np.ndarray:
@@ -43,6 +44,7 @@ def near_plane_straddlers(boxes: np.ndarray, camera) -> np.ndarray:
     return nearest < camera.near * (1.0 + NEAR_PLANE_MARGIN)
 
 
+@uses_gl
 class OcclusionQueries:
     """Per-object ``GL_ANY_SAMPLES_PASSED`` queries of AABBs against the bound depth buffer.
 
