@@ -211,3 +211,20 @@ def test_compiled_and_python_loops_agree_on_random_boxes():
 def test_compiled_query_methods_stay_conservative():
     for name, options in (("queries", {}), ("chc", {"temporal": False, "leaf_size": 2})):
         soc.testing.assert_conservative(name, soc.testing.hard_cases(0), **options)
+
+
+def test_without_numbas_jit_the_python_loops_run(monkeypatch):
+    """NUMBA_DISABLE_JIT (debugging) cannot call GL from numba: the Python loops take over."""
+    import numba
+
+    scene, cam = _wall_scene()
+    with soc.Culler(scene, method="chc", resolution=cam.resolution, poll=False) as fast:
+        expected = fast.cull(cam).visible
+    monkeypatch.setattr(numba.config, "DISABLE_JIT", True)
+    assert not compiled.available()
+    with soc.Culler(scene, method="chc", resolution=cam.resolution, poll=False) as slow:
+        assert not slow.method.compiled and not slow.method.box_queries.compiled
+        np.testing.assert_array_equal(slow.cull(cam).visible, expected)
+    queries = OcclusionQueries(default_context().geometry(scene))
+    assert not queries.compiled
+    queries.release()

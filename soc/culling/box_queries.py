@@ -103,7 +103,7 @@ class BoxQueries:
         self.glctx = glctx
         self.gl = glctx.raw
         self.diagonal = float(diagonal)
-        self.compiled = bool(compiled)
+        self.compiled = bool(compiled) and _compiled.available()
         self._fns = _compiled.entry_points(glctx) if self.compiled else None
         self._scratch = np.zeros(1, np.uint32)
         self.program = glctx.program("box.vert", "depth_only.frag")

@@ -25,7 +25,7 @@ import ctypes
 import numpy as np
 
 from soc.constants import NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
-from soc.gl import compiled
+from soc.gl import compiled as compiled_gl
 from soc.gl import raw as glraw
 from soc.gl.context import uses_gl
 
@@ -62,7 +62,7 @@ class OcclusionQueries:
     def __init__(self, geometry, compiled: bool = True):
         self.geometry = geometry
         self.glctx = geometry.glctx
-        self.compiled = bool(compiled)
+        self.compiled = bool(compiled) and compiled_gl.available()
         self.program = self.glctx.program("box.vert", "depth_only.frag")
         n = len(geometry.scene)
         self._ids = np.zeros(n, np.uint32)
@@ -97,12 +97,12 @@ class OcclusionQueries:
         self.program["depth_bias"].value = QUERY_DEPTH_BIAS_NDC
         vao = self.geometry.box_vao(self.program)
         if self.compiled:
-            fns = compiled.entry_points(self.glctx)
+            fns = compiled_gl.entry_points(self.glctx)
             qids = self._ids[ids]
-            compiled.issue_box_queries(
+            compiled_gl.issue_box_queries(
                 fns, self.program.glo, vao.glo, glraw.GL_ANY_SAMPLES_PASSED, qids, ids
             )
-            compiled.read_query_results(fns, qids, passed)
+            compiled_gl.read_query_results(fns, qids, passed)
         else:
             self._python_loop(vao, ids, passed)
         target.fbo.depth_mask = True

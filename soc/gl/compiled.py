@@ -16,6 +16,9 @@ depth state again before each of its own draws, so a moderngl draw after these l
 Every function here must be called with the GL context the entry points were resolved for
 current (inside :func:`soc.gl.context.uses_gl` code or ``with glctx.current():``), and the
 caller checks ``glGetError`` once after the loop (:meth:`soc.gl.context.GLContext.check`).
+With numba's JIT turned off (``NUMBA_DISABLE_JIT=1``, for debugging) nothing here can call GL
+(:func:`available` is False) and the query classes run their Python loops instead: the same GL
+commands, the same results, slower.
 """
 
 from __future__ import annotations
@@ -76,6 +79,11 @@ _NAMES = {
 }
 
 _resolved: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def available() -> bool:
+    """Whether the compiled loops can run (numba's JIT is on)."""
+    return not numba.config.DISABLE_JIT
 
 
 def entry_points(glctx) -> GLEntryPoints:

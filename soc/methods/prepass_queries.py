@@ -9,6 +9,7 @@ import numpy as np
 
 from soc.culling.box_queries import BoxQueries
 from soc.culling.depth_prepass import DepthTarget
+from soc.gl import compiled as compiled_gl
 from soc.methods.base import CullConfig, CullMethod, frustum_stage, prepass_stage
 
 
@@ -30,7 +31,7 @@ class PrepassQueryMethod(CullMethod):
         self, geometry, resolution: tuple[int, int], config: CullConfig, *, compiled: bool = True
     ):
         super().__init__(geometry, resolution, config)
-        self.compiled = bool(compiled)
+        self.compiled = bool(compiled) and compiled_gl.available()
         self.target = DepthTarget(self.glctx, resolution)
         lo, hi = self.scene.bounds
         self.box_queries = BoxQueries(
