@@ -43,6 +43,8 @@ def _less(d, n, dk, nk):
 
 @numba.njit(cache=True)
 def _push(heap_d, heap_n, size, d, n):
+    """Insert (distance ``d``, node ``n``) into the binary min-heap of ``size`` entries held
+    in ``heap_d``/``heap_n``; returns the new size."""
     i = size
     while i > 0:
         p = (i - 1) // 2
