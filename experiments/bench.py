@@ -33,12 +33,12 @@ import pandas as pd
 
 import soc
 import soc.gl.context
-from experiments import bench_floor
+from experiments import bench_floor, bench_queries
 from experiments.markdown import markdown_table, replace_section
 
 SCENES = ("market", "castle", "castle-2114", "clutter")
 BASELINE_METHODS = ("frustum", "queries")  # seed 000's pipeline: the foundation section
-SECTIONS = ("foundation", "methods", "floor", "lod", "adaptive")
+SECTIONS = ("foundation", "methods", "floor", "lod", "adaptive", "queries")
 ADAPTIVE = "seed004-adaptive"  # the harness experiment behind the adaptive section
 # Its DataFrames shown (per scene × method, per scene, per switch, per scene × q); the rest
 # (per frame, per regression point) are only in its CSVs.
@@ -257,7 +257,9 @@ def main(argv: list[str] | None = None) -> int:
             text = replace_section(md, name, body)
     if args.only in (None, "adaptive"):
         text = replace_section(md, ADAPTIVE, adaptive_markdown(out))
-    if args.only in ("lod", "adaptive"):
+    if args.only in (None, "queries"):
+        text = replace_section(md, "queries-compiled", bench_queries.section(out))
+    if args.only in ("lod", "adaptive", "queries"):
         print(text)
         return 0
 
