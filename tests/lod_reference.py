@@ -144,3 +144,145 @@ def incremental(benefit, cost, budget: float, previous, rounds: int = 1):
                         [d[1] for d in done], True)  # fmt: skip
         level = [int(x) for x in level]
     return np.array(level, dtype=np.int64)
+
+
+# -- screen size: the vectorized numpy implementation that the compiled one replaced --------
+
+
+def projected_area_numpy(aabbs, camera, exact: bool = True, *, clip: bool = True) -> np.ndarray:
+    """``lod.projected_area`` as it was before it became a numba kernel: numpy over blocks
+    of boxes (8 corners affinely, the lookup table's signed edges, a batch clip of the boxes
+    on the viewport border and of those crossing the near plane). The kernel must give the
+    same areas bit for bit (the same operations in the same order)."""
+    from lod import screen_size as ss
+
+    lo, hi = _np_boxes(aabbs)
+    n = lo.shape[1]
+    area = np.zeros(n)
+    corners = _NpCorners(min(n, _NP_BLOCK), camera)
+    cut, near = [], []
+    for start in range(0, n, _NP_BLOCK):
+        block = slice(start, start + _NP_BLOCK)
+        b_lo, b_hi = lo[:, block], hi[:, block]
+        corners.project(b_lo, b_hi)
+        region = ss._classify(b_lo, b_hi, camera)
+        front, crossing = corners.depth_classes()
+        if crossing.any():
+            idx = np.flatnonzero(crossing)
+            xyw = np.stack([c[:, idx].T for c in (corners.x, corners.y, corners.w)], axis=2)
+            keep = ss._inside_side_planes(xyw)
+            near.append((start + idx[keep], xyw[keep], region[idx[keep]]))
+        a = np.zeros(b_lo.shape[1])
+        if front.any():
+            corners.to_ndc()
+            nx, ny = corners.x, corners.y
+            size = corners.size
+            if exact:
+                cross = corners.edge_cross()
+                with np.errstate(invalid="ignore"):
+                    cross *= ss._EDGE_SIGNS.T[:, region]
+                    got = np.abs(cross.sum(axis=0))
+                got *= 0.125 * size[0] * size[1]
+                if clip:
+                    with np.errstate(invalid="ignore"):
+                        xmin, xmax = nx.min(axis=0), nx.max(axis=0)
+                        ymin, ymax = ny.min(axis=0), ny.max(axis=0)
+                        inside = (xmin >= -1) & (xmax <= 1) & (ymin >= -1) & (ymax <= 1)
+                        off = (xmax <= -1) | (xmin >= 1) | (ymax <= -1) | (ymin >= 1)
+                    got[~inside] = 0.0
+                    border = np.flatnonzero(front & ~inside & ~off)
+                    if len(border):
+                        idx = ss._SILHOUETTE[region[border]].T
+                        poly = np.stack(
+                            [np.take_along_axis(c[:, border], idx, axis=0) for c in (nx, ny)],
+                            axis=2,
+                        )
+                        poly = (poly.transpose(1, 0, 2) + 1.0) * (0.5 * np.array(size, float))
+                        cut.append((start + border, poly))
+            else:
+                with np.errstate(invalid="ignore"):
+                    b0 = np.stack([nx.min(axis=0), ny.min(axis=0)])
+                    b1 = np.stack([nx.max(axis=0), ny.max(axis=0)])
+                    if clip:
+                        b0, b1 = np.maximum(b0, -1.0), np.minimum(b1, 1.0)
+                    ext = np.maximum(b1 - b0, 0.0)
+                got = (0.25 * size[0] * size[1]) * ext[0] * ext[1]
+            a[front] = got[front]
+        area[block] = a
+    size = (camera.width, camera.height)
+    if cut:
+        index, poly = (np.concatenate(p) for p in zip(*cut, strict=True))
+        area[index] = ss._shoelace(ss._clip_to_viewport(poly, size))
+    if near:
+        index, xyw, region = (np.concatenate(p) for p in zip(*near, strict=True))
+        area[index] = (
+            ss._near_crossing_area(xyw, region, camera, clip)
+            if exact
+            else ss._near_clipped_bbox_area(xyw, camera.near, size, clip)
+        )
+    return area
+
+
+_NP_BLOCK = 12000
+
+
+def _np_boxes(aabbs):
+    a = np.asarray(aabbs)
+    t = np.ascontiguousarray(a.transpose(1, 2, 0), dtype=np.float64)
+    return t[0], t[1]
+
+
+class _NpCorners:
+    """The 8 corners of a block of boxes in clip space (x = hi if bit 0 of the corner, y bit
+    1, z bit 2), as the numpy implementation computed them."""
+
+    def __init__(self, block: int, camera):
+        self.camera = camera
+        self.size = (camera.width, camera.height)
+        self._m = camera.view_proj[[0, 1, 3]]
+        self._xyw = np.empty((3, 8, block))
+
+    def project(self, lo, hi):
+        n = lo.shape[1]
+        self.n = n
+        ext = hi - lo
+        for r in range(3):
+            c = self._xyw[r, :, :n]
+            m = self._m[r]
+            np.multiply(lo[0], m[0], out=c[0])
+            for a in (1, 2):
+                c[0] += m[a] * lo[a]
+            c[0] += m[3]
+            for a in range(3):
+                k = 1 << a
+                np.add(c[:k], m[a] * ext[a], out=c[k : 2 * k])
+        self.x, self.y, self.w = self._xyw[0, :, :n], self._xyw[1, :, :n], self._xyw[2, :, :n]
+
+    def depth_classes(self):
+        near, far = self.camera.near, self.camera.far
+        dmin, dmax = self.w.min(axis=0), self.w.max(axis=0)
+        visible = (dmax > near) & (dmin < far)
+        front = visible & (dmin >= near)
+        return front, visible & ~front
+
+    def to_ndc(self):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            np.divide(1.0, self.w, out=self.w)
+            self.x *= self.w
+            self.y *= self.w
+
+    def edge_cross(self):
+        n = self.n
+        xv, yv = self.x.reshape(2, 2, 2, n), self.y.reshape(2, 2, 2, n)
+        out, tmp = np.empty((3, 2, 2, n)), np.empty((2, 2, n))
+        along = [
+            ((slice(None), slice(None), 0), (slice(None), slice(None), 1)),
+            ((slice(None), 0), (slice(None), 1)),
+            ((0,), (1,)),
+        ]
+        with np.errstate(invalid="ignore"):
+            for axis, (a, b) in enumerate(along):
+                np.multiply(xv[a], yv[b], out=out[axis])
+                np.multiply(xv[b], yv[a], out=tmp)
+                out[axis] -= tmp
+        return out.reshape(12, n)
