@@ -38,21 +38,21 @@ Shewchuk expansion of the chosen levels' costs. The result thus does not depend 
 in which costs were added, and a reference implementation with exact fractions gives the same
 levels (``tests/lod_reference.py``).
 
-Stages, top-down, for N objects (two passes over the (N, L) arrays, nothing of size N·L
-stored):
+Stages of :func:`select_kernel`, for N objects (two passes over the (N, L) arrays, one block
+of 1024 objects' increments at a time, nothing of size N·L stored):
 
-1. :func:`_bucket_stats` — every object's items, counted into fixed buckets of value (the
-   float's exponent and its top ``_MANT_BITS`` mantissa bits, descending): count, summed
-   cost, cheapest cost;
+1. :func:`_bucket_stats` — every object's increments (:func:`_block_items`: hull steps or
+   moves; the entries are checked on the way), counted into fixed buckets of value (the
+   float's exponent and top ``_MANT_BITS`` mantissa bits, descending): count, summed extra
+   cost, cheapest extra cost; and each object's level if all its increments were taken;
 2. :func:`_boundary` — the buckets that surely fit whole, in value order, up to the first that
-   may not: the *boundary* bucket;
-3. :func:`_emit` — the items again: those above the boundary are taken wholesale (no order
-   needed: nothing can be blocked before the first increment that does not fit), those in it
-   and below it are listed, except the ones that surely cannot fit whatever happens (they
-   block their object);
-4. :func:`_walk_lists` — the listed ones in exact order (a sort of the boundary bucket, then
-   bucket by bucket below it, stopping once nothing left can fit);
-5. the levels of the objects the walk changed.
+   may not: the *boundary* bucket. Nothing is blocked before the first increment that does not
+   fit, so every increment above the boundary is taken, in any order;
+3. the objects with increments at or below the boundary, again: those increments are listed,
+   but for the ones that surely cannot fit whatever happens (they block their object; the
+   first of them in order is remembered, it may be the first increment out);
+4. the listed increments in exact order: the boundary bucket sorted, then bucket by bucket
+   below it (only what may still fit is sorted), until nothing left can fit.
 """
 
 from __future__ import annotations
