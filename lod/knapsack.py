@@ -23,7 +23,8 @@ The walk is the Funkhouser–Séquin greedy's "take tuples by value while they f
 one object", defined exactly:
 
 * **order** — by value, descending; equal values by step ``k``, then object index (the flat
-  index ``k·N + i``): of two equal increments the one lower on its object's hull goes first;
+  index ``k·N + i``): of two equal increments the one lower on its object's hull goes first.
+  Only a free increment is worth ``inf``; a ratio that overflows counts as the largest float;
 * **fit** — an increment is taken when its object is not blocked at its step and the chosen
   levels' total cost, with it, is at most the budget — summed *exactly* (as real numbers); a
   free increment (the same cost before and after) is taken whenever its object is not blocked;
@@ -67,6 +68,9 @@ _INF_KEY = 0x7FF << _MANT_BITS  # the top bits of +inf's pattern: bucket 0
 _N_BUCKETS = _INF_KEY + 1  # the last one holds the value 0
 # Objects per block of increments (the buffers stay in the L2 cache).
 _BLOCK = 1024
+# Values of increments that cost something: a ratio that overflows is taken as the largest
+# finite float (only free increments are worth inf and go first).
+_MAX = np.finfo(np.float64).max
 # Unit roundoff of float64, doubled: a safe per-operation relative error bound.
 _U = 2.0**-52
 # Length of a Shewchuk expansion of float64 values (at most ~40 non-overlapping parts).
@@ -132,26 +136,35 @@ def _block_items(mode, benefit, cost, current, objs, lo, hi, items):
     on = np.empty(n_levels, np.bool_)
     c_s = np.empty(n_levels)
     b_s = np.empty(n_levels)
+    row_c = np.empty(n_levels)
+    row_b = np.empty(n_levels)
     m = 0
     for t in range(lo, hi):
         i = objs[t] if objs.shape[0] else t
         start[t - lo] = m
+        falling, best = True, -np.inf  # the row does not rise; its best benefit
         for j in range(n_levels):
-            b = benefit[i, j]
-            if not (b - b == 0.0) or not (cost[i, j] >= 0.0):  # NaN or inf; NaN or < 0
+            c, b = cost[i, j], benefit[i, j]
+            if not (b - b == 0.0) or not (c >= 0.0):  # NaN or inf; NaN or < 0
                 return -1
+            row_c[j], row_b[j] = c, b
+            best = max(best, b)
+            if j and row_c[j - 1] < c:
+                falling = False
         if mode == INCREMENTAL:
             lvl = current[i]
+            if lvl >= 0 and not (row_c[lvl] < np.inf):
+                lvl = -1  # last frame's level is unavailable now: start from not drawn
             drawn = lvl >= 0
-            c1 = cost[i, lvl] if drawn else 0.0
-            b1 = benefit[i, lvl] if drawn else 0.0
+            c1 = row_c[lvl] if drawn else 0.0
+            b1 = row_b[lvl] if drawn else 0.0
             up, up_v = -1, -np.inf
             can_drop = drawn and c1 > 0.0
             down = -1 if can_drop else lvl
             down_v = b1 / c1 if can_drop else np.inf
             for j in range(n_levels):
-                d_c = cost[i, j] - c1
-                d_b = benefit[i, j] - b1
+                d_c = row_c[j] - c1
+                d_b = row_b[j] - b1
                 slope = d_b / d_c  # +inf for a better level of equal cost
                 if d_b > 0.0 and d_c >= 0.0 and d_c < np.inf and slope > up_v:
                     up, up_v = j, slope
@@ -159,39 +172,38 @@ def _block_items(mode, benefit, cost, current, objs, lo, hi, items):
                     down, down_v = j, slope
             undo = down != lvl
             keep_undo = undo and down_v > 0.0
-            if keep_undo:
-                up_v = min(up_v, down_v)
             base = down if undo else lvl
-            c0 = cost[i, base] if base >= 0 else 0.0
+            c0 = row_c[base] if base >= 0 else 0.0
             none_lvl[t - lo], none_cost[t - lo] = base, c0
             if keep_undo:
-                it_k[m], it_v[m], it_from[m], it_to[m], it_lvl[m] = 0, down_v, c0, c1, lvl
+                undo_v = min(down_v, _MAX)  # it costs c1 - c0 > 0: never infinitely worth
+                it_k[m], it_v[m], it_from[m], it_to[m], it_lvl[m] = 0, undo_v, c0, c1, lvl
+                up_v = min(up_v, undo_v)
                 m += 1
             if up >= 0 and (keep_undo or not undo):
-                it_k[m], it_v[m], it_from[m], it_to[m], it_lvl[m] = 1, up_v, c1, cost[i, up], up
+                c2 = row_c[up]
+                it_k[m], it_from[m], it_to[m], it_lvl[m] = 1, c1, c2, up
+                it_v[m] = up_v if c2 == c1 else min(up_v, _MAX)
                 m += 1
             continue
         none_lvl[t - lo], none_cost[t - lo] = -1, 0.0
+        if not (best > 0.0):
+            continue  # no level is worth drawing: an empty hull
         # sort the levels by cost
-        falling = True
-        for j in range(n_levels - 1):
-            if cost[i, j] < cost[i, j + 1]:
-                falling = False
-                break
         if falling:
             for k in range(n_levels):
                 order[k] = n_levels - 1 - k
         else:
             for j in range(n_levels):
-                c = cost[i, j]
+                c = row_c[j]
                 p = j
-                while p > 0 and cost[i, order[p - 1]] >= c:
+                while p > 0 and row_c[order[p - 1]] >= c:
                     order[p] = order[p - 1]
                     p -= 1
                 order[p] = j
         for k in range(n_levels):
-            c_s[k] = cost[i, order[k]]
-            b_s[k] = benefit[i, order[k]]
+            c_s[k] = row_c[order[k]]
+            b_s[k] = row_b[order[k]]
             on[k] = False
         # the upper hull
         top_c, top_b, top_k = 0.0, 0.0, -1
@@ -226,7 +238,7 @@ def _block_items(mode, benefit, cost, current, objs, lo, hi, items):
             if on[k]:
                 d_c = c_s[k] - last_c
                 it_k[m] = k
-                it_v[m] = np.inf if d_c == 0.0 else (b_s[k] - last_b) / d_c
+                it_v[m] = np.inf if d_c == 0.0 else min((b_s[k] - last_b) / d_c, _MAX)
                 it_from[m], it_to[m], it_lvl[m] = last_c, c_s[k], order[k]
                 last_c, last_b = c_s[k], b_s[k]
                 m += 1

@@ -378,14 +378,15 @@ def _check_entries(b: np.ndarray, c: np.ndarray) -> None:
 
 
 def _levels(levels, n: int, n_levels: int, name: str) -> np.ndarray:
-    """Validate an (N,) level array (-1 .. L-1)."""
+    """Validate an (N,) level array (-1 .. L-1); return it as int64 (no copy if it is)."""
     a = np.asarray(levels)
     if a.shape != (n,) or not np.issubdtype(a.dtype, np.integer):
         raise ValueError(f"{name} must be ({n},) integers, got shape {a.shape} dtype {a.dtype}")
-    if ((a < -1) | (a >= n_levels)).any():
+    lo, hi = (int(a.min()), int(a.max())) if n else (0, 0)
+    if lo < -1 or hi >= n_levels:
         bad = a[(a < -1) | (a >= n_levels)][0]
         raise ValueError(f"{name} levels must be in -1..{n_levels - 1}, got {bad}")
-    return a.astype(np.int64)
+    return np.ascontiguousarray(a, dtype=np.int64)
 
 
 def _vector(kw: dict, name: str, n: int) -> np.ndarray:
@@ -477,8 +478,8 @@ def _incremental(
     each object's best moves down and up taken by value (:func:`lod.knapsack._block_items`)."""
     if rounds == 0:
         _check_entries(benefit, cost)
-    level = np.where(np.isfinite(_chosen(cost, previous, 0.0)), previous, -1).astype(np.int64)
-    fits = False
+        return np.where(np.isfinite(_chosen(cost, previous, 0.0)), previous, -1), False
+    level, fits = previous, False  # (the kernel starts unavailable levels from -1)
     for _ in range(rounds):
         level, fits, _, ok = knapsack.select_kernel(
             knapsack.INCREMENTAL, benefit, cost, level, budget, False

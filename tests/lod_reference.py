@@ -23,6 +23,17 @@ def _exact(x: float) -> Fraction | float:
     return x if math.isinf(x) else Fraction(x)
 
 
+_MAX = float(np.finfo(np.float64).max)
+
+
+def _ratio(db: float, dc: float) -> float:
+    """db / dc for dc > 0, the largest float where it overflows (only free is infinite)."""
+    try:
+        return min(db / dc, _MAX)
+    except OverflowError:
+        return _MAX
+
+
 def hull_steps(c_row, b_row) -> list[tuple[int, float, float, float, int]]:
     """One object's upper-hull increments ``(k, value, cost before, cost after, level)``,
     ``k`` = sorted position: levels by cost, equal costs the higher level first; a level
@@ -54,7 +65,7 @@ def hull_steps(c_row, b_row) -> list[tuple[int, float, float, float, int]]:
     steps, last_c, last_b = [], 0.0, 0.0
     for k in hull:
         dc = c_s[k] - last_c
-        value = math.inf if dc == 0.0 else (b_s[k] - last_b) / dc
+        value = math.inf if dc == 0.0 else _ratio(b_s[k] - last_b, dc)
         steps.append((k, value, last_c, c_s[k], order[k]))
         last_c, last_b = c_s[k], b_s[k]
     return steps
@@ -81,15 +92,15 @@ def moves(c_row, b_row, lvl: int):
             down, down_v = j, slope
     undo = down != lvl
     keep_undo = undo and down_v > 0
-    if keep_undo:
-        up_v = min(up_v, down_v)
     base = down if undo else lvl
     c0 = float(c_row[base]) if base >= 0 else 0.0
     items = []
     if keep_undo:
-        items.append((0, down_v, c0, c1, lvl))
+        items.append((0, min(down_v, _MAX), c0, c1, lvl))
+        up_v = min(up_v, _MAX, down_v)
     if up >= 0 and (keep_undo or not undo):
-        items.append((1, up_v, c1, float(c_row[up]), up))
+        c2 = float(c_row[up])
+        items.append((1, up_v if c2 == c1 else min(up_v, _MAX), c1, c2, up))
     return base, c0, items
 
 
