@@ -25,9 +25,10 @@ Stages of :func:`snapshots`:
    the best of the two ends and their midpoint); at each snapshot, the positions and the
    triangles mapped to their corners' survivors, degenerate ones dropped.
 
-The positions are our own replay of the placement rule, in float64: they agree with the
-simplifier's to rounding (the final snapshot against the run's own output: ~1e-12 relative
-on the bench mesh); the triangles are exactly the run's.
+The triangles are exactly the run's; the positions are a replay of the simplifier's placement
+in its own arithmetic (the same operations in the same order, float64), so they are its
+positions bit for bit — which matters on nearly singular quadrics (coplanar triangles), where
+any other rounding decides "singular or not" differently and sends vertices far away.
 """
 
 from __future__ import annotations
@@ -135,9 +136,8 @@ def _plane_quadrics(v: np.ndarray, faces: np.ndarray) -> np.ndarray:
         ux, uy, uz = v[p1, 0] - v[p0, 0], v[p1, 1] - v[p0, 1], v[p1, 2] - v[p0, 2]
         wx, wy, wz = v[p2, 0] - v[p0, 0], v[p2, 1] - v[p0, 1], v[p2, 2] - v[p0, 2]
         nx, ny, nz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
-        norm = np.sqrt(nx * nx + ny * ny + nz * nz)
-        if norm > 0.0:
-            nx, ny, nz = nx / norm, ny / norm, nz / norm
+        norm = np.sqrt(nx * nx + ny * ny + nz * nz)  # (as the simplifier: no zero check)
+        nx, ny, nz = nx / norm, ny / norm, nz / norm
         plane[0], plane[1], plane[2] = nx, ny, nz
         plane[3] = -(nx * v[p0, 0] + ny * v[p0, 1] + nz * v[p0, 2])
         for corner in range(3):
@@ -195,24 +195,28 @@ def _quadric_error(q: np.ndarray, x: float, y: float, z: float) -> float:
 
 
 @_jit
+def _det3(q, a11, a12, a13, a21, a22, a23, a31, a32, a33) -> float:
+    """Determinant of the 3×3 matrix of quadric entries ``q[a..]``, by Sarrus' rule with its
+    six products in the order fast-simplification sums them (the same rounding)."""
+    return (
+        q[a11] * q[a22] * q[a33] + q[a13] * q[a21] * q[a32] + q[a12] * q[a23] * q[a31]
+        - q[a13] * q[a22] * q[a31] - q[a11] * q[a23] * q[a32] - q[a12] * q[a21] * q[a33]
+    )  # fmt: skip
+
+
+@_jit
 def _place(q: np.ndarray, both_border: bool, p: np.ndarray, a: int, b: int, out: np.ndarray):
     """Where the survivor of merging vertices ``a`` and ``b`` goes: the minimum of the summed
-    quadric ``q`` (solving its 3×3 system by Cramer's rule) unless the system is singular or
+    quadric ``q`` (its 3×3 system solved by Cramer's rule) unless the system is singular or
     both ends lie on an open border; then the best of ``a``, ``b`` and their midpoint (the
-    later of equally good ones)."""
-    a11, a12, a13, a22, a23, a33 = q[0], q[1], q[2], q[4], q[5], q[7]
-    b1, b2, b3 = -q[3], -q[6], -q[8]
-    c11 = a22 * a33 - a23 * a23
-    c12 = a13 * a23 - a12 * a33
-    c13 = a12 * a23 - a13 * a22
-    det = a11 * c11 + a12 * c12 + a13 * c13
+    later of equally good ones). The arithmetic is the simplifier's, operation for operation,
+    so that a nearly singular system (coplanar triangles: a subdivided mesh) is decided and
+    solved exactly as it was in the run."""
+    det = _det3(q, 0, 1, 2, 1, 4, 5, 2, 5, 7)
     if det != 0.0 and not both_border:
-        c22 = a11 * a33 - a13 * a13
-        c23 = a12 * a13 - a11 * a23
-        c33 = a11 * a22 - a12 * a12
-        out[0] = (c11 * b1 + c12 * b2 + c13 * b3) / det
-        out[1] = (c12 * b1 + c22 * b2 + c23 * b3) / det
-        out[2] = (c13 * b1 + c23 * b2 + c33 * b3) / det
+        out[0] = -1 / det * _det3(q, 1, 2, 3, 4, 5, 6, 5, 7, 8)
+        out[1] = 1 / det * _det3(q, 0, 2, 3, 1, 5, 6, 2, 7, 8)
+        out[2] = -1 / det * _det3(q, 0, 1, 3, 1, 4, 6, 2, 5, 8)
         return
     best = np.inf
     for cand in range(3):
