@@ -1,11 +1,13 @@
-"""``make bench`` section: screen-size estimates and LOD selection at 100,000 objects (seed 001).
+"""``make bench`` section: screen-size estimates and LOD selection at 100,000 and at a million
+objects (seed 001; issue 24's scale targets).
 
 Per frame of a camera orbit over 100,000 boxes: exact and naive projected areas
 (:func:`lod.projected_area`), then an LOD instance built from them with :mod:`lod.benefit`
 (Funkhouser–Séquin benefit with acuity off-centre factor and hysteresis, cost model) and the
-selection methods on it. Besides the timings: the exact area against rasterized pixels, the
-greedy against the exact optimum on small instances and against the LP bound at full size,
-and the incremental method against the greedy.
+selection methods on it. The same for a few frames over 10⁶ boxes (the *scale* rows, against
+the targets of ≤ 100 ms for the areas and for ``lod.select``). Besides the timings: the exact
+area against rasterized pixels, the greedy against the exact optimum on small instances and
+against the LP bound at full size, and the incremental method against the greedy.
 
     python -m experiments.bench_lod_select
 
@@ -43,6 +45,9 @@ DISPLAY = (1920, 1080)
 BUDGET_FRACTION = 0.3  # of drawing every object at its finest level
 AREA_TARGET_MS = 20.0  # the targets of the task, for the table
 SELECT_TARGET_MS = 50.0
+SCALE_OBJECTS = 1_000_000  # the scale rows: objects, frames timed after one warm-up frame
+SCALE_FRAMES = 4
+SCALE_TARGET_MS = 100.0  # issue 24: areas of 10⁶ boxes, lod.select of 10⁶ × 6 levels
 SMALL_INSTANCES = 200  # greedy vs exact optimum
 GL_BOXES, GL_CAMERAS = 30, 6  # exact area vs rasterized pixels
 AREA_MIN_PIXELS = 1000  # relative area error only over boxes this large (pixels)
@@ -58,6 +63,8 @@ def run(
     small_instances: int = SMALL_INSTANCES,
     gl_boxes: int = GL_BOXES,
     gl_cameras: int = GL_CAMERAS,
+    scale_objects: int = SCALE_OBJECTS,
+    scale_frames: int = SCALE_FRAMES,
 ) -> dict[str, pd.DataFrame]:
     """Run everything (sizes default to the module's constants); tidy DataFrames, named.
 
@@ -67,17 +74,35 @@ def run(
         ``"steps"``: one row per timed frame × step (``frame``, ``step``: ``exact`` /
         ``naive`` projected area or a selection method, ``wall_ms``, ``cpu_ms``);
         ``"frames"``: one row per timed frame (``objects``, ``on_screen`` fraction,
-        ``greedy_over_lp``, ``incremental_over_greedy``); ``"small"``: one row per small
-        instance (``family``, ``greedy_over_exact``); ``"area"``: one row per box × camera of
-        the id-render check (``pixels``, ``abs_error`` px, ``per_boundary``: the error per
-        boundary pixel).
+        ``greedy_over_lp``, ``incremental_over_greedy``); ``"scale"`` and
+        ``"scale_frames"``: the same at ``scale_objects`` objects (``scale_frames`` frames,
+        no rows when 0); ``"small"``: one row per small instance (``family``,
+        ``greedy_over_exact``); ``"area"``: one row per box × camera of the id-render check
+        (``pixels``, ``abs_error`` px, ``per_boundary``: the error per boundary pixel).
     """
-    rng = np.random.default_rng(0)
+    steps, per_frame = _orbit_run(np.random.default_rng(0), objects, frames)
+    scale, scale_frames_df = (
+        _orbit_run(np.random.default_rng(0), scale_objects, scale_frames, warmup=1)
+        if scale_frames
+        else (pd.DataFrame(), pd.DataFrame())
+    )
+    return {
+        "steps": steps,
+        "frames": per_frame,
+        "scale": scale,
+        "scale_frames": scale_frames_df,
+        "small": _small_instances(np.random.default_rng(1), small_instances),
+        "area": _area_against_pixels(np.random.default_rng(2), gl_boxes, gl_cameras),
+    }
+
+
+def _orbit_run(rng, objects: int, frames: int, warmup: int = WARMUP):
+    """Time every step on each orbit frame over ``objects`` boxes: (steps, per-frame) frames."""
     boxes, polys = _city(rng, objects)
     model = CostModel(per_draw=2e-3)
     steps, per_frame = [], []
     previous = None
-    for f, cam in enumerate(_orbit(WARMUP + frames)):
+    for f, cam in enumerate(_orbit(warmup + frames)):
         t = {}
         for exact in (True, False):
             w0, c0 = time.perf_counter(), time.process_time()
@@ -98,7 +123,7 @@ def run(
             t[m] = (w0, c0, time.perf_counter(), time.process_time())
             assert total_cost(levels[m], cost) <= budget
         previous = levels["incremental"]
-        if f < WARMUP:
+        if f < warmup:
             continue
         steps += [
             {"frame": f, "step": k, "wall_ms": 1e3 * (w1 - w0), "cpu_ms": 1e3 * (c1 - c0)}
@@ -114,12 +139,7 @@ def run(
                 "incremental_over_greedy": total_benefit(levels["incremental"], benefit) / greedy,
             }
         )
-    return {
-        "steps": pd.DataFrame(steps),
-        "frames": pd.DataFrame(per_frame),
-        "small": _small_instances(np.random.default_rng(1), small_instances),
-        "area": _area_against_pixels(np.random.default_rng(2), gl_boxes, gl_cameras),
-    }
+    return pd.DataFrame(steps), pd.DataFrame(per_frame)
 
 
 def markdown(frames: dict[str, pd.DataFrame]) -> str:
@@ -140,6 +160,32 @@ def markdown(frames: dict[str, pd.DataFrame]) -> str:
             "target ms": [target.get(k, math.nan) for k in med.index],
         }
     )
+    scale_md = []
+    if len(frames.get("scale", ())):
+        sc, sf = frames["scale"], frames["scale_frames"]
+        med_s = sc.groupby("step")[["wall_ms", "cpu_ms"]].median().reindex(list(STEPS))
+        scale_target = {"exact": SCALE_TARGET_MS, "naive": SCALE_TARGET_MS}
+        scale_target.update({"funkhouser-sequin": SCALE_TARGET_MS})
+        table_s = pd.DataFrame(
+            {
+                "step": [label.get(k, f"select {k}") for k in med_s.index],
+                "wall ms": med_s["wall_ms"].values,
+                "CPU ms": med_s["cpu_ms"].values,
+                "target ms": [scale_target.get(k, math.nan) for k in med_s.index],
+            }
+        )
+        lp_s = 1 - sf["greedy_over_lp"]
+        scale_md = [
+            "",
+            f"At scale: {sf['objects'].iloc[0]:,} boxes, the same city and orbit, {len(sf)} "
+            f"frames after one warm-up frame; {100 * sf['on_screen'].median():.0f} % on "
+            "screen; medians per frame:",
+            "",
+            markdown_table(table_s, {"target ms": ".0f", "wall ms": ".1f", "CPU ms": ".1f"}),
+            "",
+            f"(greedy within {lp_s.max():.1e} of the LP bound on every frame; incremental / "
+            f"greedy median {sf['incremental_over_greedy'].median():.6f}.)",
+        ]
     lp = 1 - per_frame["greedy_over_lp"]
     inc = per_frame["incremental_over_greedy"]
     fams = []
@@ -160,6 +206,7 @@ def markdown(frames: dict[str, pd.DataFrame]) -> str:
             "frame; CPU = this process's CPU time (the machine may be shared).",
             "",
             markdown_table(table, {"target ms": ".0f", "wall ms": ".1f", "CPU ms": ".1f"}),
+            *scale_md,
             "",
             "Quality:",
             "",

@@ -9,15 +9,20 @@ as niagara does (``error_k = max(error_k, error_{k-1})``), so a renderer can pic
 level whose projected error is below a pixel threshold.
 
 Stages of ``build_chain``: validate → prepare (weld duplicate vertices, drop unreferenced
-vertices and degenerate faces) → simplify each level (cascade: from the previous level) →
-clean each level → measure errors → accumulate → cache on disk.
+vertices and degenerate faces) → simplify each level (cascade: from the previous level;
+restart: every level as from the full mesh, all of them snapshots of one simplifier run,
+``lod.replay``) → clean each level → measure errors → accumulate → cache on disk.
 
 Cost (bench_lod_chain: 5 levels of a 1.3 M-triangle mesh, 2 shared cores, best of 3): 1.6×
 one fast-simplification call to the coarsest level (4.9 s vs 2.95 s; the issue's target is
 ≤ 2×). The four cascaded simplifications take 1.15× that call, the error measurement
 ≈ 0.45× (on 2 threads), welding and compaction 0.05×. Before (sorting welds and
 compactions, one global refinement reach and 4 candidates per point in ``lod.mesh_error``)
-the same chain took 3.4× (10.0 s), with the same levels and errors.
+the same chain took 3.4× (10.0 s), with the same levels and errors. With 6 levels (issue 24,
+CPU time, load 13): cascade 1.91× one call (of which errors ≈ 0.8×); restart 2.24×, from
+5.45× when it made one call per level (the same levels: the one-run snapshots are each
+call's mesh); so a chain within 1.2× of one call is out of reach while the error is measured
+as it is — the error measurement alone costs ~0.8× of the call (results/BENCHMARKS.md).
 
 Triangle counts: each level holds ``round(ratio · m)`` triangles (m = input triangles) up to
 the simplifier's granularity (one pass may overshoot by a few triangles; measured within ±5 %
@@ -55,7 +60,10 @@ AGG_MAX = 9.0
 # Cascade (level k from level k−1) rather than restart from the full mesh: on the 1.3 M
 # noisy icosphere (bench_lod_chain, 2 shared cores, best of 3) cascade builds the chain 2.7×
 # faster (4.9 s vs 12.9 s, errors included) with a lower error at the two coarsest levels
-# (0.0070 vs 0.0098).
+# (0.0070 vs 0.0098). Restart became one run and its snapshots (lod.replay: 6 levels 5.45× →
+# 2.24× one call, CPU, the same levels), still above the cascade's 1.91× (agg 3 stops short of
+# 1/16 in one run, so a second run at agg 5 follows), and its coarse levels stay 30-40 % worse:
+# one run keeps accumulating quadrics where the cascade starts afresh at every level.
 CASCADE = True
 # Threads measuring the levels' errors (numpy and scipy's k-d trees release the GIL).
 ERROR_THREADS = 2
@@ -242,14 +250,49 @@ def _simplify(vertices, faces, target: int, agg: float) -> tuple[np.ndarray, np.
 
 
 def _simplify_levels(v0, f0, targets, agg: float, cascade: bool) -> list[tuple]:
-    """Meshes for each target triangle count (targets decreasing)."""
+    """Meshes for each target triangle count (targets decreasing): cascaded (each from the
+    previous level) or restarted (each from ``v0, f0``; :func:`_restart_levels`)."""
+    if not cascade:
+        return _restart_levels(v0, f0, targets, agg)
     out = []
     src = (v0, f0)
     for t in targets:
-        lv = _simplify(*(src if cascade else (v0, f0)), t, agg)
+        lv = _simplify(*src, t, agg)
         out.append(lv)
         src = lv
     return out
+
+
+def _restart_levels(v0, f0, targets, agg: float) -> list[tuple]:
+    """Every level as one simplification of ``v0, f0`` to its target would give it, from as
+    few runs as possible: a run to the coarsest target is a prefix-by-prefix record of the
+    runs to all the others (``lod.replay``), so one run and its snapshots give every level it
+    reaches. Targets it stops above (by more than ``COUNT_TOLERANCE``; its last mesh serves
+    for those within it) are run again with agg raised by ``AGG_STEP``, as
+    :func:`_simplify` retries, up to ``AGG_MAX``, where the last run's mesh stands."""
+    import fast_simplification
+
+    from lod.replay import snapshots
+
+    out: dict[int, tuple] = {}
+    todo = [t for t in targets if t < len(f0)]
+    for t in targets:
+        if t >= len(f0):
+            out[t] = (v0, f0)
+    while todo:
+        v, f, collapses = fast_simplification.simplify(
+            np.asarray(v0, dtype=np.float64), f0, target_count=todo[-1], agg=agg,
+            return_collapses=True,
+        )  # fmt: skip
+        meshes, _ = snapshots(v0, f0, collapses, todo)
+        for t, mesh in zip(todo, meshes, strict=False):
+            out[t] = _compact(*mesh)
+        todo = todo[len(meshes) :]
+        last = _compact(v, f)
+        while todo and (len(last[1]) <= todo[0] * (1 + COUNT_TOLERANCE) or agg >= AGG_MAX):
+            out[todo.pop(0)] = last  # stopped above, within the tolerance (or at the floor)
+        agg += AGG_STEP
+    return [out[t] for t in targets]
 
 
 def quadric_simplify(

@@ -34,18 +34,21 @@ Boxes and the camera's clip planes (both estimates, both modes):
   near-clipped box (its corners in front plus its edges' crossings of the near plane), so
   ``naive >= exact`` always holds.
 
-Stages, top-down: :func:`projected_area` → ``_boxes`` (validate) → per block of boxes
-``_Corners.project`` (the 8 corners in clip space, affinely) → ``_classify`` (slab region)
-and ``_Corners.depth_classes`` (in front of / crossing the near plane) → ``_silhouette_area``
-(lookup table + shoelace over the silhouette edges, all boxes at once) or ``_bbox_area``;
-then, in one batch for all blocks, ``_Deferred.resolve``: viewport clipping of the boxes on the
-screen border and ``_near_crossing_area`` / ``_near_clipped_bbox_area`` for the boxes crossing
-the near plane. Performance: 100,000 boxes in about 12 ms on one core
-(``experiments/bench_lod_select.py``).
+Stages, top-down: :func:`projected_area` → ``_areas`` (numba, one pass over the boxes as
+given: validate, the 8 corners in clip space affinely, the depth class, the eye's slab region,
+then the lookup table's silhouette edges — shoelace — or the 2D bounding box, and for boxes on
+the viewport border the silhouette cut to the viewport) → for the few boxes crossing the near
+plane, ``_near_crossing_area`` / ``_near_clipped_bbox_area`` (numpy, in one batch). The
+kernel repeats the operations of the numpy version it replaced in the same order, so the areas
+are the same bit for bit (``tests/lod_reference.py`` keeps that version as the reference).
+Performance (``experiments/bench_lod_select.py``, CPU time on a shared machine): a million
+boxes in 47–64 ms exact, 34–40 ms naive (the numpy version: 179–287 and 131–179 ms, a third
+of it converting the boxes to float64 rows).
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from soc.scenes.camera import Camera
@@ -65,11 +68,6 @@ _MAX_SILHOUETTE = 6
 
 # Slab codes per axis: the eye below the lower face, inside the slab, above the upper face.
 _BELOW, _INSIDE, _ABOVE = 0, 1, 2
-
-# Boxes are processed in blocks of this many: the per-box temporaries (one float64 row of
-# this length, 94 KiB) stay below glibc's default mmap threshold (128 KiB) and in the L2
-# cache, so they are recycled instead of page-faulted in afresh for every operation.
-_BLOCK = 12000
 
 
 def _face_cycle(axis: int, side: int) -> list[int]:
@@ -147,6 +145,17 @@ def _build_edge_signs() -> np.ndarray:
 
 
 _EDGE_SIGNS = _build_edge_signs()
+# The same per region as the list of its silhouette edges in ``_EDGES`` order: (27, 6) edge
+# indices, (27, 6) signs, (27,) counts. Summing only these, in this order, gives the 12-edge
+# signed sum bit for bit (the other terms are zeros).
+_SIL_N = (_EDGE_SIGNS != 0).sum(axis=1).astype(np.int64)
+_SIL_EDGE = np.zeros((27, _MAX_SILHOUETTE), np.int64)
+_SIL_SIGN = np.zeros((27, _MAX_SILHOUETTE))
+for _r in range(27):
+    _e = np.flatnonzero(_EDGE_SIGNS[_r])
+    _SIL_EDGE[_r, : len(_e)] = _e
+    _SIL_SIGN[_r, : len(_e)] = _EDGE_SIGNS[_r, _e]
+del _r, _e
 
 
 # -- public entry ---------------------------------------------------------------------------
@@ -177,174 +186,243 @@ def projected_area(
         Pixels (pixel² of the viewport); a rasterizer's pixel count of the box differs by
         boundary pixels only (at most about half a pixel per pixel of perimeter).
     """
-    lo, hi = _boxes(aabbs)
-    n = lo.shape[1]
-    area = np.zeros(n)
-    corners = _Corners(min(n, _BLOCK), camera)
-    later = _Deferred()
-    for start in range(0, n, _BLOCK):
-        block = slice(start, start + _BLOCK)
-        area[block] = _block_area(lo[:, block], hi[:, block], corners, exact, clip, later, start)
-    later.resolve(area, camera, exact, clip)
+    a = np.asarray(aabbs)
+    if a.ndim != 3 or a.shape[1:] != (2, 3):
+        raise ValueError(f"aabbs must have shape (N, 2, 3), got {a.shape}")
+    if a.dtype not in (np.float32, np.float64):
+        a = a.astype(np.float64)
+    a = np.ascontiguousarray(a)
+    w, h = camera.width, camera.height
+    area, near_boxes, bad_value, bad_order = _areas(
+        a,
+        np.ascontiguousarray(camera.view_proj[[0, 1, 3]], dtype=np.float64),
+        np.asarray(camera.eye, dtype=np.float64),
+        float(camera.near),
+        float(camera.far),
+        float(w),
+        float(h),
+        0.125 * w * h,  # ½ (shoelace) · pixels per NDC², rounded as the numpy version did
+        0.25 * w * h,
+        bool(exact),
+        bool(clip),
+    )
+    if bad_value >= 0:
+        raise ValueError(f"aabbs must be finite; box {bad_value} is {a[bad_value].tolist()}")
+    if bad_order >= 0:
+        raise ValueError(f"aabbs need lo <= hi; box {bad_order} is {a[bad_order].tolist()}")
+    if len(near_boxes):
+        area[near_boxes] = _near_areas(a[near_boxes], camera, exact, clip)
     return area
-
-
-def _block_area(lo, hi, corners, exact: bool, clip: bool, later, offset: int) -> np.ndarray:
-    """Bulk path of :func:`projected_area` for one block ``lo, hi`` (3, n) float64 starting at
-    box ``offset``: boxes in front of the near plane and inside the viewport (or without
-    ``clip``) are done here; boxes crossing the near plane or the viewport border are handed
-    to ``later`` (a :class:`_Deferred`) and their entries left at 0."""
-    corners.project(lo, hi)
-    region = _classify(lo, hi, corners.camera)
-    front, crossing = corners.depth_classes()
-    if crossing.any():  # before to_ndc(), which overwrites the clip coordinates
-        idx = np.flatnonzero(crossing)
-        xyw = np.stack([c[:, idx].T for c in (corners.x, corners.y, corners.w)], axis=2)
-        keep = _inside_side_planes(xyw)
-        later.crossing(offset + idx[keep], xyw[keep], region[idx[keep]])
-    area = np.zeros(lo.shape[1])
-    if front.any():
-        corners.to_ndc()
-        if exact:
-            area[front] = _silhouette_area(corners, region, front, clip, later, offset)[front]
-        else:
-            area[front] = _bbox_area(corners, clip)[front]
-    return area
-
-
-class _Deferred:
-    """Boxes that need polygon clipping, collected over all blocks and clipped in one batch
-    (each clipping stage has a fixed cost, which per block would dominate)."""
-
-    def __init__(self):
-        self.cut: list[tuple[np.ndarray, np.ndarray]] = []  # (index, (M, 6, 2) pixel polygon)
-        self.near: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # index, xyw, region
-
-    def border(self, index: np.ndarray, poly: np.ndarray) -> None:
-        self.cut.append((index, poly))
-
-    def crossing(self, index: np.ndarray, xyw: np.ndarray, region: np.ndarray) -> None:
-        self.near.append((index, xyw, region))
-
-    def resolve(self, area: np.ndarray, camera: Camera, exact: bool, clip: bool) -> None:
-        """Write the areas of the collected boxes into ``area`` (N,)."""
-        size = (camera.width, camera.height)
-        if self.cut:
-            index, poly = (np.concatenate(parts) for parts in zip(*self.cut, strict=True))
-            area[index] = _shoelace(_clip_to_viewport(poly, size))
-        if self.near:
-            index, xyw, region = (np.concatenate(p) for p in zip(*self.near, strict=True))
-            area[index] = (
-                _near_crossing_area(xyw, region, camera, clip)
-                if exact
-                else _near_clipped_bbox_area(xyw, camera.near, size, clip)
-            )
 
 
 # -- stages ---------------------------------------------------------------------------------
 
 
-def _boxes(aabbs) -> tuple[np.ndarray, np.ndarray]:
-    """Validate ``aabbs``; return ``lo, hi`` as (3, N) float64 (component-major: every later
-    operation runs on contiguous length-N rows)."""
-    a = np.asarray(aabbs)
-    if a.ndim != 3 or a.shape[1:] != (2, 3):
-        raise ValueError(f"aabbs must have shape (N, 2, 3), got {a.shape}")
-    t = np.ascontiguousarray(a.transpose(1, 2, 0), dtype=np.float64)  # (2, 3, N)
-    lo, hi = t[0], t[1]
-    if not np.isfinite(t).all():
-        bad = np.flatnonzero(~np.isfinite(t).all(axis=(0, 1)))[0]
-        raise ValueError(f"aabbs must be finite; box {bad} is {a[bad].tolist()}")
-    if (lo > hi).any():
-        bad = np.flatnonzero((lo > hi).any(axis=0))[0]
-        raise ValueError(f"aabbs need lo <= hi; box {bad} is {a[bad].tolist()}")
-    return lo, hi
+@numba.njit(cache=True, error_model="numpy")
+def _areas(aabbs, m, eye, near, far, width, height, scale_exact, scale_naive, exact, clip):
+    """The bulk pass (module docstring): areas (N,) float64, the boxes crossing the near
+    plane left to :func:`_near_areas` (their entries 0), and the first box that is not
+    finite / has ``lo > hi`` (-1: none).
 
-
-class _Corners:
-    """The 8 corners of a block of boxes in clip space, and the buffers the bulk path needs.
-
-    One instance serves all blocks of a call: its (8, block) buffers are allocated once and
-    every bulk operation writes into them (``out=``), so no temporary larger than one row is
-    made per block. (Fresh multi-megabyte temporaries cost a page fault per 4 KiB on the test
-    machine, which made a first, unblocked version about 4x slower than its arithmetic.)
-
-    Attributes (views of the first ``n`` columns after :meth:`project`)
-    ----------
-    x, y, w : (8, n) float64
-        Clip coordinates of corner k (x = hi if bit 0 of k, y bit 1, z bit 2); ``w`` is the
-        depth along the view direction, world units. After :meth:`to_ndc`: x/w, y/w and 1/w.
-    """
-
-    def __init__(self, block: int, camera: Camera):
-        self.camera = camera
-        self.size = (camera.width, camera.height)
-        self._m = camera.view_proj[[0, 1, 3]]  # rows x, y, w
-        self._xyw = np.empty((3, 8, block))
-        self._cross = np.empty((3, 2, 2, block))  # edge cross products, see edge_cross()
-        self._signs = np.empty((12, block), np.int8)
-        self._tmp = np.empty((2, 2, block))
-
-    def project(self, lo: np.ndarray, hi: np.ndarray) -> None:
-        """Fill ``x, y, w`` for boxes ``lo, hi`` (3, n). Clip coordinates are affine in the
-        world position, so corner k is the image of ``lo`` plus the images of the edge vectors
-        its bits select: 3·(4 + 7) row operations instead of 8 matrix products."""
-        n = lo.shape[1]
-        self.n = n
-        ext = hi - lo
+    Boxes are read as given (float32 or float64) and widened to float64 per coordinate; the
+    corners, the silhouette's signed edge sum and the viewport clip repeat the numpy
+    version's operations in its order (see ``tests/lod_reference.py``)."""
+    n = aabbs.shape[0]
+    area = np.zeros(n)
+    near_boxes = np.empty(n, np.int64)
+    n_near = 0
+    bad_value, bad_order = -1, -1
+    lo, hi, ext = np.empty(3), np.empty(3), np.empty(3)
+    xyw = np.empty((3, 8))
+    poly = np.empty((2, 2, _MAX_SILHOUETTE + 5))  # two (x, y) buffers for the viewport clip
+    for i in range(n):
+        ok = True
+        for a in range(3):
+            lo[a], hi[a] = aabbs[i, 0, a], aabbs[i, 1, a]
+            if not (lo[a] - lo[a] == 0.0 and hi[a] - hi[a] == 0.0):
+                ok = False
+        if not ok:
+            if bad_value < 0:
+                bad_value = i
+            continue
+        for a in range(3):
+            if lo[a] > hi[a]:
+                ok = False
+            ext[a] = hi[a] - lo[a]
+        if not ok:
+            if bad_order < 0:
+                bad_order = i
+            continue
+        # the 8 corners in clip space: the image of lo plus the images of the edges its bits
+        # select (corner k: x = hi if bit 0, y bit 1, z bit 2)
         for r in range(3):
-            c = self._xyw[r, :, :n]
-            m = self._m[r]
-            np.multiply(lo[0], m[0], out=c[0])
-            for a in (1, 2):
-                c[0] += m[a] * lo[a]
-            c[0] += m[3]
-            for a in range(3):  # corners with bit a set = corners without it + edge a
+            c = xyw[r]
+            c0 = lo[0] * m[r, 0]
+            c0 += m[r, 1] * lo[1]
+            c0 += m[r, 2] * lo[2]
+            c[0] = c0 + m[r, 3]
+            for a in range(3):
                 k = 1 << a
-                np.add(c[:k], m[a] * ext[a], out=c[k : 2 * k])
-        self.x, self.y, self.w = self._xyw[0, :, :n], self._xyw[1, :, :n], self._xyw[2, :, :n]
+                e = m[r, a] * ext[a]
+                for j in range(k):
+                    c[k + j] = c[j] + e
+        dmin, dmax = xyw[2, 0], xyw[2, 0]
+        for j in range(1, 8):
+            dmin, dmax = min(dmin, xyw[2, j]), max(dmax, xyw[2, j])
+        if not (dmax > near and dmin < far):
+            continue  # behind the near plane or beyond the far plane
+        if dmin < near:  # crossing the near plane: clipped in homogeneous coordinates later
+            out_x_hi, out_x_lo, out_y_hi, out_y_lo = True, True, True, True
+            for j in range(8):
+                x, y, w = xyw[0, j], xyw[1, j], xyw[2, j]
+                out_x_hi &= x > w
+                out_x_lo &= x < -w
+                out_y_hi &= y > w
+                out_y_lo &= y < -w
+            if not (out_x_hi or out_x_lo or out_y_hi or out_y_lo):
+                near_boxes[n_near] = i
+                n_near += 1
+            continue
+        # normalized device coordinates
+        xmin, xmax, ymin, ymax = np.inf, -np.inf, np.inf, -np.inf
+        for j in range(8):
+            inv = 1.0 / xyw[2, j]
+            xyw[0, j] *= inv
+            xyw[1, j] *= inv
+            xmin, xmax = min(xmin, xyw[0, j]), max(xmax, xyw[0, j])
+            ymin, ymax = min(ymin, xyw[1, j]), max(ymax, xyw[1, j])
+        if not exact:
+            if clip:
+                xmin, xmax = max(xmin, -1.0), min(xmax, 1.0)
+                ymin, ymax = max(ymin, -1.0), min(ymax, 1.0)
+            area[i] = scale_naive * max(xmax - xmin, 0.0) * max(ymax - ymin, 0.0)
+            continue
+        # the eye's region against the box's three slabs, then its silhouette edges
+        region = 0
+        for a in range(2, -1, -1):
+            code = _INSIDE + (1 if eye[a] > hi[a] else 0) - (1 if eye[a] < lo[a] else 0)
+            region = 3 * region + code
+        if clip:
+            inside = xmin >= -1 and xmax <= 1 and ymin >= -1 and ymax <= 1
+            if not inside:
+                if not (xmax <= -1 or xmin >= 1 or ymax <= -1 or ymin >= 1):
+                    area[i] = _border_area(xyw, region, width, height, poly)
+                continue
+        acc = 0.0
+        for t in range(_SIL_N[region]):
+            p, q = _EDGES[_SIL_EDGE[region, t], 0], _EDGES[_SIL_EDGE[region, t], 1]
+            cross = xyw[0, p] * xyw[1, q] - xyw[0, q] * xyw[1, p]
+            acc += cross if _SIL_SIGN[region, t] > 0 else -cross
+        area[i] = abs(acc) * scale_exact
+    return area, near_boxes[:n_near], bad_value, bad_order
 
-    def depth_classes(self) -> tuple[np.ndarray, np.ndarray]:
-        """(n,) bool ``front`` (entirely at depth >= near: lookup-table path) and ``crossing``
-        (crossing the near plane: back-face path); the rest is invisible (behind the near
-        plane or beyond the far plane)."""
-        near, far = self.camera.near, self.camera.far
-        dmin, dmax = self.w.min(axis=0), self.w.max(axis=0)
-        visible = (dmax > near) & (dmin < far)
-        front = visible & (dmin >= near)
-        return front, visible & ~front
 
-    def to_ndc(self) -> None:
-        """In place: ``x, y`` become normalized device coordinates (meaningful for boxes in
-        front of the near plane), ``w`` becomes 1/w."""
-        with np.errstate(divide="ignore", invalid="ignore"):
-            np.divide(1.0, self.w, out=self.w)
-            self.x *= self.w
-            self.y *= self.w
+@numba.njit(cache=True, error_model="numpy")
+def _border_area(xyw, region, width, height, poly) -> float:
+    """Pixels of a box's silhouette (NDC corners in ``xyw[:2]``) cut to the viewport:
+    Sutherland–Hodgman against the four edges, then the shoelace formula — as the numpy
+    version's ``_clip_to_viewport`` and ``_shoelace`` did (padded polygons, the same
+    candidate order, numpy's pairwise sum of the shoelace terms)."""
+    k = _MAX_SILHOUETTE
+    src = 0
+    for t in range(k):
+        c = _SILHOUETTE[region, t]
+        poly[src, 0, t] = (xyw[0, c] + 1.0) * (0.5 * width)
+        poly[src, 1, t] = (xyw[1, c] + 1.0) * (0.5 * height)
+    for axis, bound, sign in ((0, 0.0, 1.0), (0, width, -1.0), (1, 0.0, 1.0), (1, height, -1.0)):
+        k = _clip_edge(poly[src], poly[1 - src], k, axis, bound, sign)
+        src = 1 - src
+    terms = np.empty(k)
+    x, y = poly[src, 0], poly[src, 1]
+    for t in range(k):
+        u = (t + 1) % k
+        terms[t] = x[t] * y[u] - x[u] * y[t]
+    return 0.5 * abs(_pairwise_sum(terms))
 
-    def edge_cross(self) -> np.ndarray:
-        """(12, n) cross products ``p_a × p_b`` (NDC) of the box edges in ``_EDGES`` order,
-        from strided views of the corners (corner k = x + 2y + 4z) instead of gathers."""
-        n = self.n
-        xv, yv = self.x.reshape(2, 2, 2, n), self.y.reshape(2, 2, 2, n)  # [z, y, x, box]
-        out, tmp = self._cross[..., :n], self._tmp[..., :n]
-        along = [  # (lower corners, upper corners) of the 4 edges along x, y, z
-            ((slice(None), slice(None), 0), (slice(None), slice(None), 1)),
-            ((slice(None), 0), (slice(None), 1)),
-            ((0,), (1,)),
-        ]
-        with np.errstate(invalid="ignore"):
-            for axis, (a, b) in enumerate(along):
-                np.multiply(xv[a], yv[b], out=out[axis])
-                np.multiply(xv[b], yv[a], out=tmp)
-                out[axis] -= tmp
-        return out.reshape(12, n)
 
-    def silhouette_signs(self, region: np.ndarray) -> np.ndarray:
-        """(12, n) int8 ``_EDGE_SIGNS`` of each box's region, transposed."""
-        out = self._signs[:, : self.n]
-        np.take(_EDGE_SIGNS.T, region, axis=1, out=out)
-        return out
+@numba.njit(cache=True, error_model="numpy")
+def _clip_edge(src, dst, k: int, axis: int, bound: float, sign: float) -> int:
+    """One Sutherland–Hodgman step of the padded polygon ``src`` (2, k) to ``sign · (coord -
+    bound) >= 0`` into ``dst`` (2, k + 1), as ``_clip_halfplane`` does it: per edge i → i+1
+    the crossing point (if any), then vertex i+1 (if kept); the first of them pads the rest;
+    an empty polygon is all zeros. Returns k + 1."""
+    first = -1
+    slot = 0
+    for i in range(k):
+        j = (i + 1) % k
+        di = sign * (src[axis, i] - bound)
+        dj = sign * (src[axis, j] - bound)
+        keep_next = dj >= 0
+        crosses = (di >= 0) != keep_next
+        if crosses and slot <= k:
+            t = di / (di - dj)
+            for d in range(2):
+                dst[d, slot] = src[d, i] + t * (src[d, j] - src[d, i])
+            if first < 0:
+                first = slot
+            slot += 1
+        if keep_next and slot <= k:
+            for d in range(2):
+                dst[d, slot] = src[d, j]
+            if first < 0:
+                first = slot
+            slot += 1
+    for s in range(slot, k + 1):
+        for d in range(2):
+            dst[d, s] = dst[d, first] if first >= 0 else 0.0
+    return k + 1
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _pairwise_sum(a) -> float:
+    """numpy's summation order for up to 128 values (eight partial sums, then the rest)."""
+    n = a.shape[0]
+    if n < 8:
+        s = 0.0
+        for t in range(n):
+            s += a[t]
+        return s
+    r = a[:8].copy()
+    t = 8
+    while t < n - n % 8:
+        for j in range(8):
+            r[j] += a[t + j]
+        t += 8
+    s = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    while t < n:
+        s += a[t]
+        t += 1
+    return s
+
+
+def _near_areas(aabbs: np.ndarray, camera: Camera, exact: bool, clip: bool) -> np.ndarray:
+    """Areas (M,) of boxes (M, 2, 3) crossing the near plane, in one numpy batch: their
+    corners in clip space, then ``_near_crossing_area`` or ``_near_clipped_bbox_area``."""
+    t = np.ascontiguousarray(aabbs.transpose(1, 2, 0), dtype=np.float64)  # (2, 3, M)
+    lo, hi = t[0], t[1]
+    xyw = _clip_corners(lo, hi, camera)
+    size = (camera.width, camera.height)
+    if exact:
+        return _near_crossing_area(xyw, _classify(lo, hi, camera), camera, clip)
+    return _near_clipped_bbox_area(xyw, camera.near, size, clip)
+
+
+def _clip_corners(lo: np.ndarray, hi: np.ndarray, camera: Camera) -> np.ndarray:
+    """(M, 8, 3) clip ``x, y, w`` of the corners of boxes ``lo, hi`` (3, M) float64: corner
+    k is the image of ``lo`` plus the images of the edge vectors its bits select."""
+    m = camera.view_proj[[0, 1, 3]]
+    ext = hi - lo
+    out = np.empty((3, 8, lo.shape[1]))
+    for r in range(3):
+        c = out[r]
+        np.multiply(lo[0], m[r, 0], out=c[0])
+        for a in (1, 2):
+            c[0] += m[r, a] * lo[a]
+        c[0] += m[r, 3]
+        for a in range(3):
+            k = 1 << a
+            np.add(c[:k], m[r, a] * ext[a], out=c[k : 2 * k])
+    return out.transpose(2, 1, 0)
 
 
 def _inside_side_planes(xyw: np.ndarray) -> np.ndarray:
@@ -362,51 +440,6 @@ def _classify(lo: np.ndarray, hi: np.ndarray, camera: Camera) -> np.ndarray:
     eye = np.asarray(camera.eye)[:, None]
     codes = _INSIDE + (eye > hi).astype(np.intp) - (eye < lo)  # (3, N)
     return codes[0] + 3 * codes[1] + 9 * codes[2]
-
-
-def _silhouette_area(corners: _Corners, region, front, clip: bool, later, offset) -> np.ndarray:
-    """Exact area (n,) of boxes in front of the near plane: lookup table + shoelace.
-
-    The shoelace sum runs over the silhouette edges of the box's region (``_EDGE_SIGNS``) in
-    normalized device coordinates, scaled to pixels. With ``clip``, boxes straddling the
-    viewport border take the silhouette's ordered corners (``_SILHOUETTE``) and are cut
-    ``later`` (their entries here are 0). Needs :meth:`_Corners.to_ndc`; values outside
-    ``front`` are meaningless.
-    """
-    cross = corners.edge_cross()
-    with np.errstate(invalid="ignore"):
-        cross *= corners.silhouette_signs(region)
-        area = np.abs(cross.sum(axis=0))
-    area *= 0.125 * corners.size[0] * corners.size[1]  # ½ (shoelace) · pixels per NDC²
-    if not clip:
-        return area
-    nx, ny = corners.x, corners.y
-    with np.errstate(invalid="ignore"):
-        xmin, xmax, ymin, ymax = nx.min(axis=0), nx.max(axis=0), ny.min(axis=0), ny.max(axis=0)
-        inside = (xmin >= -1) & (xmax <= 1) & (ymin >= -1) & (ymax <= 1)
-        off = (xmax <= -1) | (xmin >= 1) | (ymax <= -1) | (ymin >= 1)
-    area[~inside] = 0.0
-    cut = np.flatnonzero(front & ~inside & ~off)  # only boxes on the border pay for clipping
-    if len(cut):
-        idx = _SILHOUETTE[region[cut]].T  # (6, M)
-        poly = np.stack([np.take_along_axis(c[:, cut], idx, axis=0) for c in (nx, ny)], axis=2)
-        poly = (poly.transpose(1, 0, 2) + 1.0) * (0.5 * np.array(corners.size, dtype=float))
-        later.border(offset + cut, poly)
-    return area
-
-
-def _bbox_area(corners: _Corners, clip: bool) -> np.ndarray:
-    """Naive area (n,): the 2D bounding box of the 8 projected corners (cut to the viewport
-    with ``clip``). Needs :meth:`_Corners.to_ndc`; values outside ``front`` are meaningless."""
-    nx, ny = corners.x, corners.y
-    with np.errstate(invalid="ignore"):
-        lo = np.stack([nx.min(axis=0), ny.min(axis=0)])  # (2, n) NDC
-        hi = np.stack([nx.max(axis=0), ny.max(axis=0)])
-        if clip:
-            lo, hi = np.maximum(lo, -1.0), np.minimum(hi, 1.0)
-        ext = np.maximum(hi - lo, 0.0)
-    w, h = corners.size
-    return (0.25 * w * h) * ext[0] * ext[1]
 
 
 def _near_crossing_area(xyw, region, camera: Camera, clip: bool) -> np.ndarray:

@@ -124,11 +124,12 @@ def test_lod_sections_store_frames_and_draw_tables(monkeypatch, tmp_path):
         functools.partial(chain, subdivisions=3, small_subdivisions=2, repeats=1, use_data=False),
     )
     monkeypatch.setattr(bench_lod_select, "run", functools.partial(
-        select, objects=500, frames=2, small_instances=3, gl_boxes=2))  # fmt: skip
+        select, objects=500, frames=2, small_instances=3, gl_boxes=2, scale_objects=800,
+        scale_frames=1))  # fmt: skip
     sections = bench.lod_sections(tmp_path)
 
     levels = pd.read_csv(tmp_path / "lod-chain-levels.csv")
-    assert set(levels["strategy"]) == {"cascade", "restart"}
+    assert set(levels["strategy"]) == {"cascade", "restart", "one pass"}
     for _, c in levels.groupby("strategy"):
         assert c["triangles"].is_monotonic_decreasing and c["error"].iloc[0] == 0
     melax = pd.read_csv(tmp_path / "lod-chain-melax.csv")
@@ -146,8 +147,12 @@ def test_lod_sections_store_frames_and_draw_tables(monkeypatch, tmp_path):
     assert (per_frame["greedy_over_lp"] <= 1 + 1e-9).all()  # and so does the LP bound
     area = pd.read_csv(tmp_path / "lod-select-area.csv")
     assert (area["per_boundary"] <= 0.5 + 1e-6).all()  # pixel-centre sampling
+    scale = pd.read_csv(tmp_path / "lod-select-scale.csv")
+    assert set(scale["step"]) == set(bench_lod_select.STEPS)
+    assert len(scale) == len(bench_lod_select.STEPS)  # one frame at scale
     body = sections["lod-select"]
     assert "| projected_area exact (silhouette LUT) |" in body and "Quality:" in body
+    assert "At scale: 800 boxes" in body
 
 
 def test_adaptive_section_draws_the_experiment_tables(monkeypatch, tmp_path):

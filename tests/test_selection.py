@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 
+import lod_reference
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -29,6 +30,7 @@ from lod.benefit import (
 from lod.selection import (
     METHODS,
     ReactiveSelector,
+    _trim_to_budget,
     _upper_hulls,
     exact_select,
     lp_bound,
@@ -165,6 +167,120 @@ def _corners(points):
                 break
         out.append(p)
     return [(round(x, 9), round(y, 9)) for x, y in out[1:]]
+
+
+# -- the compiled kernels against the reference ----------------------------------------------
+
+# Costs whose float sums round (0.1, 0.2, 0.3 …), ties, free levels, unavailable ones.
+tie_costs = st.one_of(
+    st.sampled_from([0.0, 0.1, 0.2, 0.3, 1.0, 2.0, 3.0, np.inf]),
+    st.floats(0, 100, allow_nan=False, allow_infinity=False),
+)
+tie_benefits = st.one_of(
+    st.sampled_from([0.0, 0.1, 0.3, 1.0, 2.0, -1.0]), st.floats(-10, 100, allow_nan=False)
+)
+
+
+@st.composite
+def kernel_instances(draw):
+    """Instances with ties and near-ties: budgets 0, inf, everything, random, and the exact
+    total of the first j increments in the greedy's order (the walk's decisions are then
+    within rounding of the budget, which only exact sums settle)."""
+    n = draw(st.integers(1, 30))
+    n_levels = draw(st.integers(1, 6))
+    cost = draw(hnp.arrays(np.float64, (n, n_levels), elements=tie_costs))
+    benefit = draw(hnp.arrays(np.float64, (n, n_levels), elements=tie_benefits))
+    finite = cost[np.isfinite(cost)]
+    everything = float(np.sum(finite)) if finite.size else 0.0
+    kind = draw(st.sampled_from(["zero", "inf", "everything", "random", "prefix"]))
+    if kind == "prefix":
+        steps = sorted(
+            ((-v, k, i, cf, ct) for i in range(n)
+             for k, v, cf, ct, _ in lod_reference.hull_steps(cost[i], benefit[i])),
+            key=lambda t: t[:3],
+        )  # fmt: skip
+        j = draw(st.integers(0, len(steps)))
+        budget = sum(ct - cf for _, _, _, cf, ct in steps[:j])  # float sum: rounded
+    else:
+        budget = {"zero": 0.0, "inf": math.inf, "everything": everything}.get(
+            kind, draw(st.floats(0, max(everything, 1.0)))
+        )
+    previous = draw(hnp.arrays(np.int64, n, elements=st.integers(-1, n_levels - 1)))
+    return benefit, cost, float(budget), previous
+
+
+@settings(max_examples=400, deadline=None)
+@given(inst=kernel_instances())
+def test_greedy_kernel_matches_the_reference_level_for_level(inst):
+    benefit, cost, budget, _ = inst
+    np.testing.assert_array_equal(
+        lod.select(benefit, cost, budget), lod_reference.greedy(benefit, cost, budget)
+    )
+
+
+@settings(max_examples=400, deadline=None)
+@given(inst=kernel_instances(), rounds=st.integers(0, 3))
+def test_incremental_kernel_matches_the_reference_level_for_level(inst, rounds):
+    """The reference's levels, trimmed like ``select`` trims (a no-op unless the moved-down
+    base alone is over the budget, or no round ran)."""
+    benefit, cost, budget, previous = inst
+    got = lod.select(benefit, cost, budget, previous=previous, method="incremental",
+                     rounds=rounds)  # fmt: skip
+    want = lod_reference.incremental(benefit, cost, budget, previous, rounds)
+    np.testing.assert_array_equal(got, _trim_to_budget(want, benefit, cost, budget))
+
+
+@settings(max_examples=200, deadline=None)
+@given(inst=kernel_instances())
+def test_lp_bound_is_the_reference_prefix_plus_a_fraction(inst):
+    benefit, cost, budget, _ = inst
+    levels, out = lod_reference.greedy(benefit, cost, budget, lp=True)
+    want = total_benefit(levels, benefit)
+    if out is not None:  # the first increment out, fractionally: its value × what is left
+        k, i = out
+        value = next(s[1] for s in lod_reference.hull_steps(cost[i], benefit[i]) if s[0] == k)
+        want += value * (budget - total_cost(levels, cost))
+    assert lp_bound(benefit, cost, budget) == pytest.approx(want, rel=1e-9, abs=1e-9)
+
+
+def test_kernels_match_the_reference_on_many_objects():
+    """Thousands of objects with few distinct values: whole buckets taken at once, a crowded
+    boundary bucket, objects blocked up front; the bench's kind of instance, with and without
+    hysteresis."""
+    rng = np.random.default_rng(5)
+    for n, n_levels in ((3000, 6), (2000, 3)):
+        benefit, cost = lod_instance(rng, n, n_levels)
+        benefit = np.round(benefit, 1)  # equal values across objects
+        budget = 0.3 * float(cost[:, 0].sum())
+        greedy = lod.select(benefit, cost, budget)
+        np.testing.assert_array_equal(greedy, lod_reference.greedy(benefit, cost, budget))
+        previous = np.where(rng.random(n) < 0.2, -1, greedy)
+        for scale in (0.7, 1.0, 1.3):  # over, at and under last frame's budget
+            got = lod.select(benefit, cost, scale * budget, previous=previous,
+                             method="incremental")  # fmt: skip
+            want = lod_reference.incremental(benefit, cost, scale * budget, previous)
+            np.testing.assert_array_equal(got, _trim_to_budget(want, benefit, cost, scale * budget))
+
+
+def test_ties_are_broken_by_the_documented_rules():
+    """Equal cost and benefit: the finer level is kept (level 0, not 1). Equal values: the
+    lower hull step first, then the lower object index — object 1's first step (value 1) goes
+    before object 0's second step (value 1), and of objects 1 and 2 (equal in everything)
+    the budget admits object 1 only."""
+    np.testing.assert_array_equal(lod.select(np.array([[2.0, 2.0]]), np.ones((1, 2)), 5.0), [0])
+    benefit = np.array([[8.0, 6.0], [3.0, 0.5], [3.0, 0.5]])
+    cost = np.array([[4.0, 2.0], [3.0, 5.0], [3.0, 5.0]])
+    np.testing.assert_array_equal(lod.select(benefit, cost, 5.0), [1, 0, -1])
+    np.testing.assert_array_equal(lod.select(benefit, cost, 8.0), [1, 0, 0])
+
+
+def test_a_sum_that_rounds_over_the_budget_is_decided_exactly():
+    """0.1 + 0.2 rounds to 0.30000000000000004 > 0.3 in floats, but 0.1 + 0.2 as the costs'
+    exact values, 0.3000000000000000166…, is above 0.3's exact value 0.2999999999999999889…
+    too: the second object does not fit. With budget 0.30000000000000004 it does."""
+    benefit, cost = np.array([[1.0], [0.9]]), np.array([[0.1], [0.2]])
+    np.testing.assert_array_equal(lod.select(benefit, cost, 0.3), [0, -1])
+    np.testing.assert_array_equal(lod.select(benefit, cost, 0.1 + 0.2), [0, 0])
 
 
 # -- quality ---------------------------------------------------------------------------------
