@@ -108,6 +108,12 @@ class _Ideal:
         return truth, row
 
 
+def steps(specs: Iterable[RunSpec], frames: int) -> int:
+    """How often :func:`run_all` advances its bar: warm-up and ``frames`` frames, per merged
+    run and for the oracle."""
+    return (frames + 1) * (len(merge_specs(specs)) + 1)
+
+
 def run_all(scene, cameras: Sequence, specs: Iterable[RunSpec], *, bar=None) -> pd.DataFrame:
     """Every (merged) run of ``specs`` over ``cameras``, with the oracle once per frame.
 
@@ -118,7 +124,8 @@ def run_all(scene, cameras: Sequence, specs: Iterable[RunSpec], *, bar=None) -> 
         ``depth_resolution``, ``frustum``, ``depth_test``, ``options``, ``drawn``, ``frame``,
         then :meth:`soc.FrameStats.as_row` (counts, ``false_culls``/``false_keeps`` against
         the oracle, ``ms_<stage>``, ``ms_cull``, ``ms_total``). ``bar``: an open tqdm bar,
-        advanced once per frame and run (and per oracle frame).
+        advanced once per warm-up and once per frame and run, oracle included:
+        :func:`steps` in all.
     """
     import soc
 
@@ -135,7 +142,11 @@ def run_all(scene, cameras: Sequence, specs: Iterable[RunSpec], *, bar=None) -> 
             c.cull(cameras[0], draw=s.draw)  # untimed warm-up, then forgotten
             c.reset()
             cullers.append(c)
+            if bar is not None:  # a warm-up costs about a frame: the bar's rate sees it
+                bar.update(1)
         ideal.frame(0, cameras[0])
+        if bar is not None:
+            bar.update(1)
         for i, cam in enumerate(cameras):
             truth, row = ideal.frame(i, cam)
             row.update(depth_resolution=res_str(display), drawn=True)
