@@ -266,6 +266,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     figs.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_sweep_parser(sub)
+    HARNESS.clear()  # the registry of this parser, not of an earlier one
     HARNESS.update(add_parsers(sub, set(sub.choices)))
     return p
 
