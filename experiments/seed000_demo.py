@@ -149,7 +149,10 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     from tqdm.auto import tqdm
 
     import soc
+    from soc import precompile
 
+    # numba's kernels compile in child processes while the scene loads and GL warms up
+    jit = precompile.start(params.method_list())
     name = params.scene_name()
     scene = load_scene(name, seed=params.seed, quick=params.quick, data=params.data)
     methods = [m for m in params.method_list() if m in soc.method_names(scene)]
@@ -163,8 +166,8 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     total = steps(specs, params.frames) + PICTURES
     # One bar for the whole run (runs x frames, then the pictures); its rate, and so the time
     # left, is known from the first frames on.
-    with tqdm(total=total, unit="cull", desc="seed 000", disable=not progress) as bar:
-        frames = run_all(scene, cams, specs, bar=bar)
+    with jit, tqdm(total=total, unit="cull", desc="seed 000", disable=not progress) as bar:
+        frames = run_all(scene, cams, specs, bar=bar, compiled=jit)
         bar.set_postfix_str("pictures")
         at = _telling_frame(_rows(frames, QUERY, display))
         out = render(scene, cams, at, bar=bar)

@@ -114,7 +114,9 @@ def steps(specs: Iterable[RunSpec], frames: int) -> int:
     return (frames + 1) * (len(merge_specs(specs)) + 1)
 
 
-def run_all(scene, cameras: Sequence, specs: Iterable[RunSpec], *, bar=None) -> pd.DataFrame:
+def run_all(
+    scene, cameras: Sequence, specs: Iterable[RunSpec], *, bar=None, compiled=None
+) -> pd.DataFrame:
     """Every (merged) run of ``specs`` over ``cameras``, with the oracle once per frame.
 
     Returns
@@ -125,9 +127,11 @@ def run_all(scene, cameras: Sequence, specs: Iterable[RunSpec], *, bar=None) -> 
         then :meth:`soc.FrameStats.as_row` (counts, ``false_culls``/``false_keeps`` against
         the oracle, ``ms_<stage>``, ``ms_cull``, ``ms_total``). ``bar``: an open tqdm bar,
         advanced once per warm-up and once per frame and run, oracle included:
-        :func:`steps` in all.
+        :func:`steps` in all. ``compiled``: a :class:`soc.precompile.Precompile` compiling
+        kernels, waited for before the first culler of a method it compiles.
     """
     import soc
+    from soc.precompile import JIT_METHODS
 
     specs = merge_specs(specs)
     display = tuple(cameras[0].resolution)
@@ -136,6 +140,8 @@ def run_all(scene, cameras: Sequence, specs: Iterable[RunSpec], *, bar=None) -> 
         ideal = _Ideal(scene, display, stack)
         cullers = []
         for s in specs:
+            if compiled is not None and s.method in JIT_METHODS:
+                compiled.wait()  # load its kernels from the cache, not compile them again
             config = soc.CullConfig(frustum=s.frustum, depth_test=s.depth_test)
             c = soc.Culler(scene, s.method, s.resolution, config=config, **dict(s.options))
             stack.callback(c.close)
