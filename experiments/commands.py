@@ -3,7 +3,7 @@
 ``--display 640x360``, ``--methods none,frustum``), its old names as aliases.
 
 ``vislod demo`` is seed 000's experiment, short by default (:func:`experiments.seed000_demo.
-short`: a quarter of the flight, three depth resolutions, into ``results/demo/``); ``--full``
+short`: 13 frames of the flight, three depth resolutions, into ``results/demo/``); ``--full``
 runs the document's flight (the same files as ``vislod seed000`` and ``make figures``).
 
 A command prints what fits a terminal (:mod:`experiments.terminal`): the experiment's overview
@@ -72,7 +72,7 @@ def add_parsers(sub: Any, taken: set[str]) -> dict[str, harness.Experiment]:
             demo = sub.add_parser(
                 DEMO,
                 help=f"seed {exp.seed}, short: {exp.title} (--full: the whole run)",
-                description="A short run of seed 000's experiment (a quarter of the flight, "
+                description="A short run of seed 000's experiment (13 frames of the flight, "
                 "three depth resolutions) into results/demo/; --full runs the document's "
                 f"flight into results/ like `vislod {exp.key}` and `make figures`.",
             )
