@@ -33,6 +33,8 @@ DEMO_SCENE = $(shell test -d "$(VISLOD_DATA)/intel_castle/Asset" && echo castle 
 # pyvista (the `viz` extra) renders off-screen through EGL, like moderngl.
 demo test figures notebooks: export VTK_DEFAULT_OPENGL_WINDOW = vtkEGLRenderWindow
 
+# A short run of seed 000 (13 frames, three depth resolutions) into results/demo/;
+# ARGS=--full flies the whole flight at all six (= vislod seed000, into results/).
 demo: setup
 	MPLBACKEND=Agg $(PY) -m experiments.cli demo --scene $(DEMO_SCENE) $(ARGS)
 

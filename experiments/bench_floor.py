@@ -24,7 +24,6 @@ written as CSV; every table is printed from them by
 
 from __future__ import annotations
 
-import ast
 import math
 import time
 from dataclasses import dataclass
@@ -88,19 +87,12 @@ def parse_spec(spec: str) -> tuple[str, dict]:
     ValueError
         If the spec is not ``name`` or ``name(key=literal, ...)`` or names no registered method.
     """
-    name, _, rest = spec.partition("(")
-    name = name.strip()
-    options: dict = {}
-    if rest:
-        if not rest.endswith(")"):
-            raise ValueError(f"method spec {spec!r}: expected name(key=value, ...)")
-        try:
-            call = ast.parse(f"f({rest[:-1]})", mode="eval").body
-            if call.args:
-                raise ValueError("positional arguments")
-            options = {k.arg: ast.literal_eval(k.value) for k in call.keywords}
-        except (SyntaxError, ValueError) as e:
-            raise ValueError(f"method spec {spec!r}: options must be key=literal ({e})") from e
+    from soc.methods.spec import parse
+
+    try:
+        name, options = parse(spec)
+    except ValueError as e:
+        raise ValueError(f"method spec {spec!r}: {e}") from e
     if name not in METHODS:
         raise ValueError(f"method spec {spec!r}: unknown method {name!r}; {soc.method_names()}")
     return name, options

@@ -1,7 +1,9 @@
 """The ``vislod`` command line.
 
-    vislod demo [--scene market|castle|clutter] [--frames 100] [--resolutions 320x192,...]
-                [--methods A,B|all] [--quick] [--out results]     (= vislod seed000)
+    vislod demo [--full] [--scene market|castle|clutter] [--frames 100]
+                [--resolutions 320x192,...] [--methods A,B|all] [--quick] [--out results]
+                (short: 24 frames, three depth resolutions, into results/demo/;
+                 --full = vislod seed000)
     vislod cull --method NAME [--scene market|castle|clutter] [--resolution 1920x1080]
                 [--frames N] [--oracle]
     vislod seed002 [--frames 100] [--grid-sizes 16,32,64] [--display WxH] [--quick] [--out DIR]
@@ -44,6 +46,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NoReturn
 
+from experiments import terminal
 from experiments.commands import add_parsers, run_command
 from experiments.common import (
     DISPLAY,
@@ -103,7 +106,7 @@ def _installed(extra: str) -> bool:
 def _named_methods(args: argparse.Namespace) -> list[str]:
     """The culling methods a command will run, from its options (``all`` expanded)."""
     if args.command == "cull":
-        return [args.method]
+        return [args.method.partition("(")[0].strip()]  # "masked(threads=1)" → masked
     if args.command == "sweep":
         if args.methods is None:
             from experiments.sweep import DEFAULT_METHODS
@@ -221,7 +224,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     cull = sub.add_parser("cull", help="cull the flight with one method, print per-frame stats")
     common(cull, "market")
-    cull.add_argument("--method", required=True, help="culling method (see soc.method_names())")
+    cull.add_argument(
+        "--method",
+        required=True,
+        help='culling method (soc.method_names()), options in parentheses: "masked(threads=1)"',
+    )
     cull.add_argument(
         "--resolution",
         type=_resolution,
@@ -259,6 +266,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     figs.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_sweep_parser(sub)
+    HARNESS.clear()  # the registry of this parser, not of an earlier one
     HARNESS.update(add_parsers(sub, set(sub.choices)))
     return p
 
@@ -287,7 +295,12 @@ def _check_method_culls(method: str, scene_name: str, scene=None) -> None:
     """:class:`UsageError` when ``method`` is unknown or cannot cull ``scene`` (default: the
     small clutter scene, standing for every scene without cells and portals)."""
     import soc
+    from soc.methods.spec import parse
 
+    try:
+        method, _ = parse(method)  # "masked(threads=1)": the options go to soc.Culler
+    except ValueError as e:
+        raise UsageError(str(e)) from None
     if method not in soc.method_names():
         raise UsageError(f"unknown method {method!r}; available: {', '.join(soc.method_names())}")
     scene = scene if scene is not None else soc.scenes.clutter(0)
@@ -308,8 +321,6 @@ def _validate_scene(args: argparse.Namespace) -> None:
 
 
 def cmd_cull(args: argparse.Namespace) -> int:
-    import pandas as pd
-
     import soc
     from experiments.common import load_scene
 
@@ -347,14 +358,30 @@ def cmd_cull(args: argparse.Namespace) -> int:
     ]
     table = df.set_index("frame")[cols].astype(float)
     table.loc["mean"] = table.mean()
+    table.index = table.index.map(str)
     print(
-        f"{args.method!r} on {args.scene} ({len(scene):,} objects), depth buffer "
-        f"{res_str(resolution)}, display {res_str(display)}, {frames} frames"
+        terminal.paragraph(
+            f"{args.method!r} on {args.scene} ({len(scene):,} objects), depth buffer "
+            f"{res_str(resolution)}, display {res_str(display)}, {frames} frames"
+        )
     )
-    with pd.option_context("display.width", 200, "display.float_format", "{:,.2f}".format):
-        print(table.to_string())
+    print(terminal.table(table.rename(columns=CULL_HEADERS), index=True))
     print(f"mean cull time {df.ms_cull.mean():.2f} ms")
     return 0
+
+
+# `vislod cull`'s per-frame columns, as its table heads them (wrapped at spaces when narrow).
+CULL_HEADERS = {
+    "models_visible": "visible",
+    "models_culled": "culled",
+    "frustum_culled": "frustum culled",
+    "occlusion_culled": "occlusion culled",
+    "triangles_culled_pct": "triangles culled %",
+    "draw_calls": "draw calls",
+    "false_culls": "false culls",
+    "false_keeps": "false keeps",
+    "ms_cull": "cull ms",
+}
 
 
 def cmd_figures(args: argparse.Namespace) -> int:
@@ -364,8 +391,10 @@ def cmd_figures(args: argparse.Namespace) -> int:
     from experiments.harness import experiments
 
     if args.list:
-        for f in experiments():
-            print(f"{f.key:24s} seed {f.seed}  ~{f.minutes:g} min  {f.title}")
+        import pandas as pd
+
+        rows = [(f.key, f.seed, f"~{f.minutes:g} min", f.title) for f in experiments()]
+        print(terminal.table(pd.DataFrame(rows, columns=["figure", "seed", "time", "title"])))
         return 0
     data = args.data or os.environ.get("VISLOD_DATA") or None
     run_figures(

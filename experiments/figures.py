@@ -1,5 +1,6 @@
 """Every experiment of the source documents in one run (``make figures`` = ``vislod figures``),
-then ``REPORT.md`` (:mod:`experiments.report`).
+then the gallery (:mod:`experiments.gallery`: every picture redrawn into the tracked
+``docs/gallery/``) and ``REPORT.md`` (:mod:`experiments.report`).
 
 Each experiment is a harness experiment (:mod:`experiments.harness`). Before anything runs,
 every chosen experiment's parameters are checked (a data path given with ``--data`` or
@@ -17,7 +18,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from experiments import harness
+from experiments import harness, terminal
 from experiments.common import UsageError, check_writable, default_out
 
 
@@ -43,8 +44,9 @@ def run_figures(
     progress: bool = True,
 ) -> dict[str, Any]:
     """Run every experiment (or ``only`` those), skipping the ones done with the same inputs
-    unless ``force``; then write ``REPORT.md``. Returns ``{"ran": [...], "skipped": [...],
-    "seconds": {...}, "report": path}``."""
+    unless ``force``; then redraw the gallery (the checkout's ``results/`` only:
+    :func:`refresh_gallery`) and write ``REPORT.md``. Returns ``{"ran": [...], "skipped": [...],
+    "seconds": {...}, "report": path, "gallery": [pictures redrawn]}``."""
     from tqdm.auto import tqdm
 
     from experiments.report import write_report
@@ -63,7 +65,7 @@ def run_figures(
     todo = [(e, p) for e, p in plans if force or not harness.is_done(e, p, out)]
     skipped = [e.key for e, p in plans if (e, p) not in todo]
     if skipped:
-        print(f"already done (use --force to re-run): {', '.join(skipped)}")
+        print(terminal.paragraph(f"already done (--force re-runs): {', '.join(skipped)}"))
     seconds: dict[str, float] = {}
     weight = {e.key: (e.minutes / 10 if quick else e.minutes) for e, _ in todo}
     bar = tqdm(
@@ -81,11 +83,34 @@ def run_figures(
             )
             seconds[exp.key] = res.seconds
             bar.update(round(weight[exp.key], 1))
+    pictures = refresh_gallery(out, [e.key for e, _ in todo]) if not quick else []
     report = write_report(out, quick=quick)
-    print(f"report: {report}")
+    print(terminal.paragraph(f"report: {report}", indent="  "))
     return {
         "ran": [e.key for e, _ in todo],
         "skipped": skipped,
         "seconds": seconds,
         "report": report,
+        "gallery": pictures,
     }
+
+
+def refresh_gallery(out: Path, ran: Sequence[str]) -> list[Path]:
+    """When ``out`` is the checkout's ``results/`` (whose REPORT.md git tracks), redraw into
+    ``docs/gallery/`` the pictures of the experiments that ran and of those missing there,
+    and the README's gallery section; returns the pictures written."""
+    from experiments import gallery
+    from experiments.report import _is_tracked_report_folder
+
+    if not _is_tracked_report_folder(out):
+        return []
+    keys = [
+        e.key
+        for e in harness.experiments()
+        if e.key in ran or not all(gallery.path(e.plot_name(p)).is_file() for p in e.plots)
+    ]
+    written = gallery.write(out, only=keys) if keys else []
+    if written:
+        gallery.update_readme()
+        print(terminal.paragraph(f"gallery: {len(written)} pictures redrawn in {gallery.FOLDER}"))
+    return written

@@ -1,77 +1,81 @@
-"""The README's gallery: a handful of key figures from ``results/``, shrunk into
-``docs/gallery/`` (tracked, small), each with one line on what it shows and the command that
-made it. ``python -m experiments.gallery`` after ``make figures``.
+"""``docs/gallery/``: every picture of every experiment at the size a reader sees, tracked in
+git, so that ``results/REPORT.md`` and the README show them in a fresh clone.
 
-A figure missing from ``results/`` is skipped with a message (run its command first).
+Each picture is drawn again from the experiment's stored frames (:func:`experiments.harness.
+load`, then its plotting functions; nothing is recomputed) at :data:`WIDTH` pixels wide and
+written as a palette PNG no larger than :data:`MAX_BYTES`. ``make figures`` refreshes the
+gallery after the experiments it ran; ``python -m experiments.gallery [RESULTS]`` redraws it
+from a results folder. The README's gallery section (:data:`SHOTS`) picks a few of them.
 """
 
 from __future__ import annotations
 
+import io
+import json
 import sys
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
+from experiments import terminal
 from experiments.common import atomic_write, default_results_dir
 
 ROOT = Path(__file__).resolve().parents[1]
 FOLDER = ROOT / "docs" / "gallery"
 README_BEGIN, README_END = "<!-- begin gallery -->", "<!-- end gallery -->"
-WIDTH = 900  # pixels: small in git, still readable on GitHub
+WIDTH = 1600  # pixels: readable on a code host's page at full width
+MAX_BYTES = 200_000  # per picture, so that the gallery stays small in git
+COLORS = (256, 128, 64, 32)  # palette sizes tried in turn until a picture fits MAX_BYTES
 
 
 @dataclass(frozen=True)
 class Shot:
-    source: str  # relative to the results folder
-    name: str  # file name in docs/gallery
+    """A picture the README shows: ``name`` is its file stem (``<key>_<plot>``)."""
+
+    name: str
     caption: str
     command: str
 
 
 SHOTS = (
     Shot(
-        "seed000/seed000_abb1.png",
-        "seed000_abb1.png",
+        "seed000_abb1",
         "Seed 000, Abb. 1: the frame with the kept objects outlined, and what occlusion culling "
         "removed",
         "vislod figures --only seed000",
     ),
     Shot(
-        "seed001-lod/seed001_lod_pictures.png",
-        "seed001_lod_pictures.png",
+        "seed001_lod_pictures",
         "Seed 001: no detail elision vs Funkhouser–Séquin at a target frame time (changed "
         "pixels in magenta); the chosen levels, darker grey = more detail, with a key",
         "vislod lod",
     ),
     Shot(
-        "seed001-lod/seed001_lod_flight.png",
-        "seed001_lod_flight.png",
+        "seed001_lod_flight",
         "Seed 001: frame time per frame against the budget for five LOD strategies, and the "
         "share of frames over it (measured and by the cost model)",
         "vislod lod",
     ),
     Shot(
-        "seed001-image-based/seed001_image_based_stereo_images.png",
-        "seed001_stereo.png",
+        "seed001_image_based_stereo_images",
         "Seed 001: stereo by warping — the true right eye, the warped one, and its holes",
         "vislod image-based",
     ),
     Shot(
-        "seed002/seed002_frametime.png",
-        "seed002_frametime.png",
+        "seed002_frametime",
         "Seed 002: frame time with grid occlusion queries against frustum culling alone, and "
         "under query caps scaled to our queries per frame (the thesis's caps never bind here)",
         "vislod seed002",
     ),
     Shot(
-        "seed003/seed003_lights.png",
-        "seed003_lights.png",
+        "seed003_lights",
         "Seed 003: forward vs deferred shading, CPU time and their ratio against the number of "
         "lights, drawn back to front and front to back",
         "vislod seed003",
     ),
     Shot(
-        "seed004-adaptive/seed004_adaptive_frametimes.png",
-        "seed004_adaptive.png",
+        "seed004_adaptive_frametimes",
         "Seed 004, Figs. 3–5: frustum culling vs queries vs the adaptive method on three "
         "growing scenes, the adaptive method's mode as background colour (legend below)",
         "vislod seed004-adaptive",
@@ -79,44 +83,103 @@ SHOTS = (
 )
 
 
-def shrink(source: Path, target: Path, width: int = WIDTH) -> Path:
-    """Write ``source`` scaled to ``width`` pixels wide (never enlarged) as PNG at ``target``."""
+def path(stem: str, folder: Path | None = None) -> Path:
+    """Where the picture ``stem`` (``<key>_<plot>``) lives in the gallery (``folder``,
+    default :data:`FOLDER`)."""
+    return Path(folder if folder is not None else FOLDER) / f"{stem}.png"
+
+
+def save(fig: Any, target: Path, width: int = WIDTH, max_bytes: int = MAX_BYTES) -> Path:
+    """Write the matplotlib ``fig`` as a PNG ``width`` pixels wide, quantized to the largest
+    palette of :data:`COLORS` that keeps it within ``max_bytes`` (the smallest when none
+    does), atomically; returns ``target``."""
     from PIL import Image
 
-    with Image.open(source) as im:
-        im = im.convert("RGB")
-        if im.width > width:
-            im = im.resize((width, round(im.height * width / im.width)), Image.LANCZOS)
-        return atomic_write(target, lambda p: im.save(p, format="PNG", optimize=True))
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=width / fig.get_size_inches()[0])
+    with Image.open(buf) as im:
+        rgb = im.convert("RGB")
+    data = b""
+    for colors in COLORS:
+        q = rgb.quantize(colors, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+        out = io.BytesIO()
+        q.save(out, format="PNG", optimize=True)
+        data = out.getvalue()
+        if len(data) <= max_bytes:
+            break
+    return atomic_write(Path(target), lambda p: p.write_bytes(data))
 
 
-def markdown(shots=SHOTS, folder: Path = FOLDER) -> str:
+def _tuples(x: Any) -> Any:
+    if isinstance(x, list):
+        return tuple(_tuples(v) for v in x)
+    if isinstance(x, dict):
+        return {k: _tuples(v) for k, v in x.items()}
+    return x
+
+
+def stored_params(exp, folder: Path):
+    """The parameters a stored run was made with (its ``inputs.json``), as ``exp.params``."""
+    meta = json.loads((Path(folder) / "inputs.json").read_text())
+    return exp.params(**_tuples(meta["params"]))
+
+
+def draw(exp, results: Path, folder: Path | None = None) -> list[Path]:
+    """Every picture of ``exp`` drawn again from its stored frames under ``results`` into
+    ``folder``; [] when it has not run there."""
+    from experiments import harness
+
+    res = harness.load(exp, results)
+    if res is None:
+        return []
+    res.params = stored_params(exp, res.folder)
+    written = []
+    for stem, fig in res.draw().items():
+        written.append(save(fig, path(stem, folder)))
+    return written
+
+
+def write(
+    results: Path | None = None, folder: Path | None = None, only: Iterable[str] | None = None
+) -> list[Path]:
+    """Redraw the gallery from ``results`` (default: the checkout's ``results/``): every
+    experiment there, or ``only`` those keys; returns the files written."""
+    from experiments import harness
+
+    results = Path(results) if results is not None else default_results_dir()
+    keys = set(only) if only is not None else None
+    written: list[Path] = []
+    for exp in harness.experiments():
+        if keys is not None and exp.key not in keys:
+            continue
+        paths = draw(exp, results, folder)
+        if not paths:
+            print(
+                terminal.paragraph(
+                    f"skipped {exp.key}: not in {results} (`vislod figures --only {exp.key}`)",
+                    indent="  ",
+                )
+            )
+        written += paths
+    return written
+
+
+def markdown(shots: Sequence[Shot] = SHOTS, folder: Path | None = None) -> str:
     """The README section listing the shots present in ``folder``."""
     lines = []
     for s in shots:
-        if (folder / s.name).is_file():
+        if path(s.name, folder).is_file():
             lines += [
-                f"![{Path(s.name).stem}](docs/gallery/{s.name})",
+                f"![{s.name}](docs/gallery/{s.name}.png)",
                 f"*{s.caption}* — `{s.command}`",
                 "",
             ]
     return "\n".join(lines)
 
 
-def write(results: Path | None = None, folder: Path = FOLDER) -> list[Path]:
-    results = Path(results) if results is not None else default_results_dir()
-    written = []
-    for s in SHOTS:
-        src = results / s.source
-        if not src.is_file():
-            print(f"skipped {s.source}: not in {results} (run `{s.command}`)", file=sys.stderr)
-            continue
-        written.append(shrink(src, folder / s.name))
-    return written
-
-
-def update_readme(readme: Path = ROOT / "README.md", folder: Path = FOLDER) -> Path:
+def update_readme(readme: Path | None = None, folder: Path | None = None) -> Path:
     """Replace the text between the README's gallery markers with :func:`markdown`."""
+    readme = Path(readme) if readme is not None else ROOT / "README.md"
     text = readme.read_text()
     if README_BEGIN not in text or README_END not in text:
         raise ValueError(f"{readme} has no {README_BEGIN} … {README_END} markers")
@@ -128,19 +191,30 @@ def update_readme(readme: Path = ROOT / "README.md", folder: Path = FOLDER) -> P
     )
 
 
-def main() -> int:
-    """Refresh ``docs/gallery/`` and the README's gallery; only in a checkout (an installed
-    package has no README or docs folder to update, and must not write into site-packages)."""
-    if not (ROOT / "pyproject.toml").is_file():
+def in_checkout() -> bool:
+    """The package runs from a vislod checkout (README.md and docs/ beside it), not from an
+    installed wheel, whose site-packages must stay as pip left it."""
+    return (ROOT / "pyproject.toml").is_file()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Redraw ``docs/gallery/`` from a results folder (default ``results/``), then the
+    README's gallery and ``results/REPORT.md``; only in a checkout."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not in_checkout():
         print(
             "gallery: error: the gallery lives in a vislod checkout (docs/gallery, README.md); "
             f"{ROOT} is an installed package — run it in a clone of the repository",
             file=sys.stderr,
         )
         return 2
-    for p in write():
+    from experiments.report import write_report
+
+    results = Path(argv[0]) if argv else default_results_dir()
+    for p in write(results):
         print(p)
     print(update_readme())
+    print(write_report(results, to=default_results_dir()))
     return 0
 
 

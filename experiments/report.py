@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Sequence
 from pathlib import Path
 
 from experiments.common import atomic_write
@@ -23,50 +22,40 @@ def _cell(text: str) -> str:
     return str(text).replace("|", "\\|").replace("\n", " ")
 
 
-def image_lines(
-    out: Path, pngs: Sequence[Path], key: str, *, tracked_only: bool = True
-) -> list[str]:
-    """Markdown for a figure's PNGs (paths under ``out``).
+def image_lines(report_dir: Path, png: Path, key: str, *, gallery: bool) -> list[str]:
+    """Markdown showing the picture ``png`` (an experiment's PNG in its results folder) in a
+    report written to ``report_dir``.
 
-    ``tracked_only`` (the checkout's ``results/REPORT.md``, which git tracks while ``results/``
-    itself is not): only what resolves in a fresh clone is an image — the PNGs the README's
-    gallery keeps in ``docs/gallery/`` (tracked), linked relative to the report; the others
-    are named in plain text with the command that draws them. Otherwise (a report in any other
-    folder, beside its PNGs) every PNG is an image.
+    ``gallery`` (the checkout's ``results/REPORT.md``, which git tracks while ``results/``
+    itself is not): the picture is shown from ``docs/gallery/`` (tracked, redrawn by ``make
+    figures``: :mod:`experiments.gallery`), linked relative to the report, so that it shows in
+    a fresh clone; one not there yet is named with the command that draws it. Otherwise (a
+    report in any other folder, beside its results) the PNG itself is linked.
     """
-    from experiments.gallery import FOLDER, SHOTS
+    from experiments import gallery as g
 
-    if not tracked_only:
-        return [f"![{Path(p).stem}]({Path(p).relative_to(out).as_posix()})" for p in pngs]
-    by_source = {s.source: s for s in SHOTS}
-    lines, untracked = [], []
-    for png in pngs:
-        rel = Path(png).relative_to(out).as_posix()
-        shot = by_source.get(rel)
-        if shot is not None and (FOLDER / shot.name).is_file():
-            link = Path(os.path.relpath(FOLDER / shot.name, Path(out).resolve())).as_posix()
-            lines.append(f"![{Path(png).stem}]({link})")
-        else:
-            untracked.append(f"`{rel}`")
-    if untracked:
-        lines.append(
-            f"Drawn into the results folder (not tracked in git; `vislod figures --only {key}`): "
-            + ", ".join(untracked)
-        )
-    return lines
+    stem = Path(png).stem
+    target = g.path(stem) if gallery else Path(png)
+    if gallery and not target.is_file():
+        return [f"`{stem}.png` is not in docs/gallery/ yet (`vislod figures --only {key}`)"]
+    link = Path(os.path.relpath(Path(target).resolve(), Path(report_dir).resolve())).as_posix()
+    return [f"![{stem}]({link})"]
 
 
 def _is_tracked_report_folder(out: Path) -> bool:
     """``out`` is the checkout's ``results/`` (whose REPORT.md git tracks)."""
-    from experiments.gallery import ROOT
+    from experiments.gallery import ROOT, in_checkout
 
-    results = (ROOT / "results").resolve()
-    return (ROOT / "pyproject.toml").is_file() and Path(out).resolve() == results
+    return in_checkout() and Path(out).resolve() == (ROOT / "results").resolve()
 
 
-def experiment_lines(out: Path, exp, *, tracked_only: bool) -> tuple[list[str], list[str]]:
+def experiment_lines(
+    out: Path, exp, *, gallery: bool, report_dir: Path | None = None
+) -> tuple[list[str], list[str]]:
     """A harness experiment's section (pictures with captions, then its claims) and its
-    verdicts; "not run" when its files are missing."""
+    verdicts; "not run" when its files are missing. ``out``: the results folder read;
+    ``report_dir``: where the report goes (default ``out``); ``gallery``: see
+    :func:`image_lines`."""
     from experiments import harness
 
     lines = [f"## Seed {exp.seed} — {exp.title}", ""]
@@ -77,7 +66,7 @@ def experiment_lines(out: Path, exp, *, tracked_only: bool) -> tuple[list[str], 
     for stem, caption in meta.get("pictures", {}).items():
         png = res.folder / f"{stem}.png"
         if png.is_file():
-            lines += image_lines(out, [png], exp.key, tracked_only=tracked_only)
+            lines += image_lines(report_dir or out, png, exp.key, gallery=gallery)
             lines += ["", f"*{caption}*", ""]
     lines += [
         "| item | document | ours | verdict | basis / why |",
@@ -92,12 +81,15 @@ def experiment_lines(out: Path, exp, *, tracked_only: bool) -> tuple[list[str], 
     return [*lines, ""], list(res.claims.verdict)
 
 
-def write_report(out: Path, *, quick: bool = False) -> Path:
-    """Write ``out/REPORT.md`` from the experiments' results present; returns its path."""
+def write_report(out: Path, *, quick: bool = False, to: Path | None = None) -> Path:
+    """Write ``REPORT.md`` from the experiments' results present in ``out``, into the folder
+    ``to`` (default ``out``); returns its path. The checkout's ``results/REPORT.md`` shows the
+    pictures from ``docs/gallery/``, any other report the PNGs under ``out``."""
     from experiments import harness
 
     out = Path(out)
-    tracked_only = _is_tracked_report_folder(out)
+    to = Path(to) if to is not None else out
+    gallery = _is_tracked_report_folder(to)
     lines = [
         "# vislod — every figure beside its source document",
         "",
@@ -112,7 +104,7 @@ def write_report(out: Path, *, quick: bool = False) -> Path:
     counts: dict[str, int] = {}
     sections = []
     for exp in harness.experiments():
-        sec, verdicts = experiment_lines(out, exp, tracked_only=tracked_only)
+        sec, verdicts = experiment_lines(out, exp, gallery=gallery, report_dir=to)
         sections.append(sec)
         for v in verdicts:
             counts[v] = counts.get(v, 0) + 1
@@ -121,4 +113,4 @@ def write_report(out: Path, *, quick: bool = False) -> Path:
     for sec in sections:
         lines += sec
     text = "\n".join(lines) + "\n"
-    return atomic_write(out / "REPORT.md", lambda p: p.write_text(text))
+    return atomic_write(to / "REPORT.md", lambda p: p.write_text(text))

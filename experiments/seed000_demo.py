@@ -35,8 +35,15 @@ from experiments.common import (
     scaled,
     scene_info,
 )
-from experiments.seed000_flight import ORACLE, RunSpec, run_all
-from experiments.seed000_pictures import plot_abb1, plot_abb4, plot_abb6, plot_abb7, render
+from experiments.seed000_flight import ORACLE, RunSpec, run_all, steps
+from experiments.seed000_pictures import (
+    PICTURES,
+    plot_abb1,
+    plot_abb4,
+    plot_abb6,
+    plot_abb7,
+    render,
+)
 from experiments.seed000_pictures import telling_frame as _telling_frame
 
 # The default: seed 000's methods (MOC as ``masked``), the GPU HiZ and two-phase HiZ, so that
@@ -58,6 +65,25 @@ TWO_PHASE = (
     " (its depth holds every object drawn the frame before; the queries' only the occluders)"
 )
 FRAMES = ("summary", "frames", "scene", "pictures", "cameras", "boxes")
+# `vislod demo` / `make demo` without --full: the same experiment, shorter — every method side
+# by side, the coarsest depth buffer, one in between and the display's, 13 frames (the path
+# sampled end to end, the gate at mid-flight included: its means stay near the full run's),
+# the conservative HiZ runs not drawn (a sixth of a frame's cost, used by no figure). The
+# document's other resolutions (1280x720 and above) cost the most per frame and show nothing
+# the three do not: a coarse buffer culls more, and wrongly. About 80 s of CPU on the market
+# with numba's kernels cached (2 cores; make demo's target: 4 min, setup included).
+SHORT_FRAMES = 13
+SHORT_RESOLUTIONS = ((320, 192), (640, 360), DISPLAY)  # at the 1920x1080 display
+
+
+def short(display: tuple[int, int] = DISPLAY) -> dict:
+    """The short run's parameter overrides (frames, depth resolutions scaled to ``display``)."""
+    scale = display[0] / DISPLAY[0]
+    return {
+        "frames": SHORT_FRAMES,
+        "resolutions": tuple(scaled(r, scale) for r in SHORT_RESOLUTIONS),
+        "draw_conservative": False,
+    }
 
 
 @dataclass(frozen=True)
@@ -69,13 +95,16 @@ class Params:
     folder that is given must hold the castle (never a silent fallback to the market).
     display: the camera resolution (oracle and drawing). resolutions: Abb. 8's depth-buffer
     resolutions (None: the document's six scaled by display / 1920). methods: Abb. 8 left
-    and Abb. 10 (``("all",)``: every method; ``queries`` is always added)."""
+    and Abb. 10 (``("all",)``: every method; ``queries`` is always added). draw_conservative:
+    also draw (and time) the frames of the conservative HiZ runs, which no figure or claim
+    uses (the short demo skips them)."""
 
     scene: str | None = None
     frames: int = doc.FRAMES
     display: tuple[int, int] = DISPLAY
     resolutions: tuple[tuple[int, int], ...] | None = None
     methods: tuple[str, ...] = DEMO_METHODS
+    draw_conservative: bool = True
     data: str | None = None
     seed: int = 0
     quick: bool = False
@@ -121,7 +150,10 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     from tqdm.auto import tqdm
 
     import soc
+    from soc import precompile
 
+    # numba's kernels compile in child processes while the scene loads and GL warms up
+    jit = precompile.start(params.method_list())
     name = params.scene_name()
     scene = load_scene(name, seed=params.seed, quick=params.quick, data=params.data)
     methods = [m for m in params.method_list() if m in soc.method_names(scene)]
@@ -129,11 +161,14 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     cams = soc.scenes.paths.flight(scene, params.frames, width=display[0], height=display[1])
     specs = [RunSpec(m, display, draw=True) for m in methods]
     specs += [RunSpec(QUERY, r, draw=True) for r in res]
-    specs += [RunSpec(CONSERVATIVE[0], r, draw=True, options=CONSERVATIVE[1]) for r in res]
+    drawn = params.draw_conservative
+    specs += [RunSpec(CONSERVATIVE[0], r, draw=drawn, options=CONSERVATIVE[1]) for r in res]
     specs += [RunSpec(QUERY, display, f, d) for f, d in SWITCHES.values()]
-    total = params.frames * (len({s.key for s in specs}) + 1) + 3
-    with tqdm(total=total, unit="frame", desc="seed 000", disable=not progress) as bar:
-        frames = run_all(scene, cams, specs, bar=bar)
+    total = steps(specs, params.frames) + PICTURES
+    # One bar for the whole run (runs x frames, then the pictures); its rate, and so the time
+    # left, is known from the first frames on.
+    with jit, tqdm(total=total, unit="cull", desc="seed 000", disable=not progress) as bar:
+        frames = run_all(scene, cams, specs, bar=bar, compiled=jit)
         bar.set_postfix_str("pictures")
         at = _telling_frame(_rows(frames, QUERY, display))
         out = render(scene, cams, at, bar=bar)
@@ -143,6 +178,32 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
         "methods": ",".join(methods),
     }
     return {"summary": summarize(frames), "frames": frames, "scene": pd.DataFrame([info]), **out}
+
+
+def overview(frames, params) -> pd.DataFrame:
+    """The demo's answer in one table: per run at the display resolution (every method and the
+    ideal frame), then the query method and the conservative HiZ per depth resolution — mean %
+    of triangles culled, false culls per frame, cull and draw ms, FPS (blank where a run was
+    not drawn)."""
+    s, d = frames["summary"], tuple(params.display)
+    rows = [(m, _one(s, m, d)) for m in _methods(frames, params)]
+    rows.append(("ideal: the oracle's set", _one(s, ORACLE, d)))
+    for r in params.depth_resolutions():
+        if tuple(r) != d:
+            rows.append((f"{QUERY} {res_str(r)}", _one(s, QUERY, r)))
+    for r in params.depth_resolutions():
+        rows.append((f"{HIZ} {res_str(r)} conservative", _conservative(s, r).iloc[0]))
+    drawn = [str(r.drawn).lower() == "true" for _, r in rows]  # CSV reads back "True"
+    return pd.DataFrame(
+        {
+            "run": [n for n, _ in rows],
+            "triangles culled %": [r.triangles_culled_pct for _, r in rows],
+            "false culls/frame": [r.false_culls for _, r in rows],
+            "cull ms": [r.ms_cull for _, r in rows],
+            "draw ms": [r.ms_draw if d else np.nan for (_, r), d in zip(rows, drawn, strict=True)],
+            "FPS": [r.fps_mean if d else np.nan for (_, r), d in zip(rows, drawn, strict=True)],
+        }
+    )
 
 
 def summarize(frames: pd.DataFrame) -> pd.DataFrame:

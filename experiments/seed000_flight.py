@@ -108,7 +108,15 @@ class _Ideal:
         return truth, row
 
 
-def run_all(scene, cameras: Sequence, specs: Iterable[RunSpec], *, bar=None) -> pd.DataFrame:
+def steps(specs: Iterable[RunSpec], frames: int) -> int:
+    """How often :func:`run_all` advances its bar: warm-up and ``frames`` frames, per merged
+    run and for the oracle."""
+    return (frames + 1) * (len(merge_specs(specs)) + 1)
+
+
+def run_all(
+    scene, cameras: Sequence, specs: Iterable[RunSpec], *, bar=None, compiled=None
+) -> pd.DataFrame:
     """Every (merged) run of ``specs`` over ``cameras``, with the oracle once per frame.
 
     Returns
@@ -118,9 +126,12 @@ def run_all(scene, cameras: Sequence, specs: Iterable[RunSpec], *, bar=None) -> 
         ``depth_resolution``, ``frustum``, ``depth_test``, ``options``, ``drawn``, ``frame``,
         then :meth:`soc.FrameStats.as_row` (counts, ``false_culls``/``false_keeps`` against
         the oracle, ``ms_<stage>``, ``ms_cull``, ``ms_total``). ``bar``: an open tqdm bar,
-        advanced once per frame and run (and per oracle frame).
+        advanced once per warm-up and once per frame and run, oracle included:
+        :func:`steps` in all. ``compiled``: a :class:`soc.precompile.Precompile` compiling
+        kernels, waited for before the first culler of a method it compiles.
     """
     import soc
+    from soc.precompile import JIT_METHODS
 
     specs = merge_specs(specs)
     display = tuple(cameras[0].resolution)
@@ -129,13 +140,19 @@ def run_all(scene, cameras: Sequence, specs: Iterable[RunSpec], *, bar=None) -> 
         ideal = _Ideal(scene, display, stack)
         cullers = []
         for s in specs:
+            if compiled is not None and s.method in JIT_METHODS:
+                compiled.wait()  # load its kernels from the cache, not compile them again
             config = soc.CullConfig(frustum=s.frustum, depth_test=s.depth_test)
             c = soc.Culler(scene, s.method, s.resolution, config=config, **dict(s.options))
             stack.callback(c.close)
             c.cull(cameras[0], draw=s.draw)  # untimed warm-up, then forgotten
             c.reset()
             cullers.append(c)
+            if bar is not None:  # a warm-up costs about a frame: the bar's rate sees it
+                bar.update(1)
         ideal.frame(0, cameras[0])
+        if bar is not None:
+            bar.update(1)
         for i, cam in enumerate(cameras):
             truth, row = ideal.frame(i, cam)
             row.update(depth_resolution=res_str(display), drawn=True)

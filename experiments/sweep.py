@@ -497,17 +497,20 @@ def summary_frame(table: pd.DataFrame) -> pd.DataFrame:
 
 def summary_text(summary: SweepSummary, keys: Sequence[str]) -> str:
     """The sweep's rows of ``keys`` summarized (:func:`summary_frame`), and the counts."""
+    from experiments import terminal
+
     table = summary.frame(keys) if summary.rows else pd.DataFrame()
     text = "(no rows)"
     if len(table):
-        text = summary_frame(table).to_string(index=False, float_format="{:.2f}".format)
+        text = terminal.table(summary_frame(table))
     s = summary
-    return (
-        f"{text}\n{s.tasks} tasks: {s.done} run, {s.skipped} skipped (stored), {s.retried} "
+    counts = (
+        f"{s.tasks} tasks: {s.done} run, {s.skipped} skipped (stored), {s.retried} "
         f"retried after a worker died, {len(s.failed)} failed; {s.workers} workers, "
         f"{s.wall_s:.1f} s wall ({s.startup_s:.1f} s cluster start); "
         f"table {s.table} ({s.rows:,} rows)"
     )
+    return f"{text}\n{terminal.paragraph(counts, indent='  ')}"
 
 
 # -- command line ------------------------------------------------------------------------------

@@ -11,6 +11,7 @@ import numpy as np
 from soc.gl.context import uses_gl
 from soc.methods import METHODS, CullConfig
 from soc.methods.base import CullMethod, MethodOutput, load_entry_points
+from soc.methods.spec import resolve as resolve_spec
 from soc.metrics import CullResult, frame_stats, gpu_stage
 from soc.scenes.camera import Camera, _resolution
 
@@ -29,8 +30,10 @@ class Culler:
     ----------
     scene : Scene
     method : str or CullMethod subclass
-        One of :func:`method_names` (``"none"``, ``"frustum"``, ``"queries"``, …), or a
-        :class:`soc.methods.CullMethod` subclass of one's own (registered or not).
+        One of :func:`method_names` (``"none"``, ``"frustum"``, ``"queries"``, …), optionally
+        with options as the benchmarks print them (``"hiz-2phase(test='gpu')"``, literal
+        values only: :mod:`soc.methods.spec`), or a :class:`soc.methods.CullMethod` subclass
+        of one's own (registered or not).
     resolution : (width, height)
         Resolution of the method's depth buffer, pixels. The camera's projection is used
         unchanged, so a resolution whose aspect differs from the camera's only changes the
@@ -41,7 +44,8 @@ class Culler:
         Default: the process's context.
     **options
         Method-specific options (e.g. a grid size or a query cap), documented by each method's
-        class; an option the method does not take raises ``ValueError``.
+        class; an option the method does not take raises ``ValueError``, and so does one
+        also written in ``method`` with another value.
 
     Notes
     -----
@@ -67,12 +71,17 @@ class Culler:
         glctx=None,
         **options,
     ):
+        if isinstance(method, str):  # "masked(threads=1)": the form tables print
+            method, options = resolve_spec(method, options)
         if isinstance(method, type) and issubclass(method, CullMethod):
             cls = uses_gl(method)  # a user's class, registered or not
         elif method in METHODS or (isinstance(method, str) and method in method_names()):
             cls = METHODS[method]
         else:
-            raise ValueError(f"unknown culling method {method!r}; available: {method_names()}")
+            raise ValueError(
+                f"unknown culling method {method!r}; available: {method_names()} "
+                "(options: NAME(option=value, ...) or keywords)"
+            )
         self.resolution = _resolution(*resolution)
         self.config = config or CullConfig()
         from soc.gl.context import _default_context

@@ -174,29 +174,23 @@ def test_every_experiment_names_its_module_and_known_extras():
         assert e.plots and e.notebook, e.key
 
 
-def test_report_links_only_tracked_images(tmp_path):
-    """Images the gallery keeps are linked (relative to the report); the rest are named."""
-    from experiments.gallery import FOLDER, SHOTS
+def test_the_tracked_report_shows_pictures_from_the_gallery(tmp_path, monkeypatch):
+    """The checkout's REPORT.md links docs/gallery/ (relative to the report); a picture not
+    there yet is named with the command that draws it; any other report links its PNGs."""
+    from experiments import gallery
 
-    shot = next(s for s in SHOTS if (FOLDER / s.name).is_file())
-    pngs = [tmp_path / shot.source, tmp_path / "elsewhere" / "other.png"]
-    lines = report.image_lines(tmp_path, pngs, "k")
-    target = (tmp_path / lines[0].split("(", 1)[1].rstrip(")")).resolve()
-    assert lines[0].startswith("![") and target == (FOLDER / shot.name).resolve()
-    assert "`elsewhere/other.png`" in lines[1] and not lines[1].startswith("!")
-
-
-def test_every_image_link_of_the_tracked_report_resolves():
-    """Issue 14: results/ is not tracked, so REPORT.md may link only tracked files."""
-    import re
-
-    root = Path(__file__).resolve().parents[1]
-    text = (root / "results" / "REPORT.md").read_text()
-    links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
-    assert links
-    for link in links:
-        assert (root / "results" / link).is_file(), link
-        assert "docs/gallery/" in link, link
+    monkeypatch.setattr(gallery, "FOLDER", tmp_path / "gallery")
+    (tmp_path / "gallery").mkdir()
+    (tmp_path / "gallery" / "seed000_abb1.png").write_bytes(b"png")
+    report_dir, png = tmp_path / "results", tmp_path / "results" / "seed000" / "seed000_abb1.png"
+    line = report.image_lines(report_dir, png, "seed000", gallery=True)
+    assert line == ["![seed000_abb1](../gallery/seed000_abb1.png)"]
+    missing = png.with_name("seed000_abb4.png")
+    other = report.image_lines(report_dir, missing, "seed000", gallery=True)
+    assert "not in docs/gallery/ yet" in other[0] and "--only seed000" in other[0]
+    assert report.image_lines(report_dir, png, "seed000", gallery=False) == [
+        "![seed000_abb1](seed000/seed000_abb1.png)"
+    ]
 
 
 def test_a_report_outside_the_checkouts_results_shows_every_png_beside_it(tmp_path, fakes):

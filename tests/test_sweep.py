@@ -88,7 +88,8 @@ def test_summary_is_drawn_from_the_merged_frame(killed):
         assert s.loc[m, "ms_cull"] == pytest.approx(mine)
         assert s.loc[m, "false_culls"] == 0  # both methods are conservative
     text = sweep.summary_text(summary, [t.key for t in tasks])
-    assert "queries" in text and f"{len(tasks)} tasks" in text and "false_culls" in text
+    assert "queries" in text and f"{len(tasks)} tasks" in text and "false" in text
+    assert max(map(len, text.splitlines())) <= 100  # fits a terminal (100 when not one)
 
 
 def test_rerun_skips_every_stored_task_without_a_cluster(killed, monkeypatch):
