@@ -318,3 +318,69 @@ def test_node_bounds_hold_for_every_box_inside(seed, scale, resolution):
             assert bz >= zn
             if bx0 <= bx1 and by0 <= by1:  # a non-empty rectangle lies in the node's
                 assert x0 <= bx0 and bx1 <= x1 and y0 <= by0 and by1 <= y1
+
+
+# -- the methods: the hierarchy by default, the flat path as the reference -----------------
+
+WALKING_METHODS = [
+    ("frustum", {}),
+    ("masked", {"threads": 1}),
+    ("hiz-cpu", {"threads": 1}),
+    ("hiz-cpu", {"footprint": 4, "refine": 23}),
+    ("hiz-2phase", {"test": "cpu"}),
+    ("hiz-2phase", {"test": "cpu", "next_from": "final"}),
+]
+
+
+@pytest.mark.parametrize(("method", "options"), WALKING_METHODS)
+def test_methods_keep_the_same_objects_with_and_without_the_hierarchy(
+    clutter_scenes, small_market, method, options
+):
+    """Frame by frame, over a flight and random cuts (temporal state carried across both),
+    the kept sets, frustum-culled counts and stage names agree; the walk tests fewer boxes
+    (``queries`` of masked and hiz-cpu: boxes tested against the depth)."""
+    from soc.scenes.paths import flight, random_cameras
+
+    for scene in (clutter_scenes[1], small_market):
+        cams = flight(scene, frames=6, width=320, height=180)
+        cams += random_cameras(scene, 6, seed=3, width=97, height=61)
+        res = (cams[0].width, cams[0].height)
+        with (
+            soc.Culler(scene, method, res, **options) as walk,
+            soc.Culler(scene, method, res, hierarchy=False, **options) as flat,
+        ):
+            assert walk.method.use_hierarchy and not flat.method.use_hierarchy
+            tested = [0, 0]
+            for cam in cams:
+                a, b = walk.cull(cam.with_resolution(res)), flat.cull(cam.with_resolution(res))
+                np.testing.assert_array_equal(a.visible, b.visible)
+                assert a.stats.models_culled == b.stats.models_culled
+                assert a.stats.timings_ms.keys() == b.stats.timings_ms.keys()
+                tested[0] += a.stats.queries
+                tested[1] += b.stats.queries
+            if method in ("masked", "hiz-cpu") and scene is small_market:
+                assert tested[0] < tested[1]  # boxes tested against the depth
+
+
+def test_two_phase_refits_the_hierarchy_to_the_objects_alive(clutter_scenes):
+    """A pool scene with objects switched on and off (dynamic scenes): the same kept sets as
+    the flat test, frame after frame, and a tree whose root counts the objects alive."""
+    from soc.scenes.paths import flight
+
+    scene = clutter_scenes[2]
+    rng = np.random.default_rng(4)
+    cams = flight(scene, frames=8, width=160, height=96)
+    with (
+        soc.Culler(scene, "hiz-2phase", (160, 96), test="cpu") as walk,
+        soc.Culler(scene, "hiz-2phase", (160, 96), test="cpu", hierarchy=False) as flat,
+    ):
+        for cam in cams:
+            alive = rng.random(len(scene)) < 0.6
+            walk.method.set_alive(alive)
+            flat.method.set_alive(alive)
+            assert walk.method._tree.counts[0] == alive.sum()
+            a, b = walk.cull(cam), flat.cull(cam)
+            np.testing.assert_array_equal(a.visible, b.visible)
+            assert not (a.visible & ~alive).any()
+        walk.method.set_alive(None)
+        assert walk.method._tree is Hierarchy.for_scene(scene)

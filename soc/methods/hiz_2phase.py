@@ -13,11 +13,13 @@ drawn into the method's own colour + depth target):
    runs on the CPU, as llvmpipe does), after reading the depth back ("read back"), in numba
    (:func:`soc.culling.hiz_cpu.reduce_pyramid`);
 3. **test** — every object's grown box against the frustum and that pyramid, in one compute
-   dispatch (:class:`soc.culling.hiz_gpu.HizTest`) or in numba
-   (:func:`soc.culling.hiz_cpu.classify_objects`), by default refined down to the frame's own
-   pixels where a box is not behind the coarse levels (and, with ``octants=True``, GL only,
-   an object whose box passes judged again by its octant boxes,
-   :mod:`soc.culling.octant_boxes`);
+   dispatch (:class:`soc.culling.hiz_gpu.HizTest`) or in numba, by a walk of the scene's
+   object hierarchy that drops a subtree outside the frustum or behind the pyramid
+   (:meth:`soc.culling.hierarchy.Hierarchy.classify_pyramid`; with ``hierarchy=False`` object
+   by object, :func:`soc.culling.hiz_cpu.classify_objects`: the same codes), by default
+   refined down to the frame's own pixels where a box is not behind the coarse levels (and,
+   with ``octants=True``, GL only, an object whose box passes judged again by its octant
+   boxes, :mod:`soc.culling.octant_boxes`);
 4. **late draw** — the objects that pass and were not drawn early, into the same depth;
 5. **next set** — the objects kept next frame: with ``next_from="early"`` (niagara's choice,
    no extra work) those that passed stage 3, early ones included; with ``next_from="final"``
@@ -51,7 +53,8 @@ corner vs the max of the pyramid) hold unchanged.
 
 Dynamic scenes (a pool of objects switched on and off, :mod:`soc.scenes.dynamic`) tell the
 method which objects exist with :meth:`TwoPhaseCulling.set_alive`: dead objects are never drawn,
-new ones go through stage 3.
+new ones go through stage 3; the hierarchy is refitted to the objects alive (its node boxes
+shrink to theirs, empty subtrees are skipped).
 
 **Cull ms** (:attr:`soc.FrameStats.cull_ms`, everything but the ``"draw"`` key): the numpy
 frustum test of the early set, the depth read back (CPU test), the pyramid(s) and the tests
@@ -68,6 +71,7 @@ import time
 import numpy as np
 
 from soc.culling.frustum import aabbs_in_frustum
+from soc.culling.hierarchy import Hierarchy
 from soc.culling.hiz_cpu import (
     check_test_options,
     classify_objects,
@@ -130,7 +134,12 @@ class TwoPhaseCulling(CullMethod):
         where reading the depth back and testing in numba costs less than GL's passes
         (make bench's floor on castle-2114: 3.5 against 7.0 ms a frame), else GL.
     threads : int or None
-        numba threads of the CPU test (default: numba's thread count).
+        numba threads of the pyramid and of the flat CPU test (default: numba's thread
+        count); the hierarchy's walk runs on one thread.
+    hierarchy : bool
+        Test on the CPU by a walk of the scene's BVH (default True) or object by object
+        (False: the reference; the same codes, ``tests/test_hierarchy.py``). The GL test
+        (``test="gpu"``) tests every box in its compute pass either way.
 
     Attributes
     ----------
@@ -143,6 +152,8 @@ class TwoPhaseCulling(CullMethod):
         pass, "late draw" is the shaded pass).
     last_order : (K,) int
         The kept objects of the last frame in the order they were shaded.
+    last_walk : WalkStats or None
+        The hierarchy walk's work in the last frame's test (None when it did not walk).
     """
 
     name = "hiz-2phase"
@@ -164,6 +175,7 @@ class TwoPhaseCulling(CullMethod):
         occluders: bool = False,
         test: str = "auto",
         threads: int | None = None,
+        hierarchy: bool = True,
     ):
         if next_from not in NEXT_FROM:
             raise ValueError(f"next_from must be one of {NEXT_FROM}, got {next_from!r}")
@@ -206,6 +218,10 @@ class TwoPhaseCulling(CullMethod):
         self.next_set = np.zeros(n, bool)
         self.last_draws_ms: dict[str, float] = {}
         self.last_order = np.zeros(0, np.int64)
+        self.use_hierarchy = bool(hierarchy)
+        self._hierarchy = Hierarchy.for_scene(self.scene) if hierarchy else None
+        self._tree = self._hierarchy  # refitted to the objects alive (set_alive)
+        self.last_walk = None
 
     def release(self) -> None:
         if self.octants is not None:
@@ -227,11 +243,14 @@ class TwoPhaseCulling(CullMethod):
         n = len(self.scene)
         if alive is None:
             self.alive = np.ones(n, bool)
+            self._tree = self._hierarchy
             return
         alive = np.asarray(alive)
         if alive.shape != (n,) or alive.dtype != bool:
             raise ValueError(f"alive must be ({n},) bool, got {alive.shape} {alive.dtype}")
         self.alive = alive.copy()
+        if self._hierarchy is not None:
+            self._tree = self._hierarchy.refit(self.alive)
 
     # -- the frame ---------------------------------------------------------------------------
 
@@ -299,6 +318,11 @@ class TwoPhaseCulling(CullMethod):
         with stage(timings, prefix + "pyramid"):
             reduce_pyramid(pyramid, self.threads)
         with stage(timings, prefix + "test"):
+            if ids is None and self._tree is not None:
+                codes, self.last_walk = self._tree.classify_pyramid(
+                    pyramid, camera, frustum, 1, self.footprint, self.refine
+                )
+                return codes
             sel = slice(None) if ids is None else ids
             codes, _ = classify_objects(
                 pyramid,
@@ -322,7 +346,9 @@ class TwoPhaseCulling(CullMethod):
         if not cfg.depth_test:  # frustum culling only: everything in the frustum, one draw
             with stage(timings, "frustum"):
                 keep = self.alive.copy()
-                if cfg.frustum:
+                if cfg.frustum and self._tree is not None:
+                    keep &= self._tree.in_frustum(camera.planes)[0]
+                elif cfg.frustum:
                     keep &= aabbs_in_frustum(self.scene.aabbs, camera.planes)
             timings["draw"] = self._draw(camera, np.flatnonzero(keep), color=draw, clear=True)
             self.last_draws_ms = {"early draw": 0.0, "late draw": timings["draw"]}
