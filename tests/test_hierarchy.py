@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import soc
-from soc.culling.frustum import aabbs_in_frustum
+from soc.culling.frustum import aabbs_in_frustum, ids_in_frustum
 from soc.culling.hierarchy import Hierarchy
 from soc.culling.hiz_cpu import (
     OCCLUDED,
@@ -89,6 +89,10 @@ def test_frustum_walk_is_the_flat_frustum_test(case, threads):
     got, stats = h.in_frustum(cam, threads)
     np.testing.assert_array_equal(got, aabbs_in_frustum(scene.aabbs, cam))
     assert got.dtype == bool and stats.node_tests == stats.object_tests == 0
+    ids = np.random.default_rng(case["seed"]).integers(0, len(scene), 50)  # a subset, repeats
+    np.testing.assert_array_equal(
+        ids_in_frustum(scene.aabbs, ids, cam), aabbs_in_frustum(scene.aabbs[ids], cam)
+    )
 
 
 @settings(max_examples=120, deadline=None)

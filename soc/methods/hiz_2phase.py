@@ -70,7 +70,7 @@ import time
 
 import numpy as np
 
-from soc.culling.frustum import aabbs_in_frustum
+from soc.culling.frustum import aabbs_in_frustum, ids_in_frustum
 from soc.culling.hierarchy import Hierarchy
 from soc.culling.hiz_cpu import (
     check_test_options,
@@ -215,6 +215,7 @@ class TwoPhaseCulling(CullMethod):
         n = len(self.scene)
         self._all = np.arange(n, dtype=np.uint32)
         self.alive = np.ones(n, bool)
+        self._all_alive = True  # skips the "& alive" passes over all objects
         self.next_set = np.zeros(n, bool)
         self.last_draws_ms: dict[str, float] = {}
         self.last_order = np.zeros(0, np.int64)
@@ -243,12 +244,14 @@ class TwoPhaseCulling(CullMethod):
         n = len(self.scene)
         if alive is None:
             self.alive = np.ones(n, bool)
+            self._all_alive = True
             self._tree = self._hierarchy
             return
         alive = np.asarray(alive)
         if alive.shape != (n,) or alive.dtype != bool:
             raise ValueError(f"alive must be ({n},) bool, got {alive.shape} {alive.dtype}")
         self.alive = alive.copy()
+        self._all_alive = bool(self.alive.all())
         if self._hierarchy is not None:
             self._tree = self._hierarchy.refit(self.alive)
 
@@ -359,20 +362,23 @@ class TwoPhaseCulling(CullMethod):
         # or died.
         with stage(timings, "frustum"):
             first = self.next_set | self.scene.occluder if self.occluders else self.next_set
-            early = np.flatnonzero(first & self.alive)
+            early = np.flatnonzero(first if self._all_alive else first & self.alive)
             if cfg.frustum and len(early):
-                early = early[aabbs_in_frustum(self.scene.aabbs[early], camera.planes)]
+                early = early[ids_in_frustum(self.scene.aabbs, early, camera.planes)]
         shaded_early = draw and self.early_pass == "shaded"
         early_ms = self._draw(camera, early, color=shaded_early, clear=True, clear_color=draw)
 
         # Stages 2-3: pyramid of the early depth, every object tested once.
         codes = self._classify(camera, timings)
-        passed = (codes == VISIBLE) & self.alive
+        passed = codes == VISIBLE
+        if not self._all_alive:
+            passed &= self.alive
         in_early = np.zeros(n, bool)
         in_early[early] = True
 
         # Stage 4: the late pass, into the same depth.
-        late = np.flatnonzero(passed & ~in_early)
+        late = np.flatnonzero(passed)
+        late = late[~in_early[late]]
         if self.early_pass == "shaded":
             late_ms = self._draw(camera, late, color=draw, clear=False)
             drawn = in_early
@@ -399,5 +405,7 @@ class TwoPhaseCulling(CullMethod):
             self.next_set = np.zeros(n, bool)
             self.next_set[inside[again]] = True
 
-        outside = int(((codes == OUTSIDE) & self.alive).sum())
-        return MethodOutput(drawn, outside, n - int((codes == OUTSIDE).sum()), timings)
+        is_out = codes == OUTSIDE
+        n_out = int(np.count_nonzero(is_out))
+        outside = n_out if self._all_alive else int(np.count_nonzero(is_out & self.alive))
+        return MethodOutput(drawn, outside, n - n_out, timings)
