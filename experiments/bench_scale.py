@@ -55,7 +55,16 @@ SPECS = (
     "hiz-gpu",
 )
 SMALL_ONLY = ("queries",)  # per-object GL queries: at the smallest size only
-CITY_SPECS = ("frustum", "masked", "hiz-cpu", "hiz-2phase", "hiz-gpu", "hiz-2phase(threads=1)")
+CITY_SPECS = (
+    "frustum",
+    "masked",
+    "hiz-cpu",
+    "hiz-2phase",
+    "hiz-gpu",
+    "hiz-2phase(threads=1)",
+    "hiz-2phase(occluders_first=True)",
+    "hiz-2phase(occluders_first=True, threads=1)",
+)
 # Issue 24's targets.
 TARGET_FRUSTUM_MS = 2.0  # frustum culling of 10⁶ boxes, ≈ 1 % in view
 TARGET_GROWTH = 3.2  # cull time 10⁵ → 10⁶ at the same view (exponent 0.5)
@@ -257,12 +266,13 @@ def targets(s: pd.DataFrame, city: pd.DataFrame | None) -> pd.DataFrame:
         from experiments import bench_floor
 
         cs = bench_floor.summarize(_floor_result(city))
-        row = cs[cs["method"] == "hiz-2phase"]
-        if len(row):
-            r = row.iloc[0]
-            add(f"city: hiz-2phase cull ≤ {TARGET_CITY_CULL_MS:.0f} ms", f"{r['cull ms']:.2f} ms",
-                r["cull ms"] <= TARGET_CITY_CULL_MS)  # fmt: skip
-            add(f"city: hiz-2phase cull + draw ≤ {TARGET_CITY_IDEAL}× ideal (1080p)",
+        two = cs[cs["method"].str.startswith("hiz-2phase")]
+        if len(two):  # the best variant for each target, named
+            r = two.loc[two["cull ms"].idxmin()]
+            add(f"city: hiz-2phase cull ≤ {TARGET_CITY_CULL_MS:.0f} ms ({r['method']})",
+                f"{r['cull ms']:.2f} ms", r["cull ms"] <= TARGET_CITY_CULL_MS)  # fmt: skip
+            r = two.loc[two["÷ ideal"].idxmin()]
+            add(f"city: hiz-2phase cull + draw ≤ {TARGET_CITY_IDEAL}× ideal, 1080p ({r['method']})",
                 f"{r['÷ ideal']:.2f}×", r["÷ ideal"] <= TARGET_CITY_IDEAL)  # fmt: skip
         cons = cs[cs["conservative"] == "yes"]
         worst = int(cons["false culls (max)"].max())

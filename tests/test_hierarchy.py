@@ -81,7 +81,7 @@ cases = st.fixed_dictionaries(
 )
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(case=cases, threads=st.sampled_from([1, 2, 3]))
 def test_frustum_walk_is_the_flat_frustum_test(case, threads):
     scene, cam = _scene(case["seed"], case["n"], case["eye_inside"], case["near"])
@@ -95,7 +95,7 @@ def test_frustum_walk_is_the_flat_frustum_test(case, threads):
     )
 
 
-@settings(max_examples=120, deadline=None)
+@settings(max_examples=80, deadline=None)
 @given(
     case=cases,
     read=st.sampled_from([(2, 0), (4, 0), (2, 2), (4, 23)]),
@@ -137,7 +137,7 @@ def test_pyramid_walk_is_the_flat_hiz_test(case, read, frustum, threads, random_
         assert not (got == VIEW_CULLED).any()
 
 
-@settings(max_examples=120, deadline=None)
+@settings(max_examples=80, deadline=None)
 @given(case=cases, frustum=st.booleans(), threads=st.sampled_from([1, 2]))
 def test_masked_walk_is_the_flat_masked_test(case, frustum, threads):
     scene, cam = _scene(case["seed"], case["n"], case["eye_inside"], case["near"])
@@ -150,7 +150,7 @@ def test_masked_walk_is_the_flat_masked_test(case, frustum, threads):
     np.testing.assert_array_equal(got, want)
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=60, deadline=None)
 @given(case=cases, alive_fraction=st.floats(0.0, 1.0))
 def test_a_refitted_tree_gives_the_flat_codes_of_the_objects_alive(case, alive_fraction):
     """Dynamic scenes: the tree refitted to the objects alive; their codes are the flat ones
@@ -281,7 +281,7 @@ def _inner_boxes(rng, node: np.ndarray, k: int) -> np.ndarray:
     return inner.astype(np.float32)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=200, deadline=None)
 @given(seed=st.integers(0, 2**31), scale=st.sampled_from([1e-3, 1.0, 30.0, 1e4]),
        resolution=st.sampled_from(RESOLUTIONS))  # fmt: skip
 def test_node_bounds_hold_for_every_box_inside(seed, scale, resolution):
@@ -388,3 +388,28 @@ def test_two_phase_refits_the_hierarchy_to_the_objects_alive(clutter_scenes):
             assert not (a.visible & ~alive).any()
         walk.method.set_alive(None)
         assert walk.method._tree is Hierarchy.for_scene(scene)
+
+
+@pytest.mark.parametrize("options", [{"occluders_first": True}, {"next_from": "final"}])
+def test_two_phase_subset_tests_by_the_walk_give_the_flat_codes(clutter_scenes, options,
+                                                                monkeypatch):  # fmt: skip
+    """The late and next sets' second tests: by a walk of the whole tree (without frustum)
+    from WALK_SUBSET objects on, here from 1; the same kept sets as testing the subset."""
+    from soc.methods import hiz_2phase
+    from soc.scenes.paths import flight, random_cameras
+
+    monkeypatch.setattr(hiz_2phase, "WALK_SUBSET", 1)
+    scene = clutter_scenes[3]
+    cams = flight(scene, frames=5, width=160, height=96)
+    cams += random_cameras(scene, 4, seed=5, width=160, height=96)
+    with (
+        soc.Culler(scene, "hiz-2phase", (160, 96), test="cpu", **options) as walk,
+        soc.Culler(scene, "hiz-2phase", (160, 96), test="cpu", hierarchy=False, **options) as flat,
+    ):
+        stages = set()
+        for cam in cams:
+            a = walk.cull(cam)
+            np.testing.assert_array_equal(a.visible, flat.cull(cam).visible)
+            np.testing.assert_array_equal(walk.method.next_set, flat.method.next_set)
+            stages |= set(a.stats.timings_ms)
+        assert ("late test" if "occluders_first" in options else "next test") in stages
