@@ -23,9 +23,10 @@ per template; objects are numbered block by block (neighbours in space are neigh
 memory, as in scenes exported per cell). Nothing is kept per object but rows of flat arrays:
 names are formatted on access (:class:`~soc.scenes.scene.IndexedNames`).
 
-``scene.meta`` gives what :func:`soc.scenes.paths.flight` needs (``town_bounds``, ``focus``
-on the west edge, ``focus_outward``): the seed-000 flight starts high over the city's
-south-east and descends towards the west edge, turning to the street at mid-flight.
+``scene.meta`` gives what :func:`soc.scenes.paths.flight` needs: ``town_bounds`` are those of
+the central district of :data:`DISTRICT` × :data:`DISTRICT` blocks, ``focus`` a street on its
+west edge, so the seed-000 flight circles the district at rooftop height (57 m down to 14 m)
+and descends into that street, seeing the rest of the city up to its far plane (≈ 900 m).
 """
 
 from __future__ import annotations
@@ -54,6 +55,10 @@ FIXED_PER_BLOCK = (
     + 4 * sum(PROPS_PER_SIDE)
 )  # fmt: skip
 MEAN_PER_BLOCK = 2300
+# Blocks per side of the central district that the seed-000 flight circles (``town_bounds``):
+# it approaches the district's west edge from 0.8 of its radius out, and sees the city round
+# it up to its far plane (3.2 district radii, ≈ 900 m).
+DISTRICT = 5
 
 _HALF = (BLOCK_PITCH - STREET_WIDTH) / 2  # half a block's side (facade line)
 _GOODS = ("apple", "melon", "jar", "sack", "crate_small")
@@ -152,7 +157,8 @@ def city(seed: int = 0, *, objects: int = OBJECTS) -> Scene:
     Scene
         Occluders: the buildings and the ground tiles (about 2.5 % of the objects). ``meta``
         holds ``source``, ``seed``, ``synthetic``, ``blocks`` (per side), ``block_pitch``,
-        ``town_bounds``, ``town_center``, ``focus``, ``focus_outward`` and ``up``.
+        ``city_bounds``, ``town_bounds`` (the central district's), ``town_center``,
+        ``focus``, ``focus_outward`` and ``up``.
     """
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
@@ -346,16 +352,18 @@ def _assemble(placed: _Placed, objects: int, g: int, seed: int) -> Scene:
     kinds[slot] = kind
     occluder[(kinds == _KIND["building"]) | (kinds == _KIND["ground"])] = True
     side = g * BLOCK_PITCH
-    half = side / 2 - STREET_WIDTH / 2
+    d = min(g, DISTRICT)  # the flight's town: the central district
+    half = d * BLOCK_PITCH / 2 - STREET_WIDTH / 2
     meta = {
         "source": "generated city",
         "seed": int(seed),
         "synthetic": True,
         "blocks": g,
         "block_pitch": BLOCK_PITCH,
+        "city_bounds": [[-side / 2, 0.0, -side / 2], [side / 2, 40.0, side / 2]],
         "town_center": [0.0, 0.0, 0.0],
         "town_bounds": [[-half, 0.0, -half], [half, 40.0, half]],
-        "focus": [-side / 2 - 2.0, 0.25, BLOCK_PITCH / 2 if g % 2 else 0.0],
+        "focus": [-d * BLOCK_PITCH / 2 - 2.0, 0.25, BLOCK_PITCH / 2 if g % 2 else 0.0],
         "focus_outward": [-1.0, 0.0, 0.0],
         "up": [0.0, 1.0, 0.0],
     }
