@@ -433,15 +433,23 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def write(result: dict[str, pd.DataFrame], out: Path, command: str) -> str:
-    """CSVs, ``scale.png`` and the ``scale`` section of ``out/BENCHMARKS.md``; returns the
-    file's text."""
+    """CSVs, ``scale.png`` and the ``scale`` section of ``out/BENCHMARKS.md`` (and, when
+    ``out`` is the checkout's ``results/``, a small copy of the figure in ``docs/gallery/``);
+    returns the file's text."""
     from experiments.markdown import replace_section
 
     for key, df in result.items():
         df.to_csv(out / f"scale-{key}.csv", index=False)
     fig = plot(result["frames"])
     fig.savefig(out / "scale.png", dpi=110)
-    text = replace_section(out / "BENCHMARKS.md", "scale", markdown(result, command, "scale.png"))
+    link = "scale.png"  # results/ is not in git: in the checkout, a small copy is (README)
+    gallery = Path(__file__).resolve().parents[1] / "docs" / "gallery"
+    if gallery.is_dir() and out.resolve() == gallery.parents[1] / "results":
+        from experiments.gallery import shrink
+
+        shrink(out / "scale.png", gallery / "scale.png")
+        link = "../docs/gallery/scale.png"
+    text = replace_section(out / "BENCHMARKS.md", "scale", markdown(result, command, link))
     print(text.split("<!-- begin scale -->")[1].split("<!-- end scale -->")[0])
     return text
 

@@ -399,6 +399,7 @@ def test_two_phase_subset_tests_by_the_walk_give_the_flat_codes(clutter_scenes, 
     from soc.scenes.paths import flight, random_cameras
 
     monkeypatch.setattr(hiz_2phase, "WALK_SUBSET", 1)
+    monkeypatch.setattr(hiz_2phase, "RETEST_MIN", 1)
     scene = clutter_scenes[3]
     cams = flight(scene, frames=5, width=160, height=96)
     cams += random_cameras(scene, 4, seed=5, width=160, height=96)

@@ -47,6 +47,15 @@ MODE_IDS = [
 ]
 
 
+@pytest.fixture(autouse=True)
+def _retest_every_late_set(monkeypatch):
+    """occluders_first tests the late set again only from RETEST_MIN objects on (a cost
+    threshold); the small scenes here would never reach it, so it is 1 in these tests."""
+    from soc.methods import hiz_2phase
+
+    monkeypatch.setattr(hiz_2phase, "RETEST_MIN", 1)
+
+
 def _run(scene, cameras, resolution, *, options=None, draw=False, resets=(), alive=None):
     """Cull ``cameras`` in order with one hiz-2phase culler, never resetting except before the
     frames in ``resets``; ``alive`` (F, N) bool switches objects per frame (dynamic scenes).
@@ -261,3 +270,11 @@ def test_late_occluders_first_hide_what_came_into_view_behind_them():
             assert ("late test" in r.stats.timings_ms) == first
             assert first == (c.method.next_set.sum() == 2)
     assert kept[False] == 42 and kept[True] == 2
+    # Fewer late objects than RETEST_MIN: drawn without the second test (it would cost more).
+    from soc.methods import hiz_2phase
+
+    hiz_2phase.RETEST_MIN = 42  # the fixture restores it
+    with soc.Culler(scene, "hiz-2phase", (160, 96), test="cpu", occluders_first=True) as c:
+        c.cull(cams[0])
+        r = c.cull(cams[1])
+        assert "late test" not in r.stats.timings_ms and r.visible.sum() == 42

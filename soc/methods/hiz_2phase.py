@@ -92,8 +92,13 @@ from soc.methods.base import CullMethod, MethodOutput, register, stage
 NEXT_FROM = ("early", "final")
 EARLY_PASSES = ("shaded", "depth")
 TESTS = ("auto", "gpu", "cpu")
+# Late objects besides the occluders from which ``occluders_first`` tests them again: a read
+# back, a pyramid and a test (~5 ms on the city) cost more than drawing a few hundred small
+# objects that may be hidden.
+RETEST_MIN = 256
+
 # Objects of a subset test (the late or next set) from which the hierarchy's walk over the
-# whole scene is cheaper than testing the subset's boxes one by one (~0.25 µs each, against a
+# whole view is cheaper than testing the subset's boxes one by one (~0.25 µs each, against a
 # walk of a few ms on the million-object city).
 WALK_SUBSET = 8192
 
@@ -140,7 +145,8 @@ class TwoPhaseCulling(CullMethod):
         moves fast and the view's occluders change (a city flight: buildings turn into view),
         last frame's set misses the new occluders and everything behind them passes the first
         test; the second test costs a read back, a pyramid and a test of the late objects,
-        only in frames where occluders are drawn late.
+        only in frames where occluders are drawn late and at least :data:`RETEST_MIN` other
+        objects would be.
     test : {"auto", "gpu", "cpu"}
         Where the pyramid is built and the boxes are tested: in GL (a fragment pass per level,
         one compute dispatch) or on the CPU after reading the depth back
@@ -317,9 +323,10 @@ class TwoPhaseCulling(CullMethod):
 
     def _classify(self, camera, timings, ids=None, prefix: str = "") -> np.ndarray:
         """Codes (OCCLUDED / VISIBLE / OUTSIDE) of objects ``ids`` (default all, with the
-        frustum test of the config; a subset is not frustum-tested) against the pyramid of the
-        depth drawn so far, built and tested where :attr:`test` says. Stages ``pyramid`` and
-        ``test`` (``read back`` too for the CPU), each name after ``prefix``."""
+        frustum test of the config; a subset is not frustum-tested, and must lie in the
+        frustum when the config tests it: the late and next sets do) against the pyramid of
+        the depth drawn so far, built and tested where :attr:`test` says. Stages ``pyramid``
+        and ``test`` (``read back`` too for the CPU), each name after ``prefix``."""
         finish = self.glctx.finish
         frustum = self.config.frustum and ids is None
         if self.test == "gpu":
@@ -341,13 +348,17 @@ class TwoPhaseCulling(CullMethod):
             reduce_pyramid(pyramid, self.threads)
         with stage(timings, prefix + "test"):
             if self._tree is not None and (ids is None or len(ids) >= WALK_SUBSET):
+                # A subset (the late or the next set) lies in the frustum when the config
+                # tests it: there the frustum-culling walk's codes are the depth codes, and
+                # the walk skips what is behind the camera (without the frustum it would
+                # descend into every node that reaches behind the near plane).
                 codes, walk = self._tree.classify_pyramid(
-                    pyramid, camera, frustum, 1, self.footprint, self.refine
+                    pyramid, camera, self.config.frustum, 1, self.footprint, self.refine
                 )
                 if ids is None:
                     self.last_walk = walk
                     return codes
-                return codes[ids]  # the walk without frustum: each object's depth code
+                return codes[ids]
             sel = slice(None) if ids is None else ids
             codes, _ = classify_objects(
                 pyramid,
@@ -404,7 +415,7 @@ class TwoPhaseCulling(CullMethod):
         first, first_ms = late[:0], 0.0
         if self.occluders_first and len(late):
             occ = self.scene.occluder[late]
-            if occ.any() and not occ.all():
+            if occ.any() and len(late) - np.count_nonzero(occ) >= RETEST_MIN:
                 first, rest = late[occ], late[~occ].astype(np.uint32)
                 shade = draw and self.early_pass == "shaded"
                 first_ms = self._draw(camera, first, color=shade, clear=False)
