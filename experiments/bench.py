@@ -8,7 +8,8 @@ quantities measured in the same run, frame by frame, on the same cameras.
         [--methods 'masked;hiz-gpu(footprint=4)']
 
 Scenes: market (generated, 27,025 objects), castle (Intel's castle with the market refilled,
-27,025), castle-2114 (Intel's castle as shipped, 2,114), clutter.
+27,025), castle-2114 (Intel's castle as shipped, 2,114), clutter, city (generated, 10⁶
+objects: by default only the methods of :data:`experiments.bench_scale.CITY_SPECS`).
 
 Every culling section comes from one run of :func:`experiments.bench_floor.run_floor` (every
 method culls each frame of the seed-000 flight in turn, its kept set drawn, beside the oracle
@@ -17,7 +18,8 @@ drawn from them by :func:`experiments.markdown.markdown_table` — ``floor-<scen
 method and option beside the floor), ``methods-<scene>`` (the methods side by side) and
 ``foundation`` (seed 000's frustum and per-object queries, stage by stage). The LOD sections
 (:mod:`experiments.bench_lod_chain`, :mod:`experiments.bench_lod_select`) and seed 004's
-adaptive benchmark have their own runs.
+adaptive benchmark have their own runs, and so has the ``scale`` section
+(:mod:`experiments.bench_scale`: culling cost from 10⁴ to 10⁶ objects, and the city).
 """
 
 from __future__ import annotations
@@ -36,9 +38,9 @@ import soc.gl.context
 from experiments import bench_floor, bench_queries
 from experiments.markdown import markdown_table, replace_section
 
-SCENES = ("market", "castle", "castle-2114", "clutter")
+SCENES = ("market", "castle", "castle-2114", "clutter", "city")
 BASELINE_METHODS = ("frustum", "queries")  # seed 000's pipeline: the foundation section
-SECTIONS = ("foundation", "methods", "floor", "lod", "adaptive", "queries")
+SECTIONS = ("foundation", "methods", "floor", "lod", "adaptive", "queries", "scale")
 ADAPTIVE = "seed004-adaptive"  # the harness experiment behind the adaptive section
 # Its DataFrames shown (per scene × method, per scene, per switch, per scene × q); the rest
 # (per frame, per regression point) are only in its CSVs.
@@ -54,6 +56,8 @@ def _scene(name: str, data: str | None):
         return soc.scenes.castle(data, refill_market=False)
     if name == "clutter":
         return soc.scenes.clutter(0, objects=2000)
+    if name == "city":
+        return soc.scenes.city(seed=0)
     raise SystemExit(f"unknown scene {name!r}: use {', '.join(SCENES)}")
 
 
@@ -221,6 +225,10 @@ def _specs(args: argparse.Namespace, scene) -> list[str] | None:
     """Method specs of the floor run the chosen sections need (None: every method and option,
     :func:`bench_floor.default_specs`)."""
     specs = [s.strip() for s in args.methods.split(";") if s.strip()] if args.methods else None
+    if specs is None and args.scene == "city":  # 10⁶ objects: per-object queries take minutes
+        from experiments.bench_scale import CITY_SPECS
+
+        specs = list(CITY_SPECS)
     if args.only == "foundation":
         return list(BASELINE_METHODS)
     if args.only == "methods" and specs is None:
@@ -259,7 +267,11 @@ def main(argv: list[str] | None = None) -> int:
         text = replace_section(md, ADAPTIVE, adaptive_markdown(out))
     if args.only in (None, "queries"):
         text = replace_section(md, "queries-compiled", bench_queries.section(out))
-    if args.only in ("lod", "adaptive", "queries"):
+    if args.only in (None, "scale"):
+        from experiments import bench_scale
+
+        text = bench_scale.write(bench_scale.run(), out, "python -m experiments.bench --only scale")
+    if args.only in ("lod", "adaptive", "queries", "scale"):
         print(text)
         return 0
 

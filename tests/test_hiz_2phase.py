@@ -17,8 +17,8 @@ from soc.scenes.paths import flight, random_cameras
 
 # Option sets (next set from the early or the finished depth; depth-only early pass; the
 # occluders drawn early too; octant boxes; the classic 2×2 test without refinement; the
-# pyramid and test in GL or in numba, "auto" choosing numba on llvmpipe): every one must be
-# conservative in every frame.
+# pyramid and test in GL or in numba, "auto" choosing numba on llvmpipe; the late occluders
+# drawn first and the rest tested again): every one must be conservative in every frame.
 MODES = [
     {"next_from": "early"},
     {"next_from": "final"},
@@ -29,6 +29,8 @@ MODES = [
     {"test": "gpu"},
     {"test": "gpu", "next_from": "final", "footprint": 2, "refine": 0},
     {"test": "cpu", "next_from": "final", "early_pass": "depth"},
+    {"occluders_first": True},
+    {"occluders_first": True, "early_pass": "depth", "next_from": "final", "test": "gpu"},
 ]
 MODE_IDS = [
     "early",
@@ -40,7 +42,18 @@ MODE_IDS = [
     "gpu",
     "gpu-final-classic",
     "cpu-final-depth",
+    "occluders-first",
+    "occluders-first-depth-final-gpu",
 ]
+
+
+@pytest.fixture(autouse=True)
+def _retest_every_late_set(monkeypatch):
+    """occluders_first tests the late set again only from RETEST_MIN objects on (a cost
+    threshold); the small scenes here would never reach it, so it is 1 in these tests."""
+    from soc.methods import hiz_2phase
+
+    monkeypatch.setattr(hiz_2phase, "RETEST_MIN", 1)
 
 
 def _run(scene, cameras, resolution, *, options=None, draw=False, resets=(), alive=None):
@@ -232,3 +245,36 @@ def test_stage_switches(clutter_scenes, test):
         for i, cam in enumerate(cams):
             truth = oracle.visible(cam, res)
             assert_conservative(c.cull(cam).visible, truth, f"no frustum test, camera {i}")
+
+
+def test_late_occluders_first_hide_what_came_into_view_behind_them():
+    """A camera cut to a wall with many boxes behind it: last frame's set holds none of it, so
+    every box passes the first test; drawing the wall (an occluder) first and testing again
+    keeps only the wall and what is in front, in this very frame."""
+    wall = box_mesh((-6, 0, -6), (6, 6, -5.5))
+    rng = np.random.default_rng(0)
+    behind = [box_mesh(p, p + 0.3) for p in rng.uniform([-4, 0.5, -15], [4, 4, -8], (40, 3))]
+    front = box_mesh((-0.2, 2.9, -3), (0.2, 3.1, -2.8))
+    scene = soc.Scene.from_meshes([wall, front, *behind], occluder=[True] + [False] * 41)
+    cams = [
+        soc.Camera.look_at((0, 3, 30), (0, 3, 40), width=160, height=96),  # looking away
+        soc.Camera.look_at((0, 3, 2), (0, 3, -5), width=160, height=96),  # the cut
+    ]
+    kept = {}
+    for first in (False, True):
+        with soc.Culler(scene, "hiz-2phase", (160, 96), test="cpu", occluders_first=first) as c:
+            c.cull(cams[0])
+            r = c.cull(cams[1], truth=soc.exact_visibility(scene, cams[1], (160, 96)))
+            assert r.stats.false_culls == 0
+            kept[first] = int(r.visible.sum())
+            assert ("late test" in r.stats.timings_ms) == first
+            assert first == (c.method.next_set.sum() == 2)
+    assert kept[False] == 42 and kept[True] == 2
+    # Fewer late objects than RETEST_MIN: drawn without the second test (it would cost more).
+    from soc.methods import hiz_2phase
+
+    hiz_2phase.RETEST_MIN = 42  # the fixture restores it
+    with soc.Culler(scene, "hiz-2phase", (160, 96), test="cpu", occluders_first=True) as c:
+        c.cull(cams[0])
+        r = c.cull(cams[1])
+        assert "late test" not in r.stats.timings_ms and r.visible.sum() == 42

@@ -3,11 +3,12 @@ objects.
 
 Build: top-down median split on the longest axis of each node's centroid bounds (the kd-tree
 style object-median BVH; Wald, "On fast construction of SAH-based bounding volume
-hierarchies", 2007, discusses why median splits are the cheap baseline), done level by level:
-every node of one level is split at once by one ``np.lexsort``. Every node therefore covers a
-contiguous range ``[start, start + count)`` of a permutation ``order`` of the object ids, so
-refitting to a subset of objects (e.g. the frustum survivors of a frame) and choosing
-spatially coherent packets are array operations too.
+hierarchies", 2007, discusses why median splits are the cheap baseline), in numba: nodes are
+split in breadth-first order, each by a quickselect of its median in place (O(N) per level).
+Every node therefore covers a contiguous range ``[start, start + count)`` of a permutation
+``order`` of the object ids, so refitting to a subset of objects (e.g. the frustum survivors
+of a frame, or the objects alive in a dynamic scene) is one backward pass over the nodes
+(:func:`refit_boxes`) and choosing spatially coherent packets is an array operation.
 
 Nodes are flat arrays in breadth-first order (node 0 = root, children after parents):
 ``boxes (M, 2, 3) float32``, ``left/right (M,) int64`` (-1 at leaves), ``start/count (M,)
@@ -18,6 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 # Objects per leaf when the caller does not choose: small enough that a leaf's box is tight
@@ -105,13 +107,15 @@ class BVH:
         mask = np.asarray(mask, bool)
         if mask.shape != self.order.shape:
             raise ValueError(f"mask must have shape {self.order.shape}, got {mask.shape}")
-        return _bottom_up(self, self.aabbs, mask)
+        return refit_boxes(self, self.aabbs, mask)
 
 
 def build(aabbs: np.ndarray, leaf_size: int = DEFAULT_LEAF_SIZE) -> BVH:
     """Build a BVH over ``aabbs`` (N, 2, 3) float32 (world units); leaves hold ≤ ``leaf_size``.
 
-    Deterministic: equal input gives equal arrays (stable sorts, ties broken by position).
+    Deterministic: equal input gives equal arrays (the median is selected on (centroid,
+    object id) pairs, so ties are broken by id). One numba pass per level selects every
+    node's median in place (quickselect, O(N) per level): a million boxes in about 0.3 s.
     """
     aabbs = np.asarray(aabbs, np.float32)
     if aabbs.ndim != 3 or aabbs.shape[1:] != (2, 3):
@@ -121,94 +125,196 @@ def build(aabbs: np.ndarray, leaf_size: int = DEFAULT_LEAF_SIZE) -> BVH:
     n = len(aabbs)
     if n == 0:
         raise ValueError("cannot build a BVH over 0 boxes")
-    centroid = 0.5 * (aabbs[:, 0].astype(np.float64) + aabbs[:, 1])
+    centroid = 0.5 * (aabbs[:, 0].astype(np.float64) + aabbs[:, 1])  # permuted by the build
+    # A binary tree with leaves of <= leaf_size objects, split at ceil(c / 2), has fewer than
+    # 2 * ceil(N / ceil(leaf_size / 2)) nodes; the arrays are cut to the nodes made.
+    cap = 2 * (-(-n // max(1, -(-leaf_size // 2)))) + 1
     order = np.arange(n, dtype=np.int64)
-
-    # Level-by-level split. Nodes of one level are created together, so ids are BFS order.
-    starts, counts, depths, parents = [np.array([0])], [np.array([n])], [np.array([0])], [[-1]]
-    lefts: list[np.ndarray] = []
-    level_start, level_s, level_c, d = 0, np.array([0]), np.array([n]), 0
-    while True:
-        split = level_c > leaf_size
-        lc = np.full(len(level_s), -1, np.int64)
-        if not split.any():
-            lefts.append(lc)
-            break
-        s, c = level_s[split], level_c[split]
-        # Positions of all objects of splitting nodes, grouped by node (ranges are sorted).
-        seg = np.repeat(np.arange(len(s)), c)
-        pos = np.repeat(s - np.cumsum(c) + c, c) + np.arange(c.sum())
-        objs = order[pos]
-        # Longest axis of each node's centroid bounds.
-        cen = centroid[objs]
-        lo = np.full((len(s), 3), np.inf)
-        hi = np.full((len(s), 3), -np.inf)
-        np.minimum.at(lo, seg, cen)
-        np.maximum.at(hi, seg, cen)
-        axis = np.argmax(hi - lo, axis=1)
-        key = cen[np.arange(len(objs)), axis[seg]]
-        order[pos] = objs[np.lexsort((key, seg))]
-        # Median split by count: left gets the first half.
-        half = c - c // 2
-        next_id = level_start + len(level_s)
-        child_s = np.stack([s, s + half], axis=1).ravel()
-        child_c = np.stack([half, c - half], axis=1).ravel()
-        lc[split] = next_id + 2 * np.arange(len(s))
-        lefts.append(lc)
-        parent_ids = np.repeat(level_start + np.flatnonzero(split), 2)
-        d += 1
-        starts.append(child_s)
-        counts.append(child_c)
-        depths.append(np.full(len(child_s), d))
-        parents.append(parent_ids)
-        level_start, level_s, level_c = next_id, child_s, child_c
-
-    left = np.concatenate(lefts).astype(np.int64)
+    left = np.full(cap, -1, np.int64)
+    parent = np.full(cap, -1, np.int64)
+    start = np.zeros(cap, np.int64)
+    count = np.zeros(cap, np.int64)
+    depth = np.zeros(cap, np.int64)
+    m = int(_split_nodes(centroid, int(leaf_size), order, left, parent, start, count, depth))
+    left, parent, start, count, depth = (a[:m].copy() for a in (left, parent, start, count, depth))
     right = np.where(left >= 0, left + 1, -1)
+    boxes = np.empty((m, 2, 3), np.float32)
+    counts = np.empty(m, np.int64)
+    _refit(left, start, count, order, aabbs, np.ones(0, np.bool_), boxes, counts)
     tree = BVH(
         order=order,
-        boxes=np.empty((len(left), 2, 3), np.float32),
+        boxes=boxes,
         left=left,
         right=right,
-        parent=np.concatenate(parents).astype(np.int64),
-        start=np.concatenate(starts).astype(np.int64),
-        count=np.concatenate(counts).astype(np.int64),
-        depth=np.concatenate(depths).astype(np.int64),
+        parent=parent,
+        start=start,
+        count=count,
+        depth=depth,
         leaf_size=int(leaf_size),
         aabbs=aabbs,
     )
-    boxes, _ = _bottom_up(tree, aabbs, None)
-    tree.boxes[:] = boxes
-    for a in (tree.order, tree.boxes, tree.left, tree.right, tree.parent, tree.start, tree.count):
+    for a in (order, boxes, left, right, parent, start, count, depth):
         a.flags.writeable = False
-    tree.depth.flags.writeable = False
     return tree
 
 
-def _bottom_up(
-    tree: BVH, aabbs: np.ndarray, mask: np.ndarray | None
+@numba.njit(cache=True)
+def _split_nodes(centroid, leaf_size, order, left, parent, start, count, depth):  # pragma: no cover
+    """Top-down median splits, breadth first (node ids in BFS order, children after their
+    parent, a left child's right sibling next to it); returns the number of nodes. Each node
+    splits on the longest axis of its centroids' bounds, the left child taking the
+    ``ceil(c / 2)`` objects with the smallest (centroid, id) pairs. ``centroid`` (N, 3) is
+    permuted along with ``order`` (reads stay sequential: 8x faster at a million boxes)."""
+    count[0] = len(order)
+    made = 1
+    node = 0
+    while node < made:
+        s, c = start[node], count[node]
+        if c > leaf_size:
+            lo = np.full(3, np.inf)
+            hi = np.full(3, -np.inf)
+            for i in range(s, s + c):
+                for a in range(3):
+                    v = centroid[i, a]
+                    lo[a] = min(lo[a], v)
+                    hi[a] = max(hi[a], v)
+            axis = 0
+            for a in (1, 2):
+                if hi[a] - lo[a] > hi[axis] - lo[axis]:
+                    axis = a
+            half = c - c // 2
+            _select(centroid, axis, order, s, s + c - 1, s + half)
+            left[node] = made
+            for k in range(2):
+                start[made + k] = s if k == 0 else s + half
+                count[made + k] = half if k == 0 else c - half
+                parent[made + k] = node
+                depth[made + k] = depth[node] + 1
+            made += 2
+        node += 1
+    return made
+
+
+@numba.njit(cache=True, inline="always")
+def _before(centroid, axis, order, i, j):  # pragma: no cover - compiled
+    """Whether entry ``i`` sorts before entry ``j``: by centroid along ``axis``, then by id."""
+    ki, kj = centroid[i, axis], centroid[j, axis]
+    return ki < kj or (ki == kj and order[i] < order[j])
+
+
+@numba.njit(cache=True, inline="always")
+def _swap(centroid, order, i, j):  # pragma: no cover - compiled
+    order[i], order[j] = order[j], order[i]
+    for a in range(3):
+        centroid[i, a], centroid[j, a] = centroid[j, a], centroid[i, a]
+
+
+@numba.njit(cache=True)
+def _select(centroid, axis, order, lo, hi, kth):  # pragma: no cover - compiled
+    """Quickselect on entries ``lo .. hi`` (``order`` and ``centroid`` rows together):
+    afterwards every entry before ``kth`` sorts before every entry from ``kth`` on
+    (median-of-three pivot, Hoare partition)."""
+    while hi > lo:
+        mid = (lo + hi) // 2
+        # Median of three moved to ``mid``, then its (key, id) copied out as the pivot.
+        if _before(centroid, axis, order, mid, lo):
+            _swap(centroid, order, mid, lo)
+        if _before(centroid, axis, order, hi, lo):
+            _swap(centroid, order, hi, lo)
+        if _before(centroid, axis, order, hi, mid):
+            _swap(centroid, order, hi, mid)
+        pk, pid = centroid[mid, axis], order[mid]
+        i, j = lo, hi
+        while i <= j:
+            while centroid[i, axis] < pk or (centroid[i, axis] == pk and order[i] < pid):
+                i += 1
+            while centroid[j, axis] > pk or (centroid[j, axis] == pk and order[j] > pid):
+                j -= 1
+            if i <= j:
+                _swap(centroid, order, i, j)
+                i += 1
+                j -= 1
+        # Now entries lo..j sort before the pivot or are it, i..hi after or are it, j < i.
+        if kth <= j:
+            hi = j
+        elif kth >= i:
+            lo = i
+        else:
+            return
+
+
+@numba.njit(cache=True)
+def _refit(left, start, count, order, aabbs, mask, boxes, counts):  # pragma: no cover
+    """Union boxes and member counts of every node from the leaves up (children have larger
+    ids than their parent, so one backward pass suffices). ``mask`` (N,) bool selects the
+    members that count (empty: all); a node with none gets min = +inf, max = -inf."""
+    use_mask = len(mask) > 0
+    for node in range(len(left) - 1, -1, -1):
+        lo0 = lo1 = lo2 = np.float32(np.inf)
+        hi0 = hi1 = hi2 = np.float32(-np.inf)
+        if left[node] < 0:
+            k = 0
+            for i in range(start[node], start[node] + count[node]):
+                o = order[i]
+                if use_mask and not mask[o]:
+                    continue
+                k += 1
+                lo0, lo1, lo2 = (
+                    min(lo0, aabbs[o, 0, 0]),
+                    min(lo1, aabbs[o, 0, 1]),
+                    min(lo2, aabbs[o, 0, 2]),
+                )
+                hi0, hi1, hi2 = (
+                    max(hi0, aabbs[o, 1, 0]),
+                    max(hi1, aabbs[o, 1, 1]),
+                    max(hi2, aabbs[o, 1, 2]),
+                )
+            counts[node] = k
+        else:
+            a, b = left[node], left[node] + 1
+            lo0, lo1, lo2 = (
+                min(boxes[a, 0, 0], boxes[b, 0, 0]),
+                min(boxes[a, 0, 1], boxes[b, 0, 1]),
+                min(boxes[a, 0, 2], boxes[b, 0, 2]),
+            )
+            hi0, hi1, hi2 = (
+                max(boxes[a, 1, 0], boxes[b, 1, 0]),
+                max(boxes[a, 1, 1], boxes[b, 1, 1]),
+                max(boxes[a, 1, 2], boxes[b, 1, 2]),
+            )
+            counts[node] = counts[a] + counts[b]
+        boxes[node, 0, 0], boxes[node, 0, 1], boxes[node, 0, 2] = lo0, lo1, lo2
+        boxes[node, 1, 0], boxes[node, 1, 1], boxes[node, 1, 2] = hi0, hi1, hi2
+
+
+def refit_boxes(
+    tree: BVH, aabbs: np.ndarray, mask: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Union boxes and member counts of every node, from the leaves up, one level at a time."""
-    m = len(tree.left)
-    boxes = np.empty((m, 2, 3), np.float32)
-    boxes[:, 0], boxes[:, 1] = np.inf, -np.inf
-    counts = np.zeros(m, np.int64)
-    sorted_boxes = aabbs[tree.order]
-    selected = np.ones(len(tree.order), bool) if mask is None else mask[tree.order]
-    lo = np.where(selected[:, None], sorted_boxes[:, 0], np.float32(np.inf))
-    hi = np.where(selected[:, None], sorted_boxes[:, 1], np.float32(-np.inf))
-    leaves = np.flatnonzero(tree.left < 0)
-    leaves = leaves[np.argsort(tree.start[leaves], kind="stable")]
-    at = tree.start[leaves]  # leaves partition [0, N) in order
-    boxes[leaves, 0] = np.minimum.reduceat(lo, at, axis=0)
-    boxes[leaves, 1] = np.maximum.reduceat(hi, at, axis=0)
-    counts[leaves] = np.add.reduceat(selected.astype(np.int64), at)
-    for d in range(int(tree.depth.max()) - 1, -1, -1):
-        inner = np.flatnonzero((tree.depth == d) & (tree.left >= 0))
-        lc, rc = tree.left[inner], tree.right[inner]
-        boxes[inner, 0] = np.minimum(boxes[lc, 0], boxes[rc, 0])
-        boxes[inner, 1] = np.maximum(boxes[lc, 1], boxes[rc, 1])
-        counts[inner] = counts[lc] + counts[rc]
+    """Node boxes of ``tree`` over other per-object boxes (e.g. the grown query boxes).
+
+    Parameters
+    ----------
+    aabbs : (N, 2, 3) float32
+        One box per object (ids as the tree's).
+    mask : (N,) bool, optional
+        Only these objects count (default: all).
+
+    Returns
+    -------
+    boxes : (M, 2, 3) float32
+        Exact union of the selected members' boxes; ``+inf``/``-inf`` for empty nodes.
+    counts : (M,) int64
+        Selected members per node.
+    """
+    aabbs = np.ascontiguousarray(aabbs, np.float32)
+    if aabbs.shape != tree.aabbs.shape:
+        raise ValueError(f"boxes must have shape {tree.aabbs.shape}, got {aabbs.shape}")
+    sel = np.zeros(0, np.bool_) if mask is None else np.ascontiguousarray(mask, np.bool_)
+    if mask is not None and sel.shape != tree.order.shape:
+        raise ValueError(f"mask must have shape {tree.order.shape}, got {sel.shape}")
+    boxes = np.empty((len(tree), 2, 3), np.float32)
+    counts = np.empty(len(tree), np.int64)
+    _refit(tree.left, tree.start, tree.count, tree.order, aabbs, sel, boxes, counts)
     return boxes, counts
 
 

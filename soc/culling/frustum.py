@@ -75,3 +75,34 @@ def _in_frustum(aabbs, planes, out):  # pragma: no cover - compiled
     """:func:`aabbs_in_frustum`'s loop over boxes (numba: one pass, no (N, 6) temporaries)."""
     for k in range(len(aabbs)):
         out[k] = not outside_frustum(aabbs[k], planes)
+
+
+def ids_in_frustum(aabbs, ids: np.ndarray, planes: np.ndarray | Camera) -> np.ndarray:
+    """``aabbs_in_frustum(aabbs[ids], planes)`` without gathering the boxes.
+
+    Parameters
+    ----------
+    aabbs : (N, 2, 3) float
+    ids : (K,) int
+        Object ids into ``aabbs``.
+    planes : (6, 4) float or Camera
+
+    Returns
+    -------
+    inside : (K,) bool
+    """
+    a = as_aabbs(aabbs)
+    ids = np.ascontiguousarray(ids, np.int64)
+    p = planes.planes if isinstance(planes, Camera) else np.asarray(planes, np.float64)
+    if p.shape != (6, 4):
+        raise ValueError(f"planes must have shape (6, 4), got {p.shape}")
+    inside = np.empty(len(ids), np.bool_)
+    _ids_in_frustum(a, ids, np.ascontiguousarray(p, np.float64), inside)
+    return inside
+
+
+@numba.njit(cache=True)
+def _ids_in_frustum(aabbs, ids, planes, out):  # pragma: no cover - compiled
+    """:func:`ids_in_frustum`'s loop."""
+    for k in range(len(ids)):
+        out[k] = not outside_frustum(aabbs[ids[k]], planes)

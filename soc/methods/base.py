@@ -127,13 +127,19 @@ def load_entry_points() -> None:
 
 
 def frustum_stage(method: CullMethod, camera, timings: dict[str, float]) -> np.ndarray:
-    """(N,) bool after the optional frustum test (all True when the switch is off)."""
+    """(N,) bool after the optional frustum test (all True when the switch is off): a walk of
+    the scene's object hierarchy (:class:`soc.culling.hierarchy.Hierarchy`, the same answer
+    object by object), or every box tested when the method was built with
+    ``hierarchy=False`` (its ``use_hierarchy`` attribute)."""
     from soc.culling.frustum import aabbs_in_frustum
+    from soc.culling.hierarchy import Hierarchy
 
     with stage(timings, "frustum"):
-        if method.config.frustum:
-            return aabbs_in_frustum(method.scene.aabbs, camera.planes)
-        return np.ones(len(method.scene), bool)
+        if not method.config.frustum:
+            return np.ones(len(method.scene), bool)
+        if getattr(method, "use_hierarchy", True):
+            return Hierarchy.for_scene(method.scene).in_frustum(camera.planes)[0]
+        return aabbs_in_frustum(method.scene.aabbs, camera.planes)
 
 
 def prepass_stage(

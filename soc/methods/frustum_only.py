@@ -1,4 +1,5 @@
-"""``frustum``: view-frustum culling of AABBs only (numpy, all objects at once)."""
+"""``frustum``: view-frustum culling of AABBs only, by a walk of the scene's object hierarchy
+(:mod:`soc.culling.hierarchy`) or, with ``hierarchy=False``, every box tested (numba)."""
 
 from __future__ import annotations
 
@@ -7,10 +8,26 @@ from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register
 
 @register
 class FrustumCulling(CullMethod):
-    """Keeps every object whose AABB may intersect the frustum. Conservative."""
+    """Keeps every object whose AABB may intersect the frustum. Conservative.
+
+    Options
+    -------
+    hierarchy : bool
+        Walk the scene's BVH (default True: a subtree outside the frustum is dropped, one
+        inside kept, without testing its objects; the cost follows what is in view) or test
+        every box (False: the reference the walk is tested against; the same kept set).
+    """
 
     name = "frustum"
     conservative = True
+
+    def __init__(self, geometry, resolution, config, *, hierarchy: bool = True):
+        super().__init__(geometry, resolution, config)
+        self.use_hierarchy = bool(hierarchy)
+        if self.use_hierarchy:
+            from soc.culling.hierarchy import Hierarchy
+
+            Hierarchy.for_scene(self.scene)  # built now, not in the first frame
 
     def cull(self, camera) -> MethodOutput:
         timings: dict[str, float] = {}

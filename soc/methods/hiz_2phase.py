@@ -13,12 +13,18 @@ drawn into the method's own colour + depth target):
    runs on the CPU, as llvmpipe does), after reading the depth back ("read back"), in numba
    (:func:`soc.culling.hiz_cpu.reduce_pyramid`);
 3. **test** — every object's grown box against the frustum and that pyramid, in one compute
-   dispatch (:class:`soc.culling.hiz_gpu.HizTest`) or in numba
-   (:func:`soc.culling.hiz_cpu.classify_objects`), by default refined down to the frame's own
-   pixels where a box is not behind the coarse levels (and, with ``octants=True``, GL only,
-   an object whose box passes judged again by its octant boxes,
-   :mod:`soc.culling.octant_boxes`);
-4. **late draw** — the objects that pass and were not drawn early, into the same depth;
+   dispatch (:class:`soc.culling.hiz_gpu.HizTest`) or in numba, by a walk of the scene's
+   object hierarchy that drops a subtree outside the frustum or behind the pyramid
+   (:meth:`soc.culling.hierarchy.Hierarchy.classify_pyramid`; with ``hierarchy=False`` object
+   by object, :func:`soc.culling.hiz_cpu.classify_objects`: the same codes), by default
+   refined down to the frame's own pixels where a box is not behind the coarse levels (and,
+   with ``octants=True``, GL only, an object whose box passes judged again by its octant
+   boxes, :mod:`soc.culling.octant_boxes`);
+4. **late draw** — the objects that pass and were not drawn early, into the same depth; with
+   ``occluders_first=True``, the occluders among them first, then the pyramid of that depth
+   again ("late read back", "late pyramid", "late test") and only the other late objects
+   that still pass (the occluders that came into view since last frame hide what is behind
+   them in this frame already, instead of in the next);
 5. **next set** — the objects kept next frame: with ``next_from="early"`` (niagara's choice,
    no extra work) those that passed stage 3, early ones included; with ``next_from="final"``
    the pyramid is rebuilt from the finished frame's depth and the drawn objects are tested
@@ -44,14 +50,17 @@ stage 3 and is drawn late. Nothing in that argument depends on which subset S is
 frame and :meth:`~TwoPhaseCulling.reset` (S empty: every object goes to the late pass, tested
 against a far-plane pyramid, i.e. frustum culling only), camera cuts (S from an unrelated view:
 fewer objects culled, never a visible one) and objects that appear in a dynamic scene (not in
-S: they are tested in stage 3) are all correct, only less efficient. With the depth-only early
+S: they are tested in stage 3) are all correct, only less efficient. The same holds for the
+second test of ``occluders_first``: its depth is that of S and the late occluders, a subset of
+what the frame draws. With the depth-only early
 pass the kept set is what passed stage 3, which by the same argument holds every object the
 oracle sees. Early depths are real drawn depths of meshes, so the HiZ semantics (nearest box
 corner vs the max of the pyramid) hold unchanged.
 
 Dynamic scenes (a pool of objects switched on and off, :mod:`soc.scenes.dynamic`) tell the
 method which objects exist with :meth:`TwoPhaseCulling.set_alive`: dead objects are never drawn,
-new ones go through stage 3.
+new ones go through stage 3; the hierarchy is refitted to the objects alive (its node boxes
+shrink to theirs, empty subtrees are skipped).
 
 **Cull ms** (:attr:`soc.FrameStats.cull_ms`, everything but the ``"draw"`` key): the numpy
 frustum test of the early set, the depth read back (CPU test), the pyramid(s) and the tests
@@ -67,7 +76,8 @@ import time
 
 import numpy as np
 
-from soc.culling.frustum import aabbs_in_frustum
+from soc.culling.frustum import aabbs_in_frustum, ids_in_frustum
+from soc.culling.hierarchy import Hierarchy
 from soc.culling.hiz_cpu import (
     check_test_options,
     classify_objects,
@@ -83,6 +93,15 @@ from soc.metrics import gpu_stage
 NEXT_FROM = ("early", "final")
 EARLY_PASSES = ("shaded", "depth")
 TESTS = ("auto", "gpu", "cpu")
+# Late objects besides the occluders from which ``occluders_first`` tests them again: a read
+# back, a pyramid and a test (~5 ms on the city) cost more than drawing a few hundred small
+# objects that may be hidden.
+RETEST_MIN = 256
+
+# Objects of a subset test (the late or next set) from which the hierarchy's walk over the
+# whole view is cheaper than testing the subset's boxes one by one (~0.25 µs each, against a
+# walk of a few ms on the million-object city).
+WALK_SUBSET = 8192
 
 
 @register
@@ -121,6 +140,14 @@ class TwoPhaseCulling(CullMethod):
         every object that passed shaded with ``<=`` (``visible`` = the objects that passed).
     occluders : bool
         Also draw the scene's occluders in the frustum early, every frame (default False).
+    occluders_first : bool
+        Draw the late objects that are occluders first, build the pyramid of that depth
+        again and test the other late objects once more (default False). Where the camera
+        moves fast and the view's occluders change (a city flight: buildings turn into view),
+        last frame's set misses the new occluders and everything behind them passes the first
+        test; the second test costs a read back, a pyramid and a test of the late objects,
+        only in frames where occluders are drawn late and at least :data:`RETEST_MIN` other
+        objects would be.
     test : {"auto", "gpu", "cpu"}
         Where the pyramid is built and the boxes are tested: in GL (a fragment pass per level,
         one compute dispatch) or on the CPU after reading the depth back
@@ -131,7 +158,12 @@ class TwoPhaseCulling(CullMethod):
         where reading the depth back and testing in numba costs less than GL's passes
         (make bench's floor on castle-2114: 3.5 against 7.0 ms a frame), else GL.
     threads : int or None
-        numba threads of the CPU test (default: numba's thread count).
+        numba threads of the pyramid and of the flat CPU test (default: numba's thread
+        count); the hierarchy's walk runs on one thread.
+    hierarchy : bool
+        Test on the CPU by a walk of the scene's BVH (default True) or object by object
+        (False: the reference; the same codes, ``tests/test_hierarchy.py``). The GL test
+        (``test="gpu"``) tests every box in its compute pass either way.
 
     Attributes
     ----------
@@ -144,6 +176,8 @@ class TwoPhaseCulling(CullMethod):
         pass, "late draw" is the shaded pass).
     last_order : (K,) int
         The kept objects of the last frame in the order they were shaded.
+    last_walk : WalkStats or None
+        The hierarchy walk's work in the last frame's test (None when it did not walk).
     """
 
     name = "hiz-2phase"
@@ -163,8 +197,10 @@ class TwoPhaseCulling(CullMethod):
         next_from: str = "early",
         early_pass: str = "shaded",
         occluders: bool = False,
+        occluders_first: bool = False,
         test: str = "auto",
         threads: int | None = None,
+        hierarchy: bool = True,
     ):
         if next_from not in NEXT_FROM:
             raise ValueError(f"next_from must be one of {NEXT_FROM}, got {next_from!r}")
@@ -182,6 +218,7 @@ class TwoPhaseCulling(CullMethod):
         self.next_from = next_from
         self.early_pass = early_pass
         self.occluders = bool(occluders)
+        self.occluders_first = bool(occluders_first)
         self.renderer = Renderer(geometry, resolution)
         self.depth_fbo = self.glctx.ctx.framebuffer(depth_attachment=self.renderer.depth)
         self.depth_program = self.glctx.program("mesh.vert", "depth_only.frag")
@@ -204,9 +241,14 @@ class TwoPhaseCulling(CullMethod):
         n = len(self.scene)
         self._all = np.arange(n, dtype=np.uint32)
         self.alive = np.ones(n, bool)
+        self._all_alive = True  # skips the "& alive" passes over all objects
         self.next_set = np.zeros(n, bool)
         self.last_draws_ms: dict[str, float] = {}
         self.last_order = np.zeros(0, np.int64)
+        self.use_hierarchy = bool(hierarchy)
+        self._hierarchy = Hierarchy.for_scene(self.scene) if hierarchy else None
+        self._tree = self._hierarchy  # refitted to the objects alive (set_alive)
+        self.last_walk = None
 
     def release(self) -> None:
         if self.octants is not None:
@@ -228,11 +270,16 @@ class TwoPhaseCulling(CullMethod):
         n = len(self.scene)
         if alive is None:
             self.alive = np.ones(n, bool)
+            self._all_alive = True
+            self._tree = self._hierarchy
             return
         alive = np.asarray(alive)
         if alive.shape != (n,) or alive.dtype != bool:
             raise ValueError(f"alive must be ({n},) bool, got {alive.shape} {alive.dtype}")
         self.alive = alive.copy()
+        self._all_alive = bool(self.alive.all())
+        if self._hierarchy is not None:
+            self._tree = self._hierarchy.refit(self.alive)
 
     # -- the frame ---------------------------------------------------------------------------
 
@@ -278,9 +325,10 @@ class TwoPhaseCulling(CullMethod):
 
     def _classify(self, camera, timings, ids=None, prefix: str = "") -> np.ndarray:
         """Codes (OCCLUDED / VISIBLE / OUTSIDE) of objects ``ids`` (default all, with the
-        frustum test of the config; a subset is not frustum-tested) against the pyramid of the
-        depth drawn so far, built and tested where :attr:`test` says. Stages ``pyramid`` and
-        ``test`` (``read back`` too for the CPU), each name after ``prefix``."""
+        frustum test of the config; a subset is not frustum-tested, and must lie in the
+        frustum when the config tests it: the late and next sets do) against the pyramid of
+        the depth drawn so far, built and tested where :attr:`test` says. Stages ``pyramid``
+        and ``test`` (``read back`` too for the CPU), each name after ``prefix``."""
         finish = self.glctx.finish
         frustum = self.config.frustum and ids is None
         if self.test == "gpu":
@@ -301,6 +349,18 @@ class TwoPhaseCulling(CullMethod):
         with stage(timings, prefix + "pyramid"):
             reduce_pyramid(pyramid, self.threads)
         with stage(timings, prefix + "test"):
+            if self._tree is not None and (ids is None or len(ids) >= WALK_SUBSET):
+                # A subset (the late or the next set) lies in the frustum when the config
+                # tests it: there the frustum-culling walk's codes are the depth codes, and
+                # the walk skips what is behind the camera (without the frustum it would
+                # descend into every node that reaches behind the near plane).
+                codes, walk = self._tree.classify_pyramid(
+                    pyramid, camera, self.config.frustum, 1, self.footprint, self.refine
+                )
+                if ids is None:
+                    self.last_walk = walk
+                    return codes
+                return codes[ids]
             sel = slice(None) if ids is None else ids
             codes, _ = classify_objects(
                 pyramid,
@@ -324,7 +384,9 @@ class TwoPhaseCulling(CullMethod):
         if not cfg.depth_test:  # frustum culling only: everything in the frustum, one draw
             with stage(timings, "frustum"):
                 keep = self.alive.copy()
-                if cfg.frustum:
+                if cfg.frustum and self._tree is not None:
+                    keep &= self._tree.in_frustum(camera.planes)[0]
+                elif cfg.frustum:
                     keep &= aabbs_in_frustum(self.scene.aabbs, camera.planes)
             timings["draw"] = self._draw(camera, np.flatnonzero(keep), color=draw, clear=True)
             self.last_draws_ms = {"early draw": 0.0, "late draw": timings["draw"]}
@@ -335,32 +397,50 @@ class TwoPhaseCulling(CullMethod):
         # or died.
         with stage(timings, "frustum"):
             first = self.next_set | self.scene.occluder if self.occluders else self.next_set
-            early = np.flatnonzero(first & self.alive)
+            early = np.flatnonzero(first if self._all_alive else first & self.alive)
             if cfg.frustum and len(early):
-                early = early[aabbs_in_frustum(self.scene.aabbs[early], camera.planes)]
+                early = early[ids_in_frustum(self.scene.aabbs, early, camera.planes)]
         shaded_early = draw and self.early_pass == "shaded"
         early_ms = self._draw(camera, early, color=shaded_early, clear=True, clear_color=draw)
 
         # Stages 2-3: pyramid of the early depth, every object tested once.
         codes = self._classify(camera, timings)
-        passed = (codes == VISIBLE) & self.alive
+        passed = codes == VISIBLE
+        if not self._all_alive:
+            passed &= self.alive
         in_early = np.zeros(n, bool)
         in_early[early] = True
 
-        # Stage 4: the late pass, into the same depth.
-        late = np.flatnonzero(passed & ~in_early)
+        # Stage 4: the late pass, into the same depth (its occluders first, if asked).
+        late = np.flatnonzero(passed)
+        late = late[~in_early[late]]
+        first, first_ms = late[:0], 0.0
+        if self.occluders_first and len(late):
+            occ = self.scene.occluder[late]
+            if occ.any() and len(late) - np.count_nonzero(occ) >= RETEST_MIN:
+                first, rest = late[occ], late[~occ].astype(np.uint32)
+                shade = draw and self.early_pass == "shaded"
+                first_ms = self._draw(camera, first, color=shade, clear=False)
+                again = self._classify(camera, timings, rest, "late ") == VISIBLE
+                passed[rest[~again]] = False  # hidden by the late occluders
+                late = rest[again].astype(np.int64)
         if self.early_pass == "shaded":
-            late_ms = self._draw(camera, late, color=draw, clear=False)
+            late_ms = first_ms + self._draw(camera, late, color=draw, clear=False)
             drawn = in_early
+            drawn[first] = True
             drawn[late] = True
         else:  # every object that passed, shaded over the early depth (equal depths pass)
-            order = np.concatenate([np.flatnonzero(passed & in_early), late])
+            order = np.concatenate([np.flatnonzero(passed & in_early), first, late])
             if draw:
-                late_ms = self._draw(camera, order, color=True, clear=False, depth_func="<=")
+                late_ms = first_ms + self._draw(
+                    camera, order, color=True, clear=False, depth_func="<="
+                )
             else:
-                late_ms = self._draw(camera, late, color=False, clear=False)
+                late_ms = first_ms + self._draw(camera, late, color=False, clear=False)
             drawn = passed
-        self.last_order = np.concatenate([early, late]) if self.early_pass == "shaded" else order
+        self.last_order = (
+            np.concatenate([early, first, late]) if self.early_pass == "shaded" else order
+        )
         self.last_draws_ms = {"early draw": early_ms, "late draw": late_ms}
         timings["draw"] = early_ms + late_ms
 
@@ -375,5 +455,7 @@ class TwoPhaseCulling(CullMethod):
             self.next_set = np.zeros(n, bool)
             self.next_set[inside[again]] = True
 
-        outside = int(((codes == OUTSIDE) & self.alive).sum())
-        return MethodOutput(drawn, outside, n - int((codes == OUTSIDE).sum()), timings)
+        is_out = codes == OUTSIDE
+        n_out = int(np.count_nonzero(is_out))
+        outside = n_out if self._all_alive else int(np.count_nonzero(is_out & self.alive))
+        return MethodOutput(drawn, outside, n - n_out, timings)

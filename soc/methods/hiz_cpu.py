@@ -6,8 +6,10 @@ Intel's Software Occlusion Culling framework (seed 000; Greene, Kass and Miller 
 pyramid). Stages of one frame: ``frustum`` (the occluders' AABBs, numpy), ``transform`` (the
 frustum-surviving occluders' triangles transformed, near-clipped and set up,
 :mod:`soc.culling.software_raster`), ``raster`` (their spans into a per-pixel depth buffer),
-``pyramid`` and ``test`` (:mod:`soc.culling.hiz_cpu`: one pass over every object — frustum test,
-near-plane test, projection, pyramid test). Boxes that reach the near plane are kept
+``pyramid`` and ``test`` (:mod:`soc.culling.hiz_cpu`: frustum test, near-plane test, projection
+and pyramid test of every object, by a walk of the scene's object hierarchy that drops a
+subtree outside the frustum or behind the pyramid, :mod:`soc.culling.hierarchy`; or, with
+``hierarchy=False``, one pass over every object). Boxes that reach the near plane are kept
 untested. No torch (the method used torch's scatter_reduce until the raster became a numba
 kernel, ~10× faster).
 
@@ -39,11 +41,17 @@ class HiZCpuCulling(CullMethod):
         Levels finer than its own a box that is not behind its texels is judged at (default
         0; :data:`soc.culling.hiz_gpu.MAX_REFINE` judges it at the pixels), as hiz-gpu's.
     threads : int or None
-        Threads of the transform, the raster, the pyramid's first level and the box tests
-        (default None: numba's thread count); the depth and the codes are the same for any
-        number.
+        Threads of the transform, the raster, the pyramid's first level and the flat box
+        tests (default None: numba's thread count); the depth and the codes are the same for
+        any number. The hierarchy's walk runs on one thread (it visits a few thousand nodes;
+        starting numba's thread pool costs as much).
+    hierarchy : bool
+        Test the objects by a walk of the scene's BVH (default True) or every object's box
+        (False: the reference; the same codes, tested in ``tests/test_hierarchy.py``).
 
-    After :meth:`cull`, :attr:`last_depth` holds the frame's (H, W) float32 occluder depth (level
+    After :meth:`cull`, :attr:`last_walk` holds the walk's
+    :class:`~soc.culling.hierarchy.WalkStats` (None without the hierarchy),
+    :attr:`last_depth` holds the frame's (H, W) float32 occluder depth (level
     0 of the method's pyramid, overwritten by the next cull: copy it to keep it) and
     :attr:`last_stats` its work counters (``triangles``, ``fragments``).
     """
@@ -62,7 +70,9 @@ class HiZCpuCulling(CullMethod):
         footprint: int = 2,
         refine: int = 0,
         threads: int | None = None,
+        hierarchy: bool = True,
     ):
+        from soc.culling.hierarchy import Hierarchy
         from soc.culling.hiz_cpu import check_test_options
         from soc.culling.software_raster import RECORD, occluder_triangles, raster_threads
 
@@ -80,6 +90,9 @@ class HiZCpuCulling(CullMethod):
         self._pyramid = empty_pyramid(height, width)  # one allocation, written every frame
         self.last_depth: np.ndarray | None = None
         self.last_stats: dict[str, int] = {}
+        self.use_hierarchy = bool(hierarchy)
+        self.hierarchy = Hierarchy.for_scene(self.scene) if hierarchy else None
+        self.last_walk = None
 
     def cull(self, camera) -> MethodOutput:
         from soc.culling.frustum import aabbs_in_frustum
@@ -117,16 +130,22 @@ class HiZCpuCulling(CullMethod):
             pyramid = self._pyramid
             reduce_pyramid(pyramid, self.threads)
         with stage(timings, "test"):
-            codes, tested = classify_objects(
-                pyramid,
-                camera,
-                self.scene.aabbs,
-                self.geometry.query_boxes,
-                self.config.frustum,
-                self.threads,
-                self.footprint,
-                self.refine,
-            )
+            if self.hierarchy is not None:
+                codes, self.last_walk = self.hierarchy.classify_pyramid(
+                    pyramid, camera, self.config.frustum, 1, self.footprint, self.refine
+                )
+                tested = self.last_walk.tests
+            else:
+                codes, tested = classify_objects(
+                    pyramid,
+                    camera,
+                    self.scene.aabbs,
+                    self.geometry.query_boxes,
+                    self.config.frustum,
+                    self.threads,
+                    self.footprint,
+                    self.refine,
+                )
         self.last_depth = depth
         self.last_stats = {"triangles": int(n), "fragments": int(fragments)}
         outside = int((codes == VIEW_CULLED).sum())

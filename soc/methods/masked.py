@@ -4,9 +4,12 @@ Akenine-Möller, HPG 2016; Intel's MaskedOcclusionCulling), see :mod:`soc.cullin
 Per frame: frustum test of the occluders' AABBs (``frustum``, numpy) → those occluders sorted
 front to back (``sort``) → their triangles transformed, near-clipped and set up
 (``transform``, numba) → rasterized into 32×8 tiles of coverage masks with two depth layers
-per 8×4 subtile (``raster``, numba) → one pass over every object (``test``, numba): frustum
-test of its AABB, near-plane test of its grown box (crossing boxes are kept untested),
-projection to a pixel rectangle and nearest depth, and the scan of the subtiles under it. No
+per 8×4 subtile (``raster``, numba) → the objects tested (``test``, numba): frustum test of
+their AABBs, near-plane test of their grown boxes (crossing boxes are kept untested),
+projection to a pixel rectangle and nearest depth, and the scan of the subtiles under it —
+by a walk of the scene's object hierarchy that applies these tests to node boxes first and
+drops a subtree outside the frustum or behind the buffer (:mod:`soc.culling.hierarchy`), or,
+with ``hierarchy=False``, object by object. No
 GL at all. Conservative at the resolution it runs at (the proof is in :mod:`soc.culling.masked`).
 The first frame in a fresh environment compiles the kernels (numba, cached on disk); building
 the method warms them up.
@@ -17,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from soc.culling.frustum import aabbs_in_frustum
+from soc.culling.hierarchy import Hierarchy
 from soc.culling.masked import OCCLUDED, VIEW_CULLED, VISIBLE, MaskedBuffer
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
 
@@ -33,10 +37,16 @@ class MaskedCulling(CullMethod):
     threads : int or None
         Threads of the transform and the raster (default None: numba's thread count,
         ``NUMBA_NUM_THREADS``); the buffer, and so what is culled, is the same for any number.
+        The hierarchy's walk runs on one thread.
+    hierarchy : bool
+        Test the objects by a walk of the scene's BVH (default True) or object by object
+        (False: the reference; the same codes, tested in ``tests/test_hierarchy.py``).
 
     After :meth:`cull`, :attr:`last_codes` holds one code per object
     (:data:`soc.culling.masked.OCCLUDED`,
-    ``VISIBLE`` or ``VIEW_CULLED``) and :attr:`buffer` the frame's masked buffer.
+    ``VISIBLE`` or ``VIEW_CULLED``), :attr:`buffer` the frame's masked buffer and
+    :attr:`last_walk` the walk's :class:`~soc.culling.hierarchy.WalkStats` (None without the
+    hierarchy).
     """
 
     name = "masked"
@@ -44,11 +54,21 @@ class MaskedCulling(CullMethod):
     temporal = False
 
     def __init__(
-        self, geometry, resolution, config, *, backface: bool = True, threads: int | None = None
+        self,
+        geometry,
+        resolution,
+        config,
+        *,
+        backface: bool = True,
+        threads: int | None = None,
+        hierarchy: bool = True,
     ):
         super().__init__(geometry, resolution, config)
         self.buffer = MaskedBuffer(self.scene, resolution, backface=backface, threads=threads)
         self.last_codes = np.zeros(len(self.scene), np.uint8)
+        self.use_hierarchy = bool(hierarchy)
+        self.hierarchy = Hierarchy.for_scene(self.scene) if hierarchy else None
+        self.last_walk = None
 
     def cull(self, camera) -> MethodOutput:
         timings: dict[str, float] = {}
@@ -65,12 +85,19 @@ class MaskedCulling(CullMethod):
                 occluders_in = aabbs_in_frustum(buffer.aabbs, camera.planes)
         buffer.render(camera, occluders_in, timings)
         with stage(timings, "test"):
-            codes = buffer.classify_objects(
-                camera, self.scene.aabbs, self.geometry.query_boxes, self.config.frustum
-            )
+            if self.hierarchy is not None:
+                codes, self.last_walk = self.hierarchy.classify_masked(
+                    buffer, camera, self.config.frustum
+                )
+                tested = self.last_walk.tests
+            else:
+                codes = buffer.classify_objects(
+                    camera, self.scene.aabbs, self.geometry.query_boxes, self.config.frustum
+                )
+                tested = buffer.last_tested
         self.last_codes = codes
         outside = int((codes == VIEW_CULLED).sum())
-        return MethodOutput(codes == VISIBLE, outside, buffer.last_tested, timings)
+        return MethodOutput(codes == VISIBLE, outside, tested, timings)
 
 
 __all__ = ["OCCLUDED", "VIEW_CULLED", "VISIBLE", "MaskedCulling"]

@@ -3,10 +3,12 @@
 and inside cameras), and the scene sources: the generated default town (``market``), Intel's castle
 (``castle``), mesh
 files through trimesh (``load``), indoor rooms joined by portals (``rooms``) and a small scene
-of culling's hard cases for tests (``clutter``), and scenes that change over time
-(``dynamic_scene``: seed 004's growing scenes)."""
+of culling's hard cases for tests (``clutter``), scenes that change over time
+(``dynamic_scene``: seed 004's growing scenes), and a city of a million objects (``city``:
+market streets between blocks of buildings, seed 000's object mix at scale)."""
 
 from soc.scenes.castle import castle
+from soc.scenes.city import city
 from soc.scenes.clutter import clutter
 from soc.scenes.dynamic import DynamicScene, dynamic_scene
 from soc.scenes.files import load
@@ -17,6 +19,7 @@ from soc.scenes.rooms import rooms, rooms_walk
 __all__ = [
     "DynamicScene",
     "castle",
+    "city",
     "clutter",
     "dynamic_scene",
     "load",

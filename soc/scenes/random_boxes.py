@@ -15,7 +15,7 @@ import numpy as np
 
 from soc.scenes.camera import Camera
 from soc.scenes.primitives import box, instance, trs
-from soc.scenes.scene import Scene
+from soc.scenes.scene import IndexedNames, Scene
 
 # Edge lengths of a box, in units of the mean spacing between box positions. Small against the
 # spacing, so the view stays sparse (depth complexity ~1-2 at every size): Table 1 then
@@ -74,15 +74,17 @@ def random_boxes(
 
     flagged = np.zeros(n, bool)
     k = round(occluders * n)
-    if k:
-        flagged[np.argsort(-size.prod(axis=1), kind="stable")[:k]] = True
+    if 0 < k < n:  # the k largest (volumes are continuous: no ties in practice)
+        flagged[np.argpartition(-size.prod(axis=1), k - 1)[:k]] = True
+    elif k == n:
+        flagged[:] = True
     return Scene(
         placed.vertices,
         placed.faces,
         placed.vertex_counts,
         placed.face_counts,
         flagged,
-        names=[f"box{i}" for i in range(n)],
+        names=IndexedNames(n, ("box",)),  # box0, box1, … formatted on access
         meta={
             "source": "random_boxes",
             "synthetic": True,

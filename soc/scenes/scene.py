@@ -2,7 +2,10 @@
 
 All geometry is stored concatenated (one vertex array, one face array with object-local
 indices, per-object offsets) so that it can be uploaded to OpenGL once and addressed by
-index ranges afterwards; ``scene.meshes[i]`` is a zero-copy view of object ``i``.
+index ranges afterwards; ``scene.meshes[i]`` is a zero-copy view of object ``i``, made when it
+is asked for. Nothing is kept per object but rows of flat arrays (names too are formatted on
+access unless given), so a scene of a million objects costs its arrays: checking the faces and
+computing the AABBs is one numba pass without temporaries of the face array's size.
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any
 
+import numba
 import numpy as np
 
 from soc.errors import SceneError
@@ -58,6 +62,70 @@ def _readonly(a: np.ndarray) -> np.ndarray:
     return a
 
 
+class IndexedNames(Sequence):
+    """Object names formatted on access: ``f"{labels[kind[i]]}{i}"`` (no string per object is
+    stored; a million-object scene's names cost its ``kind`` array).
+
+    Parameters
+    ----------
+    n : int
+        Number of objects.
+    labels : sequence of str
+        Name prefix per kind (default ``("object",)``).
+    kind : (n,) int, optional
+        Each object's index into ``labels`` (default all 0).
+    """
+
+    def __init__(self, n: int, labels: Sequence[str] = ("object",), kind=None):
+        self._n = int(n)
+        self.labels = tuple(labels)
+        self.kind = None if kind is None else _readonly(np.asarray(kind, np.int64).copy())
+        if self.kind is not None and (
+            self.kind.shape != (self._n,)
+            or (self.kind < 0).any()
+            or (self.kind >= len(labels)).any()
+        ):
+            raise SceneError(f"kind must be ({n},) indices into {len(labels)} labels")
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, i):  # type: ignore[override]
+        if isinstance(i, slice):
+            return tuple(self[j] for j in range(*i.indices(self._n)))
+        i = range(self._n)[i]
+        return f"{self.labels[0 if self.kind is None else self.kind[i]]}{i}"
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Sequence) or len(other) != self._n:
+            return False
+        return all(a == b for a, b in zip(self, other, strict=True))
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+@numba.njit(cache=True)
+def _check_and_bound(vertices, faces, vertex_offsets, face_offsets, aabbs):  # pragma: no cover
+    """AABBs (N, 2, 3) of the vertices each object's faces reference, checking every index
+    against its object's vertex count; returns the first face with a bad index, or -1."""
+    for obj in range(len(face_offsets) - 1):
+        v0 = vertex_offsets[obj]
+        nv = vertex_offsets[obj + 1] - v0
+        lo0 = lo1 = lo2 = np.float32(np.inf)
+        hi0 = hi1 = hi2 = np.float32(-np.inf)
+        for f in range(face_offsets[obj], face_offsets[obj + 1]):
+            for c in range(3):
+                k = faces[f, c]
+                if k < 0 or k >= nv:
+                    return f
+                x, y, z = vertices[v0 + k, 0], vertices[v0 + k, 1], vertices[v0 + k, 2]
+                lo0, lo1, lo2 = min(lo0, x), min(lo1, y), min(lo2, z)
+                hi0, hi1, hi2 = max(hi0, x), max(hi1, y), max(hi2, z)
+        aabbs[obj, 0, 0], aabbs[obj, 0, 1], aabbs[obj, 0, 2] = lo0, lo1, lo2
+        aabbs[obj, 1, 0], aabbs[obj, 1, 1], aabbs[obj, 1, 2] = hi0, hi1, hi2
+    return -1
+
+
 class Scene:
     """Objects (triangle meshes, world space), their AABBs and which of them are occluders.
 
@@ -77,7 +145,9 @@ class Scene:
     triangle_counts : (N,) int64
     mesh_counts : (N,) int64
         Draw calls the source engine issues per object (1 unless a loader knows better).
-    names : tuple[str, ...]
+    names : Sequence[str]
+        A tuple when given as a list or tuple; else formatted on access
+        (:class:`IndexedNames`: ``object0``, ``object1``, … by default).
     meta : Mapping[str, Any]
         Free-form provenance (``"synthetic"``, ``"source"``, ``"focus"``…), read-only.
     """
@@ -128,14 +198,19 @@ class Scene:
 
         vertex_offsets = np.concatenate([[0], np.cumsum(vertex_counts)])
         face_offsets = np.concatenate([[0], np.cumsum(face_counts)])
-        owner_counts = np.repeat(vertex_counts, face_counts)
-        faces = faces.astype(np.int64, copy=False)
-        if (faces < 0).any() or (faces >= owner_counts[:, None]).any():
-            bad_f = int(np.flatnonzero(((faces < 0) | (faces >= owner_counts[:, None])).any(1))[0])
+        if faces.dtype not in (np.int32, np.int64):  # the two the check is compiled for
+            faces = faces.astype(np.int64)
+        aabbs = np.empty((n, 2, 3), np.float32)
+        bad_f = int(
+            _check_and_bound(
+                vertices, np.ascontiguousarray(faces), vertex_offsets, face_offsets, aabbs
+            )
+        )
+        if bad_f >= 0:
             obj = int(np.searchsorted(face_offsets, bad_f, side="right") - 1)
             raise SceneError(
                 f"face {bad_f} (object {obj}) indexes {faces[bad_f].tolist()} but the object has "
-                f"{owner_counts[bad_f]} vertices"
+                f"{vertex_counts[obj]} vertices"
             )
 
         self.vertices = _readonly(vertices)
@@ -147,21 +222,16 @@ class Scene:
         self.mesh_counts = _readonly(
             np.ones(n, np.int64) if mesh_counts is None else np.asarray(mesh_counts, np.int64)
         )
-        self.aabbs = _readonly(self._referenced_aabbs())
-        self.names = tuple(names) if names is not None else tuple(f"object{i}" for i in range(n))
+        self.aabbs = _readonly(aabbs)  # over the vertices faces reference (others draw nothing)
+        if names is None:
+            self.names: Sequence[str] = IndexedNames(n)
+        elif isinstance(names, Sequence) and not isinstance(names, (list, tuple, str)):
+            self.names = names  # a lazy sequence (IndexedNames) stays lazy
+        else:
+            self.names = tuple(names)
         if len(self.names) != n or len(self.mesh_counts) != n:
             raise SceneError(f"names/mesh_counts must have {n} entries")
         self.meta = MappingProxyType(dict(meta or {}))
-
-    def _referenced_aabbs(self) -> np.ndarray:
-        """AABBs over vertices that faces reference (unreferenced vertices draw nothing)."""
-        owner = np.repeat(np.arange(len(self)), self.triangle_counts)
-        global_idx = self.faces + self.vertex_offsets[owner][:, None]
-        tri = self.vertices[global_idx]  # (F, 3, 3)
-        starts = self.face_offsets[:-1]  # every object has >= 1 face, so reduceat is exact
-        lo = np.minimum.reduceat(tri.min(axis=1), starts)
-        hi = np.maximum.reduceat(tri.max(axis=1), starts)
-        return np.stack([lo, hi], axis=1).astype(np.float32)
 
     # -- constructors -----------------------------------------------------------------------
 

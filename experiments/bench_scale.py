@@ -1,0 +1,459 @@
+"""``make bench`` scale section: what culling costs as a scene grows from 10⁴ to 10⁶ objects
+(issue 24), with the object hierarchy (the default) and without it (every box tested).
+
+Two parts, each size in a process of its own (its peak RSS is the scene's):
+
+1. **Random boxes** (``soc.scenes.random_boxes(n, occluders=0.02)``, seed 004's Table 1
+   scenes: the cube grows with ``n``, the density stays) seen from a camera at the cube's
+   centre at 1280×720, for ``n`` = 10⁴, 10⁵, 10⁶, from two views: **same view** — one camera
+   (eye, direction, far plane) at every size, whose frustum holds ≈ 1 % of the million boxes,
+   so what is in view stays (≈ 10⁴ boxes) while the scene grows; and **1 % in view** — the far
+   plane scaled with the cube, so ≈ 1 % of every scene is in view (the issue's table). Every
+   method culls the same :data:`FRAMES` frames (the camera turning 0.3° a frame), interleaved;
+   medians of cull ms, GL timer ms where the method reports one (``FrameStats.gpu_ms``), the
+   hierarchy walk's nodes visited and boxes tested.
+2. **The city** (``soc.scenes.city()``, 10⁶ objects): load time and memory, then the floor
+   bench (:func:`experiments.bench_floor.run_floor`: every method culls the seed-000 flight at
+   1920×1080 beside the exact oracle and the ideal draw) for the issue's targets.
+
+    python -m experiments.bench --only scale [--frames 30]
+    python -m experiments.bench_scale --sizes 10000,100000 --city-frames 0   # quick look
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import multiprocessing
+import resource
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+SIZES = (10_000, 100_000, 1_000_000)
+RESOLUTION = (1280, 720)
+CITY_RESOLUTION = (1920, 1080)
+FRAMES = 24  # medians over this many frames (12 left load spikes in sub-ms rows)
+TURN_DEGREES = 0.3  # the camera's turn per frame
+IN_VIEW = 0.01  # the fraction of the million boxes in the same view's frustum
+VIEWS = ("same view", "1 % in view")
+# Every method at every size; flat (hierarchy=False) rows are the reference the walk replaces.
+# The CPU methods run on one thread: on this shared 2-core machine a numba parallel region
+# costs 10-80 ms when other processes hold the cores (measured), which would hide the tests.
+SPECS = (
+    "frustum",
+    "frustum(hierarchy=False)",
+    "masked(threads=1)",
+    "masked(threads=1, hierarchy=False)",
+    "hiz-cpu(threads=1)",
+    "hiz-cpu(threads=1, hierarchy=False)",
+    "hiz-2phase(threads=1)",
+    "hiz-2phase(threads=1, hierarchy=False)",
+    "hiz-gpu",
+)
+SMALL_ONLY = ("queries",)  # per-object GL queries: at the smallest size only
+CITY_SPECS = (
+    "frustum",
+    "masked",
+    "hiz-cpu",
+    "hiz-2phase",
+    "hiz-gpu",
+    "hiz-2phase(threads=1)",
+    "hiz-2phase(occluders_first=True)",
+    "hiz-2phase(occluders_first=True, threads=1)",
+)
+# Issue 24's targets.
+TARGET_FRUSTUM_MS = 2.0  # frustum culling of 10⁶ boxes, ≈ 1 % in view
+TARGET_GROWTH = 3.2  # cull time 10⁵ → 10⁶ at the same view (exponent 0.5)
+GROWTH_METHODS = ("frustum", "masked(threads=1)", "hiz-2phase(threads=1)")
+TARGET_CITY_CULL_MS = 10.0  # hiz-2phase on the million-object scene
+TARGET_CITY_IDEAL = 1.2  # its cull + draw over the ideal frame
+TARGET_LOAD_S, TARGET_RSS_GIB = 15.0, 4.0
+
+
+def _rss_mib() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def scale_cameras(scene, view: str, frames: int, resolution=RESOLUTION) -> list:
+    """``frames`` cameras at the centre of a random-box cube, turning :data:`TURN_DEGREES` a
+    frame; the far plane holds :data:`IN_VIEW` of the million-box cube (``"same view"``) or
+    of this cube (``"1 % in view"``)."""
+    import soc
+
+    w, h = resolution
+    # Frustum volume = (4/3) tan²(fov/2) · aspect · far³ for a 60° field of view.
+    volume = 4.0 / 3.0 * math.tan(math.radians(30.0)) ** 2 * (w / h)
+    extent = float(scene.meta["extent"])
+    if view == "same view":  # the million-box cube's side, whatever this cube's
+        extent = float(scene.meta["spacing"]) * SIZES[-1] ** (1.0 / 3.0)
+    elif view != "1 % in view":
+        raise ValueError(f"view must be one of {VIEWS}, got {view!r}")
+    far = (IN_VIEW * extent**3 / volume) ** (1.0 / 3.0)
+    eye = np.array([0.31, 0.17, -0.23])  # off the exact centre: no box edge on the axis
+    cams = []
+    for i in range(frames):
+        a = math.radians(25.0 + TURN_DEGREES * i)
+        d = np.array([math.cos(a), 0.25, math.sin(a)])
+        cams.append(soc.Camera.look_at(eye, eye + d, fov_y=60.0, width=w, height=h,
+                                       near=0.1, far=far))  # fmt: skip
+    return cams
+
+
+def _measure_size(n: int, frames: int, specs: tuple[str, ...]) -> dict:
+    """One size in this process: build, then per view every method over the frames
+    (interleaved); the rows and this process's load and peak RSS."""
+    import soc
+    from experiments.bench_floor import parse_spec
+    from soc.culling.hierarchy import Hierarchy
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    scene = soc.scenes.random_boxes(n, seed=0, occluders=0.02)
+    load_s, load_cpu = time.perf_counter() - t0, time.process_time() - c0
+    rss_scene = _rss_mib()
+    t0 = time.perf_counter()
+    Hierarchy.for_scene(scene)
+    hier_s = time.perf_counter() - t0
+    rows = []
+    for view in VIEWS:
+        cams = scale_cameras(scene, view, frames)
+        in_view = [int(soc.aabbs_in_frustum(scene.aabbs, c).sum()) for c in cams]
+        cullers = {}
+        for spec in specs:
+            name, options = parse_spec(spec)
+            cullers[spec] = soc.Culler(scene, name, RESOLUTION, **options)
+        try:
+            for c in cullers.values():  # warm-up: compile, allocate
+                c.cull(cams[0])
+                c.reset()
+            for i, cam in enumerate(cams):
+                for spec in np.roll(list(cullers), -i).tolist():
+                    c = cullers[spec]
+                    r = c.cull(cam)
+                    walk = getattr(c.method, "last_walk", None)
+                    gpu = [v for k, v in r.stats.gpu_ms.items() if k != "draw"]
+                    rows.append({
+                        "objects": n, "view": view, "frame": i, "method": spec,
+                        "in view": in_view[i], "kept": int(r.visible.sum()),
+                        "cull ms": r.stats.cull_ms,
+                        "gpu ms": float(sum(gpu)) if gpu else math.nan,
+                        "nodes": walk.nodes if walk is not None else math.nan,
+                        "box tests": walk.tests if walk is not None else math.nan,
+                    })  # fmt: skip
+        finally:
+            for c in cullers.values():
+                c.close()
+    return {
+        "rows": rows,
+        "info": {"objects": n, "load s": load_s, "load cpu s": load_cpu,
+                 "hierarchy s": hier_s, "rss scene MiB": rss_scene, "peak rss MiB": _rss_mib()},
+    }  # fmt: skip
+
+
+def _measure_city(frames: int, specs: tuple[str, ...], objects: int) -> dict:
+    """The city of ``objects`` objects in this process: load, the hierarchy, the floor run."""
+    import soc
+    from experiments import bench_floor
+    from soc.culling.hierarchy import Hierarchy
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    scene = soc.scenes.city(seed=0, objects=objects)
+    load_s, load_cpu = time.perf_counter() - t0, time.process_time() - c0
+    rss_scene = _rss_mib()
+    t0 = time.perf_counter()
+    h = Hierarchy.for_scene(scene)
+    hier_s = time.perf_counter() - t0
+    cams = soc.scenes.paths.flight(scene, frames=frames, width=CITY_RESOLUTION[0],
+                                   height=CITY_RESOLUTION[1])  # fmt: skip
+    nodes = [h.in_frustum(c)[1].nodes for c in cams]
+    result = bench_floor.run_floor(scene, frames, list(specs), label="city", cameras=cams,
+                                   resolution=CITY_RESOLUTION, progress=False)  # fmt: skip
+    return {
+        "frames": result.frames,
+        "floor": result.floor,
+        "info": {"objects": len(scene), "triangles": int(scene.triangle_counts.sum()),
+                 "occluders": int(scene.occluder.sum()), "load s": load_s,
+                 "load cpu s": load_cpu, "hierarchy s": hier_s, "hierarchy nodes": len(h),
+                 "frustum walk nodes (median)": float(np.median(nodes)),
+                 "rss scene MiB": rss_scene, "peak rss MiB": _rss_mib()},
+    }  # fmt: skip
+
+
+def _in_child(fn, *args):
+    """``fn(*args)`` in a fresh process (spawned: its own GL context and its own peak RSS)."""
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        return pool.apply(fn, args)
+
+
+def run(
+    frames: int = FRAMES,
+    sizes=SIZES,
+    city_frames: int = 30,
+    progress: bool = True,
+    city_objects: int = 1_000_000,
+) -> dict[str, pd.DataFrame]:
+    """Both parts; DataFrames ``frames`` (random boxes: frame × size × view × method),
+    ``sizes`` (load and memory per size), ``city`` (the city's floor rows), ``city_floor``
+    (its floor items) and ``city_info`` (one row)."""
+    rows, infos = [], []
+    for i, n in enumerate(sizes):
+        specs = SPECS + (SMALL_ONLY if i == 0 else ())
+        t0 = time.perf_counter()
+        out = _in_child(_measure_size, int(n), int(frames), specs)
+        rows += out["rows"]
+        infos.append(out["info"])
+        if progress:
+            print(f"bench scale: {n:,} boxes in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+    frames_df = pd.DataFrame(rows)
+    result = {"frames": frames_df, "sizes": pd.DataFrame(infos)}
+    if city_frames:
+        t0 = time.perf_counter()
+        city = _in_child(_measure_city, int(city_frames), CITY_SPECS, int(city_objects))
+        result["city"], result["city_floor"] = city["frames"], city["floor"]
+        result["city_info"] = pd.DataFrame([city["info"]])
+        if progress:
+            print(f"bench scale: city in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+    return result
+
+
+# -- tables and the figure ---------------------------------------------------------------------
+
+
+def summary(frames: pd.DataFrame) -> pd.DataFrame:
+    """Per view × method × size: medians over frames."""
+    g = frames.groupby(["view", "method", "objects"], sort=False)
+    return g[["in view", "kept", "cull ms", "gpu ms", "nodes", "box tests"]].median().reset_index()
+
+
+def growth(s: pd.DataFrame) -> pd.DataFrame:
+    """Per view × method: cull ms at each size, the 10⁵ → 10⁶ ratio and the exponent."""
+    wide = s.pivot_table(index=["view", "method"], columns="objects", values="cull ms",
+                         sort=False)  # fmt: skip
+    out = wide.reset_index()
+    out.columns = ["view", "method", *[f"{c:,} ms" for c in wide.columns]]
+    if {100_000, 1_000_000} <= set(wide.columns):
+        ratio = wide[1_000_000] / wide[100_000]
+        out["10⁵→10⁶ ×"] = ratio.values
+        out["exponent"] = np.log10(ratio.values)
+    return out
+
+
+def targets(s: pd.DataFrame, city: pd.DataFrame | None) -> pd.DataFrame:
+    """Issue 24's targets with the measured value and met / missed."""
+    rows = []
+
+    def add(target, measured, ok):
+        rows.append({"target": target, "measured": measured, "met": "yes" if ok else "no"})
+
+    def ms(view, method, n):
+        v = s[(s["view"] == view) & (s["method"] == method) & (s["objects"] == n)]["cull ms"]
+        return float(v.iloc[0]) if len(v) else math.nan
+
+    f = ms("1 % in view", "frustum", 1_000_000)
+    if not math.isnan(f):
+        add(f"frustum, 10⁶ boxes, ≈ 1 % in view: ≤ {TARGET_FRUSTUM_MS} ms", f"{f:.2f} ms",
+            f <= TARGET_FRUSTUM_MS)  # fmt: skip
+    for view in VIEWS:
+        for m in GROWTH_METHODS:
+            a, b = ms(view, m, 100_000), ms(view, m, 1_000_000)
+            if not (math.isnan(a) or math.isnan(b)):
+                add(f"{m}, {view}: cull time 10⁵ → 10⁶ ≤ {TARGET_GROWTH}×", f"{b / a:.2f}×",
+                    b / a <= TARGET_GROWTH)  # fmt: skip
+    if city is not None and len(city):
+        from experiments import bench_floor
+
+        cs = bench_floor.summarize(_floor_result(city))
+        two = cs[cs["method"].str.startswith("hiz-2phase")]
+        if len(two):  # the best variant for each target, named
+            r = two.loc[two["cull ms"].idxmin()]
+            add(f"city: hiz-2phase cull ≤ {TARGET_CITY_CULL_MS:.0f} ms ({r['method']})",
+                f"{r['cull ms']:.2f} ms", r["cull ms"] <= TARGET_CITY_CULL_MS)  # fmt: skip
+            r = two.loc[two["÷ ideal"].idxmin()]
+            add(f"city: hiz-2phase cull + draw ≤ {TARGET_CITY_IDEAL}× ideal, 1080p ({r['method']})",
+                f"{r['÷ ideal']:.2f}×", r["÷ ideal"] <= TARGET_CITY_IDEAL)  # fmt: skip
+        cons = cs[cs["conservative"] == "yes"]
+        worst = int(cons["false culls (max)"].max())
+        add("city: every conservative method 0 false culls (oracle)", f"{worst} (max)", worst == 0)
+    return pd.DataFrame(rows)
+
+
+def _floor_result(city: pd.DataFrame):
+    from experiments.bench_floor import FloorResult
+
+    return FloorResult(city, pd.DataFrame(), "city", 0, int(city["frame"].nunique()),
+                       CITY_RESOLUTION)  # fmt: skip
+
+
+def plot(frames: pd.DataFrame):
+    """Cull ms against objects (log-log), one panel per view: each method with the hierarchy
+    (solid) and testing every box (dashed); the grey line has slope 1 (cost ∝ objects)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    s = summary(frames)
+    fig, axes = plt.subplots(1, len(VIEWS), figsize=(11, 4.2), sharey=True)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    bases = list(dict.fromkeys(m.split("(")[0] for m in s["method"]))
+    for ax, view in zip(np.atleast_1d(axes), VIEWS, strict=True):
+        sv = s[s["view"] == view]
+        for method in dict.fromkeys(sv["method"]):
+            d = sv[sv["method"] == method].sort_values("objects")
+            base = method.split("(")[0]
+            flat = "hierarchy=False" in method
+            ax.plot(d["objects"], d["cull ms"], "--" if flat else "-o", ms=4,
+                    color=colors[bases.index(base) % len(colors)],
+                    label=f"{base} (every box)" if flat else base)  # fmt: skip
+        x = np.array([SIZES[0], SIZES[-1]], float)
+        lo = max(float(sv["cull ms"].min()), 1e-2)
+        ax.plot(x, lo * x / x[0], color="0.7", lw=1, zorder=0)
+        ax.set(xscale="log", yscale="log", xlabel="objects", title=view)
+        ax.grid(True, which="both", lw=0.3)
+    np.atleast_1d(axes)[0].set_ylabel("cull ms (median over frames)")
+    handles, labels = np.atleast_1d(axes)[0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="lower center", ncol=6, frameon=False)
+    fig.suptitle("Culling cost against scene size: random boxes, 2 % occluders, 1280×720")
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
+    return fig
+
+
+def markdown(result: dict[str, pd.DataFrame], command: str, figure: str | None = None) -> str:
+    """The ``scale`` section of BENCHMARKS.md."""
+    import soc.gl.context
+    from experiments.markdown import markdown_table
+
+    s = summary(result["frames"])
+    n_frames = int(result["frames"]["frame"].nunique())
+    glctx = soc.gl.context.default_context()
+    load = result["sizes"].copy()
+    parts = [
+        "## Culling cost against scene size (issue 24)",
+        "",
+        f"`{command}` on {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}: "
+        f"{glctx.ctx.info['GL_RENDERER']} with {glctx.threads} threads; each size in a process "
+        "of its own. Random boxes (`soc.scenes.random_boxes(n, occluders=0.02)`) from a camera "
+        f"at the cube's centre, {RESOLUTION[0]}×{RESOLUTION[1]}, {n_frames} frames turning "
+        f"{TURN_DEGREES}° each, methods interleaved; medians over frames. "
+        "'same view': one camera at every size (≈ 1 % of the million boxes in its frustum); "
+        "'1 % in view': its far plane scaled with the cube. Methods without options walk the "
+        "object hierarchy; `(hierarchy=False)` rows test every box (the reference). 'nodes': "
+        "hierarchy nodes the walk visited; 'box tests': node and object boxes tested against "
+        "the occluder depth; 'gpu ms': GL timer where the method reports one (empty: none).",
+        "",
+    ]
+    if figure:
+        parts += [f"![scale]({figure})", ""]
+    parts += [
+        "### Cull ms against objects",
+        "",
+        markdown_table(growth(s), {"exponent": ".2f", "10⁵→10⁶ ×": ".2f"}),
+        "",
+        "### Per size (medians)",
+        "",
+        markdown_table(
+            s,
+            {
+                "cull ms": ".3f",
+                "gpu ms": ".2f",
+                "in view": ".0f",
+                "kept": ".0f",
+                "nodes": ".0f",
+                "box tests": ".0f",
+            },
+        ),
+        "",
+        "### Scene build and memory per size (one process each)",
+        "",
+        markdown_table(
+            load,
+            {
+                "load s": ".1f",
+                "load cpu s": ".1f",
+                "hierarchy s": ".2f",
+                "rss scene MiB": ".0f",
+                "peak rss MiB": ".0f",
+            },
+        ),
+    ]
+    city = result.get("city")
+    if city is not None:
+        from experiments import bench_floor
+
+        info = result["city_info"].iloc[0]
+        cs = bench_floor.summarize(_floor_result(city))
+        stages = [c for c in city.columns if c.startswith("ms_")]
+        st = city.groupby("method", sort=False)[stages].mean().dropna(axis=1, how="all")
+        st = st.dropna(how="all").reset_index()
+        st.columns = ["method", *[c[3:] for c in st.columns[1:]]]
+        parts += [
+            "",
+            f"### The city (`soc.scenes.city(objects={int(info['objects'])})`)",
+            "",
+            f"{int(info['objects']):,} objects ({int(info['occluders']):,} occluders: buildings "
+            f"and ground tiles), {int(info['triangles']):,} triangles; built in "
+            f"{info['load s']:.1f} s ({info['load cpu s']:.1f} s of CPU), "
+            f"{info['rss scene MiB']:.0f} MiB peak RSS after the build, "
+            f"{info['peak rss MiB']:.0f} MiB for the whole run (scene, GL upload, oracle, "
+            f"methods); its hierarchy ({int(info['hierarchy nodes']):,} nodes) in "
+            f"{info['hierarchy s']:.2f} s; the frustum walk visits "
+            f"{info['frustum walk nodes (median)']:.0f} nodes a frame (median). "
+            f"{int(city['frame'].nunique())} frames of the seed-000 flight at "
+            f"{CITY_RESOLUTION[0]}×{CITY_RESOLUTION[1]} (the central district's flight, the "
+            "city round it up to the far plane), the floor bench's run "
+            "(`experiments.bench_floor.run_floor`, methods interleaved, exact oracle):",
+            "",
+            markdown_table(cs),
+            "",
+            "Cull stages (mean ms per frame):",
+            "",
+            markdown_table(st),
+        ]
+    t = targets(s, city)
+    parts += ["", "### Issue 24 targets", ""]
+    parts += [markdown_table(t) if len(t) else "None applies to the sizes run."]
+    return "\n".join(parts)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default=",".join(str(n) for n in SIZES))
+    ap.add_argument("--frames", type=int, default=FRAMES)
+    ap.add_argument("--city-frames", type=int, default=30, help="0: no city run")
+    ap.add_argument("--out", default="results")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    result = run(args.frames, [int(n) for n in args.sizes.split(",")], args.city_frames)
+    write(result, out, f"python -m experiments.bench_scale --sizes {args.sizes} "
+                       f"--frames {args.frames} --city-frames {args.city_frames}")  # fmt: skip
+    return 0
+
+
+def write(result: dict[str, pd.DataFrame], out: Path, command: str) -> str:
+    """CSVs, ``scale.png`` and the ``scale`` section of ``out/BENCHMARKS.md`` (and, when
+    ``out`` is the checkout's ``results/``, a small copy of the figure in ``docs/gallery/``);
+    returns the file's text."""
+    from experiments.markdown import replace_section
+
+    for key, df in result.items():
+        df.to_csv(out / f"scale-{key}.csv", index=False)
+    fig = plot(result["frames"])
+    fig.savefig(out / "scale.png", dpi=110)
+    link = "scale.png"  # results/ is not in git: in the checkout, a small copy is (README)
+    gallery = Path(__file__).resolve().parents[1] / "docs" / "gallery"
+    if gallery.is_dir() and out.resolve() == gallery.parents[1] / "results":
+        from experiments.gallery import shrink
+
+        shrink(out / "scale.png", gallery / "scale.png")
+        link = "../docs/gallery/scale.png"
+    text = replace_section(out / "BENCHMARKS.md", "scale", markdown(result, command, link))
+    print(text.split("<!-- begin scale -->")[1].split("<!-- end scale -->")[0])
+    return text
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,64 @@
+"""The scale section of ``make bench`` on tiny inputs: its DataFrames, tables, figure and
+targets (experiments.bench_scale)."""
+
+import math
+
+import numpy as np
+import pytest
+
+import soc
+from experiments import bench_scale
+
+
+@pytest.fixture(scope="module")
+def result():
+    return bench_scale.run(frames=2, sizes=(1500, 3000), city_frames=2, progress=False,
+                           city_objects=1500)  # fmt: skip
+
+
+def test_every_size_view_and_method_has_its_frames(result):
+    df = result["frames"]
+    assert set(df["objects"]) == {1500, 3000} and set(df["view"]) == set(bench_scale.VIEWS)
+    per = df.groupby(["objects", "view", "method"]).size()
+    assert (per == 2).all()
+    assert "queries" in set(df[df["objects"] == 1500]["method"])
+    assert "queries" not in set(df[df["objects"] == 3000]["method"])
+    # The walk and the flat test keep the same objects, frame by frame.
+    for base in ("frustum", "masked(threads=1", "hiz-cpu(threads=1", "hiz-2phase(threads=1"):
+        walk = df[df["method"].isin([base if base == "frustum" else base + ")"])]
+        flat = df[df["method"] == (base + "(hierarchy=False)" if base == "frustum"
+                                   else base + ", hierarchy=False)")]  # fmt: skip
+        np.testing.assert_array_equal(walk["kept"].values, flat["kept"].values)
+        assert walk["nodes"].notna().all() == (base != "frustum")
+    assert (df["cull ms"] >= 0).all() and (df["in view"] >= df["kept"]).all()
+    sizes = result["sizes"]
+    assert list(sizes["objects"]) == [1500, 3000] and (sizes["peak rss MiB"] > 0).all()
+
+
+def test_same_view_keeps_the_frustum_and_scaled_view_keeps_the_fraction():
+    """'same view': one frustum at every size (the million-box cube's 1 %); '1 % in view':
+    the far plane scaled with the cube."""
+    small, large = soc.scenes.random_boxes(8_000), soc.scenes.random_boxes(64_000)
+    same = [bench_scale.scale_cameras(s, "same view", 1)[0] for s in (small, large)]
+    assert same[0].far == same[1].far
+    scaled = [bench_scale.scale_cameras(s, "1 % in view", 1)[0] for s in (small, large)]
+    assert scaled[1].far == pytest.approx(2 * scaled[0].far)
+    frac = soc.aabbs_in_frustum(large.aabbs, scaled[1]).mean()
+    assert 0.005 < frac < 0.02
+    with pytest.raises(ValueError, match="view"):
+        bench_scale.scale_cameras(small, "sideways", 1)
+
+
+def test_markdown_figure_and_targets(result, tmp_path):
+    text = bench_scale.write(result, tmp_path, "python -m experiments.bench --only scale")
+    assert (tmp_path / "scale.png").stat().st_size > 1000
+    assert "<!-- begin scale -->" in text and "### Issue 24 targets" in text
+    assert "### The city" in text and "hiz-2phase" in text
+    for key in ("frames", "sizes", "city", "city_floor", "city_info"):
+        assert (tmp_path / f"scale-{key}.csv").exists()
+    t = bench_scale.targets(bench_scale.summary(result["frames"]), result["city"])
+    assert "city: every conservative method 0 false culls (oracle)" in set(t["target"])
+    assert (t.loc[t["target"].str.contains("false culls"), "met"] == "yes").all()
+    g = bench_scale.growth(bench_scale.summary(result["frames"]))
+    assert {"view", "method", "1,500 ms", "3,000 ms"} <= set(g.columns)
+    assert not any(math.isnan(v) for v in g["1,500 ms"])
