@@ -634,6 +634,37 @@ def build_clusters(
     )
 
 
+def whole_objects(scene) -> Clusters:
+    """One "cluster" per object holding all its triangles in the scene's order: what the
+    culling of clusters does with objects (``gpu-driven(granularity="object")``). Bounds are
+    the objects' AABBs and their bounding spheres; no cones. Key ``"objects"`` (unique per
+    scene, not cached)."""
+    n = len(scene)
+    lo, hi = scene.aabbs[:, 0].astype(np.float64), scene.aabbs[:, 1].astype(np.float64)
+    centre = (0.5 * (lo + hi)).astype(np.float32)
+    owner = np.repeat(np.arange(n), scene.triangle_counts)
+    corners = scene.vertices[_global_faces(scene)].astype(np.float64)
+    d = np.linalg.norm(corners - centre[owner][:, None].astype(np.float64), axis=2)
+    radius = np.maximum.reduceat(d.max(axis=1), scene.face_offsets[:-1])
+    return Clusters(
+        order=np.arange(len(scene.faces), dtype=np.int64),
+        first=np.asarray(scene.face_offsets[:-1], np.int64),
+        count=np.asarray(scene.triangle_counts, np.int32),
+        object=np.arange(n, dtype=np.int32),
+        object_clusters=np.arange(n + 1, dtype=np.int64),
+        aabbs=np.asarray(scene.aabbs, np.float32),
+        spheres=np.concatenate(
+            [centre, np.nextafter(radius.astype(np.float32), np.float32(np.inf))[:, None]], 1
+        ),
+        cone_axis=np.zeros((n, 3), np.float32),
+        cone_cutoff=np.full(n, NO_CONE, np.float32),
+        cone_apex=np.zeros((n, 3), np.float32),
+        max_triangles=int(scene.triangle_counts.max()),
+        cone_weight=0.0,
+        key="objects",
+    )
+
+
 def _check_params(max_triangles, cone_weight) -> tuple[int, float]:
     if not (isinstance(max_triangles, int | np.integer) and max_triangles >= 1):
         raise ValueError(f"max_triangles must be an integer >= 1, got {max_triangles!r}")
