@@ -43,9 +43,12 @@ vec3 object_hi(uint o) { return vec3(object_boxes[6u * o + 3u], object_boxes[6u 
 vec3 cluster_lo(uint c) { return vec3(cluster_boxes[6u * c], cluster_boxes[6u * c + 1u], cluster_boxes[6u * c + 2u]); }
 vec3 cluster_hi(uint c) { return vec3(cluster_boxes[6u * c + 3u], cluster_boxes[6u * c + 4u], cluster_boxes[6u * c + 5u]); }
 
-// Append one draw command of `pass`: `count` indices from `first` of object `o`.
+// Append one draw command of `pass`: `count` indices from `first` of object `o`. A pass writes
+// at most one command per cluster, so the slot never reaches max_commands (checked anyway).
 void emit(uint pass, uint first, uint count, uint base_vertex, uint o) {
-    uint at = 5u * (pass * max_commands + atomicAdd(frame[FRAME_COMMANDS + pass], 1u));
+    uint slot = atomicAdd(frame[FRAME_COMMANDS + pass], 1u);
+    if (slot >= max_commands) return;
+    uint at = 5u * (pass * max_commands + slot);
     commands[at] = count;
     commands[at + 1u] = 1u;
     commands[at + 2u] = first;
