@@ -187,86 +187,64 @@ def _global_faces(scene) -> np.ndarray:
     return scene.faces.astype(np.int64) + scene.vertex_offsets[owner][:, None]
 
 
-@numba.njit(cache=True, parallel=True)
-def _triangle_data(vertices, gfaces):
+def _triangle_data(vertices: np.ndarray, gfaces: np.ndarray):
     """Per triangle (float64): centroid (F, 3), unit normal by the winding (F, 3; zero when
     degenerate) and area (F,)."""
-    n = gfaces.shape[0]
-    centroids = np.empty((n, 3))
-    normals = np.zeros((n, 3))
-    areas = np.empty(n)
-    for t in numba.prange(n):
-        a, b, c = vertices[gfaces[t, 0]], vertices[gfaces[t, 1]], vertices[gfaces[t, 2]]
-        u = (np.float64(b[0]) - a[0], np.float64(b[1]) - a[1], np.float64(b[2]) - a[2])
-        v = (np.float64(c[0]) - a[0], np.float64(c[1]) - a[1], np.float64(c[2]) - a[2])
-        nx, ny, nz = u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]
-        nl = np.sqrt(nx * nx + ny * ny + nz * nz)
-        for k in range(3):
-            centroids[t, k] = (np.float64(a[k]) + b[k] + c[k]) / 3.0
-        if nl > 0:
-            normals[t, 0], normals[t, 1], normals[t, 2] = nx / nl, ny / nl, nz / nl
-        areas[t] = 0.5 * nl
-    return centroids, normals, areas
+    tri = vertices[gfaces].astype(np.float64)  # (F, 3, 3)
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(cross, axis=1)
+    normals = cross / np.where(length > 0, length, 1.0)[:, None]
+    return tri.mean(axis=1), normals, 0.5 * length
+
+
+def _adjacency(tri_w: np.ndarray, n_welded: int) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles around each welded vertex as CSR: triangles ``tris[start[v]:start[v + 1]]``
+    hold vertex v."""
+    corners = tri_w.reshape(-1)
+    start = np.concatenate([[0], np.cumsum(np.bincount(corners, minlength=n_welded))])
+    return start.astype(np.int64), (np.argsort(corners, kind="stable") // 3).astype(np.int64)
+
+
+def _spread_bits(q: np.ndarray) -> np.ndarray:
+    """10-bit integers with two zero bits inserted between their bits (for Morton codes)."""
+    q = q.astype(np.int64) & 0x3FF
+    q = (q | (q << 16)) & 0x030000FF
+    q = (q | (q << 8)) & 0x0300F00F
+    q = (q | (q << 4)) & 0x030C30C3
+    return (q | (q << 2)) & 0x09249249
+
+
+def _morton_codes(points: np.ndarray, lo: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """(K,) int64 30-bit Morton codes of ``points`` (K, 3) quantized to 10 bits per axis in the
+    boxes ``lo`` + ``size`` (K, 3) each."""
+    q = np.clip((points - lo) / size * 1023.0, 0, 1023).astype(np.int64)
+    return _spread_bits(q[:, 0]) | _spread_bits(q[:, 1]) << 1 | _spread_bits(q[:, 2]) << 2
+
+
+def _morton_ranks(scene, centroids: np.ndarray, lo: np.ndarray, size: np.ndarray):
+    """(F,) int64 face indices sorted, inside each object's range, by the Morton code of their
+    centroid in the object's AABB; and (F,) int64 the codes in that order."""
+    owner = np.repeat(np.arange(len(scene)), scene.triangle_counts)
+    codes = _morton_codes(centroids, lo[owner], size[owner])
+    by_rank = np.argsort(owner.astype(np.int64) << 30 | codes, kind="stable")
+    return by_rank.astype(np.int64), codes[by_rank]
 
 
 @numba.njit(cache=True)
-def _adjacency(tri_w, n_welded):
-    """Triangles around each welded vertex as CSR: triangles ``tris[start[v]:start[v + 1]]``
-    hold vertex v (a counting sort)."""
-    start = np.zeros(n_welded + 1, np.int64)
-    for t in range(tri_w.shape[0]):
-        for j in range(3):
-            start[tri_w[t, j] + 1] += 1
-    for v in range(n_welded):
-        start[v + 1] += start[v]
-    fill = start[:-1].copy()
-    tris = np.empty(3 * tri_w.shape[0], np.int64)
-    for t in range(tri_w.shape[0]):
-        for j in range(3):
-            v = tri_w[t, j]
-            tris[fill[v]] = t
-            fill[v] += 1
-    return start, tris
-
-
-@numba.njit(cache=True, inline="always")
 def _morton_code(px, py, pz, lo, size):
-    """30-bit Morton code of (x, y, z) quantized to 10 bits per axis inside the box lo + size."""
-    q0 = min(max(int((px - lo[0]) / size[0] * 1023.0), 0), 1023)
-    q1 = min(max(int((py - lo[1]) / size[1] * 1023.0), 0), 1023)
-    q2 = min(max(int((pz - lo[2]) / size[2] * 1023.0), 0), 1023)
+    """The Morton code of one point as :func:`_morton_codes` computes it."""
     code = 0
-    for b in range(10):
-        code |= ((q0 >> b) & 1) << (3 * b)
-        code |= ((q1 >> b) & 1) << (3 * b + 1)
-        code |= ((q2 >> b) & 1) << (3 * b + 2)
+    for axis, p in enumerate((px, py, pz)):
+        q = min(max(int((p - lo[axis]) / size[axis] * 1023.0), 0), 1023)
+        for b in range(10):
+            code |= ((q >> b) & 1) << (3 * b + axis)
     return code
-
-
-@numba.njit(cache=True, parallel=True)
-def _morton_ranks(face_offsets, centroids, obj_lo, obj_size):
-    """(F,) int64 face indices sorted, inside each object's range, by the Morton code of their
-    centroid in the object's AABB; and (F,) int64 the codes in that order."""
-    by_rank = np.empty(centroids.shape[0], np.int64)
-    codes = np.empty(centroids.shape[0], np.int64)
-    for obj in numba.prange(len(face_offsets) - 1):
-        f0, f1 = face_offsets[obj], face_offsets[obj + 1]
-        own = np.empty(f1 - f0, np.int64)
-        for t in range(f0, f1):
-            own[t - f0] = _morton_code(
-                centroids[t, 0], centroids[t, 1], centroids[t, 2], obj_lo[obj], obj_size[obj]
-            )
-        idx = np.argsort(own, kind="mergesort")
-        for r in range(f1 - f0):
-            by_rank[f0 + r] = f0 + idx[r]
-            codes[f0 + r] = own[idx[r]]
-    return by_rank, codes
 
 
 # -- stage 2: grow --------------------------------------------------------------------------------
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _priority(t, tri_w, vstamp, live, cluster):
     """0: the triangle adds no vertex to the cluster; 1: it holds a vertex that no other free
     triangle holds (it would dangle); else 1 + the vertices it adds."""
@@ -285,7 +263,7 @@ def _priority(t, tri_w, vstamp, live, cluster):
     return 1 + extra
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _nearest_free(f0, f1, px, py, pz, lo, size, by_rank, codes, emitted, centroids, first_free):
     """The free triangle of faces [f0, f1) nearest (x, y, z) among the NEAREST_WINDOW triangles
     on each side of the point's place in Morton order; else the first free one in that order.
@@ -311,7 +289,7 @@ def _nearest_free(f0, f1, px, py, pz, lo, size, by_rank, codes, emitted, centroi
     return best, first_free
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _grow(
     face_offsets,
     tri_w,
@@ -328,20 +306,20 @@ def _grow(
     max_tri,
     cone_weight,
 ):
-    """Stage 2 over every object (in parallel): returns ``order`` (F,) the faces in cluster
+    """Stage 2 over every object: returns ``order`` (F,) the faces in cluster
     order and ``starts`` (F,) bool, True where a cluster begins."""
     n_faces = tri_w.shape[0]
     order = np.empty(n_faces, np.int64)
     starts = np.zeros(n_faces, np.bool_)
-    # Per welded vertex (objects own disjoint ids, so threads never share an entry): the last
-    # cluster holding it, and how many free triangles hold it.
+    # Per welded vertex (objects own disjoint ids): the last cluster holding it, and how many
+    # free triangles hold it.
     vstamp = np.zeros(n_welded, np.int64)
     live = np.zeros(n_welded, np.int32)
     for t in range(n_faces):
         for j in range(3):
             live[tri_w[t, j]] += 1
     fstamp = np.zeros(n_faces, np.int64)  # the last cluster whose frontier held the face
-    for obj in numba.prange(len(face_offsets) - 1):
+    for obj in range(len(face_offsets) - 1):
         f0, f1 = face_offsets[obj], face_offsets[obj + 1]
         m = f1 - f0
         if m <= max_tri:  # the whole object is one cluster, in its own order
@@ -436,14 +414,14 @@ def _grow(
 # -- stage 3: bounds ------------------------------------------------------------------------------
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _corner(vertices, gfaces, order, i, j):
     """Corner j of the i-th triangle in cluster order, float64 (x, y, z)."""
     v = gfaces[order[i], j]
     return np.float64(vertices[v, 0]), np.float64(vertices[v, 1]), np.float64(vertices[v, 2])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _unit_normal(vertices, gfaces, order, i):
     """(nx, ny, nz, ok) of the i-th triangle in cluster order: its unit normal by the winding,
     ok False when it is degenerate (area below DEGENERATE_AREA of its longest edge squared)."""
@@ -463,7 +441,7 @@ def _unit_normal(vertices, gfaces, order, i):
     return nx / nl, ny / nl, nz / nl, True
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _bounds(vertices, gfaces, order, first, count):
     """Stage 3: per cluster the AABB (C, 2, 3) float32, sphere (C, 4) float32 and cone (axis
     (C, 3), cutoff (C,), apex (C, 3) float32), see :class:`Clusters`."""
@@ -473,7 +451,7 @@ def _bounds(vertices, gfaces, order, first, count):
     axes = np.zeros((c_n, 3), np.float32)
     cutoffs = np.full(c_n, NO_CONE, np.float32)
     apexes = np.zeros((c_n, 3), np.float32)
-    for c in numba.prange(c_n):
+    for c in range(c_n):
         f0, f1 = first[c], first[c] + count[c]
         for a in range(3):
             aabbs[c, 0, a] = np.inf
@@ -594,7 +572,7 @@ def build_clusters(
     face_offsets = np.ascontiguousarray(scene.face_offsets, np.int64)
     lo = scene.aabbs[:, 0].astype(np.float64)
     size = np.maximum(scene.aabbs[:, 1] - scene.aabbs[:, 0], 1e-30).astype(np.float64)
-    by_rank, codes = _morton_ranks(face_offsets, centroids, lo, size)
+    by_rank, codes = _morton_ranks(scene, centroids, lo, size)
     order, starts = _grow(
         face_offsets,
         tri_w,
