@@ -34,12 +34,12 @@ import pandas as pd
 
 import soc
 import soc.gl.context
-from experiments import bench_floor
+from experiments import bench_floor, bench_queries
 from experiments.markdown import markdown_table, replace_section
 
 SCENES = ("market", "castle", "castle-2114", "clutter")
 BASELINE_METHODS = ("frustum", "queries")  # seed 000's pipeline: the foundation section
-SECTIONS = ("foundation", "methods", "floor", "lod", "adaptive")
+SECTIONS = ("foundation", "methods", "floor", "lod", "adaptive", "queries")
 ADAPTIVE = "seed004-adaptive"  # the harness experiment behind the adaptive section
 # Its DataFrames shown (per scene × method, per scene, per switch, per scene × q); the rest
 # (per frame, per regression point) are only in its CSVs.
@@ -73,6 +73,7 @@ def methods_table(result: bench_floor.FloorResult) -> pd.DataFrame:
     s = bench_floor.summarize(result)
     cols = ["method", "conservative", "cull ms", "queries ÷ this (cull)", "tests", "kept"]
     cols += ["hidden kept ÷ visible", "false culls (max)", "cull + draw ms", "÷ ideal"]
+    cols += [c for c in ("triangles ÷ ideal", "GPU cull + draw ms", "GPU ÷ ideal") if c in s]
     return s[cols].rename(
         columns={"tests": "queries or tests", "hidden kept ÷ visible": "false keeps ÷ visible"}
     )
@@ -90,7 +91,8 @@ def methods_markdown(result: bench_floor.FloorResult, command: str) -> str:
             "",
             f"{result.scene}: {result.objects:,} objects; {result.frames_n} consecutive frames of "
             f"the seed-000 flight at {w}×{h} (display and depth buffer); medians per frame, "
-            "ratios medians of per-frame ratios.",
+            "ratios medians of per-frame ratios. "
+            + bench_floor.gpu_clock_line(soc.gl.context.default_context()),
             "",
             markdown_table(methods_table(result), fmt),
             "",
@@ -265,7 +267,9 @@ def main(argv: list[str] | None = None) -> int:
             text = replace_section(md, name, body)
     if args.only in (None, "adaptive"):
         text = replace_section(md, ADAPTIVE, adaptive_markdown(out))
-    if args.only in ("lod", "adaptive"):
+    if args.only in (None, "queries"):
+        text = replace_section(md, "queries-compiled", bench_queries.section(out))
+    if args.only in ("lod", "adaptive", "queries"):
         print(text)
         return 0
 

@@ -13,9 +13,11 @@ by frame (so machine load hits every method alike):
    (:meth:`soc.culling.hiz_gpu.DepthPyramid.build` on the frame's 1080p depth) — the ideal draw is
    the floor of a whole frame.
 
-Every GL time is wall time around ``ctx.finish()`` (``time.perf_counter``), never GL timer
-queries. Results are two tidy DataFrames (one row per frame × method, one per frame × floor
-item), written as CSV; every table is printed from them by
+Every GL time is wall time around ``ctx.finish()`` (``time.perf_counter``); where the GL's
+timer is meaningful (a GPU, ``GLContext.timer_meaningful``) GL timestamp queries time the same
+cull stages and draws too (``gpu_*`` columns; on llvmpipe they are NaN and the tables say why).
+Results are two tidy DataFrames (one row per frame × method, one per frame × floor item),
+written as CSV; every table is printed from them by
 :func:`experiments.markdown.markdown_table`. Ratios are medians over frames of per-frame ratios
 (paired, so load that slows one frame cancels).
 
@@ -38,6 +40,7 @@ import soc.gl.context
 from experiments.markdown import markdown_table
 from soc.culling.hiz_gpu import DepthPyramid
 from soc.methods import METHODS
+from soc.metrics import gpu_stage
 from soc.rendering.renderer import Renderer
 
 DISPLAY = (1920, 1080)
@@ -140,7 +143,9 @@ class FloorResult:
         One row per frame × method (methods, then 'everything' and 'ideal'): ``frame``,
         ``method``, ``conservative``, ``cull_ms``, ``draw_ms``, ``total_ms``, ``kept``,
         ``visible`` (oracle), ``false_culls``, ``false_keeps`` (hidden kept), ``queries`` and
-        ``ms_<stage>`` per stage the method reports (NaN where it has none).
+        ``ms_<stage>`` per stage the method reports (NaN where it has none); ``gpu_cull_ms``,
+        ``gpu_draw_ms``, ``gpu_total_ms`` (the GL's clock, NaN where it is not meaningful) and
+        ``triangles_drawn``.
     floor : DataFrame
         One row per frame × floor item: ``frame``, ``item``, ``ms`` (and the oracle's time,
         item :data:`ORACLE_ITEM`, for reference).
@@ -163,9 +168,7 @@ class FloorResult:
     path: str = "flight"
 
 
-def _row(
-    frame, truth, method, conservative, cull_ms, draw_ms, visible, queries, stages, triangles
-) -> dict:
+def _row(frame, truth, method, conservative, cull_ms, draw_ms, visible, queries, stages) -> dict:
     """One frame × method row of :attr:`FloorResult.frames`."""
     return {
         "frame": frame,
@@ -179,8 +182,26 @@ def _row(
         "false_culls": int((truth & ~visible).sum()),
         "false_keeps": int((visible & ~truth).sum()),
         "queries": int(queries),
-        "triangles_drawn": int(triangles),
     } | {f"ms_{k}": v for k, v in (stages or {}).items() if k != "draw"}
+
+
+def _gpu_columns(gpu_cull_ms, gpu_draw_ms, triangles) -> dict:
+    """The GL clock's cull and draw ms (NaN where it is not read) and the triangles drawn."""
+    cull = math.nan if gpu_cull_ms is None else gpu_cull_ms
+    return {
+        "gpu_cull_ms": cull,
+        "gpu_draw_ms": gpu_draw_ms,
+        "gpu_total_ms": cull + gpu_draw_ms,
+        "triangles_drawn": int(triangles),
+    }
+
+
+def _draw_timed(glctx, renderer, cam, ids) -> tuple[float, float]:
+    """Wall ms and GL-clock ms (NaN where it is not read) of ``renderer.draw(cam, ids)``."""
+    with glctx.timed_frame() as frame:
+        with gpu_stage("draw"):
+            ms = renderer.draw(cam, ids)
+    return ms, frame.gpu_ms.get("draw", math.nan)
 
 
 def _time_gl(ctx, fn) -> float:
@@ -230,6 +251,7 @@ def run_floor(
         ctx = glctx.ctx
         empty_vao = ctx.vertex_array(pyramid.programs[0], [])
     everything = np.arange(len(scene))
+    triangles = scene.triangle_counts
     nothing = np.zeros(0, np.int64)
     all_ = np.ones(len(scene), bool)
 
@@ -259,9 +281,9 @@ def run_floor(
 
             with glctx.current():
                 for name, ids, kept in (("everything", everything, all_), ("ideal", ideal, truth)):
-                    draw_ms = renderer.draw(cam, ids)
-                    tris = int(scene.triangle_counts[ids].sum())
-                    rows.append(_row(i, truth, name, True, 0.0, draw_ms, kept, 0, None, tris))
+                    draw_ms, gpu_draw = _draw_timed(glctx, renderer, cam, ids)
+                    rows.append(_row(i, truth, name, True, 0.0, draw_ms, kept, 0, None))
+                    rows[-1] |= _gpu_columns(0.0, gpu_draw, triangles[ids].sum())
                 floor = {
                     f"clear colour + depth ({resolution[0]}×{resolution[1]})": _time_gl(
                         ctx, depth_clear
@@ -283,10 +305,13 @@ def run_floor(
                 if getattr(c.method, "draws_frame", False):
                     r = c.cull(cam, truth=truth, draw=True)
                     draw_ms = float(r.stats.timings_ms.get("draw", math.nan))
+                    gpu_draw = r.stats.gpu_ms.get("draw", math.nan)
+                    tris = r.stats.triangles_drawn
                 else:
                     r = c.cull(cam, truth=truth)
                     with glctx.current():
-                        draw_ms = renderer.draw(cam, r.visible_ids)
+                        draw_ms, gpu_draw = _draw_timed(glctx, renderer, cam, r.visible_ids)
+                    tris = r.stats.triangles_visible
                 rows.append(
                     _row(
                         i,
@@ -298,9 +323,9 @@ def run_floor(
                         r.visible,
                         r.stats.queries,
                         dict(r.stats.timings_ms),
-                        r.stats.triangles_drawn,
                     )
                 )
+                rows[-1] |= _gpu_columns(r.stats.gpu_cull_ms, gpu_draw, tris)
     finally:
         for c in cullers.values():
             c.close()
@@ -329,8 +354,6 @@ def summarize(result: FloorResult) -> pd.DataFrame:
     df["queries_ratio"] = queries / df["cull_ms"].where(df["cull_ms"] > 0)
     df["ideal_ratio"] = df["total_ms"] / df["frame"].map(total["ideal"])
     df["over_ideal_ms"] = df["total_ms"] - df["frame"].map(total["ideal"])
-    tris = df.pivot(index="frame", columns="method", values="triangles_drawn")
-    df["triangles_ratio"] = df["triangles_drawn"] / df["frame"].map(tris["ideal"]).clip(lower=1)
     g = df.groupby("method", sort=False)
     out = pd.DataFrame(
         {
@@ -342,15 +365,40 @@ def summarize(result: FloorResult) -> pd.DataFrame:
             "kept": g["kept"].median().round().astype(int).values,
             "hidden kept": g["false_keeps"].median().round().astype(int).values,
             "hidden kept ÷ visible": g["hidden_per_visible"].median().values,
-            "triangles ÷ ideal": g["triangles_ratio"].median().values,
             "false culls (max)": g["false_culls"].max().values,
             "cull + draw ms": g["total_ms"].median().values,
             "over ideal ms": g["over_ideal_ms"].median().values,
             "÷ ideal": g["ideal_ratio"].median().values,
         }
     )
+    _add_gpu_columns(out, df, g)
     last = out["method"].isin(["everything", "ideal"])
     return pd.concat([out[~last], out[last]], ignore_index=True)
+
+
+def _add_gpu_columns(out: pd.DataFrame, df: pd.DataFrame, g) -> None:
+    """Triangles drawn ÷ the ideal's (median of per-frame ratios) and, where the GL's clock
+    was read, its cull and cull + draw ms and ÷ ideal, beside the wall-clock columns."""
+    if "triangles_drawn" not in df:
+        return
+    ideal = df["frame"].map(df[df["method"] == "ideal"].set_index("frame")["triangles_drawn"])
+    df["tris_ratio"] = df["triangles_drawn"] / ideal.clip(lower=1)
+    out["triangles ÷ ideal"] = g["tris_ratio"].median().values
+    if not df["gpu_total_ms"].notna().any():
+        return
+    gpu_ideal = df[df["method"] == "ideal"].set_index("frame")["gpu_total_ms"]
+    df["gpu_ratio"] = df["gpu_total_ms"] / df["frame"].map(gpu_ideal)
+    out["GPU cull ms"] = g["gpu_cull_ms"].median().values
+    out["GPU cull + draw ms"] = g["gpu_total_ms"].median().values
+    out["GPU ÷ ideal"] = g["gpu_ratio"].median().values
+
+
+def gpu_clock_line(glctx) -> str:
+    """What the GPU columns are, or why a table has none."""
+    note = glctx.gpu_clock_note
+    if not note:
+        return "'GPU' columns: GL timestamp queries around the same stages and draws (ms)."
+    return f"No GPU columns: {note} (wall ms is the clock)."
 
 
 def floor_table(result: FloorResult) -> pd.DataFrame:
@@ -479,7 +527,7 @@ def targets_21(result: FloorResult, summary: pd.DataFrame) -> pd.DataFrame:
                 "met": "yes" if b["÷ ideal"] <= limit else "no",
             }
         )
-        if result.scene == "castle-2114":
+        if result.scene == "castle-2114" and "triangles ÷ ideal" in b:
             r = b["triangles ÷ ideal"]
             rows.append(
                 {
@@ -514,7 +562,7 @@ def markdown(result: FloorResult, command: str, note: str = "") -> str:
         f"{PATH_WORDS.get(result.path, result.path)} at {w}×{h} (display and depth buffer), "
         f"{glctx.ctx.info['GL_RENDERER']} with {glctx.threads} threads. Methods interleaved "
         "frame by frame in one run; medians over frames; ratios are medians of per-frame "
-        "ratios. " + note,
+        "ratios. " + gpu_clock_line(glctx) + " " + note,
         "",
         markdown_table(summary),
         "",

@@ -1,8 +1,9 @@
 """A flight of culled frames as one tidy table: ``soc.fly(culler, cameras)`` → DataFrame.
 
 One row per frame, with every :class:`~soc.metrics.FrameStats` counter and one ``ms_<stage>``
-column per timed stage, so a flight can be sliced, grouped and plotted with pandas instead of
-being printed. Stages a method did not run in some frame read 0 ms there.
+column per timed stage (and ``gpu_ms_<stage>`` where the GL's clock is meaningful), so a flight
+can be sliced, grouped and plotted with pandas instead of being printed. Stages a method did
+not run in some frame read 0 ms there.
 """
 
 from __future__ import annotations
@@ -44,8 +45,14 @@ def fly(
     Returns
     -------
     pandas.DataFrame
-        Columns ``frame``, ``method``, ``width``, ``height``, the FrameStats counters, and
-        ``ms_<stage>``, ``ms_cull``, ``ms_total`` (milliseconds).
+        Columns ``frame``, ``method``, ``width``, ``height``, the FrameStats counters
+        (``triangles_drawn`` among them), and ``ms_<stage>``, ``ms_cull``, ``ms_total``
+        (wall milliseconds); where the GL's clock is meaningful (``culler.glctx.gpu_clock``)
+        also ``gpu_ms_<stage>``, ``gpu_ms_cull``, ``gpu_ms_total`` (GL timer milliseconds).
+        ``attrs["gpu_clock"]`` says which clock those are, or why there are none ("GL timer
+        not meaningful on llvmpipe"); ``attrs["gl_renderer"]`` is the GL renderer string and
+        ``attrs["gl"]`` the GL choice (:class:`~soc.gl.context.GLContext`'s ``gl``: auto,
+        software, device:N).
 
     Examples
     --------
@@ -76,8 +83,13 @@ def fly(
         if oracle is not None:
             oracle.close()
     frame = pd.DataFrame(rows)
-    ms = [c for c in frame.columns if c.startswith("ms_")]
+    ms = [c for c in frame.columns if c.startswith(("ms_", "gpu_ms_"))]
     frame[ms] = frame[ms].fillna(0.0)
+    # Which GL measured these frames (a flight's numbers mean little without it), and what
+    # its clock is worth.
+    frame.attrs["gl_renderer"] = culler.glctx.renderer
+    frame.attrs["gl"] = culler.glctx.gl
+    frame.attrs["gpu_clock"] = culler.glctx.gpu_clock_note or "GL timer (GL_TIMESTAMP queries)"
     return frame
 
 

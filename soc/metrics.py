@@ -1,12 +1,16 @@
-"""What one culled frame reports: :class:`FrameStats`, inside the :class:`CullResult`."""
+"""What one culled frame reports: :class:`FrameStats`, inside the :class:`CullResult`, and the
+:func:`stage` timer that fills its two clocks (wall time and, where it means something, the
+GL's own)."""
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from types import MappingProxyType
+from typing import Protocol
 
 import numpy as np
 
@@ -31,14 +35,19 @@ class FrameStats:
     timings_ms : Mapping[str, float]
         Wall time per stage, ms, measured with ``ctx.finish()`` around GL work.
     gpu_ms : Mapping[str, float]
-        GL timer (``GL_TIME_ELAPSED``) per stage, ms, where the GL's clock is meaningful;
-        empty where it is not (llvmpipe's timer reads only part of the work).
+        GL timer per stage, ms (``GL_TIMESTAMP`` queries around the stage's GL commands, read
+        at the frame's end: the GPU's time from the stage's first command to its last, 0 for a
+        stage without GL work), where the GL's clock is meaningful; empty where it is not
+        (llvmpipe's timer reads only part of the work), and :attr:`gpu_note` says why.
     triangles_drawn : int
         Triangles drawn for the frame: the kept objects' triangles, or fewer for a method
         that draws parts of objects (clusters).
     false_culls, false_keeps : int or None
         Against the oracle when it was given: visible objects culled (must be 0 for a
         conservative method) and hidden objects kept.
+    gpu_note : str
+        Why :attr:`gpu_ms` is empty or not to be trusted (e.g. "GL timer not meaningful on
+        llvmpipe"); "" when it holds the GPU's clock.
     """
 
     models_visible: int
@@ -55,6 +64,7 @@ class FrameStats:
     false_keeps: int | None = None
     gpu_ms: Mapping[str, float] = field(default_factory=dict)
     triangles_drawn: int = 0
+    gpu_note: str = ""
 
     @property
     def cull_ms(self) -> float:
@@ -66,14 +76,30 @@ class FrameStats:
         """Culling plus drawing, ms."""
         return float(sum(self.timings_ms.values()))
 
+    @property
+    def gpu_cull_ms(self) -> float | None:
+        """GL timer of everything except drawing the kept set, ms; None without the clock."""
+        if not self.gpu_ms:
+            return None
+        return float(sum(v for k, v in self.gpu_ms.items() if k != "draw"))
+
+    @property
+    def gpu_total_ms(self) -> float | None:
+        """GL timer of culling plus drawing, ms; None without the clock."""
+        return float(sum(self.gpu_ms.values())) if self.gpu_ms else None
+
     def as_row(self) -> dict:
-        """Flat dict for CSV writing (timings as ``ms_<stage>`` columns)."""
-        skip = ("timings_ms", "gpu_ms")
+        """Flat dict for CSV writing (timings as ``ms_<stage>`` columns; where the GL's clock
+        was read, ``gpu_ms_<stage>``, ``gpu_ms_cull`` and ``gpu_ms_total`` too)."""
+        skip = ("timings_ms", "gpu_ms", "gpu_note")
         row = {k: getattr(self, k) for k in self.__dataclass_fields__ if k not in skip}
         row.update({f"ms_{k}": v for k, v in self.timings_ms.items()})
         row["ms_cull"] = self.cull_ms
         row["ms_total"] = self.total_ms
-        row.update({f"gpu_ms_{k}": v for k, v in self.gpu_ms.items()})
+        if self.gpu_ms:
+            row.update({f"gpu_ms_{k}": v for k, v in self.gpu_ms.items()})
+            row["gpu_ms_cull"] = self.gpu_cull_ms
+            row["gpu_ms_total"] = self.gpu_total_ms
         return row
 
 
@@ -87,6 +113,7 @@ def frame_stats(
     truth: np.ndarray | None = None,
     gpu_ms: Mapping[str, float] | None = None,
     triangles_drawn: int | None = None,
+    gpu_note: str = "",
 ) -> FrameStats:
     """Count a frame's result (``visible`` (N,) bool) into a :class:`FrameStats`."""
     tri = scene.triangle_counts
@@ -115,6 +142,7 @@ def frame_stats(
         false_keeps=false_keeps,
         gpu_ms=MappingProxyType(dict(gpu_ms or {})),
         triangles_drawn=tri_vis if triangles_drawn is None else int(triangles_drawn),
+        gpu_note=gpu_note,
     )
 
 
@@ -138,14 +166,65 @@ class CullResult:
         return np.flatnonzero(self.visible)
 
 
+class StageClock(Protocol):
+    """A second clock for :func:`stage`: brackets a named stage's GL commands (e.g.
+    :class:`soc.gl.timer.TimedFrame`, GL timestamp queries read at the frame's end)."""
+
+    def begin(self, name: str) -> object | None:
+        """Mark the start of stage ``name``; returns what :meth:`end` takes (None: not timed,
+        e.g. a stage nested in one of the same name)."""
+
+    def end(self, token: object) -> None:
+        """Mark the end of the stage that :meth:`begin` returned ``token`` for."""
+
+
+# The GL clock of the frame being timed (set by soc.gl's TimedFrame for the length of one
+# frame, so that every method's stages are timed on it without passing it down).
+_frame_clock: ContextVar[StageClock | None] = ContextVar("vislod_frame_clock", default=None)
+
+
+@contextmanager
+def clocked(clock: StageClock | None) -> Iterator[None]:
+    """Inside, :func:`stage` and :func:`gpu_stage` also time on ``clock`` (None: on none)."""
+    token = _frame_clock.set(clock)
+    try:
+        yield
+    finally:
+        _frame_clock.reset(token)
+
+
 @contextmanager
 def stage(
-    timings: dict[str, float], name: str, finish: Callable[[], None] | None = None
+    timings: dict[str, float],
+    name: str,
+    finish: Callable[[], None] | None = None,
+    gpu: StageClock | None = None,
 ) -> Iterator[None]:
     """Time a block into ``timings[name]`` (ms); ``finish`` (e.g. ``ctx.finish``) runs before
-    the clock stops so GL work is counted where it was issued."""
+    the clock stops so GL work is counted where it was issued.
+
+    The GL's clock times the same block where a frame is being timed on it
+    (:meth:`soc.gl.context.GLContext.timed_frame`, which :class:`soc.Culler` opens around
+    every frame when the GL's timer is meaningful) or ``gpu`` is given: its end mark is
+    issued before ``finish``, and it is read when the frame ends, not here. Stages may nest.
+    """
+    clock = gpu if gpu is not None else _frame_clock.get()
+    token = clock.begin(name) if clock is not None else None
     t0 = time.perf_counter()
     yield
+    if token is not None:
+        clock.end(token)
     if finish is not None:
         finish()
     timings[name] = timings.get(name, 0.0) + 1e3 * (time.perf_counter() - t0)
+
+
+@contextmanager
+def gpu_stage(name: str, gpu: StageClock | None = None) -> Iterator[None]:
+    """Time a block as stage ``name`` on the GL's clock only (as :func:`stage` does), for
+    code that measures its own wall time (e.g. ``timings["draw"] = renderer.draw(...)``)."""
+    clock = gpu if gpu is not None else _frame_clock.get()
+    token = clock.begin(name) if clock is not None else None
+    yield
+    if token is not None:
+        clock.end(token)

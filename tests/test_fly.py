@@ -24,6 +24,8 @@ def test_one_row_per_frame_with_stats_and_stage_times(scene):
     assert (df["false_culls"] == 0).all()  # queries are conservative at their own resolution
     assert (df["models_visible"] + df["models_culled"] == len(scene)).all()
     assert np.allclose(df["ms_total"], df["ms_cull"])  # nothing drawn
+    assert df.attrs["gl_renderer"] == culler.glctx.renderer != ""
+    assert df.attrs["gl"] == culler.glctx.gl
 
 
 def test_truth_given_per_frame_matches_the_oracle_and_draw_adds_its_column(scene):

@@ -2,10 +2,13 @@
 
 Each box is drawn with depth test LEQUAL and no depth or colour writes inside an
 ``GL_ANY_SAMPLES_PASSED`` query; results are read only after every query was issued, so the
-pipeline stalls once per frame rather than once per object. Boxes are the scene's AABBs grown
-by a small margin and pulled towards the camera by a small depth bias (see
-:mod:`soc.constants`), which makes the test conservative also for box-shaped occluders whose
-faces coincide with the query box, and for flat boxes.
+pipeline stalls once per frame rather than once per object. Issuing and reading run in numba
+loops over the GL entry points (:mod:`soc.gl.compiled`): no Python runs per object (seed 000's
+Python loop of ctypes calls is kept behind ``compiled=False`` as the tested reference).
+
+Boxes are the scene's AABBs grown by a small margin and pulled towards the camera by a small
+depth bias (see :mod:`soc.constants`), which makes the test conservative also for box-shaped
+occluders whose faces coincide with the query box, and for flat boxes.
 
 Boxes that reach the near plane are not queried but kept: clipping opens the box there, so
 the part of the object between the eye and the box's far faces would be tested against
@@ -22,7 +25,9 @@ import ctypes
 import numpy as np
 
 from soc.constants import NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
+from soc.gl import compiled as compiled_gl
 from soc.gl import raw as glraw
+from soc.gl.context import uses_gl
 
 
 def near_plane_straddlers(boxes: np.ndarray, camera) -> np.ndarray:
@@ -39,20 +44,35 @@ def near_plane_straddlers(boxes: np.ndarray, camera) -> np.ndarray:
     return nearest < camera.near * (1.0 + NEAR_PLANE_MARGIN)
 
 
+@uses_gl
 class OcclusionQueries:
-    """Per-object ``GL_ANY_SAMPLES_PASSED`` queries of AABBs against the bound depth buffer."""
+    """Per-object ``GL_ANY_SAMPLES_PASSED`` queries of AABBs against the bound depth buffer.
 
-    def __init__(self, geometry):
+    Parameters
+    ----------
+    geometry : SceneGeometry
+        The uploaded scene; one query object per object is generated here and kept.
+    compiled : bool
+        Issue and read the queries in a numba loop over the GL entry points
+        (:mod:`soc.gl.compiled`, default); False runs seed 000's Python loop of ctypes calls,
+        kept as the reference the compiled loop is tested against (same commands, same
+        results).
+    """
+
+    def __init__(self, geometry, compiled: bool = True):
         self.geometry = geometry
         self.glctx = geometry.glctx
+        self.compiled = bool(compiled) and compiled_gl.available()
         self.program = self.glctx.program("box.vert", "depth_only.frag")
         n = len(geometry.scene)
-        self._ids = (ctypes.c_uint * n)()
-        self.glctx.raw.glGenQueries(n, self._ids)
+        self._ids = np.zeros(n, np.uint32)
+        self.glctx.raw.glGenQueries(n, self._ids.ctypes.data_as(ctypes.POINTER(ctypes.c_uint)))
         self._n = n
 
     def release(self) -> None:
-        self.glctx.raw.glDeleteQueries(self._n, self._ids)
+        self.glctx.raw.glDeleteQueries(
+            self._n, self._ids.ctypes.data_as(ctypes.POINTER(ctypes.c_uint))
+        )
 
     def test(self, target, camera, ids: np.ndarray) -> np.ndarray:
         """Query the boxes of objects ``ids`` (K,) against ``target``'s depth buffer.
@@ -68,7 +88,7 @@ class OcclusionQueries:
         passed = np.zeros(len(ids), np.uint32)
         if len(ids) == 0:
             return passed.astype(bool)
-        ctx, gl = self.glctx.ctx, self.glctx.raw
+        ctx = self.glctx.ctx
         target.fbo.use()
         target.fbo.depth_mask = False
         ctx.enable_only(moderngl.DEPTH_TEST)
@@ -76,14 +96,28 @@ class OcclusionQueries:
         self.program["view_proj"].write(camera.gl_bytes(camera.view_proj))
         self.program["depth_bias"].value = QUERY_DEPTH_BIAS_NDC
         vao = self.geometry.box_vao(self.program)
+        if self.compiled:
+            fns = compiled_gl.entry_points(self.glctx)
+            qids = self._ids[ids]
+            compiled_gl.issue_box_queries(
+                fns, self.program.glo, vao.glo, glraw.GL_ANY_SAMPLES_PASSED, qids, ids
+            )
+            compiled_gl.read_query_results(fns, qids, passed)
+        else:
+            self._python_loop(vao, ids, passed)
+        target.fbo.depth_mask = True
+        self.glctx.check("occlusion queries")
+        return passed.astype(bool)
+
+    def _python_loop(self, vao, ids: np.ndarray, passed: np.ndarray) -> None:
+        """Seed 000's loop, three ctypes calls per object (the reference behaviour)."""
+        gl = self.glctx.raw
         gl.glUseProgram(self.program.glo)
         gl.glBindVertexArray(vao.glo)
-
-        # The hot loop: three GL calls per object, bound to locals (seed 000's method).
         begin, end = gl.glBeginQuery, gl.glEndQuery
         draw = gl.glDrawElementsInstancedBaseVertexBaseInstance
         kind, tri, u32 = glraw.GL_ANY_SAMPLES_PASSED, glraw.GL_TRIANGLES, glraw.GL_UNSIGNED_INT
-        qids = self._ids
+        qids = self._ids.tolist()
         for obj in ids.tolist():
             begin(kind, qids[obj])
             draw(tri, 36, u32, None, 1, 0, obj)
@@ -93,5 +127,4 @@ class OcclusionQueries:
         for k, obj in enumerate(ids.tolist()):
             get(qids[obj], result, base + 4 * k)
         gl.glBindVertexArray(0)
-        target.fbo.depth_mask = True
-        return passed.astype(bool)
+        gl.glUseProgram(0)

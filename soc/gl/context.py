@@ -11,6 +11,8 @@ itself, so every public entry that touches GL runs inside :meth:`GLContext.curre
 the :func:`uses_gl` decorator): it saves the caller's EGL state (display, draw and read
 surfaces, context — possibly none), makes vislod's context current, and gives the caller's
 state back on return. Nested entries find vislod's context current and cost one EGL call.
+(That machinery is :mod:`soc.gl.binding`, below this module and :mod:`soc.gl.geometry`, so the
+GL layer imports downward only; ``uses_gl`` here adds the process's default context.)
 vislod's contexts live on a display of their own (Mesa's surfaceless platform), because VTK
 terminates the device display it shares with moderngl's EGL backend when a plot closes.
 
@@ -21,30 +23,29 @@ display is first initialized, so ``threads`` can be chosen only once per process
 from __future__ import annotations
 
 import ctypes
-import functools
-import inspect
 import os
 import weakref
 from importlib import resources
-from typing import NamedTuple
 
 from soc.errors import GLError, GLUnavailableError
+from soc.gl import binding, display
+from soc.gl.binding import BindableContext, EGLState, current_egl_state
+from soc.gl.geometry import SceneGeometry
 from soc.gl.raw import (
     EGL_CONTEXT_MAJOR_VERSION,
     EGL_CONTEXT_MINOR_VERSION,
     EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
     EGL_CONTEXT_OPENGL_PROFILE_MASK,
-    EGL_DRAW,
-    EGL_EXTENSIONS,
     EGL_NONE,
     EGL_OPENGL_API,
-    EGL_PLATFORM_SURFACELESS_MESA,
-    EGL_READ,
     RawGL,
     egl,
 )
+from soc.gl.timer import GpuTimer, TimedFrame
 
-APT_HINT = "apt-get install -y libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri"
+__all__ = ["EGLState", "GLContext", "current_egl_state", "default_context", "uses_gl"]
+
+APT_HINT = display.APT_HINT
 
 _default: GLContext | None = None
 _process_threads: int | None = None  # llvmpipe threads of this process, once decided
@@ -54,58 +55,6 @@ _process_threads: int | None = None  # llvmpipe threads of this process, once de
 _MAX_ERROR_FLAGS = 16
 
 
-class EGLState(NamedTuple):
-    """The calling thread's EGL binding: what :meth:`GLContext.current` saves and restores.
-
-    ``context`` 0 (``EGL_NO_CONTEXT``) means no context was current; ``api`` is the bound
-    client API (``eglQueryAPI``), itself per thread.
-    """
-
-    api: int
-    display: int
-    draw: int
-    read: int
-    context: int
-
-
-def current_egl_state() -> EGLState:
-    """The calling thread's current EGL display, surfaces and context, for the OpenGL API."""
-    e = egl()
-    api = e.eglQueryAPI()
-    if api != EGL_OPENGL_API:
-        e.eglBindAPI(EGL_OPENGL_API)
-    state = EGLState(
-        api,
-        e.eglGetCurrentDisplay() or 0,
-        e.eglGetCurrentSurface(EGL_DRAW) or 0,
-        e.eglGetCurrentSurface(EGL_READ) or 0,
-        e.eglGetCurrentContext() or 0,
-    )
-    if api != EGL_OPENGL_API:
-        e.eglBindAPI(api)
-    return state
-
-
-class _Binding:
-    """``with glctx.current():`` — vislod's context current inside, the caller's state after.
-
-    Re-entrant: an inner binding finds vislod's context current and restores nothing.
-    """
-
-    __slots__ = ("glctx", "saved")
-
-    def __init__(self, glctx: GLContext):
-        self.glctx = glctx
-        self.saved: EGLState | None = None
-
-    def __enter__(self) -> GLContext:
-        self.saved = self.glctx._bind()
-        return self.glctx
-
-    def __exit__(self, *exc) -> None:
-        self.glctx._unbind(self.saved)
-
-
 # OpenGL 4.5 core profile: what every shader of soc/shaders is written for.
 _CONTEXT_ATTRIBS = (ctypes.c_int * 7)(
     EGL_CONTEXT_MAJOR_VERSION, 4,
@@ -113,33 +62,6 @@ _CONTEXT_ATTRIBS = (ctypes.c_int * 7)(
     EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
     EGL_NONE,
 )  # fmt: skip
-_display: int | None = None
-
-
-def _vislod_display() -> int:
-    """vislod's own EGL display: Mesa's surfaceless platform (llvmpipe), initialized once.
-
-    Not the device-platform display that moderngl's and VTK's EGL code share: VTK terminates
-    that display when a render window closes, which destroys every context on it. Nobody
-    else gets this one, and vislod never terminates it (the process's exit does).
-    """
-    global _display
-    if _display is None:
-        e = egl()
-        extensions = (e.eglQueryString(None, EGL_EXTENSIONS) or b"").decode()
-        if "EGL_MESA_platform_surfaceless" not in extensions.split():
-            raise GLUnavailableError(
-                "this EGL has no EGL_MESA_platform_surfaceless (it is not Mesa's): vislod "
-                f"needs Mesa's EGL and llvmpipe: as root run `{APT_HINT}` (or `make setup`)"
-            )
-        dpy = e.eglGetPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, None, None)
-        if not dpy or not e.eglInitialize(dpy, None, None):
-            raise GLUnavailableError(
-                f"cannot open Mesa's surfaceless EGL display (EGL error 0x{e.eglGetError():x}): "
-                f"as root run `{APT_HINT}` (or `make setup`)"
-            )
-        _display = dpy
-    return _display
 
 
 class _Loader:
@@ -166,7 +88,7 @@ class _Loader:
         g._egl.eglDestroyContext(g._display, g._handle)
 
 
-class GLContext:
+class GLContext(BindableContext):
     """A headless OpenGL 4.5 core context (moderngl over EGL) with shader and geometry caches.
 
     Parameters
@@ -174,18 +96,57 @@ class GLContext:
     threads : int, optional
         llvmpipe rasterizer threads (0 = rasterize on the calling thread; default: Mesa's
         choice, one per core). Only the first context of a process can choose.
+    gl : {"auto", "software", "device:N"}, optional
+        Which GL (:mod:`soc.gl.display`): ``"auto"`` is Mesa's surfaceless platform (NVIDIA's
+        driver where it is installed, else a GPU Mesa drives, else llvmpipe); ``"software"``
+        is llvmpipe even on a machine with a GPU; ``"device:N"`` the N-th EGL device
+        (``eglQueryDevicesEXT``). Default: the ``VISLOD_GL`` environment variable, else
+        ``"auto"``; the argument wins over the variable. Anything else raises ``ValueError``
+        naming the accepted forms and this machine's EGL devices, before any GL state is made.
+
+    Attributes
+    ----------
+    gl : str
+        The choice (``"auto"``, ``"software"``, ``"device:N"``); :attr:`gl_where` says where it
+        went (the platform or device, and the EGL vendor).
+    renderer : str
+        ``GL_RENDERER`` (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)", "NVIDIA H100/PCIe/SSE2"):
+        recorded with every benchmark and flight.
+    software : bool
+        Whether GL runs on the CPU (llvmpipe, softpipe, swrast).
+    timer_meaningful : bool
+        Whether the GL's timer queries measure the GL's work: not on a software renderer
+        (llvmpipe's read part of it: 126–138 ms for a 225–253 ms draw of the market).
+    gpu_clock : bool
+        Whether frames are timed on the GL's clock too (:meth:`timed_frame`; ``gpu_ms`` of
+        :class:`soc.FrameStats`). Default :attr:`timer_meaningful`; set it to force the
+        queries on (tests on llvmpipe) or off. :attr:`gpu_clock_note` says what it means.
 
     Notes
     -----
     Making the context leaves the caller's EGL state as it was. Its moderngl context
     (:attr:`ctx`) makes itself current when it is fetched, so low-level code that drives
     moderngl objects directly should fetch ``ctx`` first or run inside :meth:`current`.
+
+    ``device:N`` opens the device platform's display of that device, which VTK and moderngl's
+    own EGL backend share when they use the same device (VTK terminates it when a plot
+    closes); ``auto`` and, where llvmpipe is the only device, ``software`` use the surfaceless
+    display nobody else opens.
+
+    Examples
+    --------
+    >>> with soc.gl.context.GLContext(gl="software") as glctx:          # doctest: +SKIP
+    ...     with soc.Culler(scene, "hiz-2phase", glctx=glctx) as c:
+    ...         c.cull(camera)
     """
 
-    def __init__(self, threads: int | None = None):
+    def __init__(self, threads: int | None = None, gl: str | None = None):
         global _process_threads
         import moderngl
 
+        self._doomed: list = []  # geometries of freed scenes, released at the next entry
+        # First the choice of GL: a bad one raises before any GL or process state is touched.
+        choice = display.resolve(gl)
         if threads is not None:
             if threads < 0:
                 raise ValueError(f"threads must be >= 0, got {threads}")
@@ -197,16 +158,17 @@ class GLContext:
             os.environ["LP_NUM_THREADS"] = str(threads)  # read by Mesa at screen creation
         e = egl()
         caller = current_egl_state()
-        self._display = _vislod_display()
+        self._display = display.display(choice)
         self._egl = e
+        self.gl = choice.name
         e.eglBindAPI(EGL_OPENGL_API)
         self._handle = e.eglCreateContext(self._display, None, None, _CONTEXT_ATTRIBS)
         if not self._handle or not e.eglMakeCurrent(self._display, None, None, self._handle):
             code = e.eglGetError()
             self._unbind(caller)
             raise GLUnavailableError(
-                f"no OpenGL 4.5 core context from Mesa's EGL (EGL error 0x{code:x}). vislod "
-                f"needs Mesa's EGL and llvmpipe: as root run `{APT_HINT}` (or `make setup`)"
+                f"no OpenGL 4.5 core context on the {choice.where} (EGL error 0x{code:x}). "
+                f"vislod needs Mesa's EGL and llvmpipe: as root run `{APT_HINT}` (or `make setup`)"
             )
         self._released = False
         try:
@@ -233,6 +195,15 @@ class GLContext:
             self.software = any(
                 name in self.renderer.lower() for name in ("llvmpipe", "softpipe", "swrast")
             )
+            # GL timer queries where they measure the GPU's work (see soc.gl.timer).
+            self.timer_meaningful = not self.software
+            self.gpu_clock = self.timer_meaningful
+            self._timer: GpuTimer | None = None
+            self.gl_where = f"{choice.where}, EGL vendor {display.vendor(self._display)}"
+            if choice.name == "software" and not self.software:
+                raise GLUnavailableError(
+                    f"gl='software' gave {self.renderer!r} on the {self.gl_where}, not llvmpipe"
+                )
             # Sizes a texture, renderbuffer or viewport may have, pixels (see check_size).
             self.max_size = {
                 "GL_MAX_TEXTURE_SIZE": int(info["GL_MAX_TEXTURE_SIZE"]),
@@ -244,7 +215,10 @@ class GLContext:
             self._unbound = mgl.detect_framebuffer(0)
             self._programs: dict[tuple[str, ...], object] = {}
             self._geometry: dict[int, tuple[weakref.ref, object]] = {}
-            self._doomed: list = []  # geometries of freed scenes, released at the next entry
+        except BaseException:
+            self._released = True
+            mgl.release()  # _Loader.release destroys the EGL context
+            raise
         finally:
             self._unbind(caller)
 
@@ -257,54 +231,9 @@ class GLContext:
             self._bind()
         return self._mgl
 
-    def current(self) -> _Binding:
-        """Context manager: this context current inside; on exit the caller's EGL display,
-        draw/read surfaces and context (possibly none) are current again.
-
-        Re-entrant and cheap when this context is already current (one ``eglGetCurrentContext``
-        call). If the caller's context cannot be made current again (it was destroyed while
-        current, e.g. by moderngl's ``release()``), no context is left current.
-        """
-        return _Binding(self)
-
-    def _bind(self) -> EGLState | None:
-        """Make this context current; return the state to restore (None: it already was)."""
-        e = self._egl
-        if e.eglGetCurrentContext() == self._handle:
-            if self._doomed:
-                self._release_doomed()
-            return None
-        if self._released:
-            raise GLError("this GLContext was released; make a new one")
-        saved = current_egl_state()
-        if saved.api != EGL_OPENGL_API:
-            e.eglBindAPI(EGL_OPENGL_API)
-        if saved.context != self._handle:
-            if not e.eglMakeCurrent(self._display, None, None, self._handle):
-                code = e.eglGetError()
-                if saved.api != EGL_OPENGL_API:
-                    e.eglBindAPI(saved.api)
-                raise GLError(
-                    f"cannot make vislod's GL context current (EGL error 0x{code:x}); is it "
-                    "current on another thread?"
-                )
+    def _entered(self) -> None:
         if self._doomed:
             self._release_doomed()
-        return saved
-
-    def _unbind(self, saved: EGLState | None) -> None:
-        """Give the caller's EGL state back (``saved`` from :meth:`_bind`)."""
-        if saved is None:
-            return
-        e = self._egl
-        if saved.context != self._handle:
-            ok = saved.context and e.eglMakeCurrent(
-                saved.display, saved.draw or None, saved.read or None, saved.context
-            )
-            if not ok:  # none was current, or the caller's context is gone
-                e.eglMakeCurrent(self._display, None, None, None)
-        if saved.api != EGL_OPENGL_API:
-            e.eglBindAPI(saved.api)
 
     # -- lifetime ---------------------------------------------------------------------------
 
@@ -321,6 +250,9 @@ class GLContext:
             return
         with self.current():
             self._release_doomed()
+            if self._timer is not None:
+                self._timer.release()
+                self._timer = None
             for _, geom in self._geometry.values():
                 geom.release()
             self._geometry.clear()
@@ -389,8 +321,6 @@ class GLContext:
 
         When ``scene`` is freed its GL buffers are released at this context's next use (a
         garbage-collection callback may run on any thread, inside anyone's GL calls)."""
-        from soc.gl.geometry import SceneGeometry
-
         entry = self._geometry.get(id(scene))
         if entry is not None and entry[0]() is scene:
             return entry[1]
@@ -405,6 +335,37 @@ class GLContext:
 
         self._geometry[key] = (weakref.ref(scene, _forget), geom)
         return geom
+
+    # -- the GL's clock -------------------------------------------------------------------------
+
+    @property
+    def gpu_clock_note(self) -> str:
+        """What the GL's clock means here: "" when frames are timed on a meaningful GL timer,
+        else why ``gpu_ms`` is empty (or, when forced on, not to be trusted)."""
+        name = self.renderer.split(" (")[0] or "this GL"
+        if self.timer_meaningful:
+            return "" if self.gpu_clock else "GL timer switched off (GLContext.gpu_clock)"
+        if self.gpu_clock:
+            return f"GL timer forced on {name}: not meaningful there"
+        return f"GL timer not meaningful on {name}"
+
+    def timed_frame(self) -> TimedFrame:
+        """Context manager around one frame: every :func:`soc.metrics.stage` inside is timed on
+        the GL's clock too when :attr:`gpu_clock` is on (else nothing is issued), read on
+        exit into the frame's ``gpu_ms`` (stage -> ms; empty when off).
+
+        >>> with glctx.timed_frame() as frame:                            # doctest: +SKIP
+        ...     with stage(timings, "prepass", glctx.finish):
+        ...         ...
+        >>> frame.gpu_ms                                                   # doctest: +SKIP
+        {'prepass': 0.41}
+        """
+        if not self.gpu_clock:
+            return TimedFrame(None)
+        if self._timer is None:
+            with self.current():
+                self._timer = GpuTimer(self)
+        return self._timer.frame()
 
     # -- errors -----------------------------------------------------------------------------
 
@@ -441,46 +402,7 @@ def uses_gl(obj):
     renderer), else the process's :func:`default_context`. When the call raises, the GL
     error flags it left are cleared, so that the next call does not report them as its own.
     """
-    if inspect.isclass(obj):
-        names = {n for k in obj.__mro__[:-1] for n in vars(k)}  # inherited ones too
-        for name in names:
-            attr = inspect.getattr_static(obj, name)
-            if inspect.isfunction(attr) and (name == "__init__" or not name.startswith("_")):
-                setattr(obj, name, uses_gl(attr))
-        return obj
-    if getattr(obj, "__uses_gl__", False):
-        return obj
-
-    @functools.wraps(obj)
-    def entry(*args, **kwargs):
-        glctx = _context_of(args, kwargs)
-        saved = glctx._bind()
-        try:
-            return obj(*args, **kwargs)
-        except BaseException:
-            if not glctx._released:
-                glctx.pop_errors()
-            raise
-        finally:
-            glctx._unbind(saved)
-
-    entry.__uses_gl__ = True
-    return entry
-
-
-def _context_of(args: tuple, kwargs: dict) -> GLContext:
-    """The GL context a :func:`uses_gl` call runs on (see there)."""
-    if args:
-        own = getattr(args[0], "glctx", None)  # not set yet in a constructor
-        if isinstance(own, GLContext):
-            return own
-    for a in (*args, *kwargs.values()):
-        if isinstance(a, GLContext):
-            return a
-        carried = getattr(a, "glctx", None)
-        if isinstance(carried, GLContext):
-            return carried
-    return _default_context()
+    return binding.uses_gl(obj, default=_default_context)
 
 
 def _shader_source(name: str) -> str:

@@ -13,7 +13,7 @@ import weakref
 import numpy as np
 
 from soc.constants import AABB_GROW_ABSOLUTE, AABB_GROW_RELATIVE
-from soc.gl.context import uses_gl
+from soc.gl.binding import uses_gl
 
 # Corner numbers (bit 0: x, bit 1: y, bit 2: z; 0 = min, 1 = max) of a box's 12 triangles
 # and 12 edges.

@@ -22,6 +22,8 @@ GL_QUERY_RESULT = 0x8866
 GL_QUERY_RESULT_AVAILABLE = 0x8867
 GL_QUERY_RESULT_NO_WAIT = 0x9194
 GL_QUERY_BUFFER = 0x9192
+GL_TIMESTAMP = 0x8E28
+GL_QUERY_COUNTER_BITS = 0x8864
 GL_TRIANGLES = 0x0004
 GL_UNSIGNED_INT = 0x1405
 GL_COLOR = 0x1800
@@ -44,6 +46,9 @@ _SIGNATURES = {
     "glBeginQuery": (None, [_u, _u]),
     "glEndQuery": (None, [_u]),
     "glGetQueryObjectuiv": (None, [_u, _u, _p]),
+    "glGetQueryObjectui64v": (None, [_u, _u, _p]),
+    "glQueryCounter": (None, [_u, _u]),
+    "glGetQueryiv": (None, [_u, _u, _p]),
     "glBindBuffer": (None, [_u, _u]),
     "glUseProgram": (None, [_u]),
     "glBindVertexArray": (None, [_u]),
@@ -65,7 +70,9 @@ EGL_OPENGL_API = 0x30A2
 EGL_DRAW = 0x3059
 EGL_READ = 0x305A
 EGL_EXTENSIONS = 0x3055
+EGL_VENDOR = 0x3053
 EGL_PLATFORM_SURFACELESS_MESA = 0x31DD
+EGL_PLATFORM_DEVICE_EXT = 0x313F
 EGL_CONTEXT_MAJOR_VERSION = 0x3098
 EGL_CONTEXT_MINOR_VERSION = 0x30FB
 EGL_CONTEXT_OPENGL_PROFILE_MASK = 0x30FD

@@ -24,6 +24,11 @@ Stages of one frame:
 3. at the end, outstanding queries are waited for; visibility is pulled up (a node is visible
    this frame iff it is a visible leaf or has a visible child) and kept for the next frame.
 
+Stages 2 and 3 run as one numba loop that calls GL itself (:mod:`soc.culling.chc_traversal`):
+Python runs once per frame (frustum test, refit, distances, uploading the node boxes), not per
+node or per query. The Python traversal (:class:`_Traversal`, ``compiled=False``) is the
+reference it is tested against, with ``poll=False`` so that neither depends on GL timing.
+
 Conservative, also with temporal reuse: an object is culled only if a query of a box holding
 it failed *this frame* (or it lies outside the frustum). Such a query tested the box against a
 depth buffer holding only real scene meshes rendered with the oracle's camera, resolution and
@@ -37,12 +42,15 @@ is queried), the strict variant.
 
 from __future__ import annotations
 
+import ctypes
 import heapq
 from collections import deque
 
 import numpy as np
 
+from soc.culling import chc_traversal
 from soc.culling.bvh import box_distance, build
+from soc.gl import compiled as compiled_gl
 from soc.methods.base import MethodOutput, register, stage
 from soc.methods.prepass_queries import PrepassQueryMethod
 
@@ -54,8 +62,8 @@ DEFAULT_BATCH_SIZE = 32
 # random phase so the revisits spread over frames).
 DEFAULT_REVISIT_INTERVAL = 5
 
-# Objects per BVH leaf: the unit of rendering and of queries. Larger leaves: fewer nodes in the
-# Python traversal, but more hidden objects drawn with a visible neighbour.
+# Objects per BVH leaf: the unit of rendering and of queries. Larger leaves: fewer nodes to
+# traverse and query, but more hidden objects drawn with a visible neighbour.
 DEFAULT_LEAF_SIZE = 8
 
 # Seed of the per-node revisit phases (deterministic runs).
@@ -79,6 +87,14 @@ class CoherentHierarchicalCulling(PrepassQueryMethod):
         Objects per BVH leaf, default :data:`DEFAULT_LEAF_SIZE`.
     prepass : bool
         Seed the depth with the frustum-surviving occluders first (default True).
+    compiled : bool
+        Run the traversal — heap, queues, draws, queries, polls, read-backs — as one numba
+        loop calling GL (:mod:`soc.culling.chc_traversal`, default); False: the Python
+        traversal (:class:`_Traversal`), kept as the tested reference.
+    poll : bool
+        Consume query results as soon as GL has them (default, CHC's behaviour). False:
+        only when the traversal has nothing else to do, which makes a frame independent of
+        the GL's timing (used to compare the two traversals command for command).
 
     Conservative (see the module docstring); ``temporal`` reuse trades extra draws, not misses.
     Timings: ``"frustum"``, ``"prepass"`` (when on) and ``"traverse"`` (queries and depth
@@ -100,8 +116,10 @@ class CoherentHierarchicalCulling(PrepassQueryMethod):
         batch_size: int = DEFAULT_BATCH_SIZE,
         leaf_size: int = DEFAULT_LEAF_SIZE,
         prepass: bool = True,
+        compiled: bool = True,
+        poll: bool = True,
     ):
-        super().__init__(geometry, resolution, config)
+        super().__init__(geometry, resolution, config, compiled=compiled)
         if revisit_interval < 1 or batch_size < 1 or leaf_size < 1:
             raise ValueError(
                 "revisit_interval, batch_size and leaf_size must be >= 1, got "
@@ -111,11 +129,25 @@ class CoherentHierarchicalCulling(PrepassQueryMethod):
         self.revisit_interval = int(revisit_interval)
         self.batch_size = int(batch_size)
         self.prepass = bool(prepass)
+        self.poll = bool(poll)
         self.bvh = build(self.scene.aabbs, leaf_size)
         rng = np.random.default_rng(REVISIT_SEED)
         self.phase = rng.integers(0, self.revisit_interval, len(self.bvh))
         self.program = self.glctx.program("mesh.vert", "depth_only.frag")
+        if self.compiled:
+            # One query object per node, generated once and kept; the frame's draw commands
+            # in an indirect buffer of the method's own (room for every object).
+            self._node_queries = np.zeros(len(self.bvh), np.uint32)
+            self.glctx.raw.glGenQueries(len(self.bvh), _uint_pointer(self._node_queries))
+            self._commands = np.zeros((len(self.scene), 5), np.uint32)
+            self._indirect = self.glctx.ctx.buffer(reserve=self._commands.nbytes)
         self.reset()
+
+    def release(self) -> None:
+        if self.compiled:
+            self.glctx.raw.glDeleteQueries(len(self.bvh), _uint_pointer(self._node_queries))
+            self._indirect.release()
+        super().release()
 
     def reset(self) -> None:
         self.was_visible = np.zeros(len(self.bvh), bool)
@@ -130,12 +162,55 @@ class CoherentHierarchicalCulling(PrepassQueryMethod):
             boxes, counts = self.bvh.refit(in_frustum)
             distance = box_distance(boxes, camera.eye)
         with stage(timings, "traverse", self.glctx.finish):
-            traversal = _Traversal(self, camera, in_frustum, boxes, counts, distance)
-            visible_nodes, queries = traversal.run()
+            if self.compiled:
+                visible, visible_nodes, queries = self._traverse(
+                    camera, in_frustum, boxes, counts, distance
+                )
+            else:
+                traversal = _Traversal(self, camera, in_frustum, boxes, counts, distance)
+                visible_nodes, queries = traversal.run()
+                visible = traversal.visible
         if self.temporal:
             self.was_visible = visible_nodes
         self.frame += 1
-        return MethodOutput(traversal.visible, frustum_culled, queries, timings)
+        return MethodOutput(visible, frustum_culled, queries, timings)
+
+    def _traverse(self, camera, in_frustum, boxes, counts, distance):
+        """Stages 2 and 3 in one numba loop (:func:`soc.culling.chc_traversal.traverse`):
+        (N,) bool visible objects, (M,) bool visible nodes, queries issued."""
+        bvh, glctx = self.bvh, self.glctx
+        # Every non-empty node's box is uploaded once (empty ones, +-inf, are never drawn).
+        nonempty = counts > 0
+        at_near = self.box_queries.stage(
+            self.target, camera, np.where(nonempty[:, None, None], boxes, np.float32(0))
+        )
+        self.target.fbo.depth_mask = True  # what the traversal leaves, moderngl believes
+        glctx.ctx.depth_func = "<"
+        self.program["view_proj"].write(camera.gl_bytes(camera.view_proj))
+        names = np.array(
+            [
+                self.program.glo,
+                self.geometry.mesh_vao(self.program).glo,
+                self.box_queries.program.glo,
+                self.box_queries.vao.glo,
+                self._indirect.glo,
+            ],
+            np.int64,
+        )
+        visible = np.zeros(len(self.scene), bool)
+        visible_nodes = np.zeros(len(bvh), bool)
+        was_visible = self.was_visible if self.temporal else np.zeros(len(bvh), bool)
+        revisit = (self.frame + self.phase) % self.revisit_interval == 0
+        queries = chc_traversal.traverse(
+            (compiled_gl.entry_points(glctx), names, self._node_queries, self.geometry.commands),
+            (bvh.left, bvh.parent, bvh.start, bvh.count, bvh.order),
+            (counts, distance, in_frustum[bvh.order], was_visible, revisit, at_near & nonempty),
+            (visible, visible_nodes, self._commands),
+            self.batch_size,
+            self.poll,
+        )
+        glctx.check("chc traversal")
+        return visible, visible_nodes, int(queries)
 
 
 class _Traversal:
@@ -166,7 +241,7 @@ class _Traversal:
             if not self.heap and (self.i_queue or self.v_queue):
                 self._issue()  # nothing left to traverse: query what waits
             # Results first: a visible node found now is traversed before farther nodes.
-            while self.batches and (not self.heap or self.batches[0][0].ready()):
+            while self.batches and (not self.heap or (self.m.poll and self.batches[0][0].ready())):
                 self._consume(*self.batches.popleft())
             if self.heap:
                 _, node = heapq.heappop(self.heap)
@@ -245,3 +320,8 @@ class _Traversal:
             return
         for node in nodes[passed].tolist():
             self._traverse(node)
+
+
+def _uint_pointer(a: np.ndarray):
+    """``a`` (uint32, contiguous) as a ``GLuint *`` for ctypes."""
+    return a.ctypes.data_as(ctypes.POINTER(ctypes.c_uint))

@@ -72,6 +72,7 @@ from soc.culling.hiz_gpu import (
 )
 from soc.gl.indirect_count import COMMAND_BYTES, CountedDraws
 from soc.methods.base import CullMethod, MethodOutput, register, stage
+from soc.metrics import gpu_stage
 
 GRANULARITIES = ("cluster", "object")
 COUNTS = ("auto", "read")
@@ -237,10 +238,11 @@ class GpuDriven(CullMethod):
     def _draw(self, camera, late: bool, *, color: bool, clear: bool, clear_color: bool) -> float:
         """Draw the commands the early (or late) pass wrote; ms, finished."""
         t0 = time.perf_counter()
-        program = self.renderer.bind(camera, color=color, clear=clear, clear_color=clear_color)
-        vao = self.geometry.mesh_vao(program, self.gpu.ibo)
-        c = self.gpu.count
-        self.draws.draw(vao, program, self.commands, self.frame, 4 * late, c * late, c)
+        with gpu_stage("draw"):  # the GL clock of the "draw" stage, where it is read
+            program = self.renderer.bind(camera, color=color, clear=clear, clear_color=clear_color)
+            vao = self.geometry.mesh_vao(program, self.gpu.ibo)
+            c = self.gpu.count
+            self.draws.draw(vao, program, self.commands, self.frame, 4 * late, c * late, c)
         self.glctx.ctx.finish()
         return 1e3 * (time.perf_counter() - t0)
 

@@ -60,6 +60,9 @@ class GridCulling(PrepassQueryMethod):
     min_fill : float
         Skip occlusion culling for a frame when fewer than this fraction of the grid cells
         the frustum touches are non-empty (0 = never skip).
+    compiled : bool
+        Issue and read the cell queries from numba loops over the GL entry points (default);
+        False: one Python call chain per query (the tested reference).
     """
 
     name = "grid"
@@ -76,8 +79,9 @@ class GridCulling(PrepassQueryMethod):
         temporal: bool = True,
         query_cap: int | None = None,
         min_fill: float = 0.0,
+        compiled: bool = True,
     ):
-        super().__init__(geometry, resolution, config)
+        super().__init__(geometry, resolution, config, compiled=compiled)
         if query_cap is not None and int(query_cap) < 0:
             raise ValueError(f"query_cap must be >= 0 or None, got {query_cap}")
         if not 0.0 <= float(min_fill) <= 1.0:

@@ -78,6 +78,7 @@ from soc.culling.hiz_gpu import MAX_REFINE, OUTSIDE, VISIBLE, DepthPyramid, HizT
 from soc.culling.octant_boxes import grown_octant_aabbs
 from soc.culling.software_raster import raster_threads
 from soc.methods.base import CullMethod, MethodOutput, register, stage
+from soc.metrics import gpu_stage
 
 NEXT_FROM = ("early", "final")
 EARLY_PASSES = ("shaded", "depth")
@@ -246,10 +247,11 @@ class TwoPhaseCulling(CullMethod):
         (``color``) or depth only, after clearing the depth (``clear``) and the colour
         (``clear``, with ``color`` or ``clear_color``); ms, finished."""
         t0 = time.perf_counter()
-        program = self.renderer.bind(
-            camera, color=color, clear=clear, clear_color=clear_color, depth_func=depth_func
-        )
-        self.geometry.draw_objects(program, ids)
+        with gpu_stage("draw"):  # the GL clock of the "draw" stage (see cull)
+            program = self.renderer.bind(
+                camera, color=color, clear=clear, clear_color=clear_color, depth_func=depth_func
+            )
+            self.geometry.draw_objects(program, ids)
         self.glctx.ctx.finish()
         return 1e3 * (time.perf_counter() - t0)
 

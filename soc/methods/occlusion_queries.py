@@ -13,14 +13,21 @@ from soc.methods.prepass_queries import PrepassQueryMethod
 
 @register
 class QueryCulling(PrepassQueryMethod):
-    """Frustum + occluder depth prepass + per-object ``GL_ANY_SAMPLES_PASSED`` queries."""
+    """Frustum + occluder depth prepass + per-object ``GL_ANY_SAMPLES_PASSED`` queries.
+
+    Options
+    -------
+    compiled : bool
+        Issue and read the queries from a numba loop over the GL entry points (default);
+        False: one Python call chain per object (seed 000's loop, the tested reference).
+    """
 
     name = "queries"
     conservative = True
 
-    def __init__(self, geometry, resolution, config):
-        super().__init__(geometry, resolution, config)
-        self.queries = OcclusionQueries(geometry)
+    def __init__(self, geometry, resolution, config, *, compiled: bool = True):
+        super().__init__(geometry, resolution, config, compiled=compiled)
+        self.queries = OcclusionQueries(geometry, compiled=compiled)
 
     def release(self) -> None:
         self.queries.release()

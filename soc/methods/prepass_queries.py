@@ -9,6 +9,7 @@ import numpy as np
 
 from soc.culling.box_queries import BoxQueries
 from soc.culling.depth_prepass import DepthTarget
+from soc.gl import compiled as compiled_gl
 from soc.methods.base import CullConfig, CullMethod, frustum_stage, prepass_stage
 
 
@@ -21,13 +22,21 @@ class PrepassQueryMethod(CullMethod):
         The occluder depth, at the culler's resolution (conservative at that resolution).
     box_queries : BoxQueries
         Occlusion queries on grown boxes (grown by a fraction of the scene's diagonal).
+    compiled : bool
+        Whether queries are issued and read from numba loops (:mod:`soc.gl.compiled`) or one
+        Python call chain per query (the reference behaviour).
     """
 
-    def __init__(self, geometry, resolution: tuple[int, int], config: CullConfig):
+    def __init__(
+        self, geometry, resolution: tuple[int, int], config: CullConfig, *, compiled: bool = True
+    ):
         super().__init__(geometry, resolution, config)
+        self.compiled = bool(compiled) and compiled_gl.available()
         self.target = DepthTarget(self.glctx, resolution)
         lo, hi = self.scene.bounds
-        self.box_queries = BoxQueries(self.glctx, float(np.linalg.norm(np.subtract(hi, lo))))
+        self.box_queries = BoxQueries(
+            self.glctx, float(np.linalg.norm(np.subtract(hi, lo))), compiled=self.compiled
+        )
 
     def release(self) -> None:
         self.box_queries.release()

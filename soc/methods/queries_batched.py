@@ -70,6 +70,10 @@ class BatchedQueryCulling(PrepassQueryMethod):
     render_visible : bool
         Render the meshes of objects found visible into the depth before the next round
         (default True); False tests everything against the occluders only.
+    compiled : bool
+        Issue and read each round's queries from numba loops over the GL entry points
+        (default); False: one Python call chain per query (the tested reference). Python runs
+        once per round either way.
 
     Conservative at the depth resolution it runs at (see the module docstring). ``queries``
     in the output counts every query issued (packets, nodes and objects).
@@ -88,8 +92,9 @@ class BatchedQueryCulling(PrepassQueryMethod):
         leaf_size: int = DEFAULT_LEAF_SIZE,
         wave_size: int = DEFAULT_WAVE_SIZE,
         render_visible: bool = True,
+        compiled: bool = True,
     ):
-        super().__init__(geometry, resolution, config)
+        super().__init__(geometry, resolution, config, compiled=compiled)
         if min(packet_size, leaf_size, wave_size) < 1:
             raise ValueError(
                 "packet_size, leaf_size, wave_size must be >= 1, got "
