@@ -5,15 +5,16 @@ quantities measured in the same run, frame by frame, on the same cameras.
 
     python -m experiments.bench [--scene market] [--frames 100] [--out results]
     python -m experiments.bench --only floor --scene castle-2114 --frames 60 \
-        [--methods 'masked;hiz-gpu(footprint=4)']
+        [--methods 'masked;hiz-gpu(footprint=4)'] [--path walk]
 
 Scenes: market (generated, 27,025 objects), castle (Intel's castle with the market refilled,
 27,025), castle-2114 (Intel's castle as shipped, 2,114), clutter, city (generated, 10⁶
 objects: by default only the methods of :data:`experiments.bench_scale.CITY_SPECS`).
 
 Every culling section comes from one run of :func:`experiments.bench_floor.run_floor` (every
-method culls each frame of the seed-000 flight in turn, its kept set drawn, beside the oracle
-and the machine's floor): its tidy DataFrames are written as CSV and each section's tables are
+method culls each frame of a camera path in turn — the seed-000 flight, or with ``--path walk``
+a walk through the streets at eye height — its kept set drawn, beside the oracle and the
+machine's floor): its tidy DataFrames are written as CSV and each section's tables are
 drawn from them by :func:`experiments.markdown.markdown_table` — ``floor-<scene>`` (every
 method and option beside the floor), ``methods-<scene>`` (the methods side by side) and
 ``foundation`` (seed 000's frustum and per-object queries, stage by stage). The LOD sections
@@ -254,7 +255,16 @@ def main(argv: list[str] | None = None) -> int:
         "'masked;hiz-gpu(footprint=4)' (default: every method, see experiments.bench_floor)",
     )
     ap.add_argument("--note", default=None, help="floor section: a remark on the run")
+    ap.add_argument(
+        "--path",
+        default="flight",
+        choices=sorted(soc.scenes.paths.PATHS),
+        help="floor section: the camera path (default: the seed-000 flight; walk: through "
+        "the streets at eye height, its own section floor-<scene>-walk)",
+    )
     args = ap.parse_args(argv)
+    if args.path != "flight" and args.only not in (None, "floor"):
+        ap.error(f"--path {args.path} is for the floor section only (--only floor)")
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -278,9 +288,12 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     scene = _scene(args.scene, args.data)
     load_s = time.perf_counter() - t0
-    result = bench_floor.run_floor(scene, args.frames, _specs(args, scene), label=args.scene)
+    result = bench_floor.run_floor(
+        scene, args.frames, _specs(args, scene), label=args.scene, path=args.path
+    )
     rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    stem = f"{args.only if args.only in ('methods', 'foundation') else 'floor'}-{args.scene}"
+    on = "" if args.path == "flight" else f"-{args.path}"
+    stem = f"{args.only if args.only in ('methods', 'foundation') else 'floor'}-{args.scene}{on}"
     result.frames.to_csv(out / f"{stem}.csv", index=False)
     result.floor.to_csv(out / f"{stem}-items.csv", index=False)
     command = f"python -m experiments.bench --scene {args.scene} --frames {args.frames}"
@@ -288,16 +301,19 @@ def main(argv: list[str] | None = None) -> int:
         command = command.replace(" --scene", f" --only {args.only} --scene")
     if args.methods:
         command += f" --methods '{args.methods}'"
+    if args.path != "flight":
+        command += f" --path {args.path}"
     sections = {}
     if args.only in (None, "floor"):
         note = (args.note + " " if args.note else "") + (
             f"Per-frame rows: `{out.name}/{stem}.csv` (frame × method) and "
             f"`{out.name}/{stem}-items.csv` (floor items), not committed."
         )
-        sections[f"floor-{args.scene}"] = bench_floor.markdown(result, command, note=note)
-    if args.only in (None, "methods"):
+        sections[f"floor-{args.scene}{on}"] = bench_floor.markdown(result, command, note=note)
+    flight = args.path == "flight"  # the methods and foundation sections are the flight's
+    if args.only in (None, "methods") and flight:
         sections[f"methods-{args.scene}"] = methods_markdown(result, command)
-    if args.only in (None, "foundation"):
+    if args.only in (None, "foundation") and flight:
         sections["foundation"] = foundation_markdown(result, command, load_s, rss_mb)
     for name, body in sections.items():
         text = replace_section(md, name, body)

@@ -1,7 +1,9 @@
 """``make bench`` floor section: every culling method beside the floor of this machine.
 
-Issue 10's benchmark. On one scene at 1920×1080, per frame of the seed-000 flight, in one run
-and interleaved frame by frame (so machine load hits every method alike):
+Issue 10's benchmark (and issue 21's rows: ``gpu-driven``, triangles drawn). On one scene at
+1920×1080, per frame of a camera path — the seed-000 flight, or a walk through the streets at
+eye height (``--path walk``, :func:`soc.scenes.paths.walk`) — in one run and interleaved frame
+by frame (so machine load hits every method alike):
 
 1. the oracle's visible set (``soc.Oracle``: false culls, hidden objects kept);
 2. every method culls and its kept set is drawn with :class:`soc.Renderer` (a method that draws
@@ -62,6 +64,7 @@ def extra_specs(resolution: tuple[int, int] = DISPLAY) -> tuple[str, ...]:
         "masked(threads=1)",
         "hiz-cpu(threads=1)",
         "hiz-cpu(footprint=4, refine=23)",
+        "gpu-driven(granularity='object')",
     )
 
 
@@ -73,6 +76,14 @@ MOC_MS, MOC_HIDDEN_KEPT = 1.40, 240
 TARGET_QUERIES_RATIO_27K, TARGET_CPU_RATIO_27K = 50.0, 10.0
 TARGET_IDEAL_RATIO = 1.15
 TARGET_MOC_FACTOR, TARGET_QUERIES_RATIO_2114 = 2.0, 15.0
+# Issue 21's targets for gpu-driven on llvmpipe: cull + draw ÷ ideal (castle-2114; the 27k
+# scenes), and triangles drawn ÷ the ideal's (castle-2114).
+TARGET_GPU_DRIVEN_2114, TARGET_GPU_DRIVEN_27K, TARGET_TRIANGLES_2114 = 1.00, 1.10, 0.7
+# What each camera path is, for the section's text.
+PATH_WORDS = {
+    "flight": "the seed-000 flight",
+    "walk": "a walk through the streets at eye height (`soc.scenes.paths.walk`, seed 0)",
+}
 LARGE_SCENE = 20_000  # objects; the "27,025-object scenes" targets apply above this
 # Timed beside the floor items, for reference (the exact visible set is no part of a frame).
 ORACLE_ITEM = "oracle (exact id render, for reference)"
@@ -136,6 +147,8 @@ class FloorResult:
     frames_n : int
     resolution : (int, int)
         Display and depth-buffer resolution, pixels.
+    path : str
+        The camera path's name (:data:`soc.scenes.paths.PATHS`).
     """
 
     frames: pd.DataFrame
@@ -144,6 +157,7 @@ class FloorResult:
     objects: int
     frames_n: int
     resolution: tuple[int, int]
+    path: str = "flight"
 
 
 def _row(frame, truth, method, conservative, cull_ms, draw_ms, visible, queries, stages) -> dict:
@@ -200,15 +214,19 @@ def run_floor(
     cameras=None,
     resolution: tuple[int, int] = DISPLAY,
     progress: bool = True,
+    path: str = "flight",
 ) -> FloorResult:
     """Measure every method in ``specs`` (default :func:`default_specs`) and the floor items,
-    interleaved frame by frame over ``frames`` flight cameras (or ``cameras``) at
-    ``resolution`` (display and depth buffer, pixels)."""
+    interleaved frame by frame over ``frames`` cameras of ``path`` (a name in
+    :data:`soc.scenes.paths.PATHS`; or ``cameras``) at ``resolution`` (display and depth
+    buffer, pixels)."""
     specs = list(specs or default_specs(scene, resolution))
     parsed = {s: parse_spec(s) for s in specs}
+    if path not in soc.scenes.paths.PATHS:
+        raise ValueError(f"unknown path {path!r}; use one of {sorted(soc.scenes.paths.PATHS)}")
     if cameras is None:
-        cameras = soc.scenes.paths.flight(
-            scene, frames=frames, width=resolution[0], height=resolution[1]
+        cameras = soc.scenes.paths.PATHS[path](
+            scene, frames, width=resolution[0], height=resolution[1]
         )
     cameras = list(cameras)[:frames]
     glctx = soc.gl.context.default_context()
@@ -312,7 +330,7 @@ def run_floor(
     df.insert(0, "scene", label)
     fl = pd.DataFrame(floor_rows)
     fl.insert(0, "scene", label)
-    return FloorResult(df, fl, label, len(scene), len(cameras), tuple(resolution))
+    return FloorResult(df, fl, label, len(scene), len(cameras), tuple(resolution), path)
 
 
 # -- tables -----------------------------------------------------------------------------------
@@ -487,6 +505,33 @@ def targets(result: FloorResult, summary: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def targets_21(result: FloorResult, summary: pd.DataFrame) -> pd.DataFrame:
+    """Issue 21's llvmpipe targets for ``gpu-driven`` (each granularity) on this scene."""
+    rows = []
+    big = result.objects >= LARGE_SCENE
+    limit = TARGET_GPU_DRIVEN_27K if big else TARGET_GPU_DRIVEN_2114
+    for _, b in summary[summary["method"].str.startswith("gpu-driven")].iterrows():
+        rows.append(
+            {
+                "target": f"cull + draw ≤ {limit:.2f}× ideal",
+                "method": b["method"],
+                "measured": f"{b['÷ ideal']:.2f}×",
+                "met": "yes" if b["÷ ideal"] <= limit else "no",
+            }
+        )
+        if result.scene == "castle-2114" and "triangles ÷ ideal" in b:
+            r = b["triangles ÷ ideal"]
+            rows.append(
+                {
+                    "target": f"triangles drawn ≤ {TARGET_TRIANGLES_2114}× the ideal's",
+                    "method": b["method"],
+                    "measured": f"{r:.2f}×",
+                    "met": "yes" if r <= TARGET_TRIANGLES_2114 else "no",
+                }
+            )
+    return pd.DataFrame(rows, columns=["target", "method", "measured", "met"])
+
+
 def markdown(result: FloorResult, command: str, note: str = "") -> str:
     """The BENCHMARKS.md section body for ``result``."""
     summary = summarize(result)
@@ -500,12 +545,13 @@ def markdown(result: FloorResult, command: str, note: str = "") -> str:
     stages.columns = ["method", *[c[3:] for c in stages.columns[1:]]]
     glctx = soc.gl.context.default_context()
     w, h = result.resolution
+    on = "" if result.path == "flight" else f", {result.path}"
     parts = [
-        f"## Culling at the floor of this machine ({result.scene})",
+        f"## Culling at the floor of this machine ({result.scene}{on})",
         "",
         f"`{command}` on {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}: "
         f"{result.scene}, {result.objects:,} objects, {result.frames_n} consecutive frames of "
-        f"the seed-000 flight at {w}×{h} (display and depth buffer), "
+        f"{PATH_WORDS.get(result.path, result.path)} at {w}×{h} (display and depth buffer), "
         f"{glctx.ctx.info['GL_RENDERER']} with {glctx.threads} threads. Methods interleaved "
         "frame by frame in one run; medians over frames; ratios are medians of per-frame "
         "ratios. " + gpu_clock_line(glctx) + " " + note,
@@ -516,7 +562,8 @@ def markdown(result: FloorResult, command: str, note: str = "") -> str:
         "'÷ visible' divides by the oracle's visible count. 'over ideal ms' = cull + draw minus "
         "drawing exactly the oracle's set. Non-conservative methods may cull visible objects "
         "(their false culls are popping). A method that draws the frame itself "
-        "(`hiz-2phase`) reports its own draw.",
+        "(`hiz-2phase`, `gpu-driven`) reports its own draw. 'triangles ÷ ideal': triangles "
+        "drawn (a method drawing clusters draws parts of objects) ÷ those of the oracle's set.",
         "",
         "### The floor",
         "",
@@ -525,6 +572,10 @@ def markdown(result: FloorResult, command: str, note: str = "") -> str:
         "### Issue 10 targets",
         "",
         markdown_table(targets(result, summary)),
+        "",
+        "### Issue 21 targets (llvmpipe)",
+        "",
+        markdown_table(targets_21(result, summary)),
         "",
         "### Cull stages (mean ms per frame; a frame that skips a stage counts 0)",
         "",

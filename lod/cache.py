@@ -14,13 +14,12 @@ never sees a half-written file and concurrent writers simply race to the same co
 from __future__ import annotations
 
 import hashlib
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from soc import user_cache as _user_cache
+from soc.user_cache import load, store  # noqa: F401  (the npz files, written atomically)
 
 ENV = _user_cache.ENV  # VISLOD_CACHE
 cache_root = _user_cache.cache_root  # $VISLOD_CACHE, else the user's cache folder
@@ -47,31 +46,3 @@ def key(vertices: np.ndarray, faces: np.ndarray, params: dict) -> str:
         h.update(a.tobytes())
     h.update(repr(sorted(params.items())).encode())
     return h.hexdigest()
-
-
-def load(folder: Path, name: str) -> dict[str, np.ndarray] | None:
-    """The arrays stored under ``name``, or None when absent or unreadable."""
-    path = Path(folder) / f"{name}.npz"
-    if not path.exists():
-        return None
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            return {k: z[k] for k in z.files}
-    except (OSError, ValueError, KeyError):
-        return None  # a corrupt entry is recomputed and overwritten
-
-
-def store(folder: Path, name: str, arrays: dict[str, np.ndarray]) -> Path:
-    """Write ``arrays`` atomically to ``folder/name.npz``; returns the path."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-        path = folder / f"{name}.npz"
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path

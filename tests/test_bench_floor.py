@@ -11,9 +11,9 @@ import soc
 from experiments import bench, bench_floor, bench_lod_chain, bench_lod_select
 from experiments.markdown import markdown_table, replace_section
 
-# a method that draws the frame itself (draws_frame) too, when registered
+# methods that draw the frame itself (draws_frame) too, when registered
 SPECS = ["frustum", "queries", "hiz-gpu", "hiz-gpu(footprint=4)"] + [
-    m for m in ("hiz-2phase",) if m in soc.method_names()
+    m for m in ("hiz-2phase", "gpu-driven") if m in soc.method_names()
 ]
 
 
@@ -52,6 +52,29 @@ def test_summary_ratios(result):
     assert s.loc["queries", "queries ÷ this (cull)"] == pytest.approx(1.0)
     assert s.loc["ideal", "÷ ideal"] == pytest.approx(1.0)
     assert math.isnan(s.loc["everything", "queries ÷ this (cull)"])
+    assert s.loc["ideal", "triangles ÷ ideal"] == pytest.approx(1.0)
+    assert s.loc["everything", "triangles ÷ ideal"] > 1.0
+    tris = result.frames.pivot(index="frame", columns="method", values="triangles_drawn")
+    assert (tris["frustum"] <= tris["everything"]).all() and (tris["ideal"] > 0).all()
+    if "gpu-driven" in tris:  # its own count (clusters), between nothing and everything
+        assert ((tris["gpu-driven"] > 0) & (tris["gpu-driven"] <= tris["everything"])).all()
+
+
+def test_a_floor_run_on_the_walk(tmp_path):
+    """--path walk: the cameras of soc.scenes.paths.walk, said in the section's text, and the
+    section has its own name."""
+    scene = soc.scenes.market(seed=0, occludees=300)
+    res = bench_floor.run_floor(
+        scene, 2, ["frustum"], label="walked", resolution=(160, 90), progress=False, path="walk"
+    )
+    assert res.path == "walk" and res.frames_n == 2
+    body = bench_floor.markdown(res, "cmd")
+    assert "a walk through the streets at eye height" in body
+    assert body.startswith("## Culling at the floor of this machine (walked, walk)")
+    with pytest.raises(ValueError, match="unknown path"):
+        bench_floor.run_floor(scene, 2, ["frustum"], path="orbit", progress=False)
+    with pytest.raises(SystemExit):
+        bench.main(["--only", "methods", "--path", "walk", "--out", str(tmp_path)])
 
 
 def test_markdown_section_written_between_markers(result, tmp_path):

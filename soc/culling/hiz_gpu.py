@@ -309,6 +309,38 @@ class DepthPyramid:
         return atlas[y : y + h, x : x + w].copy()
 
 
+def set_frustum_uniforms(program, camera: Camera) -> None:
+    """Set the uniforms that ``outside_frustum`` of ``hiz_test.common.glsl`` reads in
+    ``program``: ``camera``'s planes and the slack of the test."""
+    program["planes"].write(np.ascontiguousarray(camera.planes, np.float32).tobytes())
+    program["plane_slack"].value = FRUSTUM_SLACK
+    program["plane_rounding"].value = PLANE_ROUNDING
+
+
+def set_test_uniforms(
+    program, pyramid: DepthPyramid, camera: Camera, footprint: int, refine: int, display=None
+) -> None:
+    """Set the uniforms of ``hiz_test.common.glsl`` in ``program`` (a compute shader that
+    includes it) and bind ``pyramid``'s textures: the box tests of that file then judge boxes
+    from ``camera`` against ``pyramid`` (built for it) with ``footprint`` and ``refine`` (see
+    :class:`HizTest`), at ``display`` resolutions besides the pyramid's own (see
+    :meth:`HizTest.classify`)."""
+    prog = program
+    set_frustum_uniforms(prog, camera)
+    prog["level_info"].write(pyramid.level_info)
+    prog["levels"].value = len(pyramid)
+    prog["size"].value = pyramid.resolution
+    displays = _displays(display, pyramid.resolution)
+    prog["displays"].write(np.array(displays, np.int32).tobytes())
+    prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
+    prog["min_w"].value = camera.near * (1.0 + NEAR_PLANE_MARGIN)
+    prog["depth_bias"].value = QUERY_DEPTH_BIAS_NDC
+    prog["pixel_margin"].value = HIZ_PIXEL_MARGIN
+    prog["footprint"].value = footprint
+    prog["refine"].value = refine
+    pyramid.bind(prog)
+
+
 @uses_gl
 class HizTest:
     """Test many world-space boxes against a :class:`DepthPyramid` in one compute dispatch.
@@ -409,24 +441,10 @@ class HizTest:
         self._reserve(k)
         self._ids.write(ids)
         prog = self.program
-        prog["level_info"].write(pyramid.level_info)
-        prog["levels"].value = len(pyramid)
-        prog["size"].value = pyramid.resolution
-        displays = _displays(display, pyramid.resolution)
-        prog["displays"].write(np.array(displays, np.int32).tobytes())
-        prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
+        set_test_uniforms(prog, pyramid, camera, self.footprint, self.refine, display)
         prog["frustum"].value = bool(frustum)
-        prog["planes"].write(np.ascontiguousarray(camera.planes, np.float32).tobytes())
-        prog["plane_slack"].value = FRUSTUM_SLACK
-        prog["plane_rounding"].value = PLANE_ROUNDING
         prog["count"].value = k
-        prog["min_w"].value = camera.near * (1.0 + NEAR_PLANE_MARGIN)
-        prog["depth_bias"].value = QUERY_DEPTH_BIAS_NDC
-        prog["pixel_margin"].value = HIZ_PIXEL_MARGIN
-        prog["footprint"].value = self.footprint
-        prog["refine"].value = self.refine
         prog["use_octants"].value = octants is not None
-        pyramid.bind(prog)
         boxes.bind_to_storage_buffer(0)
         self._ids.bind_to_storage_buffer(1)
         self._out.bind_to_storage_buffer(2)

@@ -406,10 +406,16 @@ def uses_gl(obj):
 
 
 def _shader_source(name: str) -> str:
+    """``soc/shaders/<name>.glsl``, each ``#include "<other>"`` line replaced by that file's
+    source (code shared by several shaders lives in ``<name>.common.glsl``)."""
     path = resources.files("soc.shaders").joinpath(f"{name}.glsl")
     if not path.is_file():
         raise FileNotFoundError(f"shader soc/shaders/{name}.glsl does not exist")
-    return path.read_text()
+    lines = path.read_text().splitlines()
+    return "\n".join(
+        _shader_source(line.split('"')[1]) if line.startswith("#include ") else line
+        for line in lines
+    )
 
 
 def _default_context(threads: int | None = None) -> GLContext:

@@ -93,6 +93,7 @@ class SceneGeometry:
         self.box_edges = ctx.buffer(BOX_EDGES)
         self.indirect = ctx.buffer(reserve=max(n, 1) * 20, dynamic=True)
         self._vaos: dict[tuple, object] = {}
+        self._clusters: dict[str, ClusterBuffers] = {}  # by Clusters.key, uploaded on need
 
     @property
     def scene(self):
@@ -108,6 +109,9 @@ class SceneGeometry:
         for vao in self._vaos.values():
             vao.release()
         self._vaos.clear()
+        for c in self._clusters.values():
+            c.release()
+        self._clusters.clear()
         for b in (
             self.vbo,
             self.ibo,
@@ -135,9 +139,12 @@ class SceneGeometry:
 
     # -- vertex arrays, one per (program, kind) ---------------------------------------------
 
-    def mesh_vao(self, program):
-        """Vertex array drawing object meshes with ``program`` (mesh.vert inputs)."""
-        key = ("mesh", program.glo)
+    def mesh_vao(self, program, index_buffer=None):
+        """Vertex array drawing object meshes with ``program`` (mesh.vert inputs), from
+        ``index_buffer`` (default the scene's faces; a :class:`ClusterBuffers`' ``ibo`` holds
+        them in cluster order)."""
+        index_buffer = self.ibo if index_buffer is None else index_buffer
+        key = ("mesh", program.glo, index_buffer.glo)
         if key not in self._vaos:
             # Attributes a program does not use are skipped (optimized out by the compiler).
             attrs = [
@@ -147,7 +154,7 @@ class SceneGeometry:
             ]
             attrs = [a for a in attrs if a[2] in program]
             self._vaos[key] = self.glctx.ctx.vertex_array(
-                program, attrs, index_buffer=self.ibo, index_element_size=4
+                program, attrs, index_buffer=index_buffer, index_element_size=4
             )
         return self._vaos[key]
 
@@ -162,6 +169,16 @@ class SceneGeometry:
                 index_element_size=4,
             )
         return self._vaos[key]
+
+    # -- clusters ---------------------------------------------------------------------------
+
+    def clusters(self, clusters) -> ClusterBuffers:
+        """The GPU copy of ``clusters`` (a :class:`soc.culling.clusters.Clusters` of this
+        scene), uploaded on first need and kept until this geometry is released."""
+        held = self._clusters.get(clusters.key)
+        if held is None:
+            held = self._clusters[clusters.key] = ClusterBuffers(self, clusters)
+        return held
 
     # -- drawing ----------------------------------------------------------------------------
 
@@ -195,3 +212,60 @@ class SceneGeometry:
             self.indirect.orphan(cmd.nbytes)
         self.indirect.write(cmd)
         vao.render_indirect(self.indirect, mode=mode, count=len(ids))
+
+
+@uses_gl
+class ClusterBuffers:
+    """A scene's clusters on the GPU (:meth:`SceneGeometry.clusters`).
+
+    Attributes
+    ----------
+    ibo : moderngl.Buffer
+        The scene's faces in cluster order (object-local indices, as the scene's own index
+        buffer: each object keeps its index range, permuted), or the scene's index buffer
+        itself when the order is the scene's.
+    info : moderngl.Buffer
+        (C, 4) uint32 per cluster: first index (in :attr:`ibo`), index count, object, 0.
+    boxes : moderngl.Buffer
+        (C, 6) float32 cluster AABBs grown by the conservative margin (:func:`grown_aabbs`
+        with the scene's diagonal), ``lo, hi``.
+    cones : moderngl.Buffer
+        (C, 8) float32: cone apex, cutoff, axis, 0 (:class:`soc.culling.clusters.Clusters`).
+    objects : moderngl.Buffer
+        (N, 4) uint32 per object: first cluster, cluster count, base vertex, 0.
+    count : int
+        C.
+    """
+
+    def __init__(self, geometry: SceneGeometry, clusters):
+        ctx = geometry.glctx.ctx
+        self.glctx = geometry.glctx
+        scene = geometry.scene
+        order = np.asarray(clusters.order)
+        self.count = len(clusters.first)
+        self._own_ibo = not np.array_equal(order, np.arange(len(order)))
+        if self._own_ibo:
+            self.ibo = ctx.buffer(np.ascontiguousarray(scene.faces[order], np.uint32))
+        else:
+            self.ibo = geometry.ibo
+        info = np.zeros((self.count, 4), np.uint32)
+        info[:, 0] = 3 * np.asarray(clusters.first)
+        info[:, 1] = 3 * np.asarray(clusters.count)
+        info[:, 2] = clusters.object
+        grown = grown_aabbs(clusters.aabbs, geometry.diagonal).reshape(-1, 6)
+        cones = np.zeros((self.count, 8), np.float32)
+        cones[:, 0:3], cones[:, 3] = clusters.cone_apex, clusters.cone_cutoff
+        cones[:, 4:7] = clusters.cone_axis
+        bounds = np.asarray(clusters.object_clusters)
+        objects = np.zeros((len(scene), 4), np.uint32)
+        objects[:, 0], objects[:, 1] = bounds[:-1], np.diff(bounds)
+        objects[:, 2] = scene.vertex_offsets[:-1]
+        self.info = ctx.buffer(info)
+        self.boxes = ctx.buffer(np.ascontiguousarray(grown))
+        self.cones = ctx.buffer(cones)
+        self.objects = ctx.buffer(objects)
+
+    def release(self) -> None:
+        bufs = [self.info, self.boxes, self.cones, self.objects]
+        for b in bufs + ([self.ibo] if self._own_ibo else []):
+            b.release()

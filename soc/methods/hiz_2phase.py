@@ -220,8 +220,6 @@ class TwoPhaseCulling(CullMethod):
         self.occluders = bool(occluders)
         self.occluders_first = bool(occluders_first)
         self.renderer = Renderer(geometry, resolution)
-        self.depth_fbo = self.glctx.ctx.framebuffer(depth_attachment=self.renderer.depth)
-        self.depth_program = self.glctx.program("mesh.vert", "depth_only.frag")
         self.test = test
         self.footprint, self.refine = footprint, refine
         self.threads = raster_threads(threads)
@@ -256,7 +254,6 @@ class TwoPhaseCulling(CullMethod):
         if self.test == "gpu":
             self.tester.release()
             self.pyramid.release()
-        self.depth_fbo.release()
         self.renderer.release()
 
     def reset(self) -> None:
@@ -296,31 +293,13 @@ class TwoPhaseCulling(CullMethod):
         """Draw ``ids`` into the method's target, shaded as :class:`soc.Renderer` draws
         (``color``) or depth only, after clearing the depth (``clear``) and the colour
         (``clear``, with ``color`` or ``clear_color``); ms, finished."""
-        import moderngl
-
-        from soc.rendering.renderer import LIGHT_DIR, SKY
-
-        ctx = self.glctx.ctx
         t0 = time.perf_counter()
         with gpu_stage("draw"):  # the GL clock of the "draw" stage (see cull)
-            if clear and (color or clear_color):
-                self.renderer.fbo.use()
-                self.renderer.fbo.depth_mask = True
-                self.renderer.fbo.clear(*SKY, 1.0, depth=1.0)
-            fbo = self.renderer.fbo if color else self.depth_fbo
-            fbo.use()
-            fbo.depth_mask = True
-            if clear and not (color or clear_color):
-                self.glctx.raw.clear_depth(1.0)
-            ctx.enable_only(moderngl.DEPTH_TEST)
-            ctx.depth_func = depth_func
-            program = self.renderer.program if color else self.depth_program
-            program["view_proj"].write(camera.gl_bytes(camera.view_proj))
-            if color:
-                program["light_dir"].value = LIGHT_DIR
-                program["eye"].value = tuple(camera.eye)
+            program = self.renderer.bind(
+                camera, color=color, clear=clear, clear_color=clear_color, depth_func=depth_func
+            )
             self.geometry.draw_objects(program, ids)
-        ctx.finish()
+        self.glctx.ctx.finish()
         return 1e3 * (time.perf_counter() - t0)
 
     def _classify(self, camera, timings, ids=None, prefix: str = "") -> np.ndarray:

@@ -41,8 +41,11 @@ class Renderer:
         self.fbo = ctx.framebuffer(color_attachments=[self.color], depth_attachment=self.depth)
         self.program = self.glctx.program("mesh.vert", "shade.frag")
         self.outline = self.glctx.program("box.vert", "solid_color.frag")
+        self._depth_fbo = None  # depth only, made on first need (bind(color=False))
 
     def release(self) -> None:
+        if self._depth_fbo is not None:
+            self.glctx.release_framebuffer(self._depth_fbo)
         self.glctx.release_framebuffer(self.fbo, self.color, self.depth)
 
     def device(self) -> str:
@@ -50,24 +53,49 @@ class Renderer:
         anything measured on this renderer, e.g. LOD cost-model constants)."""
         return f"{self.glctx.ctx.info['GL_RENDERER']} ({self.glctx.threads} threads)"
 
-    def draw(self, camera, ids: np.ndarray, *, clear: bool = True) -> float:
-        """Draw objects ``ids`` (K,) from ``camera``; returns the wall time in ms (finished)."""
+    def bind(
+        self,
+        camera,
+        *,
+        color: bool = True,
+        clear: bool = True,
+        clear_color: bool = False,
+        depth_func: str = "<",
+    ):
+        """Make this target the one drawn into from ``camera`` and return the program to draw
+        object meshes with (``mesh.vert`` inputs): shaded (``color``) or depth only (the same
+        depth buffer, the colour left alone). ``clear`` clears the depth, and the colour too
+        when ``color`` or ``clear_color``; the depth test is on with ``depth_func``."""
         import moderngl
 
         ctx = self.glctx.ctx
-        t0 = time.perf_counter()
-        self.fbo.use()
-        self.fbo.depth_mask = True
-        if clear:
+        if clear and (color or clear_color):
+            self.fbo.use()
+            self.fbo.depth_mask = True
             self.fbo.clear(*SKY, 1.0, depth=1.0)
+        if color:
+            fbo, p = self.fbo, self.program
+        else:
+            if self._depth_fbo is None:
+                self._depth_fbo = ctx.framebuffer(depth_attachment=self.depth)
+            fbo, p = self._depth_fbo, self.glctx.program("mesh.vert", "depth_only.frag")
+        fbo.use()
+        fbo.depth_mask = True
+        if clear and not (color or clear_color):
+            self.glctx.raw.clear_depth(1.0)
         ctx.enable_only(moderngl.DEPTH_TEST)
-        ctx.depth_func = "<"
-        p = self.program
+        ctx.depth_func = depth_func
         p["view_proj"].write(camera.gl_bytes(camera.view_proj))
-        p["light_dir"].value = LIGHT_DIR
-        p["eye"].value = tuple(camera.eye)
-        self.geometry.draw_objects(p, ids)
-        ctx.finish()
+        if color:
+            p["light_dir"].value = LIGHT_DIR
+            p["eye"].value = tuple(camera.eye)
+        return p
+
+    def draw(self, camera, ids: np.ndarray, *, clear: bool = True) -> float:
+        """Draw objects ``ids`` (K,) from ``camera``; returns the wall time in ms (finished)."""
+        t0 = time.perf_counter()
+        self.geometry.draw_objects(self.bind(camera, clear=clear), ids)
+        self.glctx.ctx.finish()
         return 1e3 * (time.perf_counter() - t0)
 
     def draw_outlines(self, camera, ids: np.ndarray, color=(1.0, 0.0, 0.0, 1.0)) -> None:

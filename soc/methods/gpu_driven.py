@@ -1,0 +1,309 @@
+"""``gpu-driven``: two-phase occlusion culling of objects and their clusters, every decision
+taken on the GPU — the pipeline of A. Kapoulkine's niagara (``drawcull.comp.glsl``, its early
+and late passes; Haar & Aaltonen, "GPU-Driven Rendering Pipelines", SIGGRAPH 2015) in
+OpenGL 4.5 compute shaders.
+
+Visibility lives on the GPU from frame to frame: a state word per object and per cluster
+(:mod:`soc.culling.clusters`; with ``granularity="object"`` an object is its one cluster).
+Stages of one frame, at the method's resolution (it draws the frame into its own target):
+
+1. **early** — a compute pass (``gpu_driven_early.comp.glsl``) writes the draw commands of
+   the clusters that passed last frame's late test and whose object (and own) box is still in
+   the frustum, consecutive clusters of an object as one command (``merge``), and flags them;
+2. **early draw** — those commands, drawn with ``glMultiDrawElementsIndirectCount`` (the
+   count stays on the GPU; :class:`soc.gl.indirect_count.CountedDraws`);
+3. **pyramid** — the max-depth pyramid of that depth, built in GL
+   (:class:`soc.culling.hiz_gpu.DepthPyramid`);
+4. **test** — a compute pass (``gpu_driven_late.comp.glsl``) tests every object's box against
+   the frustum and the pyramid (the footprint-and-refine test of ``hiz_test.common.glsl`` that
+   ``hiz-2phase`` uses), then the boxes of the clusters of the objects that pass; it writes the
+   commands of the clusters that pass and were not drawn early, and every cluster's state for
+   next frame;
+5. **late draw** — those commands, into the same depth;
+6. **read back** — the frame's counters and one bit per object (drawn or not): N / 8 bytes,
+   because :class:`soc.Culler` returns the kept set. Nothing else crosses to the CPU: no
+   depth, no per-object work in Python.
+
+The kept set (``visible``) is every object with a cluster drawn (early or late);
+``triangles_drawn`` counts the triangles of the drawn clusters.
+
+**Conservative in every frame.** The early pass draws a subset of the scene, so its depth is
+at every pixel >= the finished frame's, which is >= the depth of any sample the oracle sees.
+A cluster with such a sample lies in its grown box and its object's, each of which then passes
+the frustum test and the HiZ test (proof in :mod:`soc.culling.hiz_gpu`; boxes through the near
+plane are kept untested), so the cluster is drawn late unless it was drawn early. Nothing
+depends on which subset the early pass drew: the first frame and :meth:`GpuDriven.reset` (none:
+everything is tested against a cleared depth, frustum culling only), camera cuts (an unrelated
+set) are correct, only slower. A cluster is culled only when its box is outside the frustum or
+behind the pyramid at every pixel centre it may cover — no pixel of it can be visible, so a
+cluster-id render holds no culled cluster either (tests/test_gpu_driven.py checks both).
+
+**Normal cones are not used.** vislod's oracle draws without back-face culling, so a
+back-facing cluster is visible wherever no front face covers it. A cone may cull without
+culling an oracle-visible object only for clusters of closed meshes whose every piece faces out
+(:func:`soc.culling.clusters.closed_outward`), seen from outside with no part clipped by the
+near plane; even then a cluster-id render shows such back faces where they tie with the front
+faces at a silhouette. And they would gain nothing here: on the bench's views (castle-2114
+and the market, flight and walk) a cone rejects 0.1 % of the triangles drawn, of any mesh, and
+0.04 % or less of closed outward-facing ones — clusters of 128 triangles of buildings face many
+ways, so 2–4 % of clusters have a usable cone (``results/BENCHMARKS.md``, "GPU-driven").
+
+**Cull ms** (:attr:`soc.FrameStats.cull_ms`): the early pass, the pyramid, the test pass and the
+read back; ``"draw"`` is the early plus the late draw (shaded with ``cull(camera, draw=True)``,
+depth only otherwise), split in :attr:`GpuDriven.last_draws_ms`. Static scenes only (no
+``set_alive``).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from soc.culling.clusters import MAX_TRIANGLES, scene_clusters, whole_objects
+from soc.culling.hiz_cpu import check_test_options
+from soc.culling.hiz_gpu import (
+    MAX_REFINE,
+    TEST_GROUP,
+    TEST_GROUPS,
+    DepthPyramid,
+    set_frustum_uniforms,
+    set_test_uniforms,
+)
+from soc.gl.indirect_count import COMMAND_BYTES, CountedDraws
+from soc.methods.base import CullMethod, MethodOutput, register, stage
+from soc.metrics import gpu_stage
+
+GRANULARITIES = ("cluster", "object")
+COUNTS = ("auto", "read")
+NEXT_FROM = ("early", "final")
+# Counters at the start of the frame buffer (gpu_driven.common.glsl's FRAME_*), then the bits.
+FRAME_COMMANDS, FRAME_TRIANGLES, FRAME_OUTSIDE, FRAME_JUDGED, FRAME_HEADER = 0, 2, 4, 5, 8
+# Storage-buffer binding points of gpu_driven.common.glsl, in order.
+BINDINGS = (
+    "objects",
+    "object_boxes",
+    "clusters",
+    "cluster_boxes",
+    "object_state",
+    "cluster_state",
+    "commands",
+    "frame",
+)
+
+
+@register
+class GpuDriven(CullMethod):
+    """Two-phase culling of objects and their clusters on the GPU, drawing the frame itself.
+
+    Culling and drawing are one pass (``draws_frame = True``): ``soc.Culler.cull(camera,
+    draw=True)`` draws the shaded frame into the method's target (:attr:`renderer`, read it
+    with ``renderer.image()``), ``draw=False`` the same clusters depth only. Conservative every
+    frame (see the module); earlier frames change only what it costs (``temporal = True``).
+
+    Options
+    -------
+    granularity : {"cluster", "object"}
+        Cull and draw clusters of at most 128 triangles (default;
+        :func:`soc.culling.clusters.scene_clusters`, built once per scene and cached), or
+        whole objects.
+    cluster_triangles : int
+        Most triangles per cluster (default
+        :data:`~soc.culling.clusters.MAX_TRIANGLES`, 128).
+    footprint, refine : int
+        The HiZ test's footprint (2 or 4, default 4) and refinement levels (default
+        :data:`~soc.culling.hiz_gpu.MAX_REFINE`, down to the frame's pixels), as
+        ``hiz-2phase``'s.
+    merge : bool
+        Draw consecutive drawn clusters of an object as one command (default True).
+    next_from : {"early", "final"}
+        Which depth decides what next frame draws early: the early pass's pyramid (niagara's
+        choice, default) or the finished frame's (a second pyramid and a test of what passed:
+        fewer hidden clusters drawn early next frame).
+    count : {"auto", "read"}
+        How the draws learn their command count: the GL reads it from the GPU buffer where it
+        can (``glMultiDrawElementsIndirectCount``, GL 4.6 or ``ARB_indirect_parameters``;
+        default), or it is read back, 4 bytes per pass (``"read"``; the fallback elsewhere).
+
+    Attributes
+    ----------
+    clusters : soc.culling.clusters.Clusters
+    last_draws_ms : dict
+        ``{"early draw": ms, "late draw": ms}`` of the last frame.
+    last_commands : tuple of int
+        Draw commands of the last frame's early and late pass.
+    """
+
+    name = "gpu-driven"
+    conservative = True
+    temporal = True
+    draws_frame = True
+
+    def __init__(
+        self,
+        geometry,
+        resolution,
+        config,
+        *,
+        granularity: str = "cluster",
+        footprint: int = 4,
+        refine: int = MAX_REFINE,
+        merge: bool = True,
+        count: str = "auto",
+        next_from: str = "early",
+        cluster_triangles: int = MAX_TRIANGLES,
+    ):
+        if granularity not in GRANULARITIES:
+            raise ValueError(f"granularity must be one of {GRANULARITIES}, got {granularity!r}")
+        if count not in COUNTS:
+            raise ValueError(f"count must be one of {COUNTS}, got {count!r}")
+        if next_from not in NEXT_FROM:
+            raise ValueError(f"next_from must be one of {NEXT_FROM}, got {next_from!r}")
+        self.next_from = next_from
+        footprint, refine = check_test_options(footprint, refine)
+        super().__init__(geometry, resolution, config)
+        from soc.rendering.renderer import Renderer
+
+        scene = self.scene
+        self.granularity = granularity
+        self.footprint, self.refine, self.merge = footprint, refine, bool(merge)
+        if granularity == "cluster":
+            self.clusters = scene_clusters(scene, cluster_triangles)
+        else:
+            self.clusters = whole_objects(scene)
+        self.gpu = geometry.clusters(self.clusters)
+        self.renderer = Renderer(geometry, resolution)
+        self.pyramid = DepthPyramid(self.glctx, self.renderer.resolution)
+        self.early = self.glctx.compute("gpu_driven_early.comp")
+        self.late = self.glctx.compute("gpu_driven_late.comp")
+        self.draws = CountedDraws(self.glctx, prefer_native=count == "auto")
+        ctx = self.glctx.ctx
+        n, c = len(scene), self.gpu.count
+        self._object_bits = FRAME_HEADER
+        self._cluster_bits = FRAME_HEADER + (n + 31) // 32
+        words = self._cluster_bits + (c + 31) // 32
+        self.object_state = ctx.buffer(reserve=4 * n)
+        self.cluster_state = ctx.buffer(reserve=4 * c)
+        self.commands = ctx.buffer(reserve=2 * c * COMMAND_BYTES)
+        self.frame = ctx.buffer(reserve=4 * words)
+        self.reset()
+        sizes = {
+            "object_count": n,
+            "max_commands": c,
+            "object_bits": self._object_bits,
+            "cluster_bits": self._cluster_bits,
+        }
+        for prog in (self.early, self.late):
+            for name, value in sizes.items():
+                if name in prog:  # the compiler drops what a pass does not read
+                    prog[name].value = value
+        self.last_draws_ms: dict[str, float] = {}
+        self.last_commands = (0, 0)
+
+    def release(self) -> None:
+        for b in (self.object_state, self.cluster_state, self.commands, self.frame):
+            b.release()
+        self.pyramid.release()
+        self.renderer.release()
+
+    def reset(self) -> None:
+        """Forget last frame's visibility: the next frame draws nothing early."""
+        self.object_state.clear()
+        self.cluster_state.clear()
+
+    # -- the frame ---------------------------------------------------------------------------
+
+    def _bind_buffers(self) -> None:
+        g = self.gpu
+        buffers = (
+            g.objects,
+            self.geometry.boxes,
+            g.info,
+            g.boxes,
+            self.object_state,
+            self.cluster_state,
+            self.commands,
+            self.frame,
+        )
+        for binding, buf in enumerate(buffers):
+            buf.bind_to_storage_buffer(binding)
+
+    def _run(self, program) -> None:
+        """Dispatch a pass over all objects (a fixed number of invocations, each taking every
+        stride-th object, as hiz_test.comp) and make its writes visible to what follows."""
+        self._bind_buffers()
+        program.run(min(-(-len(self.scene) // TEST_GROUP), TEST_GROUPS))
+        self.glctx.ctx.memory_barrier()
+
+    def _draw(self, camera, late: bool, *, color: bool, clear: bool, clear_color: bool) -> float:
+        """Draw the commands the early (or late) pass wrote; ms, finished."""
+        t0 = time.perf_counter()
+        with gpu_stage("draw"):  # the GL clock of the "draw" stage, where it is read
+            program = self.renderer.bind(camera, color=color, clear=clear, clear_color=clear_color)
+            vao = self.geometry.mesh_vao(program, self.gpu.ibo)
+            c = self.gpu.count
+            self.draws.draw(vao, program, self.commands, self.frame, 4 * late, c * late, c)
+        self.glctx.ctx.finish()
+        return 1e3 * (time.perf_counter() - t0)
+
+    def cull(self, camera, draw: bool = False) -> MethodOutput:
+        """Cull and draw one frame from ``camera`` (at the method's resolution, shaded when
+        ``draw``); returns the kept set (objects with a drawn cluster)."""
+        timings: dict[str, float] = {}
+        cfg = self.config
+        finish = self.glctx.finish
+        clusters = self.granularity == "cluster"
+        occlusion = bool(cfg.depth_test)
+        for prog in (self.early, self.late):
+            set_frustum_uniforms(prog, camera)
+            prog["frustum"].value = bool(cfg.frustum)
+            prog["test_clusters"].value = clusters
+            prog["merge"].value = self.merge
+
+        with stage(timings, "early", finish):
+            self.frame.clear()
+            if occlusion:  # frustum culling only: no early set
+                self._run(self.early)
+        early_ms = self._draw(camera, False, color=draw, clear=True, clear_color=draw)
+        with stage(timings, "pyramid", finish):
+            if occlusion:
+                self.pyramid.build(self.renderer.depth)
+        with stage(timings, "test", finish):
+            late = self.late
+            if occlusion:
+                set_test_uniforms(late, self.pyramid, camera, self.footprint, self.refine)
+            late["occlusion"].value = occlusion
+            late["refresh"].value = False
+            self._run(late)
+        late_ms = self._draw(camera, True, color=draw, clear=False, clear_color=False)
+        if occlusion and self.next_from == "final":
+            with stage(timings, "next pyramid", finish):
+                self.pyramid.build(self.renderer.depth)
+            with stage(timings, "next test", finish):
+                late["refresh"].value = True
+                self._run(late)
+                late["refresh"].value = False
+        with stage(timings, "read back"):
+            n = len(self.scene)
+            words = np.frombuffer(self.frame.read(4 * (self._object_bits + (n + 31) // 32)), "<u4")
+            bits = np.unpackbits(words[self._object_bits :].view(np.uint8), bitorder="little")
+            visible = bits[:n].astype(bool)
+        timings["draw"] = early_ms + late_ms
+        self.last_draws_ms = {"early draw": early_ms, "late draw": late_ms}
+        self.last_commands = (int(words[FRAME_COMMANDS]), int(words[FRAME_COMMANDS + 1]))
+        triangles = int(words[FRAME_TRIANGLES]) + int(words[FRAME_TRIANGLES + 1])
+        return MethodOutput(
+            visible,
+            int(words[FRAME_OUTSIDE]),
+            int(words[FRAME_JUDGED]),
+            timings,
+            triangles_drawn=triangles,
+        )
+
+    def drawn_clusters(self) -> np.ndarray:
+        """(C,) bool: the clusters the last frame drew (early or late), read back from the GPU
+        (for tests and measurements; not part of a frame)."""
+        c = self.gpu.count
+        start = 4 * self._cluster_bits
+        words = np.frombuffer(self.frame.read(4 * ((c + 31) // 32), offset=start), "<u4")
+        return np.unpackbits(words.view(np.uint8), bitorder="little")[:c].astype(bool)

@@ -1,0 +1,80 @@
+// The state and output of gpu-driven's two compute passes (soc/methods/gpu_driven.py), included
+// by gpu_driven_early.comp and gpu_driven_late.comp after their #version line. One invocation
+// handles whole objects (every stride-th one): an object's clusters are all read and written
+// by one invocation, so their state needs no atomics; only the output does.
+layout(local_size_x = 64) in;
+
+// (N) per object: first cluster, cluster count, base vertex, 0.
+layout(std430, binding = 0) readonly buffer Objects { uvec4 objects[]; };
+// (N, 6) the objects' grown AABBs, lo then hi.
+layout(std430, binding = 1) readonly buffer ObjectBoxes { float object_boxes[]; };
+// (C) per cluster: first index, index count (in the cluster-ordered index buffer), object, 0.
+layout(std430, binding = 2) readonly buffer Clusters { uvec4 clusters[]; };
+// (C, 6) the clusters' grown AABBs.
+layout(std430, binding = 3) readonly buffer ClusterBoxes { float cluster_boxes[]; };
+// (N) 1 when a cluster of the object passed last frame's late test, else 0.
+layout(std430, binding = 4) buffer ObjectState { uint object_state[]; };
+// (C) bit 0: passed last frame's late test (drawn early this frame if in the frustum);
+// bit 1: drawn early this frame (set by the early pass, cleared by the late pass).
+layout(std430, binding = 5) buffer ClusterState { uint cluster_state[]; };
+// (2, max_commands, 5) draw commands: count, instances, first index, base vertex, base
+// instance (= the object id), the early pass's then the late pass's.
+layout(std430, binding = 6) writeonly buffer Commands { uint commands[]; };
+// The frame's output, zeroed before the frame: FRAME_* counters, then the drawn objects' bits
+// (from object_bits), then the drawn clusters' bits (from cluster_bits).
+layout(std430, binding = 7) buffer Frame { uint frame[]; };
+
+const uint EARLY = 0u;
+const uint LATE = 1u;
+// Counters in `frame` (soc/methods/gpu_driven.py reads them by these positions).
+const uint FRAME_COMMANDS = 0u;   // + pass: commands written
+const uint FRAME_TRIANGLES = 2u;  // + pass: triangles drawn
+const uint FRAME_OUTSIDE = 4u;    // objects outside the frustum
+const uint FRAME_JUDGED = 5u;     // boxes tested against the pyramid
+
+uniform uint object_count;   // N
+uniform uint max_commands;   // commands per pass the buffer holds (C)
+uniform uint object_bits;    // first word of the drawn-object bits in `frame`
+uniform uint cluster_bits;   // first word of the drawn-cluster bits
+uniform bool merge;          // one command for consecutive drawn clusters of an object
+
+vec3 object_lo(uint o) { return vec3(object_boxes[6u * o], object_boxes[6u * o + 1u], object_boxes[6u * o + 2u]); }
+vec3 object_hi(uint o) { return vec3(object_boxes[6u * o + 3u], object_boxes[6u * o + 4u], object_boxes[6u * o + 5u]); }
+vec3 cluster_lo(uint c) { return vec3(cluster_boxes[6u * c], cluster_boxes[6u * c + 1u], cluster_boxes[6u * c + 2u]); }
+vec3 cluster_hi(uint c) { return vec3(cluster_boxes[6u * c + 3u], cluster_boxes[6u * c + 4u], cluster_boxes[6u * c + 5u]); }
+
+// Append one draw command of `pass`: `count` indices from `first` of object `o`. A pass writes
+// at most one command per cluster, so the slot never reaches max_commands (checked anyway).
+void emit(uint pass, uint first, uint count, uint base_vertex, uint o) {
+    uint slot = atomicAdd(frame[FRAME_COMMANDS + pass], 1u);
+    if (slot >= max_commands) return;
+    uint at = 5u * (pass * max_commands + slot);
+    commands[at] = count;
+    commands[at + 1u] = 1u;
+    commands[at + 2u] = first;
+    commands[at + 3u] = base_vertex;
+    commands[at + 4u] = o;
+    atomicAdd(frame[FRAME_TRIANGLES + pass], count / 3u);
+}
+
+// A run of drawn clusters of one object, contiguous in the index buffer: flushed as one
+// command when it cannot grow (or, without `merge`, at every cluster).
+struct Run { uint first; uint count; };
+
+void run_add(inout Run run, uint pass, uint c, uint base_vertex, uint o) {
+    uvec4 info = clusters[c];
+    if (run.count > 0u && (!merge || run.first + run.count != info.x)) {
+        emit(pass, run.first, run.count, base_vertex, o);
+        run.count = 0u;
+    }
+    if (run.count == 0u) run.first = info.x;
+    run.count += info.y;
+    atomicOr(frame[cluster_bits + (c >> 5)], 1u << (c & 31u));
+}
+
+void run_flush(inout Run run, uint pass, uint base_vertex, uint o) {
+    if (run.count > 0u) emit(pass, run.first, run.count, base_vertex, o);
+    run.count = 0u;
+}
+
+void mark_object(uint o) { atomicOr(frame[object_bits + (o >> 5)], 1u << (o & 31u)); }

@@ -1,0 +1,37 @@
+#version 450
+// gpu-driven's early pass: the draw commands of what passed last frame's late test and is
+// still in the frustum, no occlusion test (niagara's early cull). Per object whose state says
+// a cluster passed: the object's box against the frustum, then each such cluster's box (with
+// `test_clusters`); the clusters drawn are flagged (state bit 1) for the late pass, which
+// must not draw them again, and their runs appended as commands.
+#include "gpu_driven.common"
+#include "hiz_test.common"
+
+uniform bool frustum;        // frustum-test boxes (off: CullConfig(frustum=False))
+uniform bool test_clusters;  // granularity "cluster": test each cluster's box too
+
+void main() {
+    uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    for (uint o = gl_GlobalInvocationID.x; o < object_count; o += stride) {
+        if (object_state[o] == 0u) continue;
+        uvec4 obj = objects[o];
+        if (frustum && outside_frustum(object_lo(o), object_hi(o))) continue;
+        // A lone cluster's box is the object's: tested already.
+        bool each = test_clusters && frustum && obj.y > 1u;
+        Run run = Run(0u, 0u);
+        bool drawn = false;
+        for (uint c = obj.x; c < obj.x + obj.y; ++c) {
+            bool draw = (cluster_state[c] & 1u) != 0u;
+            if (draw && each) draw = !outside_frustum(cluster_lo(c), cluster_hi(c));
+            if (draw) {
+                cluster_state[c] = 3u;
+                run_add(run, EARLY, c, obj.z, o);
+                drawn = true;
+            } else {
+                run_flush(run, EARLY, obj.z, o);
+            }
+        }
+        run_flush(run, EARLY, obj.z, o);
+        if (drawn) mark_object(o);
+    }
+}

@@ -1,0 +1,247 @@
+"""``gpu-driven``: conservative at the object level (soc.testing's hard and random cases) and at
+the cluster level (a cluster-id render) for both granularities, in every frame of temporal
+runs with camera cuts, resets, odd resolutions, cameras inside boxes and the near plane through
+objects; it culls; the frame it draws is the frame of everything; its switches and options."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import assert_conservative
+
+import soc
+import soc.testing
+from soc.culling.cluster_oracle import ClusterOracle
+from soc.culling.clusters import scene_clusters
+from soc.methods import CullConfig
+from soc.rendering.renderer import Renderer
+from soc.scenes.clutter import box_mesh
+from soc.scenes.paths import flight, random_cameras
+from soc.scenes.primitives import icosphere, sheet, translate
+
+# Option sets: whole objects; clusters of 128 (most test objects are one cluster); clusters of
+# 4 triangles (every box is three clusters); the next set from the finished depth with one
+# command per cluster and the count read back; the classic 2×2 HiZ read.
+MODES = [
+    {"granularity": "object"},
+    {"granularity": "cluster"},
+    {"granularity": "cluster", "cluster_triangles": 4},
+    {"cluster_triangles": 8, "next_from": "final", "merge": False, "count": "read"},
+    {"cluster_triangles": 4, "footprint": 2, "refine": 0},
+]
+MODE_IDS = ["object", "cluster", "cluster-4", "final-unmerged-read", "classic"]
+
+
+@pytest.mark.parametrize("options", MODES, ids=MODE_IDS)
+def test_hard_cases(options):
+    """soc.testing's hard cases, cameras of each case in order (no reset: the camera cut and
+    the first frame are the method's own business)."""
+    report = soc.testing.assert_conservative("gpu-driven", **options)
+    assert report.culled_views > 0
+
+
+@pytest.mark.parametrize("options", MODES, ids=MODE_IDS)
+def test_random_cases(options):
+    """Random clutter scenes, every frame a camera cut."""
+    cases = soc.testing.random_cases(3, seed=11)
+    report = soc.testing.assert_conservative("gpu-driven", cases, **options)
+    assert report.culled_views > len(report.views) // 2
+
+
+def _cluster_run(scene, cameras, resolution, *, resets=(), **options) -> tuple[int, int]:
+    """Cull ``cameras`` in order with one culler (reset only before frames in ``resets``);
+    fail on any object the oracle sees or any cluster the cluster-id render sees that the
+    method did not draw. Returns the clusters culled and drawn in all frames."""
+    culled = drawn_total = 0
+    with soc.Culler(scene, "gpu-driven", resolution, **options) as c:
+        m = c.method
+        with soc.Oracle(scene) as oracle, ClusterOracle(scene, m.clusters) as clusters:
+            for i, cam in enumerate(cameras):
+                if i in resets:
+                    c.reset()
+                truth = oracle.visible(cam, resolution)
+                r = c.cull(cam, truth=truth, draw=i % 3 == 0)
+                assert_conservative(r.visible, truth, f"frame {i} eye={cam.eye}")
+                drawn, seen = m.drawn_clusters(), clusters.visible(cam, resolution)
+                missed = np.flatnonzero(seen & ~drawn)
+                assert len(missed) == 0, (
+                    f"frame {i} eye={cam.eye}: culled visible clusters {missed}"
+                )
+                owner = m.clusters.object
+                assert np.array_equal(
+                    np.bincount(owner[drawn], minlength=len(scene)) > 0, r.visible
+                )
+                assert r.stats.triangles_drawn == int(m.clusters.count[drawn].sum())
+                culled += int((~drawn).sum())
+                drawn_total += int(drawn.sum())
+    return culled, drawn_total
+
+
+def _big_meshes() -> soc.Scene:
+    """Objects of many clusters: a finely divided wall (occluder), a sphere half behind it, a
+    ground sheet the camera walks on, and a box the walk passes through."""
+    wall = sheet(20.0, 6.0, 60, 30)
+    wv = wall[0][:, [0, 2, 1]] + np.float32([0, 3, -2])  # upright in z = -2, y from 0 to 6
+    ground = sheet(60.0, 60.0, 40, 40)
+    ball = translate(icosphere(3.0, 4), (4.0, 3.0, -6.0))
+    behind = translate(icosphere(1.0, 3), (-5.0, 2.0, -8.0))
+    room = box_mesh((-1.5, 0.0, 4.0), (1.5, 3.0, 6.0))
+    meshes = [(wv, wall[1]), ground, ball, behind, room]
+    return soc.Scene.from_meshes(meshes, occluder=[True, True, False, False, False])
+
+
+@pytest.mark.parametrize("triangles", [128, 16])
+def test_no_visible_cluster_is_culled_walking_past_a_wall(triangles):
+    """A walk towards and along a wall, through a box, with the near plane cutting the sphere
+    and the ground; a cut to random views and back, a reset; at an odd resolution."""
+    scene = _big_meshes()
+    res = (333, 197)
+    walk = [
+        soc.Camera.look_at(
+            (x, 1.7, z), (x * 0.5, 2.0, -10.0), width=res[0], height=res[1], near=0.3, far=200
+        )
+        for x, z in zip(np.linspace(-12, 8, 14), np.linspace(14, -1.5, 14), strict=True)
+    ]
+    cuts = random_cameras(scene, 4, seed=5, width=res[0], height=res[1])
+    cams = walk[:6] + cuts[:2] + walk[6:10] + cuts[2:] + walk[10:]
+    culled, drawn = _cluster_run(scene, cams, res, resets={9}, cluster_triangles=triangles)
+    assert culled > drawn // 4  # the wall hides a part of the sphere, and views cut the rest
+    assert len(scene_clusters(scene, triangles)) > 5 * len(scene)
+
+
+@pytest.mark.parametrize("triangles", [128, 4])
+def test_no_visible_cluster_is_culled_in_the_hard_cases(triangles):
+    """The cluster-id render over soc.testing's hard cases, in order, no reset."""
+    for case in soc.testing.hard_cases():
+        _cluster_run(case.scene, case.cameras, case.resolution, cluster_triangles=triangles)
+
+
+def test_no_visible_cluster_is_culled_on_the_market_flight(small_market):
+    """A coherent stretch of the market flight: its walls hold thousands of triangles."""
+    res = (480, 270)
+    cams = flight(small_market, frames=100, width=res[0], height=res[1])[30:42]
+    culled, drawn = _cluster_run(small_market, cams, res)
+    assert culled > 3 * drawn
+
+
+def test_it_culls_and_draws_the_frame_of_everything(small_market):
+    """Settled on a coherent stretch, the kept set is a small part of the scene and the
+    triangles drawn fewer than the kept objects hold; the frame drawn with draw=True has
+    exactly the depth of drawing every object and, but where two objects' depths tie (drawn
+    in another order), its colour."""
+    res = (480, 270)
+    cams = flight(small_market, frames=100, width=res[0], height=res[1])[20:30]
+    n = len(small_market)
+    reference = Renderer(soc.Culler(small_market, "none", res).geometry, res)
+    kept, fewer = [], []
+    with soc.Culler(small_market, "gpu-driven", res) as c:
+        for i, cam in enumerate(cams):
+            r = c.cull(cam, draw=True)
+            assert {"early", "pyramid", "test", "read back", "draw"} <= set(r.stats.timings_ms)
+            kept.append(int(r.visible.sum()))
+            fewer.append(r.stats.triangles_drawn < r.stats.triangles_visible)
+            image, depth = c.method.renderer.image(), c.method.renderer.depth_image()
+            reference.draw(cam, np.arange(n))
+            assert np.array_equal(depth, reference.depth_image()), i
+            same = (image == reference.image()).all(axis=2)
+            assert same.mean() > 0.995, same.mean()
+            if i == 0:
+                assert c.method.last_commands[0] == 0  # nothing visible before the first frame
+    reference.release()
+    assert kept[0] > 0.5 * n and max(kept[2:]) < 0.3 * n, kept
+    assert all(fewer[1:]), fewer
+
+
+def test_depth_only_frames_leave_the_colour_alone(clutter_scenes):
+    """draw=False draws the same clusters depth only: the colour target keeps what the last
+    shaded frame left, the depth is the scene's."""
+    scene = clutter_scenes[0]
+    res = (320, 192)
+    cams = flight(scene, frames=4, width=res[0], height=res[1])
+    with soc.Culler(scene, "gpu-driven", res) as c, soc.Culler(scene, "none", res) as ref:
+        c.cull(cams[0], draw=True)
+        before = c.method.renderer.image()
+        r = c.cull(cams[3], draw=False)
+        assert np.array_equal(c.method.renderer.image(), before)
+        renderer = ref.renderer(res)
+        renderer.draw(cams[3], np.arange(len(scene)))
+        assert np.array_equal(c.method.renderer.depth_image(), renderer.depth_image())
+        assert r.stats.timings_ms["draw"] > 0
+
+
+def test_count_read_back_merge_and_granularity_agree(small_market):
+    """The GL's count and the count read back draw the same; merging consecutive clusters
+    draws the same clusters in fewer commands; whole objects keep what clusters keep or more."""
+    res = (480, 270)
+    cams = flight(small_market, frames=100, width=res[0], height=res[1])[40:46]
+    variants = {
+        "auto": {},
+        "read": {"count": "read"},
+        "unmerged": {"merge": False},
+        "object": {"granularity": "object"},
+    }
+    cullers = {k: soc.Culler(small_market, "gpu-driven", res, **o) for k, o in variants.items()}
+    try:
+        if not cullers["auto"].method.draws.native:
+            pytest.skip("this GL has no glMultiDrawElementsIndirectCount")
+        assert not cullers["read"].method.draws.native
+        for cam in cams:
+            r = {k: c.cull(cam) for k, c in cullers.items()}
+            for k in ("read", "unmerged"):
+                assert np.array_equal(r[k].visible, r["auto"].visible), k
+                assert r[k].stats.triangles_drawn == r["auto"].stats.triangles_drawn, k
+            assert not (r["auto"].visible & ~r["object"].visible).any()
+            merged = sum(cullers["auto"].method.last_commands)
+            assert merged < sum(cullers["unmerged"].method.last_commands)
+            obj = r["object"].stats
+            assert obj.triangles_drawn == obj.triangles_visible
+    finally:
+        for c in cullers.values():
+            c.close()
+
+
+def test_stage_switches(clutter_scenes):
+    """CullConfig: without the depth test the kept set is the frustum test's (every frame,
+    whatever was kept before); without the frustum test it is still conservative."""
+    from soc.culling.frustum import aabbs_in_frustum
+
+    scene = clutter_scenes[3]
+    res = (320, 192)
+    cams = random_cameras(scene, 8, seed=21, width=res[0], height=res[1])
+    cfg = CullConfig(depth_test=False)
+    with soc.Culler(scene, "gpu-driven", res, config=cfg, cluster_triangles=4) as c:
+        for cam in cams:
+            assert np.array_equal(c.cull(cam).visible, aabbs_in_frustum(scene.aabbs, cam.planes))
+    with (
+        soc.Oracle(scene) as oracle,
+        soc.Culler(scene, "gpu-driven", res, config=CullConfig(frustum=False)) as c,
+    ):
+        for i, cam in enumerate(cams):
+            truth = oracle.visible(cam, res)
+            assert_conservative(c.cull(cam).visible, truth, f"no frustum test, camera {i}")
+
+
+def test_reset_forgets_and_the_first_frame_draws_nothing_early(clutter_scenes):
+    scene = clutter_scenes[1]
+    cams = flight(scene, frames=4, width=320, height=192)
+    with soc.Culler(scene, "gpu-driven", (320, 192)) as c:
+        c.cull(cams[0])
+        assert c.method.last_commands[0] == 0 and c.method.last_commands[1] > 0
+        c.cull(cams[1])
+        assert c.method.last_commands[0] > 0
+        c.reset()
+        c.cull(cams[2])
+        assert c.method.last_commands[0] == 0
+
+
+def test_bad_options_are_clear_errors(clutter_scenes):
+    s = clutter_scenes[0]
+    for options, match in (
+        ({"granularity": "triangle"}, "granularity"),
+        ({"count": "guess"}, "count must be one of"),
+        ({"next_from": "late"}, "next_from"),
+        ({"footprint": 3}, "footprint"),
+        ({"cluster_triangles": 0}, "max_triangles"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            soc.Culler(s, "gpu-driven", (64, 64), **options)
