@@ -14,6 +14,12 @@ AABB_GROW_ABSOLUTE = 1e-5
 # range 2): coplanar occluder and box faces interpolate depth differently by a few ulps.
 QUERY_DEPTH_BIAS_NDC = 2e-6
 
+# The oracle draws only objects that may produce a pixel: it skips an object whose AABB lies
+# outside one clip plane by more than this fraction of the magnitudes summed in the clip
+# coordinates (GL 4.5 §2.3.4.1 asks floating-point results to about 1 part in 1e5; a clip
+# coordinate and the clip test take about eight operations).
+ORACLE_CLIP_MARGIN = 1e-4
+
 # A box whose nearest corner is closer than near * (1 + this) to the eye plane is treated as
 # straddling the near plane: clipping removes its cap, so it is kept without a query.
 NEAR_PLANE_MARGIN = 1e-3
