@@ -18,7 +18,8 @@ from soc.scenes.paths import flight, random_cameras
 # Option sets (next set from the early or the finished depth; depth-only early pass; the
 # occluders drawn early too; octant boxes; the classic 2×2 test without refinement; the
 # pyramid and test in GL or in numba, "auto" choosing numba on llvmpipe; the late occluders
-# drawn first and the rest tested again): every one must be conservative in every frame.
+# drawn first and the rest tested again, the next set from that second test; objects drawn
+# by id): every one must be conservative in every frame.
 MODES = [
     {"next_from": "early"},
     {"next_from": "final"},
@@ -31,6 +32,8 @@ MODES = [
     {"test": "cpu", "next_from": "final", "early_pass": "depth"},
     {"occluders_first": True},
     {"occluders_first": True, "early_pass": "depth", "next_from": "final", "test": "gpu"},
+    {"occluders_first": True, "next_from": "late"},
+    {"next_from": "late", "order": "id"},
 ]
 MODE_IDS = [
     "early",
@@ -44,6 +47,8 @@ MODE_IDS = [
     "cpu-final-depth",
     "occluders-first",
     "occluders-first-depth-final-gpu",
+    "occluders-first-late",
+    "late-id-order",
 ]
 
 
@@ -151,7 +156,9 @@ def test_objects_appearing_and_disappearing(clutter_scenes, options):
 
 def test_bad_options_and_alive_are_clear_errors(clutter_scenes):
     with pytest.raises(ValueError, match="next_from"):
-        soc.Culler(clutter_scenes[0], "hiz-2phase", (64, 64), next_from="late")
+        soc.Culler(clutter_scenes[0], "hiz-2phase", (64, 64), next_from="latest")
+    with pytest.raises(ValueError, match="order must be one of"):
+        soc.Culler(clutter_scenes[0], "hiz-2phase", (64, 64), order="back-to-front")
     with pytest.raises(ValueError, match="test must be one of"):
         soc.Culler(clutter_scenes[0], "hiz-2phase", (64, 64), test="tpu")
     with pytest.raises(ValueError, match="octants=True needs test='gpu'"):
@@ -270,6 +277,18 @@ def test_late_occluders_first_hide_what_came_into_view_behind_them():
             assert ("late test" in r.stats.timings_ms) == first
             assert first == (c.method.next_set.sum() == 2)
     assert kept[False] == 42 and kept[True] == 2
+    # next_from="late": the next set is what passed the second test among the objects drawn
+    # (the wall and the box in front); on the frame before, without the second test, it is
+    # what passed the first one (next_from="early").
+    with soc.Culler(
+        scene, "hiz-2phase", (160, 96), test="cpu", occluders_first=True, next_from="late"
+    ) as c:
+        r0 = c.cull(cams[0])
+        assert (
+            np.array_equal(c.method.next_set, r0.visible) and "late test" not in r0.stats.timings_ms
+        )
+        r = c.cull(cams[1])
+        assert r.visible.sum() == 2 and np.array_equal(c.method.next_set, r.visible)
     # Fewer late objects than RETEST_MIN: drawn without the second test (it would cost more).
     from soc.methods import hiz_2phase
 
@@ -278,3 +297,34 @@ def test_late_occluders_first_hide_what_came_into_view_behind_them():
         c.cull(cams[0])
         r = c.cull(cams[1])
         assert "late test" not in r.stats.timings_ms and r.visible.sum() == 42
+
+
+@pytest.mark.parametrize("options", [{}, {"occluders_first": True, "next_from": "late"}])
+def test_the_draw_order_changes_neither_the_kept_sets_nor_the_depth(small_market, options):
+    """Front to back (the default) and by id: the same kept and next sets and the same depth
+    in every frame of a flight; each pass is drawn nearest box first (distances from the eye
+    to the boxes never decrease along the pass)."""
+    res = (333, 197)
+    cams = flight(small_market, frames=100, width=res[0], height=res[1])[20:30]
+    eye_gap = []
+    with (
+        soc.Culler(small_market, "hiz-2phase", res, **options) as near,
+        soc.Culler(small_market, "hiz-2phase", res, order="id", **options) as by_id,
+    ):
+        for cam in cams:
+            a, b = near.cull(cam, draw=True), by_id.cull(cam, draw=True)
+            assert np.array_equal(a.visible, b.visible)
+            assert np.array_equal(near.method.next_set, by_id.method.next_set)
+            depth = near.method.renderer.depth_image()
+            assert np.array_equal(depth, by_id.method.renderer.depth_image())
+            assert "sort" in a.stats.timings_ms and "sort" not in b.stats.timings_ms
+            order = near.method.last_order
+            assert not np.array_equal(order, by_id.method.last_order)
+            box = small_market.aabbs[order]
+            eye = np.asarray(cam.eye, np.float32)
+            gap = np.clip(eye, box[:, 0], box[:, 1]) - eye
+            eye_gap.append(np.einsum("ij,ij->i", gap, gap))
+    # The passes' boundaries are where the distance drops: at most 2 (early, late) or 3
+    # (early, late occluders, the rest) runs of non-decreasing distances.
+    for d in eye_gap:
+        assert np.count_nonzero(np.diff(d) < 0) <= 2 + bool(options), d

@@ -20,13 +20,16 @@ drawn into the method's own colour + depth target):
    refined down to the frame's own pixels where a box is not behind the coarse levels (and,
    with ``octants=True``, GL only, an object whose box passes judged again by its octant
    boxes, :mod:`soc.culling.octant_boxes`);
-4. **late draw** — the objects that pass and were not drawn early, into the same depth; with
+4. **late draw** — the objects that pass and were not drawn early, into the same depth (each
+   pass nearest box first, ``order``); with
    ``occluders_first=True``, the occluders among them first, then the pyramid of that depth
    again ("late read back", "late pyramid", "late test") and only the other late objects
    that still pass (the occluders that came into view since last frame hide what is behind
    them in this frame already, instead of in the next);
 5. **next set** — the objects kept next frame: with ``next_from="early"`` (niagara's choice,
-   no extra work) those that passed stage 3, early ones included; with ``next_from="final"``
+   no extra work) those that passed stage 3, early ones included; with ``next_from="late"``
+   and ``occluders_first``, the drawn objects that pass the second test (the drawn ones are
+   tested with the other late objects); with ``next_from="final"``
    the pyramid is rebuilt from the finished frame's depth and the drawn objects are tested
    again ("next pyramid", "next test"): a tighter set, for a second pyramid.
 
@@ -63,8 +66,8 @@ new ones go through stage 3; the hierarchy is refitted to the objects alive (its
 shrink to theirs, empty subtrees are skipped).
 
 **Cull ms** (:attr:`soc.FrameStats.cull_ms`, everything but the ``"draw"`` key): the numpy
-frustum test of the early set, the depth read back (CPU test), the pyramid(s) and the tests
-with their read-back.
+frustum test of the early set, the sorts of the passes (``"sort"``), the depth read back (CPU
+test), the pyramid(s) and the tests with their read-back.
 ``"draw"`` is the early plus the late draw (finished), with a colour target when
 ``cull(camera, draw=True)``, depth only otherwise; the two parts are in
 :attr:`TwoPhaseCulling.last_draws_ms`.
@@ -90,7 +93,8 @@ from soc.culling.software_raster import raster_threads
 from soc.methods.base import CullMethod, MethodOutput, register, stage
 from soc.metrics import gpu_stage
 
-NEXT_FROM = ("early", "final")
+NEXT_FROM = ("early", "late", "final")
+ORDERS = ("front-to-back", "id")
 EARLY_PASSES = ("shaded", "depth")
 TESTS = ("auto", "gpu", "cpu")
 # Late objects besides the occluders from which ``occluders_first`` tests them again: a read
@@ -131,10 +135,13 @@ class TwoPhaseCulling(CullMethod):
         (castle views of ``make bench``: 68 instead of 98 a frame), but on llvmpipe the extra
         test costs about what the draw saves; boxes computed at construction (about 1 s for
         the 2,114-object castle).
-    next_from : {"early", "final"}
+    next_from : {"early", "late", "final"}
         Which depth chooses next frame's early set: the early pass's pyramid (default, no extra
-        work) or the finished frame's (a second pyramid and test of the drawn objects, fewer
-        hidden objects drawn early next frame).
+        work), the late occluders' (with ``occluders_first``, in frames where it tests again:
+        the drawn objects join that test, fewer hidden objects drawn early next frame for no
+        extra pyramid; city flight, 30 frames at 1080p: 1,430 kept a frame instead of 1,604,
+        cull + draw ÷ ideal 1.66 instead of 1.76; otherwise as "early") or the finished
+        frame's (a second pyramid and test of the drawn objects).
     early_pass : {"shaded", "depth"}
         Draw the early set shaded (default; ``visible`` = early ∪ late) or depth only, then
         every object that passed shaded with ``<=`` (``visible`` = the objects that passed).
@@ -160,6 +167,12 @@ class TwoPhaseCulling(CullMethod):
     threads : int or None
         numba threads of the pyramid and of the flat CPU test (default: numba's thread
         count); the hierarchy's walk runs on one thread.
+    order : {"front-to-back", "id"}
+        The order each pass draws its objects in: nearest box first (default; the depth test
+        then rejects the fragments of what is behind before shading them) or by object id.
+        The depth, the kept set and so conservativeness do not depend on it. City flight, 30
+        frames at 1080p with ``occluders_first``: draw 111 instead of 127 ms a frame, for a
+        0.4 ms sort (1.4 ms for the 15k objects kept without ``occluders_first``).
     hierarchy : bool
         Test on the CPU by a walk of the scene's BVH (default True) or object by object
         (False: the reference; the same codes, ``tests/test_hierarchy.py``). The GL test
@@ -201,11 +214,14 @@ class TwoPhaseCulling(CullMethod):
         test: str = "auto",
         threads: int | None = None,
         hierarchy: bool = True,
+        order: str = "front-to-back",
     ):
         if next_from not in NEXT_FROM:
             raise ValueError(f"next_from must be one of {NEXT_FROM}, got {next_from!r}")
         if early_pass not in EARLY_PASSES:
             raise ValueError(f"early_pass must be one of {EARLY_PASSES}, got {early_pass!r}")
+        if order not in ORDERS:
+            raise ValueError(f"order must be one of {ORDERS}, got {order!r}")
         if test not in TESTS:
             raise ValueError(f"test must be one of {TESTS}, got {test!r}")
         if octants and test == "cpu":
@@ -219,6 +235,7 @@ class TwoPhaseCulling(CullMethod):
         self.early_pass = early_pass
         self.occluders = bool(occluders)
         self.occluders_first = bool(occluders_first)
+        self.order = order
         self.renderer = Renderer(geometry, resolution)
         self.test = test
         self.footprint, self.refine = footprint, refine
@@ -302,6 +319,17 @@ class TwoPhaseCulling(CullMethod):
         self.glctx.ctx.finish()
         return 1e3 * (time.perf_counter() - t0)
 
+    def _sorted(self, camera, ids: np.ndarray, timings: dict) -> np.ndarray:
+        """``ids`` in the order a pass draws them (:attr:`order`): by the distance from the
+        eye to each AABB (0 inside), nearest first, ties by id; stage ``sort``."""
+        if self.order == "id" or len(ids) < 2:
+            return ids
+        with stage(timings, "sort"):
+            box = self.scene.aabbs[ids]
+            eye = np.asarray(camera.eye, np.float32)
+            gap = np.clip(eye, box[:, 0], box[:, 1]) - eye
+            return ids[np.argsort(np.einsum("ij,ij->i", gap, gap), kind="stable")]
+
     def _classify(self, camera, timings, ids=None, prefix: str = "") -> np.ndarray:
         """Codes (OCCLUDED / VISIBLE / OUTSIDE) of objects ``ids`` (default all, with the
         frustum test of the config; a subset is not frustum-tested, and must lie in the
@@ -379,6 +407,7 @@ class TwoPhaseCulling(CullMethod):
             early = np.flatnonzero(first if self._all_alive else first & self.alive)
             if cfg.frustum and len(early):
                 early = early[ids_in_frustum(self.scene.aabbs, early, camera.planes)]
+        early = self._sorted(camera, early, timings)
         shaded_early = draw and self.early_pass == "shaded"
         early_ms = self._draw(camera, early, color=shaded_early, clear=True, clear_color=draw)
 
@@ -394,22 +423,33 @@ class TwoPhaseCulling(CullMethod):
         late = np.flatnonzero(passed)
         late = late[~in_early[late]]
         first, first_ms = late[:0], 0.0
+        late_pass = None  # objects passing against the late pyramid (next_from="late")
         if self.occluders_first and len(late):
             occ = self.scene.occluder[late]
             if occ.any() and len(late) - np.count_nonzero(occ) >= RETEST_MIN:
                 first, rest = late[occ], late[~occ].astype(np.uint32)
+                first = self._sorted(camera, first, timings)
                 shade = draw and self.early_pass == "shaded"
                 first_ms = self._draw(camera, first, color=shade, clear=False)
-                again = self._classify(camera, timings, rest, "late ") == VISIBLE
+                ids = rest
+                if self.next_from == "late":  # the drawn objects too, against the same pyramid
+                    ids = np.concatenate([rest, early, first]).astype(np.uint32)
+                ok = self._classify(camera, timings, ids, "late ") == VISIBLE
+                again = ok[: len(rest)]
                 passed[rest[~again]] = False  # hidden by the late occluders
                 late = rest[again].astype(np.int64)
+                if self.next_from == "late":
+                    late_pass = np.zeros(n, bool)
+                    late_pass[ids[ok]] = True
+        late = self._sorted(camera, late, timings)
         if self.early_pass == "shaded":
             late_ms = first_ms + self._draw(camera, late, color=draw, clear=False)
             drawn = in_early
             drawn[first] = True
             drawn[late] = True
         else:  # every object that passed, shaded over the early depth (equal depths pass)
-            order = np.concatenate([np.flatnonzero(passed & in_early), first, late])
+            again = self._sorted(camera, np.flatnonzero(passed & in_early), timings)
+            order = np.concatenate([again, first, late])
             if draw:
                 late_ms = first_ms + self._draw(
                     camera, order, color=True, clear=False, depth_func="<="
@@ -424,8 +464,10 @@ class TwoPhaseCulling(CullMethod):
         timings["draw"] = early_ms + late_ms
 
         # Stage 5: next frame's early set.
-        if self.next_from == "early":
+        if self.next_from == "early" or (self.next_from == "late" and late_pass is None):
             self.next_set = passed
+        elif self.next_from == "late":
+            self.next_set = late_pass & drawn
         else:
             # Only drawn objects can pass: the others failed against the early depth, which is
             # nowhere nearer than the finished depth (the test is monotone in the pyramid).
