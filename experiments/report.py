@@ -15,7 +15,7 @@ import json
 import os
 from pathlib import Path
 
-from experiments.common import atomic_write
+from experiments.common import ROOT, atomic_write, gallery_path, in_checkout
 
 
 def _cell(text: str) -> str:
@@ -32,10 +32,8 @@ def image_lines(report_dir: Path, png: Path, key: str, *, gallery: bool) -> list
     a fresh clone; one not there yet is named with the command that draws it. Otherwise (a
     report in any other folder, beside its results) the PNG itself is linked.
     """
-    from experiments import gallery as g
-
     stem = Path(png).stem
-    target = g.path(stem) if gallery else Path(png)
+    target = gallery_path(stem) if gallery else Path(png)
     if gallery and not target.is_file():
         return [f"`{stem}.png` is not in docs/gallery/ yet (`vislod figures --only {key}`)"]
     link = Path(os.path.relpath(Path(target).resolve(), Path(report_dir).resolve())).as_posix()
@@ -44,8 +42,6 @@ def image_lines(report_dir: Path, png: Path, key: str, *, gallery: bool) -> list
 
 def _is_tracked_report_folder(out: Path) -> bool:
     """``out`` is the checkout's ``results/`` (whose REPORT.md git tracks)."""
-    from experiments.gallery import ROOT, in_checkout
-
     return in_checkout() and Path(out).resolve() == (ROOT / "results").resolve()
 
 
