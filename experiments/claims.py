@@ -290,11 +290,13 @@ def alter(
     *,
     plus: float | None = None,
     to: Any = None,
+    expr: str | None = None,
     shuffle: bool = False,
 ) -> Alteration:
     """A change of ``frames[frame][column]`` on the rows matching ``where`` (a
     :meth:`DataFrame.eval` expression; all rows when None): multiplied by ``times``, plus
-    ``plus``, set ``to`` a value, or shuffled (a fixed permutation); frames are copied."""
+    ``plus``, set ``to`` a value or to ``expr`` (evaluated on the frame, e.g. a quantity
+    made exactly linear), or shuffled (a fixed permutation); frames are copied."""
 
     def apply(frames: Frames) -> Frames:
         df = frames[frame].copy()
@@ -305,7 +307,10 @@ def alter(
         if not rows.any():
             raise ValueError(f"alter: no row of {frame!r} matches {where!r}")
         col = df[column]
-        if to is not None:
+        if expr is not None:
+            col = col.astype(float)
+            col[rows] = df.eval(expr, engine="python").to_numpy(float)[rows]
+        elif to is not None:
             col = col.astype(object) if not isinstance(to, int | float | bool) else col
             col[rows] = to
         else:
@@ -323,6 +328,7 @@ def alter(
 
     what = f"×{times:g}" if times is not None else f"+{plus:g}" if plus is not None else ""
     what = "shuffled" if shuffle else f"set to {to!r}" if to is not None else what
+    what = f"= {expr}" if expr is not None else what
     apply.__doc__ = f"{frame}.{column} {what} where {where or 'everywhere'}"
     return apply
 

@@ -23,6 +23,19 @@ import pandas as pd
 
 from experiments import harness
 from experiments import seed000_document as doc
+from experiments.claims import (
+    DIFFERS,
+    IMAGE,
+    MEASURED,
+    NUMBERS,
+    TREND,
+    Each,
+    Row,
+    Rule,
+    alter,
+    chain,
+    holds_text,
+)
 from experiments.common import (
     DISPLAY,
     QUICK_FRAMES,
@@ -407,311 +420,327 @@ def plot_abb10(frames, params):
 # -- claims -------------------------------------------------------------------------------------
 
 
-def claims(frames, params) -> pd.DataFrame:
-    """Rows beside the document's numbers (see the module docstring for what compares)."""
-    from experiments.harness import DIFFERS, IMAGE, MEASURED, TREND, claim
-
-    df, s, d = frames["frames"], frames["summary"], tuple(params.display)
-    scene = frames["scene"].iloc[0]
-    label = scene.label
-    rows = [
-        claim(f"Abb. {n}", what, f"rendered on {label}", IMAGE)
-        for n, what in (
-            ("1", "visible objects outlined / all occluded objects"),
-            ("4", "occluders only / occludees only"),
-            ("6", "frame and its depth buffer"),
-            ("7", "the camera path over a top view"),
-        )
-    ]
+def _flight(frames, params):
+    """The flight's one case: per method at the display resolution its summary row (``one``),
+    % triangles culled (``tri``), false culls (``fc``) and mean frame ms (``ms``); the oracle's
+    share; the query method per depth resolution (``ours``, ``pct``) and the curve's shape."""
+    s, d = frames["summary"], tuple(params.display)
     methods = _methods(frames, params)
-    tri = {m: _one(s, m, d).triangles_culled_pct for m in methods}
-    fc = {m: _one(s, m, d).false_culls for m in methods}
-    rows.append(
-        claim(
-            "Abb. 8 left, mean % triangles culled per method",
-            "curves, no table",
-            ", ".join(f"{m} {v:.1f}" for m, v in tri.items()),
-            MEASURED,
-        )
-    )
+    one = {m: _one(s, m, d) for m in methods}
+    tri = {m: r.triangles_culled_pct for m, r in one.items()}
+    fc = {m: r.false_culls for m, r in one.items()}
     ideal = _one(s, ORACLE, d).triangles_culled_pct
     beyond = [m for m in methods if tri[m] > ideal + FLAT_PP]  # culls more than is hidden
     exact = [m for m in methods if m not in (QUERY, *beyond) and fc[m] == 0]
     top = max(exact, key=tri.get, default="")
-    best = tri.get(top, np.nan)
-    holds = fc[QUERY] == 0 and not tri[QUERY] < best - FLAT_PP
-    rows.append(
-        claim(
+    res = params.depth_resolutions()
+    ours = [_one(s, QUERY, r) for r in res]
+    pct = [o.triangles_culled_pct for o in ours]
+    falls = all(a >= b - MONOTONE_SLACK_PP for a, b in itertools.pairwise(pct))
+    scene = frames["scene"].iloc[0]
+    yield {
+        "s": s, "d": d, "df": frames["frames"], "scene": scene, "label": scene.label,
+        "methods": methods, "one": one, "tri": tri, "fc": fc, "ideal": ideal,
+        "beyond": ", ".join(beyond) or "none", "top": top, "best": tri.get(top, np.nan),
+        "ms": {m: r.ms_total for m, r in one.items()}, "res": res, "ours": ours, "pct": pct,
+        "spread": max(pct) - min(pct), "falls": falls,
+        "trend": falls and max(pct) - min(pct) >= FLAT_PP,
+    }  # fmt: skip
+
+
+def _columns(frames, params):
+    """One case per depth resolution with a column in the document's Abb. 8 table: ours
+    (``o``), the document's (``dd``, ``dp``) and the coarser column's (``coarser``)."""
+    for case in _flight(frames, params):
+        d, prev = case["d"], None
+        for r, o in zip(case["res"], case["ours"], strict=True):
+            col = doc.document_column(r, d)
+            dd = doc.ABB8.get(col or (0, 0))
+            if dd is None:
+                continue
+            dp = dd["triangles_culled_pct"]
+            coarser, prev = prev, dp
+            yield {**case, "r": r, "o": o, "dd": dd, "dp": dp, "coarser": coarser,
+                   "item_res": res_str(col), "r_str": res_str(r),
+                   "anomaly": coarser is not None and dp > coarser + MONOTONE_SLACK_PP}  # fmt: skip
+
+
+def _switches(frames, params):
+    """One case per Abb. 9 stage switch: the query method's summary and the document's row."""
+    for case in _flight(frames, params):
+        for n, (f, t) in SWITCHES.items():
+            o = _one(case["s"], QUERY, case["d"], frustum=f, depth_test=t)
+            yield {
+                **case,
+                "n": n,
+                "f": f,
+                "o": o,
+                "dd": doc.ABB9[n],
+                "gap": abs(o.triangles_culled_pct - doc.ABB9[n]["triangles_culled_pct"]),
+            }
+
+
+def _vs_frustum(frames, params):
+    """MOC and HiZ (as run) against frustum culling alone: the ratio of mean frame times."""
+    for case in _flight(frames, params):
+        for m in (MOC, HIZ):
+            if m in case["ms"] and "frustum" in case["ms"]:
+                yield {**case, "m": m, "r": case["ms"]["frustum"] / case["ms"][m]}
+
+
+def _column_why(q) -> str:
+    if q.anomaly:
+        return (f"the document's value rises above the coarser column's ({q.coarser:.2f} %) "
+                "with no explanation ('ERKLÄRUNG DAFÜR.'); a finer buffer can only keep more "
+                "objects, ours " + ("falls or stays" if q.falls else "rises"))  # fmt: skip
+    if abs(q.o.triangles_culled_pct - q.dp) <= PP_TOLERANCE:
+        return (f"within {PP_TOLERANCE} pp only by coincidence: our level is the same at every "
+                f"resolution (spread {q.spread:.1f} pp), the document's falls")  # fmt: skip
+    if q.scene.name == "castle":
+        return ("Intel's castle with its missing marketplace refilled synthetically: other "
+                "occludees behind the same occluders")  # fmt: skip
+    return f"another scene ({q.label}), another flight: other objects behind the occluders"
+
+
+def _moc_hiz(q) -> tuple[float, float]:
+    """MOC's triangles culled, % fewer than HiZ's; HiZ's mean cull time over MOC's."""
+    mo, hi = q.one[MOC], q.one[HIZ]
+    fewer = 100.0 * (1 - mo.triangles_culled_pct / max(hi.triangles_culled_pct, 1e-9))
+    return fewer, hi.ms_cull / mo.ms_cull
+
+
+def _document_curve(frames):
+    """The query method's % culled per depth resolution replaced by the document's Abb. 8
+    row where it falls (320×192 … 1920×1080), falling on by 1 pp per finer column after."""
+    s = frames["summary"].copy()
+    size = lambda r: tuple(int(v) for v in r.split("x"))  # noqa: E731
+    display = size(s[s.method == ORACLE].depth_resolution.iloc[0])
+    pts = [(i, doc.document_column(size(r), display))
+           for i, r in s.loc[s.method == QUERY, "depth_resolution"].items()]  # fmt: skip
+    for i, col in pts:
+        k = doc.DEPTH_RESOLUTIONS.index(col) if col else 3
+        s.loc[i, "triangles_culled_pct"] = doc.ABB8[doc.DEPTH_RESOLUTIONS[min(k, 3)]][
+            "triangles_culled_pct"] - max(0, k - 3)  # fmt: skip
+    return {**frames, "summary": s}
+
+
+def _document_switches(frames):
+    """The query method's % culled in each Abb. 9 stage switch set to the document's."""
+    s = frames["summary"].copy()
+    for n, (f, t) in SWITCHES.items():
+        at = (s.method == QUERY) & (s.frustum == f) & (s.depth_test == t)
+        s.loc[at, "triangles_culled_pct"] = doc.ABB9[n]["triangles_culled_pct"]
+    return {**frames, "summary": s}
+
+
+def _has(*methods: str):
+    return lambda q: set(methods) <= set(q.ms)
+
+
+_QUERIES = f"method == '{QUERY}'"
+_COLUMN_DOC = "{dp:.2f} % triangles culled, {dd[models_visible]:,.0f} models visible"
+_COLUMN_OURS = ("{o.triangles_culled_pct:.2f} %, {o.models_visible:,.0f} models visible, "
+                "{o.false_culls:.1f} false culls/frame")  # fmt: skip
+_IMAGES = (("1", "visible objects outlined / all occluded objects"),
+           ("4", "occluders only / occludees only"), ("6", "frame and its depth buffer"),
+           ("7", "the camera path over a top view"))  # fmt: skip
+
+# The table is laid out by hand, one row per block (the formatter would spread it out).
+# fmt: off
+CLAIMS = (
+    Each(_flight, (
+        *(Row(f"Abb. {n}", what, "rendered on {label}", IMAGE) for n, what in _IMAGES),
+        Row(
+            "Abb. 8 left, mean % triangles culled per method", "curves, no table",
+            lambda q: ", ".join(f"{m} {v:.1f}" for m, v in q.tri.items()), MEASURED,
+        ),
+        Row(
             "Abb. 8 left, the OGL method's quality",
             "die OGL-Methode [muss] qualitativ keinerlei Abstriche [...] gegenüber den anderen "
             "Techniken machen",
-            f"{QUERY} {tri[QUERY]:.1f} %, 0 false culls: {fc[QUERY] == 0}; best other method "
-            f"without false culls {best:.1f} %; not compared, culling more than the oracle's "
-            f"{ideal:.1f} %: {', '.join(beyond) or 'none'}",
-            TREND if holds else DIFFERS,
+            lambda q: f"{QUERY} {q.tri[QUERY]:.1f} %, 0 false culls: {q.fc[QUERY] == 0}; best "
+            f"other method without false culls {q.best:.1f} %; not compared, culling more than "
+            f"the oracle's {q.ideal:.1f} %: {q.beyond}",
+            TREND,
+            (Rule(lambda q: q.fc[QUERY], "==", 0, "objects", name="false culls", flips=(
+                alter("summary", "false_culls", plus=1.0, where=_QUERIES),)),
+             Rule(lambda q: q.tri[QUERY] - q.best + FLAT_PP if q.best == q.best else np.inf,
+                  ">=", 0, "pp", name="culled", flips=(
+                      alter("summary", "triangles_culled_pct", 0.5, _QUERIES),))),
             basis=f"{QUERY} culls no visible object and at most {FLAT_PP} pp fewer triangles than "
-            "any other method without false culls that culls no more than the oracle's exact "
-            f"set: {'holds' if holds else 'does not hold'}",
-            why=""
-            if holds
-            else f"{QUERY} culls {tri[QUERY]:.1f} % (false culls "
-            f"{fc[QUERY]:.1f}/frame), {top} {best:.1f} %" + (TWO_PHASE if top == TWO else ""),
-        )
-    )
-    if MOC in tri:
-        holds = tri[MOC] < tri[QUERY]
-        rows.append(
-            claim(
-                "Abb. 8 left, MOC",
-                "Lediglich die etwas schlechteren Werte der MOC-Methode stehen hervor",
-                f"{MOC} {tri[MOC]:.1f} % vs {QUERY} {tri[QUERY]:.1f} %",
-                TREND if holds else DIFFERS,
-                basis=f"{MOC} culls fewer triangles than {QUERY}: {'holds' if holds else 'no'}",
-                why="" if holds else f"{MOC}'s coverage masks cull as much as the queries here",
-            )
-        )
-    rows += _abb8_right(df, s, params, scene)
-    rows += _abb9(df, s, d, scene)
-    rows += _abb10(s, d, methods, params)
-    return harness.claims_frame(rows)
-
-
-def _abb8_right(df, s, params, scene) -> list[dict]:
-    from experiments.harness import DIFFERS, MEASURED, NUMBERS, TREND, claim
-
-    d, res = tuple(params.display), params.depth_resolutions()
-    ours = [_one(s, QUERY, r) for r in res]
-    pct = [o.triangles_culled_pct for o in ours]
-    spread = max(pct) - min(pct)
-    falls = all(a >= b - MONOTONE_SLACK_PP for a, b in itertools.pairwise(pct))
-    trend = falls and spread >= FLAT_PP
-    shown = ", ".join(f"{res_str(r)} {p:.1f}" for r, p in zip(res, pct, strict=True))
-    rows = [
-        claim(
+            "any other method without false culls that culls no more than the oracle's exact set",
+            why=lambda q: f"{QUERY} culls {q.tri[QUERY]:.1f} % (false culls "
+            f"{q.fc[QUERY]:.1f}/frame), {q.top} {q.best:.1f} %"
+            + (TWO_PHASE if q.top == TWO else ""),
+        ),
+        Row(
+            "Abb. 8 left, MOC",
+            "Lediglich die etwas schlechteren Werte der MOC-Methode stehen hervor",
+            lambda q: f"{MOC} {q.tri[MOC]:.1f} % vs {QUERY} {q.tri[QUERY]:.1f} %",
+            TREND,
+            Rule(lambda q: q.tri[QUERY] - q.tri[MOC], ">", 0, "pp", flips=(
+                alter("summary", "triangles_culled_pct", 2.0, f"method == '{MOC}'"),
+                alter("summary", "triangles_culled_pct", 0.1, f"method == '{MOC}'"))),
+            basis=lambda q: f"{MOC} culls fewer triangles than {QUERY}: "
+            + ("holds" if q.holds else "no"),
+            why=f"{MOC}'s coverage masks cull as much as the queries here",
+            when=lambda q: MOC in q.tri,
+        ),
+        Row(
             "Abb. 8 right, % triangles culled vs depth resolution",
             "mit fallender Auflösung steigt die Anzahl der Dreiecke, die weggeworfen werden",
-            shown,
-            TREND if trend else DIFFERS,
-            basis=f"ours never rises (by more than {MONOTONE_SLACK_PP} pp) from a coarser to a "
-            f"finer buffer and spans at least {FLAT_PP} pp: "
-            f"{'holds' if trend else 'does not hold'} (spread {spread:.1f} pp)",
-            why=""
-            if trend
-            else f"our level is the same at every resolution (spread "
-            f"{spread:.1f} pp): the scene's occluders leave no gaps that a coarse buffer closes",
-        )
-    ]
-    docs = [doc.ABB8.get(doc.document_column(r, d) or (0, 0)) for r in res]
-    prev = None
-    for r, o, dd in zip(res, ours, docs, strict=True):
-        if dd is None:
-            continue
-        dp = dd["triangles_culled_pct"]
-        coarser, prev = prev, dp
-        anomaly = coarser is not None and dp > coarser + MONOTONE_SLACK_PP  # rises with res.
-        close = abs(o.triangles_culled_pct - dp) <= PP_TOLERANCE
-        item = f"Abb. 8 table, {res_str(doc.document_column(r, d))} (ours {res_str(r)})"
-        text = (
-            f"{o.triangles_culled_pct:.2f} %, {o.models_visible:,.0f} models visible, "
-            f"{o.false_culls:.1f} false culls/frame"
-        )
-        theirs = f"{dp:.2f} % triangles culled, {dd['models_visible']:,.0f} models visible"
-        if close and trend and not anomaly:
-            rows.append(
-                claim(
-                    item,
-                    theirs,
-                    text,
-                    NUMBERS,
-                    basis=f"within {PP_TOLERANCE} pp, "
-                    "on a curve that falls with resolution as the document's",
-                )
-            )
-            continue
-        if anomaly:
-            why = (
-                f"the document's value rises above the coarser column's ({coarser:.2f} %) "
-                "with no explanation ('ERKLÄRUNG DAFÜR.'); a finer buffer can only keep "
-                "more objects, ours " + ("falls or stays" if falls else "rises")
-            )
-        elif close:
-            why = (
-                f"within {PP_TOLERANCE} pp only by coincidence: our level is the same at "
-                f"every resolution (spread {spread:.1f} pp), the document's falls"
-            )
-        elif scene.name == "castle":
-            why = (
-                "Intel's castle with its missing marketplace refilled synthetically: other "
-                "occludees behind the same occluders"
-            )
-        else:
-            why = (
-                f"another scene ({scene.label}), another flight: other objects behind the occluders"
-            )
-        rows.append(claim(item, theirs, text, DIFFERS, why=why))
-    fcs = ", ".join(f"{res_str(r)} {o.false_culls:.1f}" for r, o in zip(res, ours, strict=True))
-    cons = max(_conservative(df, r).false_culls.max() for r in res)
-    rows.append(
-        claim(
-            "false culls per frame (beyond the document)",
-            "not measured",
-            f"{QUERY}: {fcs}; {HIZ} on a conservative occluder depth: at most {cons:.0f} in any "
-            "frame",
-            MEASURED,
-            basis="objects visible in the exact id render at the display resolution but culled",
-        )
-    )
-    return rows
+            lambda q: ", ".join(f"{res_str(r)} {p:.1f}" for r, p in zip(q.res, q.pct, strict=True)),
+            TREND,
+            (Rule(lambda q: min((a - b for a, b in itertools.pairwise(q.pct)), default=0.0), ">=",
+                  -MONOTONE_SLACK_PP, "pp", name="never rises", flips=(
+                      alter("summary", "triangles_culled_pct", shuffle=True, where=_QUERIES),)),
+             Rule(lambda q: q.spread, ">=", FLAT_PP, "pp", name="spread", flips=(
+                 alter("summary", "triangles_culled_pct", to=75.0, where=_QUERIES),))),
+            basis=lambda q: f"ours never rises (by more than {MONOTONE_SLACK_PP} pp) from a "
+            f"coarser to a finer buffer and spans at least {FLAT_PP} pp: "
+            f"{holds_text(q.holds)} (spread {q.spread:.1f} pp)",
+            why="our level is the same at every resolution (spread {spread:.1f} pp): the "
+            "scene's occluders leave no gaps that a coarse buffer closes",
+        ),
+    )),
+    Each(_columns, (
+        Row(
+            "Abb. 8 table, {item_res} (ours {r_str})", _COLUMN_DOC, _COLUMN_OURS,
+            NUMBERS,
+            (Rule(lambda q: abs(q.o.triangles_culled_pct - q.dp), "<=", PP_TOLERANCE, "pp",
+                  name="gap", flips=(alter("summary", "triangles_culled_pct", plus=50.0),
+                                     _document_curve)),
+             Rule(lambda q: float(q.trend), ">", 0, name="curve falls")),
+            basis=lambda q: f"within {PP_TOLERANCE} pp, on a curve that falls with resolution "
+            "as the document's" if q.holds else "",
+            why=_column_why,
+            when=lambda q: not q.anomaly,
+        ),
+        Row(
+            "Abb. 8 table, {item_res} (ours {r_str})", _COLUMN_DOC, _COLUMN_OURS, DIFFERS,
+            why=_column_why, when=lambda q: q.anomaly,
+        ),
+    )),
+    Each(_flight, (Row(
+        "false culls per frame (beyond the document)", "not measured",
+        lambda q: f"{QUERY}: " + ", ".join(f"{res_str(r)} {o.false_culls:.1f}"
+                                           for r, o in zip(q.res, q.ours, strict=True))
+        + f"; {HIZ} on a conservative occluder depth: at most "
+        f"{max(_conservative(q.df, r).false_culls.max() for r in q.res):.0f} in any frame",
+        MEASURED,
+        basis="objects visible in the exact id render at the display resolution but culled",
+    ),
+    Row(
+        "Abb. 9, each stage culls more",
+        "Besser wird das Ergebnis, wenn zusätzlich zum Multithreading das Frustum Culling "
+        "aktiviert wird",
+        lambda q: ", ".join(f"{n} {p.mean():,.0f}"
+                            for n, p in zip(SWITCHES, _stages(q), strict=True)) + " models culled",
+        TREND,
+        Rule(lambda q: min(float((b - a).min()) for a, b in itertools.pairwise(_stages(q))), ">=",
+             0, "models", flips=(alter("frames", "models_culled", to=0,
+                                       where=f"{_QUERIES} and depth_test"),)),
+        basis="in every frame each stage culls at least as many models as the one before",
+        why="a frame where a later stage culls fewer models",
+    ),)),
+    Each(_switches, (Row(
+        "Abb. 9, {n}", "{dd[triangles_culled_pct]:.2f} % triangles culled, {dd[draw_calls]:,} "
+        "draw calls",
+        "{o.triangles_culled_pct:.2f} %, {o.draw_calls:,.0f} draw calls",
+        NUMBERS,
+        Rule(lambda q: q.gap, "<=", PP_TOLERANCE, "pp", flips=(
+            _document_switches, alter("summary", "triangles_culled_pct", plus=50.0))),
+        basis=f"within {PP_TOLERANCE} pp",
+        why=lambda q: "our MT run culls nothing with both stages off; the document's culls "
+        f"{q.dd['models_culled']:,.0f} models there" if not q.f
+        else f"another scene ({q.label}), another flight",
+    ),)),
+    Each(_flight, (
+        Row(
+            "Abb. 10, FPS per method", "a chart of their machine's FPS, no numbers",
+            lambda q: ", ".join(f"{m} {1e3 / v:.1f}" for m, v in q.ms.items()), MEASURED,
+            basis="1000 / mean frame time (cull + draw) on llvmpipe; only ratios compare with a "
+            "GPU",
+        ),
+        Row(
+            "frustum culling's gain", "eine enorme Leistungssteigerung von teilweise über 200%",
+            lambda q: f"mean frame time none / frustum = {q.ms['none'] / q.ms['frustum']:.2f}",
+            TREND,
+            Rule(lambda q: q.ms["none"] / q.ms["frustum"], ">", 2, "×", flips=(
+                alter("summary", "ms_total", 10.0, "method == 'none'"),)),
+            basis="frames at least twice as fast with frustum culling (mean frame times)",
+            why=lambda q: f"frustum culling drops {q.tri['frustum']:.0f} % of the triangles here, "
+            "and what lies outside the frustum is clipped early by llvmpipe and cost little",
+            when=_has("none", "frustum"),
+        ),
+        Row(
+            "best configuration of the OGL method",
+            "Performance ist ohne OC, aber mit FC am besten",
+            lambda q: f"mean frame time: frustum {q.ms['frustum']:.3g} ms, {QUERY} (FC+OC) "
+            f"{q.ms[QUERY]:.3g} ms, none {q.ms['none']:.3g} ms",
+            TREND,
+            Rule(lambda q: min(q.ms["none"], q.ms[QUERY]) - q.ms["frustum"], ">", 0, "ms", flips=(
+                alter("summary", "ms_total", 0.01, _QUERIES),)),
+            basis=lambda q: "frustum alone has the shortest mean frame time of none, frustum and "
+            f"{QUERY} (frustum + occlusion queries): " + ("holds" if q.holds else "no"),
+            why=lambda q: f"{min(('none', 'frustum', QUERY), key=q.ms.get)} is fastest: the "
+            "queries' read-back costs less than drawing the hidden objects on llvmpipe",
+            when=_has("none", "frustum", QUERY),
+        ),
+    )),
+    Each(_vs_frustum, (Row(
+        "{m} vs frustum culling alone",
+        "eine 1,5-7x schnellere Total Frame Time gegenüber Rendering mit nur Frustum Culling",
+        "{r:.2f}×",
+        NUMBERS,
+        (Rule(lambda q: q.r, ">=", 1.5, "×", name="≥ 1.5", flips=tuple(
+            alter("summary", "ms_total", k, f"method in ('{MOC}', '{HIZ}')")
+            for k in (0.5, 0.1, 10.0))),
+         Rule(lambda q: q.r, "<=", 7.0, "×", name="≤ 7")),
+        basis="ratio of mean frame times within 1.5–7×",
+        why="{m} saves what the hidden objects cost to draw; on llvmpipe their fragments fail "
+        "the depth test early and cost little (ratio {r:.2f})",
+    ),)),
+    Each(_flight, (
+        Row(
+            "MOC vs HiZ (Hasselgren et al., cited)",
+            "der MSOC-Algorithmus [wirft] 2% weniger Dreiecke als der HiZ weg, [erzielt] aber "
+            "dennoch eine bessere Performanz",
+            lambda q: f"{MOC} {_moc_hiz(q)[0]:+.1f} % fewer triangles culled than {HIZ}, cull "
+            f"{_moc_hiz(q)[1]:.2f}× faster",
+            TREND,
+            (Rule(lambda q: _moc_hiz(q)[0], ">=", 0, "%", name="fewer ≥ 0", flips=(
+                alter("summary", "ms_cull", 100.0, f"method == '{MOC}'"),
+                chain(alter("summary", "triangles_culled_pct", to=50.0, where=f"method == '{MOC}'"),
+                      alter("summary", "triangles_culled_pct", to=51.0, where=f"method == '{HIZ}'"),
+                      alter("summary", "ms_cull", 0.01, f"method == '{MOC}'")))),
+             Rule(lambda q: _moc_hiz(q)[0], "<=", doc.MOC_FEWER_TOLERANCE_PCT, "%",
+                  name="fewer ≤", flips=(
+                      alter("summary", "triangles_culled_pct", 0.5, f"method == '{MOC}'"),)),
+             Rule(lambda q: _moc_hiz(q)[1], ">", 1, "×", name="faster")),
+            basis=f"0–{doc.MOC_FEWER_TOLERANCE_PCT:.0f} % fewer (relative) and a shorter mean "
+            "cull time",
+            why=f"{MOC} judges boxes against per-tile masks of 32×8 pixels, {HIZ} against a "
+            "per-pixel max-depth pyramid on the GPU context (measured)",
+            when=_has(MOC, HIZ),
+        ),
+        Row(
+            "comparison with MOC (beyond the document)", doc.MOC_COMPARISON_MISSING,
+            lambda q: f"{MOC}: {q.tri[MOC]:.1f} % triangles culled, {q.fc[MOC]:.1f} false "
+            f"culls/frame, mean frame {q.ms[MOC]:.3g} ms; {QUERY}: {q.tri[QUERY]:.1f} %, "
+            f"{q.ms[QUERY]:.3g} ms",
+            MEASURED, basis="the document's MOC comparison was never done; ours goes beyond it",
+            when=_has(MOC, HIZ),
+        ),
+    )),
+)
+# fmt: on
 
 
-def _abb9(df, s, d, scene) -> list[dict]:
-    from experiments.harness import DIFFERS, NUMBERS, TREND, claim
-
-    per = [
-        _rows(df, QUERY, d, frustum=f, depth_test=t).models_culled.to_numpy()
-        for f, t in SWITCHES.values()
-    ]
-    holds = all((a <= b).all() for a, b in itertools.pairwise(per))
-    rows = [
-        claim(
-            "Abb. 9, each stage culls more",
-            "Besser wird das Ergebnis, wenn zusätzlich zum "
-            "Multithreading das Frustum Culling aktiviert wird",
-            ", ".join(f"{n} {p.mean():,.0f}" for n, p in zip(SWITCHES, per, strict=True))
-            + " models culled",
-            TREND if holds else DIFFERS,
-            basis="in every frame each stage culls at least as many models as the one before: "
-            + ("holds" if holds else "does not hold"),
-            why="" if holds else "a frame where a later stage culls fewer models",
-        )
-    ]
-    for n, (f, t) in SWITCHES.items():
-        o, dd = _one(s, QUERY, d, frustum=f, depth_test=t), doc.ABB9[n]
-        close = abs(o.triangles_culled_pct - dd["triangles_culled_pct"]) <= PP_TOLERANCE
-        why = (
-            ""
-            if close
-            else "our MT run culls nothing with both stages off; the document's "
-            f"culls {dd['models_culled']:,.0f} models there"
-            if not f
-            else f"another scene ({scene.label}), another flight"
-        )
-        rows.append(
-            claim(
-                f"Abb. 9, {n}",
-                f"{dd['triangles_culled_pct']:.2f} % triangles culled, "
-                f"{dd['draw_calls']:,} draw calls",
-                f"{o.triangles_culled_pct:.2f} %, {o.draw_calls:,.0f} draw calls",
-                NUMBERS if close else DIFFERS,
-                basis=f"within {PP_TOLERANCE} pp",
-                why=why,
-            )
-        )
-    return rows
-
-
-def _abb10(s, d, methods, params) -> list[dict]:
-    from experiments.harness import DIFFERS, MEASURED, NUMBERS, TREND, claim
-
-    ms = {m: _one(s, m, d).ms_total for m in methods}
-    rows = [
-        claim(
-            "Abb. 10, FPS per method",
-            "a chart of their machine's FPS, no numbers",
-            ", ".join(f"{m} {1e3 / v:.1f}" for m, v in ms.items()),
-            MEASURED,
-            basis="1000 / mean frame time (cull + draw) on llvmpipe; only ratios compare "
-            "with a GPU",
-        )
-    ]
-    if "none" in ms and "frustum" in ms:
-        r = ms["none"] / ms["frustum"]
-        cut = _one(s, "frustum", d).triangles_culled_pct
-        rows.append(
-            claim(
-                "frustum culling's gain",
-                "eine enorme Leistungssteigerung von teilweise über 200%",
-                f"mean frame time none / frustum = {r:.2f}",
-                TREND if r > 2 else DIFFERS,
-                basis="frames at least twice as fast with frustum culling (mean frame times): "
-                + ("holds" if r > 2 else "does not hold"),
-                why=""
-                if r > 2
-                else f"frustum culling drops {cut:.0f} % of the triangles here, "
-                "and what lies outside the frustum is clipped early by llvmpipe and cost little",
-            )
-        )
-    if {"none", "frustum", QUERY} <= set(ms):
-        best = min(("none", "frustum", QUERY), key=ms.get)
-        holds = best == "frustum"
-        rows.append(
-            claim(
-                "best configuration of the OGL method",
-                "Performance ist ohne OC, aber mit FC am besten",
-                f"mean frame time: frustum {ms['frustum']:.3g} ms, {QUERY} (FC+OC) "
-                f"{ms[QUERY]:.3g} ms, none {ms['none']:.3g} ms",
-                TREND if holds else DIFFERS,
-                basis="frustum alone has the shortest mean frame time of none, frustum and "
-                f"{QUERY} (frustum + occlusion queries): {'holds' if holds else 'no'}",
-                why=""
-                if holds
-                else f"{best} is fastest: the queries' read-back costs less than "
-                "drawing the hidden objects on llvmpipe",
-            )
-        )
-    for m in (MOC, HIZ):
-        if m in ms and "frustum" in ms:
-            r = ms["frustum"] / ms[m]
-            ok = 1.5 <= r <= 7.0
-            rows.append(
-                claim(
-                    f"{m} vs frustum culling alone",
-                    "eine 1,5-7x schnellere Total Frame Time "
-                    "gegenüber Rendering mit nur Frustum Culling",
-                    f"{r:.2f}×",
-                    NUMBERS if ok else DIFFERS,
-                    basis="ratio of mean frame times within 1.5–7×",
-                    why=""
-                    if ok
-                    else f"{m} saves what the hidden objects cost to draw; on "
-                    "llvmpipe their fragments fail the depth test early and cost little "
-                    f"(ratio {r:.2f})",
-                )
-            )
-    if MOC in ms and HIZ in ms:
-        mo, hi = _one(s, MOC, d), _one(s, HIZ, d)
-        fewer = 100.0 * (1 - mo.triangles_culled_pct / max(hi.triangles_culled_pct, 1e-9))
-        faster = hi.ms_cull / mo.ms_cull
-        ok = 0 <= fewer <= doc.MOC_FEWER_TOLERANCE_PCT and faster > 1
-        rows.append(
-            claim(
-                "MOC vs HiZ (Hasselgren et al., cited)",
-                "der MSOC-Algorithmus [wirft] 2% weniger "
-                "Dreiecke als der HiZ weg, [erzielt] aber dennoch eine bessere Performanz",
-                f"{MOC} {fewer:+.1f} % fewer triangles culled than {HIZ}, "
-                f"cull {faster:.2f}× faster",
-                TREND if ok else DIFFERS,
-                basis=f"0–{doc.MOC_FEWER_TOLERANCE_PCT:.0f} % fewer "
-                "(relative) and a shorter mean cull time: " + ("holds" if ok else "does not hold"),
-                why=""
-                if ok
-                else f"{MOC} judges boxes against per-tile masks of 32×8 pixels, "
-                f"{HIZ} against a per-pixel max-depth pyramid on the GPU context (measured)",
-            )
-        )
-        rows.append(
-            claim(
-                "comparison with MOC (beyond the document)",
-                doc.MOC_COMPARISON_MISSING,
-                f"{MOC}: {mo.triangles_culled_pct:.1f} % triangles culled, "
-                f"{mo.false_culls:.1f} false culls/frame, mean frame {mo.ms_total:.3g} ms; "
-                f"{QUERY}: {_one(s, QUERY, d).triangles_culled_pct:.1f} %, "
-                f"{ms[QUERY]:.3g} ms",
-                MEASURED,
-                basis="the document's MOC comparison was never done; ours goes beyond it",
-            )
-        )
-    return rows
+def _stages(q) -> list[np.ndarray]:
+    """Models culled per frame by each Abb. 9 stage switch, in the switches' order."""
+    return [_rows(q.df, QUERY, q.d, frustum=f, depth_test=t).models_culled.to_numpy()
+            for f, t in SWITCHES.values()]  # fmt: skip
 
 
 EXPERIMENT = harness.experiment(
@@ -730,10 +759,11 @@ EXPERIMENT = harness.experiment(
         plot_abb6,
         plot_abb7,
     ],
-    claims=claims,
+    claims=CLAIMS,
     quick={"frames": QUICK_FRAMES, "display": scaled(DISPLAY, QUICK_SCALE)},
     minutes=15.0,
     uses_data=True,
     aliases=("demo",),
     notebook="seed000_soc",
 )
+claims = EXPERIMENT.claims  # claims(frames, params): the table evaluated

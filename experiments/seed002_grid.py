@@ -635,3 +635,4 @@ EXPERIMENT = harness.experiment(
     aliases=("grid",),
     notebook="seed002_grid",
 )
+claims = EXPERIMENT.claims  # claims(frames, params): the table evaluated
