@@ -102,8 +102,9 @@ def test_unknown_figure_is_rejected_before_anything_runs(tmp_path, fakes):
 def test_report_has_a_verdict_per_row_and_says_why_rows_differ(tmp_path, fakes):
     figures.run_figures(tmp_path, only=["a"], progress=False)
     text = (tmp_path / "REPORT.md").read_text()
-    assert "Rows: 1 differs, 1 trend." in text
-    assert "| holds | claim | 1 | **trend** | ms never rises: holds |" in text
+    assert "All claims: 2 rows: 1 differs, 1 trend; 0 borderline, 0 with noise not measured." in text
+    assert "**2 rows: 1 differs, 1 trend; 0 borderline, 0 with noise not measured.**" in text
+    assert "| holds | claim | 1 | **trend** |  | ms never rises: holds |" in text
     assert "the queries cost more than they hide" in text
     assert "*Milliseconds per frame.*" in text
     assert "_not run_ (`vislod figures --only b`)" in text
