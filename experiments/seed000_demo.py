@@ -56,6 +56,7 @@ from experiments.seed000_pictures import telling_frame as _telling_frame
 # the full flight stays within 15 minutes on 2 cores. ``--methods all``: every method.
 DEMO_METHODS = ("none", "frustum", "queries", "hiz-gpu", "masked", "hiz-2phase")
 QUERY = "queries"  # seed 000's "OGL" method
+PACKETS = "queries-batched"  # its future work: occludees packed into packets (conservative)
 MOC, HIZ = "masked", "hiz-gpu"  # seed 000's MOC and HiZ as registered here
 CONSERVATIVE = (HIZ, (("conservative", True),))  # Abb. 8's second curve: never a false cull
 SWITCHES = {
@@ -144,6 +145,8 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     specs += [RunSpec(QUERY, r, draw=True) for r in res]
     specs += [RunSpec(CONSERVATIVE[0], r, draw=True, options=CONSERVATIVE[1]) for r in res]
     specs += [RunSpec(QUERY, display, f, d) for f, d in SWITCHES.values()]
+    specs += [RunSpec(QUERY, display, frustum=False, draw=True)]  # "frustum culling's gain"
+    specs += [RunSpec(PACKETS, display, draw=True)] if PACKETS in soc.method_names(scene) else []
     total = params.frames * (len({s.key for s in specs}) + 1) + 3
     with tqdm(total=total, unit="frame", desc="seed 000", disable=not progress) as bar:
         frames = run_all(scene, cams, specs, bar=bar)
