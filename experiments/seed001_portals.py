@@ -26,6 +26,8 @@ from experiments.claims import MEASURED, TREND, Each, Row, Rule, alter
 from experiments.common import DISPLAY, QUICK_SCALE, UsageError, res_str, scaled
 
 METHODS = ("frustum", "portals")
+CELLS = "cell visibility"  # frustum + the precomputed cells seen from the camera's cell
+PVS_SAMPLES = 3  # eyes per cell and axis of the sampled cell-to-cell visibility
 FRAMES = ("frames", "rooms")
 DOC_ROOMS = "«Beobachtung: viele Räume innerhalb des Viewing-Frustums sind nicht sichtbar»"
 DOC_VIEWPOINT = "«Von bestimmtem Viewpoint aus ist innerhalb der Zelle noch weniger sichtbar»"
@@ -76,6 +78,42 @@ def camera_room(cells: np.ndarray, eye: np.ndarray) -> int:
     return int(hit[0]) if len(hit) else -1
 
 
+def cell_visibility(graph, samples: int = PVS_SAMPLES) -> list[np.ndarray]:
+    """Per cell, the cells seen from it — the precomputed cell-to-cell visibility the lecture
+    compares with: the union, over eyes on a ``samples``³ grid inside the cell and six
+    90-degree axis views from each, of the cells the portal traversal reaches. Sampled: it
+    misses a cell seen only from between the samples (the walk's rows count such frames)."""
+    from soc.scenes.camera import Camera
+
+    dirs = np.vstack([np.eye(3), -np.eye(3)])
+    out = []
+    for lo, hi in graph.cells:
+        t = (np.arange(samples) + 0.5) / samples
+        eyes = lo + (hi - lo) * np.stack(np.meshgrid(t, t, t, indexing="ij"), -1).reshape(-1, 3)
+        seen: set[int] = set()
+        for eye in eyes:
+            for d in dirs:
+                up = (0.0, 0.0, 1.0) if abs(d[1]) > 0.5 else (0.0, 1.0, 0.0)
+                cam = Camera(tuple(eye), tuple(eye + d), up, 90.0, 64, 64, near=1e-3, far=1e3)
+                seen |= set((graph.traverse(cam) or {}).keys())
+        out.append(np.array(sorted(seen), np.int64))
+    return out
+
+
+def _by_cell_visibility(graph, pvs: list[np.ndarray], cam) -> np.ndarray:
+    """(N,) bool objects kept by frustum culling plus the precomputed cell visibility of the
+    cells the camera stands in (everything in the frustum when it stands outside)."""
+    from soc.culling.frustum import aabbs_in_frustum
+
+    start = graph.start_cells(cam)
+    keep = np.zeros(len(graph.aabbs), bool)
+    cells = (np.unique(np.concatenate([pvs[c] for c in start])) if start is not None
+             else np.arange(len(graph.cells)))  # fmt: skip
+    ids = np.unique(np.concatenate([graph.members[c] for c in cells] or [np.zeros(0, np.int64)]))
+    keep[ids[aabbs_in_frustum(graph.aabbs[ids], cam.planes)]] = True
+    return keep
+
+
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     """Per frame and method (``frustum``, ``portals`` and the ``oracle``'s ideal): objects kept
     and culled, % culled, false culls, cull ms, cells reached; and per room the camera stands
@@ -83,6 +121,7 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     from tqdm.auto import tqdm
 
     import soc
+    from soc.culling.portals import cell_graph
 
     scene = soc.scenes.rooms(params.seed, rooms=tuple(params.rooms), floors=params.floors)
     w, h = params.display
@@ -90,6 +129,8 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     cells = np.asarray(scene.meta["cells"], np.float64)
     n = len(scene)
     rows = []
+    graph = cell_graph(scene)
+    pvs = cell_visibility(graph)
     oracle = soc.Oracle(scene)
     cullers = {m: soc.Culler(scene, m, tuple(params.display)) for m in METHODS}
     try:
@@ -101,6 +142,10 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
             hidden = int(n - truth.sum())
             rows.append({**base, "method": "oracle", "kept": int(truth.sum()), "culled": hidden,
                          "false_culls": 0, "ms_cull": np.nan, "cells_reached": np.nan})  # fmt: skip
+            kept = _by_cell_visibility(graph, pvs, cam)
+            rows.append({**base, "method": CELLS, "kept": int(kept.sum()),
+                         "culled": int(n - kept.sum()), "false_culls": int((truth & ~kept).sum()),
+                         "ms_cull": np.nan, "cells_reached": np.nan})  # fmt: skip
             for k in np.roll(np.arange(len(METHODS)), -i):  # order rotates frame by frame
                 m = METHODS[k]
                 s = cullers[m].cull(cam, truth=truth).stats

@@ -102,6 +102,7 @@ FRAMES = (
     "fits",
     "q_compare",
     "scenes",
+    "repeats",
 )
 
 
@@ -124,6 +125,9 @@ class Params:
     seed : int
     sweep_frames : int
         Frames of the query-count regression per scene.
+    repeats : int
+        Plays of each animation (at least 3): the first gives the frames, the oracle's checks
+        and the pictures; all give the run-to-run spread of the benchmark's ratios.
     """
 
     frames: int = 200
@@ -133,6 +137,7 @@ class Params:
     scenes: tuple[str, ...] = ("scene1", "scene2", "scene3")
     seed: int = 0
     sweep_frames: int = 48
+    repeats: int = 3
 
     def check(self) -> None:
         """:class:`UsageError` for values the run cannot use."""
@@ -147,6 +152,8 @@ class Params:
             raise UsageError(f"--scale must be > 0, got {self.scale}")
         if self.oracle_every < 0:
             raise UsageError(f"--oracle-every must be >= 0 (0 = never), got {self.oracle_every}")
+        if self.repeats < 3:
+            raise UsageError(f"--repeats must be at least 3 (for a spread), got {self.repeats}")
         if self.sweep_frames < 8:
             raise UsageError(f"--sweep-frames must be at least 8, got {self.sweep_frames}")
 
@@ -200,9 +207,10 @@ class AliveOracle:
 STAGES = ("buf", "fc", "draw", "queries", "collect", "prepass", "estimate", "decide", "fit")
 
 
-def animate(dyn, params: Params, renderer, bar) -> list[dict]:
+def animate(dyn, params: Params, renderer, bar, repeat: int = 0) -> list[dict]:
     """Play ``dyn``'s animation once, the three methods interleaved per frame (module
-    docstring). Returns one row per frame and method."""
+    docstring), fresh methods each time; the oracle only in repeat 0 and the order of the
+    methods drawn per frame from a seed of the repeat. Returns one row per frame and method."""
     import soc
 
     cams = dyn.cameras(*params.resolution)
@@ -212,8 +220,9 @@ def animate(dyn, params: Params, renderer, bar) -> list[dict]:
                       **opts)
         for m, opts in METHOD_OPTIONS.items()
     }  # fmt: skip
-    oracle = AliveOracle(renderer.geometry, params.resolution) if params.oracle_every else None
-    rng = np.random.default_rng([params.seed, 4])
+    checks = params.oracle_every if repeat == 0 else 0
+    oracle = AliveOracle(renderer.geometry, params.resolution) if checks else None
+    rng = np.random.default_rng([params.seed, 4] + ([repeat] if repeat else []))
     rows: list[dict] = []
     try:
         for state, cam in zip(dyn, cams, strict=True):
@@ -223,7 +232,7 @@ def animate(dyn, params: Params, renderer, bar) -> list[dict]:
                 ms_apply = method.apply(state)
                 done[METHODS[k]] = (ms_apply, method.render(cam, renderer))
             truth = None
-            if oracle is not None and state.frame % params.oracle_every == 0:
+            if oracle is not None and state.frame % checks == 0:
                 truth = oracle.visible(cam, np.flatnonzero(state.alive))
             for name in METHODS:
                 rows.append(_row(dyn.name, name, state, *done[name], truth))
@@ -313,8 +322,8 @@ def sweep(dyn, params: Params, renderer, bar) -> tuple[list[dict], dict, list[di
             m.queries = int(q)
             ms = [m.render(cam, renderer).ms for _ in range(SWEEP_REPEATS)]
             compare.append({"scene": dyn.name, "term": label, "q": int(q),
-                            "model_ms": float(model.time(q)),
-                            "measured_ms": float(np.median(ms))})  # fmt: skip
+                            "model_ms": float(model.time(q)), "measured_ms": float(np.median(ms)),
+                            "measured_min": min(ms), "measured_max": max(ms)})  # fmt: skip
         points = [
             {"scene": dyn.name, "q": q, "commands": cc, "submits": ss, "elements": e, "ms": t}
             for q, cc, ss, e, t in zip(
@@ -425,8 +434,8 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
 
     glctx = default_context()
     warm_up_fit()  # compile the jitted regression once, before any frame is timed
-    rows, points, fits, compare, scenes = [], [], [], [], []
-    total = len(params.scenes) * (params.frames + params.sweep_frames)
+    rows, points, fits, compare, scenes, repeats = [], [], [], [], [], []
+    total = len(params.scenes) * (params.repeats * params.frames + params.sweep_frames)
     with tqdm(total=total, desc="seed004 adaptive", unit="frame", disable=not progress) as bar:
         for name in params.scenes:
             t = time.perf_counter()
@@ -434,7 +443,10 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
             gen = time.perf_counter() - t
             renderer = Renderer(glctx.geometry(dyn.scene), params.resolution)
             try:
-                rows += animate(dyn, params, renderer, bar)
+                for k in range(params.repeats):
+                    played = animate(dyn, params, renderer, bar, repeat=k)
+                    repeats.append(repeat_row(pd.DataFrame(played), k))
+                    rows += played if k == 0 else []
                 p, fit, cmp = sweep(dyn, params, renderer, bar)
             finally:
                 renderer.release()
@@ -458,7 +470,18 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
         "fits": pd.DataFrame(fits),
         "q_compare": pd.DataFrame(compare),
         "scenes": pd.DataFrame(scenes),
+        "repeats": pd.DataFrame(repeats),
     }
+
+
+def repeat_row(f: pd.DataFrame, repeat: int) -> dict:
+    """One play of one scene's animation: each method's mean ms, the benchmark's criterion
+    and the adaptive method's modes, in the order visited."""
+    times = {m: f[f.method == m].sort_values("frame").ms.to_numpy() for m in METHODS}
+    modes = f[f.method == "adaptive"].sort_values("frame")["mode"]
+    return {"scene": f.scene.iloc[0], "repeat": repeat,
+            **{f"mean_ms_{m}": float(np.mean(t)) for m, t in times.items()}, **criterion(times),
+            "modes": "→".join(map(str, dict.fromkeys(modes.tolist())))}  # fmt: skip
 
 
 # -- pictures ----------------------------------------------------------------------------------
