@@ -125,7 +125,7 @@ class Rule:
         The rule's unit (margins are given in it).
     noise : callable q -> float or None, optional
         The measured run-to-run spread of ``value`` (same unit); ``None``: not measured.
-        Return 0 for a deterministic value (counts from a seeded run).
+        Return 0 for a deterministic value (counts from a seeded run: never borderline).
     flips : tuple of alterations
         Frames → frames changes (:func:`alter`) of which at least one must change the
         row's verdict; a test applies them.
@@ -259,7 +259,7 @@ def evaluate_rows(table: Table, frames: Frames, params: Any) -> list[Evaluated]:
         margin = "; ".join(
             _margin_text(r, m, n, several) for r, (_, m, n) in zip(row.rules, judged, strict=True)
         )
-        close = any(n is not None and abs(m) <= n for _, m, n in judged if m == m)
+        close = any(n and abs(m) <= n for _, m, n in judged if m == m)  # 0: deterministic
         cells = claim(
             _text(row.item, q),
             _text(row.document, q),
@@ -375,6 +375,17 @@ class By:
         if col.startswith("__"):
             raise AttributeError(col)
         return Listing({k: r[col] for k, r in self.rows.items()}, self.key, self.sep)
+
+
+def boot_std(stat: Callable[..., float], *arrays: np.ndarray, n: int = 200) -> float | None:
+    """Bootstrap standard error of ``stat(*arrays)`` over the arrays' shared rows (frames
+    resampled with replacement, the same rows in every array: paired), ``n`` resamples from a
+    fixed seed; None for fewer than 3 rows."""
+    m = min((len(a) for a in arrays), default=0)
+    if m < 3:
+        return None
+    rows = np.random.default_rng(0).integers(0, m, size=(n, m))
+    return float(np.std([stat(*(np.asarray(a)[r] for a in arrays)) for r in rows], ddof=1))
 
 
 def holds_text(ok: bool) -> str:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -24,7 +25,6 @@ import pandas as pd
 from experiments import harness
 from experiments import seed000_document as doc
 from experiments.claims import (
-    DIFFERS,
     IMAGE,
     MEASURED,
     NUMBERS,
@@ -33,8 +33,7 @@ from experiments.claims import (
     Row,
     Rule,
     alter,
-    chain,
-    holds_text,
+    boot_std,
 )
 from experiments.common import (
     DISPLAY,
@@ -64,9 +63,6 @@ SWITCHES = {
     "MT+Frustum": (True, False),
     "MT+Frustum+Depth test": (True, True),
 }
-PP_TOLERANCE = 5.0  # percentage points: "numbers" for a % of triangles culled
-FLAT_PP = 1.0  # a curve over resolutions whose spread is below this is "the same level"
-MONOTONE_SLACK_PP = 0.1  # a finer depth buffer may cull this much more (ties, rounding)
 TWO = "hiz-2phase"
 TWO_PHASE = (
     " (its depth holds every object drawn the frame before; the queries' only the occluders)"
@@ -423,37 +419,55 @@ def plot_abb10(frames, params):
 # -- claims -------------------------------------------------------------------------------------
 
 
+def _per_frame(df, method, res, **kw) -> np.ndarray:
+    """(frames,) frame ms (cull + draw) of one run, in frame order."""
+    return _rows(df, method, res, **kw).ms_total.to_numpy(float)
+
+
 def _flight(frames, params):
     """The flight's one case: per method at the display resolution its summary row (``one``),
-    % triangles culled (``tri``), false culls (``fc``) and mean frame ms (``ms``); the oracle's
-    share; the query method per depth resolution (``ours``, ``pct``) and the curve's shape."""
-    s, d = frames["summary"], tuple(params.display)
+    % triangles culled (``tri``), false culls (``fc``), mean frame ms (``ms``) and per-frame ms
+    (``per``); the oracle's share; the query method per depth resolution (``ours``, ``pct``);
+    the share our frustum culls (the Abb. 9 MT+Frustum run)."""
+    s, d, df = frames["summary"], tuple(params.display), frames["frames"]
     methods = _methods(frames, params)
     one = {m: _one(s, m, d) for m in methods}
     tri = {m: r.triangles_culled_pct for m, r in one.items()}
     fc = {m: r.false_culls for m, r in one.items()}
     ideal = _one(s, ORACLE, d).triangles_culled_pct
-    beyond = [m for m in methods if tri[m] > ideal + FLAT_PP]  # culls more than is hidden
+    beyond = [m for m in methods if tri[m] > ideal]  # culls more than is hidden
     exact = [m for m in methods if m not in (QUERY, *beyond) and fc[m] == 0]
     top = max(exact, key=tri.get, default="")
     res = params.depth_resolutions()
     ours = [_one(s, QUERY, r) for r in res]
-    pct = [o.triangles_culled_pct for o in ours]
-    falls = all(a >= b - MONOTONE_SLACK_PP for a, b in itertools.pairwise(pct))
     scene = frames["scene"].iloc[0]
     yield {
-        "s": s, "d": d, "df": frames["frames"], "scene": scene, "label": scene.label,
-        "methods": methods, "one": one, "tri": tri, "fc": fc, "ideal": ideal,
-        "beyond": ", ".join(beyond) or "none", "top": top, "best": tri.get(top, np.nan),
-        "ms": {m: r.ms_total for m, r in one.items()}, "res": res, "ours": ours, "pct": pct,
-        "spread": max(pct) - min(pct), "falls": falls,
-        "trend": falls and max(pct) - min(pct) >= FLAT_PP,
-    }  # fmt: skip
+        "s": s,
+        "d": d,
+        "df": df,
+        "scene": scene,
+        "label": scene.label,
+        "methods": methods,
+        "one": one,
+        "tri": tri,
+        "fc": fc,
+        "ideal": ideal,
+        "beyond": ", ".join(beyond) or "none",
+        "top": top,
+        "best": tri.get(top, np.nan),
+        "ms": {m: r.ms_total for m, r in one.items()},
+        "per": {m: _per_frame(df, m, d) for m in methods},
+        "res": res,
+        "ours": ours,
+        "pct": [o.triangles_culled_pct for o in ours],
+        "fr_share": _one(s, QUERY, d, depth_test=False).triangles_culled_pct,
+        "others": [m for m in methods if m not in ("none", "frustum", MOC)],
+    }
 
 
 def _columns(frames, params):
     """One case per depth resolution with a column in the document's Abb. 8 table: ours
-    (``o``), the document's (``dd``, ``dp``) and the coarser column's (``coarser``)."""
+    (``o``), the document's (``dd``, ``dp``) and its coarser column's (``coarser``)."""
     for case in _flight(frames, params):
         d, prev = case["d"], None
         for r, o in zip(case["res"], case["ours"], strict=True):
@@ -463,9 +477,17 @@ def _columns(frames, params):
                 continue
             dp = dd["triangles_culled_pct"]
             coarser, prev = prev, dp
-            yield {**case, "r": r, "o": o, "dd": dd, "dp": dp, "coarser": coarser,
-                   "item_res": res_str(col), "r_str": res_str(r),
-                   "anomaly": coarser is not None and dp > coarser + MONOTONE_SLACK_PP}  # fmt: skip
+            yield {
+                **case,
+                "r": r,
+                "o": o,
+                "dd": dd,
+                "dp": dp,
+                "coarser": coarser,
+                "item_res": res_str(col),
+                "r_str": res_str(r),
+                "rises": coarser is not None and dp > coarser,
+            }
 
 
 def _switches(frames, params):
@@ -477,6 +499,7 @@ def _switches(frames, params):
                 **case,
                 "n": n,
                 "f": f,
+                "t": t,
                 "o": o,
                 "dd": doc.ABB9[n],
                 "gap": abs(o.triangles_culled_pct - doc.ABB9[n]["triangles_culled_pct"]),
@@ -488,21 +511,87 @@ def _vs_frustum(frames, params):
     for case in _flight(frames, params):
         for m in (MOC, HIZ):
             if m in case["ms"] and "frustum" in case["ms"]:
-                yield {**case, "m": m, "r": case["ms"]["frustum"] / case["ms"][m]}
+                a, b = case["per"]["frustum"], case["per"][m]
+                yield {
+                    **case,
+                    "m": m,
+                    "r": a.mean() / b.mean(),
+                    "noise": boot_std(lambda x, y: x.mean() / y.mean(), a, b),
+                }
+
+
+def _gain(frames, params):
+    """The query method with and without frustum culling (depth test on), frame by frame."""
+    for case in _flight(frames, params):
+        df, d = case["df"], case["d"]
+        off = _per_frame(df, QUERY, d, frustum=False)
+        if len(off) and QUERY in case["per"]:
+            r = off / case["per"][QUERY]
+            yield {
+                **case,
+                "ratio": r,
+                "top": float(r.max()),
+                "at": int(np.argmax(r)),
+                "over2": float((r > 2).mean()),
+                "over3": float((r > 3).mean()),
+                "culled_off": _one(case["s"], QUERY, d, frustum=False).triangles_culled_pct,
+            }
+
+
+def _packets(frames, params):
+    """The queries against queries-batched at the display resolution: queries, % culled,
+    false culls and frame ms per frame."""
+    for case in _flight(frames, params):
+        df, d = case["df"], case["d"]
+        pk, qu = _rows(df, PACKETS, d), _rows(df, QUERY, d)
+        if len(pk):
+            a, b = qu.ms_total.to_numpy(float), pk.ms_total.to_numpy(float)
+            yield {
+                **case,
+                "pk": pk,
+                "qu": qu,
+                "fewer": qu.queries.mean() - pk.queries.mean(),
+                "more": pk.triangles_culled_pct.mean() - qu.triangles_culled_pct.mean(),
+                "faster": a.mean() - b.mean(),
+                "noise": boot_std(lambda x, y: x.mean() - y.mean(), a, b),
+            }
 
 
 def _column_why(q) -> str:
-    if q.anomaly:
-        return (f"the document's value rises above the coarser column's ({q.coarser:.2f} %) "
-                "with no explanation ('ERKLÄRUNG DAFÜR.'); a finer buffer can only keep more "
-                "objects, ours " + ("falls or stays" if q.falls else "rises"))  # fmt: skip
-    if abs(q.o.triangles_culled_pct - q.dp) <= PP_TOLERANCE:
-        return (f"within {PP_TOLERANCE} pp only by coincidence: our level is the same at every "
-                f"resolution (spread {q.spread:.1f} pp), the document's falls")  # fmt: skip
-    if q.scene.name == "castle":
-        return ("Intel's castle with its missing marketplace refilled synthetically: other "
-                "occludees behind the same occluders")  # fmt: skip
-    return f"another scene ({q.label}), another flight: other objects behind the occluders"
+    occl, doc_occl = q.o.triangles_culled_pct - q.fr_share, q.dp - FRUSTUM_DOC
+    text = (
+        f"our frustum alone drops {q.fr_share:.1f} % of the triangles on this flight, the "
+        f"document's {FRUSTUM_DOC:.2f} % (Abb. 9, MT+Frustum); occlusion culling adds "
+        f"{occl:.1f} pp here, {doc_occl:.1f} pp there: what the occluders hide differs on our "
+        f"scene ({q.label}) and flight; cause not measured further"
+    )
+    if q.rises:
+        text = (
+            f"the document's value rises above its coarser column ({q.coarser:.2f} → "
+            f"{q.dp:.2f} %) where ours is {q.o.triangles_culled_pct:.2f} % "
+            f"({q.o.false_culls:.1f} false culls/frame); its text explains neither column "
+            "(its «ERKLÄRUNG DAFÜR» concerns the 2432×1440 curve's shape): cause not "
+            "measured; " + text
+        )
+    return text
+
+
+def _switch_why(q) -> str:
+    if not q.f:
+        return (
+            f"the document's MT run (both stages off) culls {q.dd['triangles_culled_pct']:.2f} "
+            f"% ({q.dd['models_culled']:,.0f} models) though no stage culls; its text does "
+            "not say what did: cause not measured; ours culls nothing with both off"
+        )
+    if not q.t:
+        return (
+            f"our flight leaves {q.o.triangles_culled_pct:.1f} % of the triangles outside "
+            f"the frustum, the document's {q.dd['triangles_culled_pct']:.2f} %: another "
+            f"flight on another scene ({q.label}); cause not measured further"
+        )
+    return _column_why(
+        SimpleNamespace(**{**vars(q), "dp": q.dd["triangles_culled_pct"], "rises": False})
+    )
 
 
 def _moc_hiz(q) -> tuple[float, float]:
@@ -512,18 +601,26 @@ def _moc_hiz(q) -> tuple[float, float]:
     return fewer, hi.ms_cull / mo.ms_cull
 
 
+def _stage_gap(a: pd.DataFrame, b: pd.DataFrame) -> str:
+    """The three stages whose mean ms grow most from run ``b`` to run ``a``."""
+    cols = [c for c in a.columns if c.startswith("ms_") and c not in ("ms_total", "ms_oracle")]
+    more = (a[cols].mean() - b[cols].mean()).dropna().sort_values(ascending=False).head(3)
+    return ", ".join(f"{k.removeprefix('ms_')} {v:+.1f}" for k, v in more.items())
+
+
+def _has(*methods: str):
+    return lambda q: set(methods) <= set(q.ms)
+
+
 def _document_curve(frames):
-    """The query method's % culled per depth resolution replaced by the document's Abb. 8
-    row where it falls (320×192 … 1920×1080), falling on by 1 pp per finer column after."""
+    """The query method's % culled per depth resolution set to the document's Abb. 8 row."""
     s = frames["summary"].copy()
     size = lambda r: tuple(int(v) for v in r.split("x"))  # noqa: E731
     display = size(s[s.method == ORACLE].depth_resolution.iloc[0])
-    pts = [(i, doc.document_column(size(r), display))
-           for i, r in s.loc[s.method == QUERY, "depth_resolution"].items()]  # fmt: skip
-    for i, col in pts:
-        k = doc.DEPTH_RESOLUTIONS.index(col) if col else 3
-        s.loc[i, "triangles_culled_pct"] = doc.ABB8[doc.DEPTH_RESOLUTIONS[min(k, 3)]][
-            "triangles_culled_pct"] - max(0, k - 3)  # fmt: skip
+    for i, r in s.loc[s.method == QUERY, "depth_resolution"].items():
+        col = doc.document_column(size(r), display)
+        if col:
+            s.loc[i, "triangles_culled_pct"] = doc.ABB8[col]["triangles_culled_pct"]
     return {**frames, "summary": s}
 
 
@@ -536,17 +633,33 @@ def _document_switches(frames):
     return {**frames, "summary": s}
 
 
-def _has(*methods: str):
-    return lambda q: set(methods) <= set(q.ms)
+def _stages(q) -> list[np.ndarray]:
+    """Models culled per frame by each Abb. 9 stage switch, in the switches' order."""
+    return [
+        _rows(q.df, QUERY, q.d, frustum=f, depth_test=t).models_culled.to_numpy()
+        for f, t in SWITCHES.values()
+    ]
 
 
+FRUSTUM_DOC = doc.ABB9["MT+Frustum"]["triangles_culled_pct"]
 _QUERIES = f"method == '{QUERY}'"
-_COLUMN_DOC = "{dp:.2f} % triangles culled, {dd[models_visible]:,.0f} models visible"
-_COLUMN_OURS = ("{o.triangles_culled_pct:.2f} %, {o.models_visible:,.0f} models visible, "
-                "{o.false_culls:.1f} false culls/frame")  # fmt: skip
-_IMAGES = (("1", "visible objects outlined / all occluded objects"),
-           ("4", "occluders only / occludees only"), ("6", "frame and its depth buffer"),
-           ("7", "the camera path over a top view"))  # fmt: skip
+_FAST = f"method == '{QUERY}' and not frustum"  # the query method without frustum culling
+_DRAWN = "drawn"  # the frames' rows with a frame time
+_BOOT = "noise: bootstrap standard error over the flight's frames (one flight; not run to run)"
+_COLUMN_DOC = (
+    "{dp:.2f} % triangles culled, {dd[models_visible]:,.0f} models visible, "
+    "{dd[draw_calls]:,} draw calls"
+)
+_COLUMN_OURS = (
+    "{o.triangles_culled_pct:.2f} %, {o.models_visible:,.0f} models visible, "
+    "{o.draw_calls:,.0f} draw calls, {o.false_culls:.1f} false culls/frame"
+)
+_IMAGES = (
+    ("1", "visible objects outlined / all occluded objects"),
+    ("4", "occluders only / occludees only"),
+    ("6", "frame and its depth buffer"),
+    ("7", "the camera path over a top view"),
+)
 
 # The table is laid out by hand, one row per block (the formatter would spread it out).
 # fmt: off
@@ -565,13 +678,15 @@ CLAIMS = (
             f"other method without false culls {q.best:.1f} %; not compared, culling more than "
             f"the oracle's {q.ideal:.1f} %: {q.beyond}",
             TREND,
-            (Rule(lambda q: q.fc[QUERY], "==", 0, "objects", name="false culls", flips=(
-                alter("summary", "false_culls", plus=1.0, where=_QUERIES),)),
-             Rule(lambda q: q.tri[QUERY] - q.best + FLAT_PP if q.best == q.best else np.inf,
-                  ">=", 0, "pp", name="culled", flips=(
+            (Rule(lambda q: q.fc[QUERY], "==", 0, "objects", name="false culls",
+                  noise=lambda q: 0.0, flips=(
+                      alter("summary", "false_culls", plus=1.0, where=_QUERIES),)),
+             Rule(lambda q: q.tri[QUERY] - q.best if q.best == q.best else np.inf, ">=", 0, "pp",
+                  name="culled", noise=lambda q: 0.0, flips=(
                       alter("summary", "triangles_culled_pct", 0.5, _QUERIES),))),
-            basis=f"{QUERY} culls no visible object and at most {FLAT_PP} pp fewer triangles than "
-            "any other method without false culls that culls no more than the oracle's exact set",
+            basis=f"{QUERY} culls no visible object and no fewer triangles than any other method "
+            "without false culls that culls no more than the oracle's exact set (counts of a "
+            "seeded flight: deterministic)",
             why=lambda q: f"{QUERY} culls {q.tri[QUERY]:.1f} % (false culls "
             f"{q.fc[QUERY]:.1f}/frame), {q.top} {q.best:.1f} %"
             + (TWO_PHASE if q.top == TWO else ""),
@@ -579,15 +694,21 @@ CLAIMS = (
         Row(
             "Abb. 8 left, MOC",
             "Lediglich die etwas schlechteren Werte der MOC-Methode stehen hervor",
-            lambda q: f"{MOC} {q.tri[MOC]:.1f} % vs {QUERY} {q.tri[QUERY]:.1f} %",
+            lambda q: f"{MOC} {q.tri[MOC]:.1f} %; " + ", ".join(
+                f"{m} {q.tri[m]:.1f} %" for m in q.others),
             TREND,
-            Rule(lambda q: q.tri[QUERY] - q.tri[MOC], ">", 0, "pp", flips=(
-                alter("summary", "triangles_culled_pct", 2.0, f"method == '{MOC}'"),
-                alter("summary", "triangles_culled_pct", 0.1, f"method == '{MOC}'"))),
-            basis=lambda q: f"{MOC} culls fewer triangles than {QUERY}: "
-            + ("holds" if q.holds else "no"),
-            why=f"{MOC}'s coverage masks cull as much as the queries here",
-            when=lambda q: MOC in q.tri,
+            Rule(lambda q: min(q.tri[m] for m in q.others) - q.tri[MOC], ">", 0, "pp",
+                 noise=lambda q: 0.0, flips=(
+                     alter("summary", "triangles_culled_pct", 0.1, f"method == '{MOC}'"),
+                     alter("summary", "triangles_culled_pct", 2.0, f"method == '{MOC}'"))),
+            basis=f"{MOC} culls fewer triangles than every other occlusion culling method (the "
+            "document: MOC's alone stand out as worse)",
+            why=lambda q: f"{MOC} culls more than " + ", ".join(
+                f"{m} ({q.fc[m]:.1f} false culls/frame)" for m in q.others
+                if q.tri[m] <= q.tri[MOC]) + f", with {q.fc[MOC]:.1f} false culls/frame; all "
+            f"below the oracle's {q.ideal:.1f} %: which part of their tests leaves the "
+            "difference unculled, cause not measured",
+            when=lambda q: MOC in q.tri and q.others,
         ),
         Row(
             "Abb. 8 right, % triangles culled vs depth resolution",
@@ -595,86 +716,87 @@ CLAIMS = (
             lambda q: ", ".join(f"{res_str(r)} {p:.1f}" for r, p in zip(q.res, q.pct, strict=True)),
             TREND,
             (Rule(lambda q: min((a - b for a, b in itertools.pairwise(q.pct)), default=0.0), ">=",
-                  -MONOTONE_SLACK_PP, "pp", name="never rises", flips=(
+                  0, "pp", name="never rises", noise=lambda q: 0.0, flips=(
                       alter("summary", "triangles_culled_pct", shuffle=True, where=_QUERIES),)),
-             Rule(lambda q: q.spread, ">=", FLAT_PP, "pp", name="spread", flips=(
-                 alter("summary", "triangles_culled_pct", to=75.0, where=_QUERIES),))),
-            basis=lambda q: f"ours never rises (by more than {MONOTONE_SLACK_PP} pp) from a "
-            f"coarser to a finer buffer and spans at least {FLAT_PP} pp: "
-            f"{holds_text(q.holds)} (spread {q.spread:.1f} pp)",
-            why="our level is the same at every resolution (spread {spread:.1f} pp): the "
-            "scene's occluders leave no gaps that a coarse buffer closes",
+             Rule(lambda q: q.pct[0] - q.pct[-1], ">", 0, "pp", name="coarsest over finest",
+                  noise=lambda q: 0.0, flips=(
+                      alter("summary", "triangles_culled_pct", to=75.0, where=_QUERIES),))),
+            basis="ours never rises from a coarser to a finer buffer and the coarsest culls more "
+            "than the finest (counts: deterministic)",
+            why="a finer buffer culls more somewhere along our resolutions",
         ),
     )),
-    Each(_columns, (
-        Row(
-            "Abb. 8 table, {item_res} (ours {r_str})", _COLUMN_DOC, _COLUMN_OURS,
-            NUMBERS,
-            (Rule(lambda q: abs(q.o.triangles_culled_pct - q.dp), "<=", PP_TOLERANCE, "pp",
-                  name="gap", flips=(alter("summary", "triangles_culled_pct", plus=50.0),
-                                     _document_curve)),
-             Rule(lambda q: float(q.trend), ">", 0, name="curve falls")),
-            basis=lambda q: f"within {PP_TOLERANCE} pp, on a curve that falls with resolution "
-            "as the document's" if q.holds else "",
-            why=_column_why,
-            when=lambda q: not q.anomaly,
-        ),
-        Row(
-            "Abb. 8 table, {item_res} (ours {r_str})", _COLUMN_DOC, _COLUMN_OURS, DIFFERS,
-            why=_column_why, when=lambda q: q.anomaly,
-        ),
-    )),
-    Each(_flight, (Row(
-        "false culls per frame (beyond the document)", "not measured",
-        lambda q: f"{QUERY}: " + ", ".join(f"{res_str(r)} {o.false_culls:.1f}"
-                                           for r, o in zip(q.res, q.ours, strict=True))
-        + f"; {HIZ} on a conservative occluder depth: at most "
-        f"{max(_conservative(q.df, r).false_culls.max() for r in q.res):.0f} in any frame",
-        MEASURED,
-        basis="objects visible in the exact id render at the display resolution but culled",
-    ),
-    Row(
-        "Abb. 9, each stage culls more",
-        "Besser wird das Ergebnis, wenn zusätzlich zum Multithreading das Frustum Culling "
-        "aktiviert wird",
-        lambda q: ", ".join(f"{n} {p.mean():,.0f}"
-                            for n, p in zip(SWITCHES, _stages(q), strict=True)) + " models culled",
-        TREND,
-        Rule(lambda q: min(float((b - a).min()) for a, b in itertools.pairwise(_stages(q))), ">=",
-             0, "models", flips=(alter("frames", "models_culled", to=0,
-                                       where=f"{_QUERIES} and depth_test"),)),
-        basis="in every frame each stage culls at least as many models as the one before",
-        why="a frame where a later stage culls fewer models",
+    Each(_columns, (Row(
+        "Abb. 8 table, {item_res} (ours {r_str})", _COLUMN_DOC, _COLUMN_OURS,
+        NUMBERS,
+        Rule(lambda q: abs(q.o.triangles_culled_pct - q.dp), "<=", doc.REPEAT_PP, "pp",
+             noise=lambda q: 0.0, flips=(alter("summary", "triangles_culled_pct", plus=50.0),
+                                         _document_curve)),
+        basis=f"within {doc.REPEAT_PP} pp, the document's own repeat spread (its 1920×1080 run: "
+        "43.88 % in Abb. 9, 43.81 % in Abb. 8)",
+        why=_column_why,
     ),)),
+    Each(_flight, (
+        Row(
+            "Abb. 8 table: draw calls and models culled per resolution",
+            lambda q: "; ".join(f"{res_str(c)} {v['draw_calls']:,} / {v['models_culled']:,.0f}"
+                                for c, v in doc.ABB8.items()) + " (draw calls / models culled)",
+            lambda q: "; ".join(f"{res_str(r)} {o.draw_calls:,.0f} / {o.models_culled:,.0f}"
+                                for r, o in zip(q.res, q.ours, strict=True)),
+            MEASURED,
+            basis="the document's claim is their shape (more models culled, fewer draw calls, "
+            "2432×1440 out of the pattern): ours draw one call per visible object, so our draw "
+            "calls follow the models culled by construction; the document's exceed its visible "
+            "models (8,515 for 7,342 at 1920×1080)",
+        ),
+        Row(
+            "false culls per frame (beyond the document)", "not measured",
+            lambda q: f"{QUERY}: " + ", ".join(f"{res_str(r)} {o.false_culls:.1f}"
+                                               for r, o in zip(q.res, q.ours, strict=True))
+            + f"; {HIZ} on a conservative occluder depth: at most "
+            f"{max(_conservative(q.df, r).false_culls.max() for r in q.res):.0f} in any frame",
+            MEASURED,
+            basis="objects visible in the exact id render at the display resolution but culled",
+        ),
+        Row(
+            "Abb. 9, each stage culls more",
+            "Besser wird das Ergebnis, wenn zusätzlich zum Multithreading das Frustum Culling "
+            "aktiviert wird",
+            lambda q: ", ".join(f"{n} {p.mean():,.0f}" for n, p in
+                                zip(SWITCHES, _stages(q), strict=True)) + " models culled",
+            TREND,
+            Rule(lambda q: min(float((b - a).min()) for a, b in itertools.pairwise(_stages(q))),
+                 ">=", 0, "models", noise=lambda q: 0.0, flips=(
+                     alter("frames", "models_culled", to=0, where=f"{_QUERIES} and depth_test"),)),
+            basis="in every frame each stage culls at least as many models as the one before",
+            why="a frame where a later stage culls fewer models",
+        ),
+    )),
     Each(_switches, (Row(
         "Abb. 9, {n}", "{dd[triangles_culled_pct]:.2f} % triangles culled, {dd[draw_calls]:,} "
         "draw calls",
         "{o.triangles_culled_pct:.2f} %, {o.draw_calls:,.0f} draw calls",
         NUMBERS,
-        Rule(lambda q: q.gap, "<=", PP_TOLERANCE, "pp", flips=(
+        Rule(lambda q: q.gap, "<=", doc.REPEAT_PP, "pp", noise=lambda q: 0.0, flips=(
             _document_switches, alter("summary", "triangles_culled_pct", plus=50.0))),
-        basis=f"within {PP_TOLERANCE} pp",
-        why=lambda q: "our MT run culls nothing with both stages off; the document's culls "
-        f"{q.dd['models_culled']:,.0f} models there" if not q.f
-        else f"another scene ({q.label}), another flight",
+        basis=f"within {doc.REPEAT_PP} pp, the document's own repeat spread",
+        why=lambda q: _switch_why(q),
     ),)),
     Each(_flight, (
         Row(
-            "Abb. 10, FPS per method", "a chart of their machine's FPS, no numbers",
+            "Abb. 10 left, FPS per method", "a chart of their machine's FPS, no numbers",
             lambda q: ", ".join(f"{m} {1e3 / v:.1f}" for m, v in q.ms.items()), MEASURED,
             basis="1000 / mean frame time (cull + draw) on llvmpipe; only ratios compare with a "
             "GPU",
         ),
         Row(
-            "frustum culling's gain", "eine enorme Leistungssteigerung von teilweise über 200%",
-            lambda q: f"mean frame time none / frustum = {q.ms['none'] / q.ms['frustum']:.2f}",
-            TREND,
-            Rule(lambda q: q.ms["none"] / q.ms["frustum"], ">", 2, "×", flips=(
-                alter("summary", "ms_total", 10.0, "method == 'none'"),)),
-            basis="frames at least twice as fast with frustum culling (mean frame times)",
-            why=lambda q: f"frustum culling drops {q.tri['frustum']:.0f} % of the triangles here, "
-            "and what lies outside the frustum is clipped early by llvmpipe and cost little",
-            when=_has("none", "frustum"),
+            "Abb. 10 right, FPS of the OGL method per depth resolution",
+            "a chart of their machine's FPS, no numbers",
+            lambda q: ", ".join(f"{res_str(r)} {1e3 / o.ms_total:.1f}"
+                                for r, o in zip(q.res, q.ours, strict=True)),
+            MEASURED,
+            basis="1000 / mean frame time (cull + draw) on llvmpipe; only ratios compare with a "
+            "GPU",
         ),
         Row(
             "best configuration of the OGL method",
@@ -682,49 +804,66 @@ CLAIMS = (
             lambda q: f"mean frame time: frustum {q.ms['frustum']:.3g} ms, {QUERY} (FC+OC) "
             f"{q.ms[QUERY]:.3g} ms, none {q.ms['none']:.3g} ms",
             TREND,
-            Rule(lambda q: min(q.ms["none"], q.ms[QUERY]) - q.ms["frustum"], ">", 0, "ms", flips=(
-                alter("summary", "ms_total", 0.01, _QUERIES),)),
-            basis=lambda q: "frustum alone has the shortest mean frame time of none, frustum and "
-            f"{QUERY} (frustum + occlusion queries): " + ("holds" if q.holds else "no"),
+            Rule(lambda q: min(q.ms["none"], q.ms[QUERY]) - q.ms["frustum"], ">", 0, "ms",
+                 noise=lambda q: boot_std(lambda f, n, o: min(n.mean(), o.mean()) - f.mean(),
+                                          q.per["frustum"], q.per["none"], q.per[QUERY]),
+                 flips=(alter("summary", "ms_total", 0.01, _QUERIES),)),
+            basis="frustum alone has the shortest mean frame time of none, frustum and "
+            f"{QUERY} (frustum + occlusion queries); {_BOOT}",
             why=lambda q: f"{min(('none', 'frustum', QUERY), key=q.ms.get)} is fastest: the "
             "queries' read-back costs less than drawing the hidden objects on llvmpipe",
             when=_has("none", "frustum", QUERY),
         ),
     )),
+    Each(_gain, (Row(
+        "frustum culling's gain inside the OGL method",
+        "eine enorme Leistungssteigerung von teilweise über 200%",
+        lambda q: f"frame time without ÷ with frustum culling ({QUERY}, depth test on): mean "
+        f"{q.ratio.mean():.2f}, largest {q.top:.2f} (frame {q.at}); over 2× on {q.over2:.0%}, "
+        f"over 3× on {q.over3:.0%} of the frames",
+        TREND,
+        Rule(lambda q: q.top, ">", doc.FRUSTUM_GAIN, "×", flips=(
+            alter("frames", "ms_total", 10.0, _FAST), alter("frames", "ms_total", 0.1, _FAST))),
+        basis=f"at times over 200 %: the largest per-frame ratio exceeds {doc.FRUSTUM_GAIN:g}× "
+        "(a gain of 200 % triples the frame rate; the 2× reading is shown too); one flight, "
+        "noise not measured",
+        why=lambda q: f"without frustum culling the queries test every object; our frustum "
+        f"drops {q.fr_share:.1f} % of the triangles (theirs {FRUSTUM_DOC:.2f} %) and the "
+        f"culled set is the same ({q.culled_off:.1f} % vs {q.tri[QUERY]:.1f} %): what the "
+        "extra queries cost per frame on llvmpipe is the whole gain; why it stays below theirs: "
+        "cause not measured",
+    ),)),
     Each(_vs_frustum, (Row(
         "{m} vs frustum culling alone",
         "eine 1,5-7x schnellere Total Frame Time gegenüber Rendering mit nur Frustum Culling",
         "{r:.2f}×",
         NUMBERS,
-        (Rule(lambda q: q.r, ">=", 1.5, "×", name="≥ 1.5", flips=tuple(
-            alter("summary", "ms_total", k, f"method in ('{MOC}', '{HIZ}')")
-            for k in (0.5, 0.1, 10.0))),
-         Rule(lambda q: q.r, "<=", 7.0, "×", name="≤ 7")),
-        basis="ratio of mean frame times within 1.5–7×",
-        why="{m} saves what the hidden objects cost to draw; on llvmpipe their fragments fail "
-        "the depth test early and cost little (ratio {r:.2f})",
+        (Rule(lambda q: q.r, ">=", 1.5, "×", name="≥ 1.5", noise=lambda q: q.noise,
+              flips=tuple(alter("frames", "ms_total", k, f"method in ('{MOC}', '{HIZ}')")
+                          for k in (0.5, 0.1, 10.0))),
+         Rule(lambda q: q.r, "<=", 7.0, "×", name="≤ 7", noise=lambda q: q.noise)),
+        basis=f"ratio of mean frame times within the cited 1.5–7×; {_BOOT}",
+        why="{m} saves what the hidden objects cost to draw, here {r:.2f}×; on llvmpipe "
+        "what a hidden object's draw costs: cause not measured",
     ),)),
     Each(_flight, (
         Row(
             "MOC vs HiZ (Hasselgren et al., cited)",
             "der MSOC-Algorithmus [wirft] 2% weniger Dreiecke als der HiZ weg, [erzielt] aber "
             "dennoch eine bessere Performanz",
-            lambda q: f"{MOC} {_moc_hiz(q)[0]:+.1f} % fewer triangles culled than {HIZ}, cull "
-            f"{_moc_hiz(q)[1]:.2f}× faster",
+            lambda q: f"{MOC} {_moc_hiz(q)[0]:+.1f} % fewer triangles culled than {HIZ} (cited: "
+            f"{doc.MOC_FEWER_PCT:g} %), cull {_moc_hiz(q)[1]:.2f}× faster",
             TREND,
-            (Rule(lambda q: _moc_hiz(q)[0], ">=", 0, "%", name="fewer ≥ 0", flips=(
-                alter("summary", "ms_cull", 100.0, f"method == '{MOC}'"),
-                chain(alter("summary", "triangles_culled_pct", to=50.0, where=f"method == '{MOC}'"),
-                      alter("summary", "triangles_culled_pct", to=51.0, where=f"method == '{HIZ}'"),
-                      alter("summary", "ms_cull", 0.01, f"method == '{MOC}'")))),
-             Rule(lambda q: _moc_hiz(q)[0], "<=", doc.MOC_FEWER_TOLERANCE_PCT, "%",
-                  name="fewer ≤", flips=(
-                      alter("summary", "triangles_culled_pct", 0.5, f"method == '{MOC}'"),)),
-             Rule(lambda q: _moc_hiz(q)[1], ">", 1, "×", name="faster")),
-            basis=f"0–{doc.MOC_FEWER_TOLERANCE_PCT:.0f} % fewer (relative) and a shorter mean "
-            "cull time",
+            (Rule(lambda q: _moc_hiz(q)[0], ">", 0, "%", name="fewer", noise=lambda q: 0.0,
+                  flips=(alter("summary", "triangles_culled_pct", 0.5, f"method == '{MOC}'"),
+                         alter("summary", "triangles_culled_pct", 2.0, f"method == '{MOC}'"))),
+             Rule(lambda q: _moc_hiz(q)[1], ">", 1, "×", name="faster", flips=(
+                 alter("summary", "ms_cull", 100.0, f"method == '{MOC}'"),))),
+            basis="MOC culls fewer triangles than HiZ and has the shorter mean cull time; "
+            "noise: counts deterministic, cull time not measured run to run",
             why=f"{MOC} judges boxes against per-tile masks of 32×8 pixels, {HIZ} against a "
-            "per-pixel max-depth pyramid on the GPU context (measured)",
+            "per-pixel max-depth pyramid on the GPU context; which test loses what: cause not "
+            "measured",
             when=_has(MOC, HIZ),
         ),
         Row(
@@ -736,14 +875,28 @@ CLAIMS = (
             when=_has(MOC, HIZ),
         ),
     )),
+    Each(_packets, (Row(
+        "future work: occludee packets (queries-batched, ours)", doc.PACKETS,
+        lambda q: f"queries per frame {q.qu.queries.mean():,.0f} → {q.pk.queries.mean():,.0f}; "
+        f"triangles culled {q.qu.triangles_culled_pct.mean():.1f} → "
+        f"{q.pk.triangles_culled_pct.mean():.1f} %; false culls {q.pk.false_culls.sum():.0f}; "
+        f"mean frame {q.qu.ms_total.mean():.3g} → {q.pk.ms_total.mean():.3g} ms",
+        TREND,
+        (Rule(lambda q: q.fewer, ">", 0, "queries", name="fewer queries", noise=lambda q: 0.0,
+              flips=(alter("frames", "queries", 100.0, f"method == '{PACKETS}'"),)),
+         Rule(lambda q: q.more, ">=", 0, "pp", name="same result", noise=lambda q: 0.0,
+              flips=(alter("frames", "triangles_culled_pct", 0.5, f"method == '{PACKETS}'"),)),
+         Rule(lambda q: q.pk.false_culls.sum(), "==", 0, "objects", name="no false culls",
+              noise=lambda q: 0.0),
+         Rule(lambda q: q.faster, ">", 0, "ms", name="faster", noise=lambda q: q.noise,
+              flips=(alter("frames", "ms_total", 100.0, f"method == '{PACKETS}'"),))),
+        basis="the document's aim: fewer queries for the same result (no false culls, at least "
+        f"the queries' culled share) and a shorter frame; {_BOOT}",
+        why=lambda q: f"per frame, {PACKETS} − {QUERY}, mean ms by stage: "
+        + _stage_gap(q.pk, q.qu) + "; why those stages grow: cause not measured",
+    ),)),
 )
 # fmt: on
-
-
-def _stages(q) -> list[np.ndarray]:
-    """Models culled per frame by each Abb. 9 stage switch, in the switches' order."""
-    return [_rows(q.df, QUERY, q.d, frustum=f, depth_test=t).models_culled.to_numpy()
-            for f, t in SWITCHES.values()]  # fmt: skip
 
 
 EXPERIMENT = harness.experiment(

@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from experiments import harness
-from experiments.claims import MEASURED, TREND, Each, Row, Rule, alter, holds_text
+from experiments.claims import MEASURED, NUMBERS, TREND, Each, Row, Rule, alter
 from experiments.common import UsageError
 
 # Seed 004, Table 2 (SPEC.md "Seed 004"): nodes checked → estimated invisible objects, ms.
@@ -63,7 +63,6 @@ MAX_DEPTH = 10
 MIN_OBJECTS = (None, 2)  # expensive-node thresholds: the octree's default, and 2
 PICTURE = (480, 270)  # pixels of the expensive-nodes picture (stored as a frame of pixels)
 PICTURE_BUDGET = 1000  # nodes checked in the picture (the largest budget if not run)
-SLOPE_RANGE = (0.5, 1.2)  # log-log slope of time vs nodes checked that "bounded" accepts
 FRAMES = ("scenes", "frames", "layouts", "table2", "table2_scene", "picture")
 
 
@@ -564,11 +563,10 @@ def _table2(frames: dict[str, pd.DataFrame], params: Params):
         "t2": t2, "d": d, "info": info, "n": int(info.objects),
         "false": int(t2.false_invisible.sum()),
         "over": int((t2.estimate > t2.true_invisible).sum()),
-        "grows": bool((np.diff(d.estimate) >= 0).all()),
-        "grows_each": bool(per_cam.groupby("camera").estimate.apply(
-            lambda e: (np.diff(e) >= 0).all()).all()),
         "first": f"{int(first.iloc[0]):,}" if len(first) else "none",
         "slope": float(np.polyfit(np.log(grow.nodes_checked), np.log(grow.ms), 1)[0]),
+        "cam_slopes": _camera_slopes(per_cam),
+        "per_node": (d.ms / d.nodes_checked).to_numpy(),
         "doc_slope": float(np.polyfit(np.log(DOC_NODES_CHECKED), np.log(DOC_MS), 1)[0]),
         "within": bool((t2.nodes_checked <= t2.nodes_checked_budget).all()),
         "med": later.groupby("scene", sort=False)[cols].median(),
@@ -577,13 +575,37 @@ def _table2(frames: dict[str, pd.DataFrame], params: Params):
     }  # fmt: skip
 
 
+def _camera_slopes(t2: pd.DataFrame) -> list[float]:
+    """Per camera, the log-log slope of time against the nodes actually checked."""
+    out = []
+    for _, g in t2.groupby("camera"):
+        g = g[g.nodes_checked.diff().fillna(1) > 0]
+        if len(g) >= 2:
+            out.append(float(np.polyfit(np.log(g.nodes_checked), np.log(g.ms), 1)[0]))
+    return out
+
+
 def _budgets(frames: dict[str, pd.DataFrame], params: Params):
     """One case per budget of Table 2's document row (``r``)."""
     for case in _table2(frames, params):
+        before = 0.0
         for r in case["d"].itertuples():
             if np.isfinite(r.doc_estimate):
-                yield {**case, "r": r, "ours_f": r.estimate / case["n"],
+                yield {**case, "r": r, "ours_f": r.estimate / case["n"], "before": before,
                        "doc_f": r.doc_estimate / DOC_OBJECTS}  # fmt: skip
+            before = max(before, r.estimate)
+
+
+def _least_step(t2: pd.DataFrame) -> float:
+    """The smallest change of the estimate from one budget to the next, over every camera at
+    the default threshold (objects; < 0: it fell)."""
+    d = t2[t2.threshold == "default"].sort_values("nodes_checked_budget")
+    steps = d.groupby("camera").estimate.diff().dropna()
+    return float(steps.min()) if len(steps) else 0.0
+
+
+def _slope_noise(q) -> float | None:
+    return float(np.std(q.cam_slopes)) if len(q.cam_slopes) >= 3 else None
 
 
 def _scenes(frames: dict[str, pd.DataFrame], params: Params):
@@ -604,12 +626,12 @@ CLAIMS = (
             f"{len(q.t2)} cases ({q.params.cameras} cameras × {len(MIN_OBJECTS)} thresholds × "
             f"{len(q.params.nodes_checked)} budgets)",
             TREND,
-            (Rule(lambda q: q.false, "==", 0, "objects", name="false invisible", flips=(
-                alter("table2", "false_invisible", plus=1),)),
-             Rule(lambda q: q.over, "==", 0, "estimates", name="over the oracle")),
-            basis=lambda q: "no object inside a node found occluded is visible to the exact "
-            "oracle, and no estimate exceeds the oracle's invisible count: "
-            + ("holds" if q.holds else "fails"),
+            (Rule(lambda q: q.false, "==", 0, "objects", name="false invisible",
+                  noise=lambda q: 0.0, flips=(alter("table2", "false_invisible", plus=1),)),
+             Rule(lambda q: q.over, "==", 0, "estimates", name="over the oracle",
+                  noise=lambda q: 0.0)),
+            basis="no object inside a node found occluded is visible to the exact oracle, and no "
+            "estimate exceeds the oracle's invisible count",
             why="{false} false invisible objects, {over} estimates too high",
         ),
         Row(
@@ -620,7 +642,7 @@ CLAIMS = (
             + f" for {', '.join(f'{b:,}' for b in q.d.nodes_checked_budget)} nodes (first "
             f"nonzero at {q.first}; up to {q.d.estimate.max() / q.n:.0%} of the objects)",
             TREND,
-            Rule(lambda q: float(q.grows and q.grows_each), ">", 0, flips=(
+            Rule(lambda q: _least_step(q.t2), ">=", 0, "objects", noise=lambda q: 0.0, flips=(
                 alter("table2", "estimate", -1.0, _BUDGET),)),
             basis="the estimate never falls as the budget grows, for every camera",
             note="a trend at another scale, not the document's numbers: our octree "
@@ -635,31 +657,53 @@ CLAIMS = (
         "estimate {r.estimate:,.0f} of {n:,} ({ours_f:.0%}; oracle {r.true_invisible:,.0f} "
         "invisible), {r.occluded_nodes:.0f} nodes found occluded, {r.ms:.1f} ms",
         TREND,
-        Rule(lambda q: q.r.false_invisible, "==", 0, "objects", flips=(
-            alter("table2", "false_invisible", plus=1),)),
-        basis=lambda q: "conservative at this budget (0 false invisible) and not below the "
-        "smaller budgets': " + ("holds" if q.r.false_invisible == 0 and q.grows else "fails"),
+        (Rule(lambda q: q.r.false_invisible, "==", 0, "objects", name="false invisible",
+              noise=lambda q: 0.0, flips=(alter("table2", "false_invisible", plus=1),)),
+         Rule(lambda q: q.r.estimate - q.before, ">=", 0, "objects", name="not below",
+              noise=lambda q: 0.0, flips=(alter("table2", "estimate", -1.0, _BUDGET),))),
+        basis="conservative at this budget (0 false invisible) and not below the smaller "
+        "budgets' (means over the cameras)",
+        why="the estimate counts objects the oracle sees, or falls with a larger budget",
         note=lambda q: "numbers not compared: another scene at another scale (ours "
         f"{q.ours_f - q.doc_f:+.0%} of the objects against the document's); ms are llvmpipe's, "
         f"{q.r.ms / q.r.doc_ms:.0f}× the paper's GPU's, with {q.r.nodes_checked:,.0f} nodes "
         "actually checked",
     ),)),
-    Each(_table2, (Row(
-        "Table 2: time bounded by the nodes checked",
-        "0.031 … 23.42 ms for 10 … 10,000 nodes (log-log slope " + "{doc_slope:.2f})",
-        lambda q: f"{q.d.ms.min():.1f} … {q.d.ms.max():.1f} ms, "
-        f"{int(q.d.nodes_checked.max()):,} nodes checked at most (slope {q.slope:.2f} against "
-        "the nodes actually checked)",
-        TREND,
-        (Rule(lambda q: float(q.within), ">", 0, name="within the budget", flips=(
-            alter("table2", "nodes_checked", plus=1e5),)),
-         Rule(lambda q: q.slope, ">=", SLOPE_RANGE[0], name="slope ≥"),
-         Rule(lambda q: q.slope, "<=", SLOPE_RANGE[1], name="slope ≤")),
-        basis=lambda q: "never more nodes checked than the budget, and time grows with the "
-        f"nodes checked with a log-log slope in [{SLOPE_RANGE[0]:g}, {SLOPE_RANGE[1]:g}]: "
-        + holds_text(q.holds) + "; absolute ms not compared (llvmpipe's queries vs a GTX 1070's)",
-        why="slope {slope:.2f}",
-    ),)),
+    Each(_table2, (
+        Row(
+            "Table 2: time bounded by the nodes checked",
+            "«за ограниченное время» (in bounded time): 0.031 … 23.42 ms for 10 … 10,000 nodes "
+            "(log-log slope {doc_slope:.2f})",
+            lambda q: f"{q.d.ms.min():.1f} … {q.d.ms.max():.1f} ms, "
+            f"{int(q.d.nodes_checked.max()):,} nodes checked at most (log-log slope "
+            f"{q.slope:.2f} against the nodes actually checked; per camera "
+            + ", ".join(f"{v:.2f}" for v in q.cam_slopes) + ")",
+            TREND,
+            (Rule(lambda q: float(q.within), ">", 0, name="within the budget", flips=(
+                alter("table2", "nodes_checked", plus=1e5),)),
+             Rule(lambda q: q.slope, "<=", 1.0, name="slope", noise=_slope_noise, flips=(
+                 alter("table2", "ms", expr="1e-3 * nodes_checked ** 2"),))),
+            basis="never more nodes checked than the budget, and time grows at most in "
+            "proportion to the nodes checked (log-log slope <= 1, as the document's 0.97); noise: "
+            "the slopes' spread over the cameras; absolute ms not compared (llvmpipe's queries "
+            "vs a GTX 1070's)",
+            why="slope {slope:.2f}",
+        ),
+        Row(
+            "Table 2: growth of time with the nodes checked", "log-log slope {doc_slope:.2f}",
+            "log-log slope {slope:.2f}",
+            NUMBERS,
+            Rule(lambda q: abs(q.slope - q.doc_slope), "<=", lambda q: _slope_noise(q) or 0.0,
+                 noise=_slope_noise, flips=(alter("table2", "ms", expr="1e-3 * nodes_checked"),
+                                            alter("table2", "ms", to=1.0))),
+            basis="the slopes agree within our slope's spread over the cameras",
+            why=lambda q: "the time per node checked falls as the budget grows: "
+            f"{q.per_node[0]:.3f} ms at {q.d.nodes_checked.iloc[0]:,.0f} nodes "
+            f"({q.d.rounds.iloc[0]:.0f} query rounds), {q.per_node[-1]:.3f} ms at "
+            f"{q.d.nodes_checked.max():,.0f} ({q.d.rounds.max():.0f} rounds); which part of a "
+            "round costs alike at any size: cause not measured",
+        ),
+    )),
     Each(_scenes, (Row(
         "Table 3, {r.scene}: objects", "{r.paper_objects:,} objects, {r.paper_triangles:,} "
         "triangles",
