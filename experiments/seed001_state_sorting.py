@@ -45,7 +45,7 @@ import numpy as np
 import pandas as pd
 
 from experiments import harness
-from experiments.claims import MEASURED, NUMBERS, TREND, Each, Row, Rule, alter
+from experiments.claims import MEASURED, TREND, Each, Row, Rule, alter
 from experiments.common import DISPLAY, QUICK_SCALE, UsageError, res_str, scaled
 from soc.rendering.state_sorting import (
     ONLINE,
@@ -64,8 +64,6 @@ BEAM_MAX_COLOURS = 12  # the beam search beats the rules only on streams with fe
 EXACT_N, EXACT_COLOURS, EXACT_KS = 40, 4, (1, 2, 3, 4, 5, 6)  # small streams solved exactly
 WORST_DP_MAX_M = 6  # exact optimum by dynamic programming up to this m (~5 s at m = 6)
 TIMING_K = 16  # buffer size of the speed check
-ALIKE = 0.10  # "very good": mean ratio within 10 % of the best online strategy's
-WORST_FACTOR = 2.0  # "says little": LRU's worst-case ratio at least this times its practical one
 STRATEGIES = ("fifo", *ONLINE, "offline")
 DOC_BUFFER = "«Schalte Buffer zwischen App. und Graphikkarte»"
 DOC_LRU = "«Kosten der Offline-Strategie: Ausgabe → 2m Farbwechsel» (k = m², «oBdA m gerade»)"
@@ -476,11 +474,10 @@ def _rr(q, name: str) -> float:
 CLAIMS = (Each(_streams, (
     Row(
         "LRU's lower bound: the offline strategy's cost on LRU's input", DOC_LRU, _offline_costs,
-        NUMBERS,
-        Rule(lambda q: float(len(q.dp) and (q.dp.optimal_changes == 2 * q.dp.m).all()), ">", 0,
-             flips=(alter("worst_case", "optimal_changes", plus=1),)),
-        basis=f"exact (0 changes apart), optimum by dynamic program for m <= {WORST_DP_MAX_M}",
-        why="the exact optimum differs from 2m (see worst_case)",
+        MEASURED,
+        basis=f"on an input we constructed (the seed lost its input and LRU's cost), the exact "
+        f"optimum (dynamic program, m <= {WORST_DP_MAX_M}) is 2m where the lecture says 2m: "
+        "consistent, but true of our construction, not a reproduction of the lecture's example",
     ),
     Row(
         "LRU's lower bound: LRU's cost on its input (input constructed by us)",
@@ -500,21 +497,26 @@ CLAIMS = (Each(_streams, (
         + f" (best {q.best}; Round-Robin {_rr(q, 'round-robin'):+.1%} from it, Random-Choice "
         f"{_rr(q, 'random-choice'):+.1%})",
         TREND,
-        Rule(lambda q: ALIKE - _rr(q, "round-robin"), ">=", 0, flips=(
-            alter("sweep", "ratio", 2.0, "strategy == 'round-robin'"),)),
-        basis=f"Round-Robin's mean ratio within {ALIKE:.0%} of the best online strategy's",
-        why=lambda q: f"{q.best} evicts by a count Round-Robin only approximates; on these "
-        f"streams it costs {_rr(q, 'round-robin'):.0%} more changes",
+        Rule(lambda q: q.mean["random-choice"] - q.mean["round-robin"], ">=", 0, "ratio",
+             flips=(alter("sweep", "ratio", 2.0, "strategy == 'round-robin'"),
+                    alter("sweep", "ratio", 0.5, "strategy == 'round-robin'"))),
+        basis="Round-Robin's mean ratio is at most Random-Choice's, the strategy the lecture "
+        "makes it a simple «Variante» of (its «sehr gut … obwohl sehr einfach»: the "
+        "simplification costs nothing); one seed per stream, noise not measured",
+        why=lambda q: "the pointer's order costs "
+        f"{_rr(q, 'round-robin') - _rr(q, 'random-choice'):+.1%} of the best's ratio against "
+        "random choice on these streams; cause not measured",
     ),
     Row(
         "the worst case says little about practical performance", DOC_WORST,
         "LRU at k={kmax}: ratio {adv:.2f} on its worst-case input, at most {prac:.2f} on "
         "{practical}",
         TREND,
-        Rule(lambda q: q.adv - WORST_FACTOR * q.prac, ">=", 0, flips=(
+        Rule(lambda q: q.adv - q.prac, ">", 0, "ratio", noise=lambda q: 0.0, flips=(
             alter("sweep", "ratio", 0.1, "stream == 'adversarial'"),)),
-        basis=f"LRU's ratio on its worst case at least {WORST_FACTOR:g}× its largest on the "
-        "practical streams (largest k)",
+        basis="LRU's worst-case ratio exceeds its largest on the practical streams (largest k; "
+        "how much is 'very little' the lecture does not say: the margin shows it; counts of "
+        "seeded streams: deterministic)",
         why="a practical stream comes as close to LRU's worst case",
     ),
     Row(
