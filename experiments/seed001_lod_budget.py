@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 
 from experiments import harness
-from experiments.claims import IMAGE, MEASURED, NUMBERS, TREND, Each, Row, Rule, alter, chain
+from experiments.claims import IMAGE, MEASURED, TREND, Each, Row, Rule, alter
 from experiments.common import DISPLAY, QUICK_SCALE, UsageError, res_str, scaled
 from experiments.seed000_pictures import decode, encode
 
@@ -49,7 +49,6 @@ PICTURE_REPEATS = 3  # draws per picture frame time (median)
 # the polygon ratio of the picture pair comes from.
 BUDGET_SWEEP = (0.1, 0.15, 0.2, 0.25, 0.35, 0.5, 0.7, 1.0)
 # Timing noise allowed when a measured frame time is compared with its target (shared CPU).
-TIME_TOLERANCE = 0.15
 # Instances coloured by prototype; levels in grey (finest darkest, as in the lecture), shown
 # unlit (divided by a white render's shading) so that the key matches the picture.
 PROTOTYPE_COLORS = ((0.72, 0.55, 0.42), (0.45, 0.62, 0.78), (0.55, 0.70, 0.45),
@@ -306,9 +305,11 @@ def _colors(ls, greys: bool) -> np.ndarray:
     return out
 
 
-def _timed_draw(renderer, camera, ids) -> float:
+def _timed_draw(renderer, camera, ids) -> tuple[float, float]:
+    """Median ms of :data:`PICTURE_REPEATS` draws after a warm-up, and half their range."""
     renderer.draw(camera, ids)  # warm-up (draw list upload, caches)
-    return float(np.median([renderer.draw(camera, ids) for _ in range(PICTURE_REPEATS)]))
+    ms = [renderer.draw(camera, ids) for _ in range(PICTURE_REPEATS)]
+    return float(np.median(ms)), float(np.ptp(ms) / 2)
 
 
 def picture_pair(prep: Prepared, params: Params) -> tuple[pd.DataFrame, pd.DataFrame, float, float]:
@@ -325,7 +326,7 @@ def picture_pair(prep: Prepared, params: Params) -> tuple[pd.DataFrame, pd.DataF
     r.geometry.write_colors(_colors(ls, greys=False))
     pb0 = problem(ls, cam, prep.model, math.inf, cal.per_frame_ms)
     full = np.where(pb0.in_view, 0, -1)
-    ms_full = _timed_draw(r, cam, ls.ids(full))
+    ms_full, spread_full = _timed_draw(r, cam, ls.ids(full))
     img_full = r.image()
     budget = params.budget_ms if params.budget_ms is not None else params.budget_fraction * ms_full
 
@@ -334,7 +335,7 @@ def picture_pair(prep: Prepared, params: Params) -> tuple[pd.DataFrame, pd.DataF
         return np.asarray(lod.select(pb.benefit, pb.cost, pb.budget), np.int64), pb
 
     levels, pb = greedy(budget)
-    ms_opt = _timed_draw(r, cam, ls.ids(levels))
+    ms_opt, spread_opt = _timed_draw(r, cam, ls.ids(levels))
     img_opt = r.image()
     r.geometry.write_colors(_colors(ls, greys=True))
     r.draw(cam, ls.ids(levels))
@@ -348,11 +349,12 @@ def picture_pair(prep: Prepared, params: Params) -> tuple[pd.DataFrame, pd.DataF
     img_levels = np.clip(img_levels, 0, 255).astype(np.uint8)
     r.geometry.write_colors(_colors(ls, greys=False))
     rows = []
-    for panel, lv, ms, img in (("no elision", full, ms_full, img_full),
-                               ("optimized", levels, ms_opt, img_opt),
-                               ("levels", levels, ms_opt, img_levels)):  # fmt: skip
+    panels = (("no elision", full, (ms_full, spread_full), img_full),
+              ("optimized", levels, (ms_opt, spread_opt), img_opt),
+              ("levels", levels, (ms_opt, spread_opt), img_levels))  # fmt: skip
+    for panel, lv, (ms, spread), img in panels:
         rows.append({"panel": panel, "budget_ms": budget, "polygons": ls.polygons(lv),
-                     "objects": int((lv >= 0).sum()), "ms": ms,
+                     "objects": int((lv >= 0).sum()), "ms": ms, "ms_spread": spread,
                      "predicted_ms": predicted_ms(lv, pb, cal.per_frame_ms),
                      **{f"level{k}": int((lv == k).sum()) for k in range(ls.levels)},
                      **{f"level{k}_triangles": int(np.median(ls.triangles[:, k]))
@@ -362,7 +364,7 @@ def picture_pair(prep: Prepared, params: Params) -> tuple[pd.DataFrame, pd.DataF
     for frac in BUDGET_SWEEP:
         lv, pbf = greedy(frac * ms_full)
         budgets.append({"fraction": frac, "budget_ms": frac * ms_full, "polygons": ls.polygons(lv),
-                        "ms": _timed_draw(r, cam, ls.ids(lv)),
+                        "ms": _timed_draw(r, cam, ls.ids(lv))[0],
                         "predicted_ms": predicted_ms(lv, pbf, cal.per_frame_ms),
                         "no_elision_ms": ms_full,
                         "no_elision_polygons": ls.polygons(full)})  # fmt: skip
@@ -622,28 +624,26 @@ CLAIMS = (Each(_viewpoint, (
         lambda q: f"{q.op.ms:.0f} ms measured (model {q.op.predicted_ms:.0f} ms) at a "
         f"{q.budget:.0f} ms target ({q.op.ms / q.budget:.2f}×); no elision {q.ne.ms:.0f} ms",
         TREND,
-        Rule(lambda q: q.op.ms / q.budget, "<=", 1 + TIME_TOLERANCE, "×", flips=(
-            alter("pictures", "ms", 10.0, "panel == 'optimized'"),
-            alter("pictures", "ms", 0.01, "panel == 'optimized'"))),
-        basis=f"measured ≤ {1 + TIME_TOLERANCE:.2f} × target ({TIME_TOLERANCE:.0%} for timing "
-        "noise on a shared CPU; llvmpipe ms are not compared with the lecture's 0.1 s)",
+        Rule(lambda q: q.op.ms / q.budget, "<=", 1.0, "× target",
+             noise=lambda q: q.op.get("ms_spread", np.nan) / q.budget
+             if "ms_spread" in q.op else None, flips=(
+                 alter("pictures", "ms", 10.0, "panel == 'optimized'"),
+                 alter("pictures", "ms", 0.01, "panel == 'optimized'"))),
+        basis=f"measured ≤ the target frame time (noise: half the range of the picture's "
+        f"{PICTURE_REPEATS} draws); llvmpipe ms are not compared with the lecture's 0.1 s",
         why=lambda q: "the cost model underestimates this frame: measured ÷ model "
         f"{q.op.ms / q.op.predicted_ms:.2f}",
     ),
     Row(
         "picture pair: polygon ratio, no elision ÷ optimized",
         f"«{DOC_FULL}» vs «{DOC_OPT}» ({DOC_RATIO:.1f}×)",
-        lambda q: f"{q.ne.polygons:,} vs {q.op.polygons:,} polygons ({q.ratio:.1f}×)",
-        NUMBERS,
-        Rule(lambda q: abs(q.ratio / DOC_RATIO - 1), "<=", 0.25, flips=(
-            chain(alter("pictures", "polygons", to=19821, where="panel == 'no elision'"),
-                  alter("pictures", "polygons", to=1389, where="panel == 'optimized'")),
-            alter("pictures", "polygons", to=1, where="panel == 'optimized'"))),
-        basis=lambda q: "ratio within 25 % of the lecture's" if q.holds else "",
-        why=lambda q: "the ratio is set by the budget relative to the no-elision frame, which "
-        f"the lecture does not give: ours is {q.budget / q.ne.ms:.2f} × ({q.budget:.0f} of "
-        f"{q.ne.ms:.0f} ms); {q.at} (measured sweep at the same viewpoint); the lecture's scene "
-        "and 1993 machine are not ours",
+        lambda q: f"{q.ne.polygons:,} vs {q.op.polygons:,} polygons ({q.ratio:.1f}×) at a budget "
+        f"of {q.budget / q.ne.ms:.2f} × the no-elision frame ({q.budget:.0f} of {q.ne.ms:.0f} "
+        f"ms); {q.at}",
+        MEASURED,
+        basis="not comparable as a number: the ratio is set by the budget relative to the "
+        "no-elision frame, which the lecture does not give (our sweep at the same viewpoint "
+        "shows where its ratio falls); its scene and 1993 machine are not ours",
     ),
     Row("picture of the chosen levels", f"«{DOC_GREY}»",
         "plot_pictures, right panel (grey key; {op.objects:.0f} objects drawn)", IMAGE),
@@ -676,12 +676,9 @@ CLAIMS = (Each(_viewpoint, (
         f"«{DOC_PREDICTIVE}» (maximize Σ benefit under it)",
         lambda q: "cost-model frame time over the budget on "
         f"{q.pr.predicted_frac_over_budget:.0%} of {int(q.pr.frames)} frames",
-        TREND,
-        Rule(lambda q: q.pr.predicted_frac_over_budget, "==", 0, "frames", flips=(
-            alter("summary", "predicted_frac_over_budget", to=0.5,
-                  where=_strategy("predictive")),)),
-        basis="the greedy's predicted frame time ≤ Tb on every frame",
-        why="the greedy overfills the knapsack (a bug)",
+        MEASURED,
+        basis="true by construction, not a finding: the greedy never adds a tuple that would "
+        "exceed Tb, so its estimate cannot; the measured frame times are the next row",
     ),
     Row(
         "predictive holds the measured budget (fewer frames over it than reactive)",
@@ -691,7 +688,8 @@ CLAIMS = (Each(_viewpoint, (
         f"predictive's measured ÷ model: median {q.pr.measured_over_predicted:.2f}, p90 "
         f"{q.pr.measured_over_predicted_p90:.2f}",
         TREND,
-        Rule(lambda q: q.re_.frac_over_budget - q.pr.frac_over_budget, ">", 0, "frames", flips=(
+        Rule(lambda q: q.re_.frac_over_budget - q.pr.frac_over_budget, ">", 0, "of the frames",
+             flips=(
             alter("summary", "frac_over_budget", to=0.0, where=_strategy("predictive")),
             alter("summary", "frac_over_budget", to=1.0, where=_strategy("predictive")))),
         basis="predictive is over the measured budget on fewer frames than reactive",
