@@ -144,10 +144,10 @@ def write_report(out: Path, *, quick: bool = False) -> Path:
         tables.append(claims)
     every = pd.concat([t for t in tables if not t.empty] or [pd.DataFrame()], ignore_index=True)
     lines += [
-        f"All claims: {tally(every) if not every.empty else 'none yet'}. A row's margin is how far its "
-        "value lies from the edge of its rule, in the rule's units (negative: the rule fails), "
-        "with the run-to-run noise measured for it; **borderline**: within that noise of the "
-        "edge.",
+        f"All claims: {tally(every) if not every.empty else 'none yet'}. A row's margin is how "
+        "far its value lies from the edge of its rule, in the rule's units (negative: the rule "
+        "fails), with the noise measured for it (its origin in the row's basis; deterministic: "
+        "counts of a seeded run); **borderline**: within that noise of the edge.",
         "",
     ]
     for sec in sections:

@@ -693,7 +693,7 @@ def _linear_rows(item: str, document: str, cases) -> Each:
         (Rule(lambda q: min(x["b"] for x in q.lins), ">", 0, "ms per unit", name="grows", flips=(
             alter("times", CLOCKS[CLAIM_CLOCK], -1.0),)),
          Rule(lambda q: max(q.slopes), "<=", 1.0, "", name="slope", noise=lambda q: q.noise,
-              flips=(alter("fits", "slope_upper", 3.0),))),
+              flips=(alter("fits", "slope_upper", 3.0), alter("fits", "slope_upper", 0.5)))),
         basis=lambda q: f"CPU time grows with {q.sweep} (T = a + b·x, b > 0) and no faster than "
         "linearly: log-log slope over the upper half of the sweep <= 1, the bound's exponent "
         "(noise: the points' repeated frames carried through the fit): " + holds_text(q.holds),

@@ -793,6 +793,27 @@ def _spiky(q) -> bool:
 
 _ADAPTIVE = "method == 'adaptive'"
 
+
+def _faster(frames):
+    """Every play's adaptive method twice as fast as the better method, every window too."""
+    out = dict(frames)
+    for name in ("criterion", "repeats"):
+        if name in frames:
+            out[name] = frames[name].assign(mean_ratio=0.5, worst_window_ratio=0.5)
+    return out
+
+
+def _follow_paper(frames):
+    """The adaptive method's decisions replaced by the paper's rule on their own terms."""
+    f = frames["frames"].copy()
+    dec = (f.method == "adaptive") & f.pred_T1.notna()
+    mode = f.loc[dec, "mode"].to_numpy()
+    c5, c6 = f.loc[dec, "condition5"].to_numpy(), f.loc[dec, "condition6"].to_numpy()
+    later = np.where(mode == 2, np.where(c6 == 1, 3, 2), mode)
+    f.loc[dec, "next_mode"] = np.where(mode == 1, np.where(c5 == 1, 2, 1), later)
+    return {**frames, "frames": f}
+
+
 # The table is laid out by hand, one row per block (the formatter would spread it out).
 # fmt: off
 CLAIMS = (
@@ -850,7 +871,7 @@ CLAIMS = (
             "(from mode 1 to mode 2 iff (5) fails, from 2 to 3 iff (6) fails)",
             TREND,
             Rule(lambda q: q.off[0], "==", 0, "decisions", flips=(
-                alter("frames", "next_mode", plus=1, where=_ADAPTIVE),)),
+                alter("frames", "next_mode", plus=1, where=_ADAPTIVE), _follow_paper)),
             basis="every decision follows the paper's conditions",
             why="our method compares each mode's predicted time (the sides of (5) and (6) plus "
             "the terms both sides share, draws included) and switches only for a 10 % gain, "
@@ -887,12 +908,10 @@ CLAIMS = (
             f"{q.windows.mean():.2f}" + _plays(q, "worst_window_ratio", ".2f"),
             TREND,
             (Rule(lambda q: q.ratios.mean(), "<=", 1.0, "×", name="mean",
-                  noise=lambda q: q.ratio_noise, flips=(alter("criterion", "mean_ratio", 0.5),
-                                                        alter("repeats", "mean_ratio", 0.5))),
+                  noise=lambda q: q.ratio_noise,
+                  flips=(_faster, alter("criterion", "mean_ratio", 2.0))),
              Rule(lambda q: q.windows.mean(), "<=", RATIO, "×", name="worst window",
-                  noise=lambda q: q.window_noise, flips=(
-                      alter("criterion", "worst_window_ratio", 0.5),
-                      alter("repeats", "worst_window_ratio", 0.5)))),
+                  noise=lambda q: q.window_noise)),
             basis=lambda q: f"the issue's target: adaptive ≤ the better method on average and ≤ "
             f"{RATIO:g}× it in every window of {WINDOW} frames (means over the plays; at "
             f"{res_str(q.params.resolution)}, scale {q.params.scale:g}): " + holds_text(q.holds),

@@ -693,10 +693,11 @@ CLAIMS = (
             "Table 2: growth of time with the nodes checked", "log-log slope {doc_slope:.2f}",
             "log-log slope {slope:.2f}",
             NUMBERS,
-            Rule(lambda q: abs(q.slope - q.doc_slope), "<=", lambda q: _slope_noise(q) or 0.0,
-                 noise=_slope_noise, flips=(alter("table2", "ms", expr="1e-3 * nodes_checked"),
+            Rule(lambda q: abs(q.slope - q.doc_slope), "<=", lambda q: _slope_noise(q) or 0.005,
+                 noise=_slope_noise, flips=(alter("table2", "ms", expr="nodes_checked ** 0.967"),
                                             alter("table2", "ms", to=1.0))),
-            basis="the slopes agree within our slope's spread over the cameras",
+            basis="the slopes agree within our slope's spread over the cameras (with fewer than "
+            "3 cameras: to the printed two decimals)",
             why=lambda q: "the time per node checked falls as the budget grows: "
             f"{q.per_node[0]:.3f} ms at {q.d.nodes_checked.iloc[0]:,.0f} nodes "
             f"({q.d.rounds.iloc[0]:.0f} query rounds), {q.per_node[-1]:.3f} ms at "
