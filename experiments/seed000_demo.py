@@ -645,6 +645,7 @@ def _stages(q) -> list[np.ndarray]:
 FRUSTUM_DOC = doc.ABB9["MT+Frustum"]["triangles_culled_pct"]
 _QUERIES = f"method == '{QUERY}'"
 _MOC, _HIZ = f"method == '{MOC}'", f"method == '{HIZ}'"
+_PK = f"method == '{PACKETS}'"
 _FAST = f"method == '{QUERY}' and not frustum"  # the query method without frustum culling
 _DRAWN = "drawn"  # the frames' rows with a frame time
 _BOOT = "noise: bootstrap standard error over the flight's frames (one flight; not run to run)"
@@ -893,7 +894,10 @@ CLAIMS = (
          Rule(lambda q: q.pk.false_culls.sum(), "==", 0, "objects", name="no false culls",
               noise=lambda q: 0.0),
          Rule(lambda q: q.faster, ">", 0, "ms", name="faster", noise=lambda q: q.noise,
-              flips=(alter("frames", "ms_total", 100.0, f"method == '{PACKETS}'"),))),
+              flips=(alter("frames", "ms_total", 100.0, _PK),
+                     chain(alter("frames", "ms_total", 0.01, _PK),
+                           alter("frames", "triangles_culled_pct", to=100.0, where=_PK),
+                           alter("frames", "false_culls", to=0, where=_PK))))),
         basis="the document's aim: fewer queries for the same result (no false culls, at least "
         f"the queries' culled share) and a shorter frame; {_BOOT}",
         why=lambda q: f"per frame, {PACKETS} − {QUERY}, mean ms by stage: "

@@ -5,9 +5,11 @@ hypothesis: shuffled, scaled, swapped) and one of them must change its verdict.
 
 Stored frames: ``tests/data/claims/<experiment>/`` (a quick run at the commit before the
 tables, trimmed: frames as ``.csv.gz`` without pixels, its ``inputs.json`` parameters and the
-``claims.csv`` its code wrote). More folders of full runs (``<dir>/<experiment>/``, as
-``vislod figures --out <dir>`` writes them) are compared when ``VISLOD_CLAIMS_STORED`` names
-them (``:``-separated); the test skips without them.
+``claims.csv`` its code wrote); ``tests/data/claims-now/`` (quick runs of the experiments
+whose compute issue 23 extended: seed000, seed001-lod, seed001-portals, seed003,
+seed004-adaptive), on which the rules are flipped. More folders of full runs
+(``<dir>/<experiment>/``, as ``vislod figures --out <dir>`` writes them) are compared when
+``VISLOD_CLAIMS_STORED`` names them (``:``-separated); the test skips without them.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from experiments import claims as cl
 from experiments import harness
 
 FIXTURE = Path(__file__).parent / "data" / "claims"
+NOW = Path(__file__).parent / "data" / "claims-now"  # frames of the extended computes
 OLD_COLUMNS = ["item", "document", "ours", "verdict"]
 
 # Rows issue 23 ("verdicts a reviewer would sign") changed on purpose, by its finding:
@@ -68,7 +71,7 @@ def stored(folder: Path) -> dict[str, tuple[harness.Experiment, dict, object, pd
     out = {}
     for exp in harness.experiments():
         d = folder / exp.key
-        if not (d / "inputs.json").is_file() or not (d / "claims.csv").is_file():
+        if not (d / "inputs.json").is_file():
             continue
         meta = json.loads((d / "inputs.json").read_text())
         frames = {}
@@ -76,7 +79,8 @@ def stored(folder: Path) -> dict[str, tuple[harness.Experiment, dict, object, pd
             path = next((p for p in (d / f"{name}.csv", d / f"{name}.csv.gz") if p.is_file()), None)
             if path is not None:
                 frames[name] = pd.read_csv(path)
-        old = pd.read_csv(d / "claims.csv", keep_default_na=False, dtype=str)
+        old = (pd.read_csv(d / "claims.csv", keep_default_na=False, dtype=str)
+               if (d / "claims.csv").is_file() else None)  # fmt: skip
         out[exp.key] = (exp, frames, harness.stored_params(exp, meta), old)
     return out
 
@@ -130,7 +134,7 @@ def test_claims_on_stored_full_runs_are_the_old_tables():
 
 
 def _rule_rows():
-    for key, (exp, frames, params, _) in stored(FIXTURE).items():
+    for key, (exp, frames, params, _) in {**stored(FIXTURE), **stored(NOW)}.items():
         for e in cl.evaluate_rows(exp.table, frames, params):
             if e.row.rules:
                 yield pytest.param(exp, frames, params, e, id=f"{key}: {e.cells['item']}")
@@ -150,6 +154,29 @@ def test_every_rule_can_flip(exp, frames, params, evaluated):
         if got is not None and got != verdict:
             return
     pytest.fail(f"{item} stays {verdict} under every alteration: {seen}")
+
+
+def test_the_extended_computes_give_the_new_rows_their_data():
+    """On the quick runs of issue 23's computes: the packets and the frustum-gain rows exist,
+    the adaptive rows carry the plays' noise, portal narrowing is judged against the cell
+    visibility, and the picture's frame time has its draws' spread."""
+    now = stored(NOW)
+    items = {k: exp.claims(f, p).set_index("item") for k, (exp, f, p, _) in now.items()}
+    s0 = items["seed000"]
+    for item in ("future work: occludee packets (queries-batched, ours)",
+                 "frustum culling's gain inside the OGL method",
+                 "Abb. 10 right, FPS of the OGL method per depth resolution"):  # fmt: skip
+        assert item in s0.index
+    assert "noise" in s0.loc["masked vs frustum culling alone", "margin"]
+    ad = items["seed004-adaptive"]
+    best = ad[ad.index.str.endswith("adaptive best on average")]
+    assert len(best) == 3 and best.margin.str.contains(r"\(noise \d").all()
+    assert best.ours.str.contains("plays:").all()
+    row = items["seed001-portals"].loc["portal culling from a viewpoint (portal narrowing)"]
+    assert "cell visibility" in row.ours and "deterministic" in row.margin
+    lod = items["seed001-lod"]
+    pic = lod.loc["picture pair: the optimized picture holds its target frame time"]
+    assert "(noise " in pic.margin
 
 
 # -- the machinery ---------------------------------------------------------------------------------
