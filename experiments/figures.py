@@ -33,6 +33,30 @@ def _overrides(params: Any) -> dict[str, Any]:
     }
 
 
+def reclaim_figures(
+    out: str | Path | None = None, *, quick: bool = False, only: Sequence[str] | None = None
+) -> dict[str, Any]:
+    """Claims only: every stored experiment's claims evaluated anew on its frames (no
+    compute), then ``REPORT.md``. Returns ``{"reclaimed": [...], "missing": [...],
+    "report": path}``."""
+    from experiments.report import write_report
+
+    names = figure_names()
+    unknown = sorted(set(only or ()) - set(names))
+    if unknown:
+        raise UsageError(f"unknown figure(s) {', '.join(unknown)}; available: {', '.join(names)}")
+    out = check_writable(Path(out) if out is not None else default_out(quick))
+    done, missing = [], []
+    for exp in harness.experiments():
+        if not only or exp.key in only:
+            (done if harness.reclaim(exp, out) is not None else missing).append(exp.key)
+    if missing:
+        print(f"not run, no frames to judge (run them first): {', '.join(missing)}")
+    report = write_report(out, quick=quick)
+    print(f"claims re-evaluated: {', '.join(done) or 'none'}; report: {report}")
+    return {"reclaimed": done, "missing": missing, "report": report}
+
+
 def run_figures(
     out: str | Path | None = None,
     *,

@@ -333,6 +333,21 @@ def load(exp: Experiment, out: Path, params: Any = None) -> Results | None:
     return Results(exp, params, frames, claims, folder, seconds=meta.get("seconds", 0.0))
 
 
+def reclaim(exp: Experiment, out: Path) -> Results | None:
+    """Evaluate the experiment's claims anew on its stored frames and parameters (no compute)
+    and rewrite its ``claims.csv``; ``inputs.json`` records the source the claims came from.
+    ``None`` when the experiment has not run in ``out``."""
+    res = load(exp, out)
+    if res is None:
+        return None
+    res.claims = exp.claims(res.frames, res.params)
+    _write_csv(res.folder / "claims.csv", res.claims)
+    stamp = res.folder / "inputs.json"
+    meta = {**json.loads(stamp.read_text()), "claims_source": _source_hash(exp.module)}
+    atomic_write(stamp, lambda p: p.write_text(json.dumps(meta, indent=1)))
+    return res
+
+
 def _check_frames(exp: Experiment, frames: Any) -> Frames:
     if not isinstance(frames, Mapping) or not all(
         isinstance(v, pd.DataFrame) for v in frames.values()

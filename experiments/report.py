@@ -82,12 +82,9 @@ def tally(claims: pd.DataFrame) -> str:
 
 
 def claims_lines(claims: pd.DataFrame) -> list[str]:
-    """The claims table in markdown: a summary line, then one row per claim with its margin
-    (how far from flipping, in the rule's units, and the measured noise) and a borderline
-    mark."""
+    """The claims table in markdown: one row per claim with its margin (how far from
+    flipping, in the rule's units, and the measured noise) and a borderline mark."""
     lines = [
-        f"**{tally(claims)}.**",
-        "",
         "| item | document | ours | verdict | margin | basis / why |",
         "|---|---|---|---|---|---|",
     ]
@@ -102,14 +99,15 @@ def claims_lines(claims: pd.DataFrame) -> list[str]:
 
 
 def experiment_lines(out: Path, exp, *, tracked_only: bool) -> tuple[list[str], pd.DataFrame]:
-    """A harness experiment's section (pictures with captions, then its claims) and its
-    claims; "not run" when its files are missing."""
+    """A harness experiment's section (its claims' tally, pictures with captions, then its
+    claims) and its claims; "not run" when its files are missing."""
     from experiments import harness
 
     lines = [f"## Seed {exp.seed} — {exp.title}", ""]
     res = harness.load(exp, out)
     if res is None:
         return [*lines, f"_not run_ (`vislod figures --only {exp.key}`)", ""], pd.DataFrame()
+    lines += [f"**Claims: {tally(res.claims)}.**", ""]
     meta = json.loads((res.folder / "inputs.json").read_text())
     for stem, caption in meta.get("pictures", {}).items():
         png = res.folder / f"{stem}.png"
