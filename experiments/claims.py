@@ -161,7 +161,8 @@ class Row:
 
     ``verdict`` is the row's verdict when its rules hold (``numbers``/``trend``), or its fixed
     verdict (``measured``, ``image``, ``differs`` — then ``why`` is the measured cause). A
-    ``trend`` row's plain-text basis gets ": holds" or ": does not hold". ``why`` is shown when
+    ``trend`` row's plain-text basis gets ": holds" or ": does not hold", a ``numbers`` row's
+    ": does not hold" when it fails. ``why`` is shown when
     a rule fails (or for a fixed ``differs``), ``note`` always. ``when(q)`` false leaves the row
     out.
     """
@@ -253,6 +254,8 @@ def evaluate_rows(table: Table, frames: Frames, params: Any) -> list[Evaluated]:
         basis = _text(row.basis, q)
         if row.verdict == TREND and not callable(row.basis):
             basis += ": holds" if q.holds else ": does not hold"
+        elif row.verdict == NUMBERS and not q.holds and basis:
+            basis += ": does not hold"
         why = "" if q.holds and row.rules else _text(row.why, q)
         why = "; ".join(t for t in (why, _text(row.note, q)) if t)
         several = len(judged) > 1
