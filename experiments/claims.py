@@ -149,7 +149,7 @@ class Rule:
         """``(holds, margin, noise)``; margin > 0 (or >= 0 for >=, <=) holds; NaN fails."""
         v = float(self.value(q))
         b = float(self.bound(q) if callable(self.bound) else self.bound)
-        m = {">": v - b, ">=": v - b, "<": b - v, "<=": b - v, "==": 0.0 - abs(v - b)}[self.op]
+        m = {">": v - b, ">=": v - b, "<": b - v, "<=": b - v, "==": -abs(v - b)}[self.op] + 0.0
         holds = m > 0 if self.op in (">", "<") else m >= 0
         noise = None if self.noise is None else self.noise(q)
         return bool(holds and m == m), m, None if noise is None else float(noise)
