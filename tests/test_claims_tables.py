@@ -53,6 +53,7 @@ CHANGED: dict[tuple[str, str], str] = {
     ("seed001-state-sorting", r"Round-Robin is very good.*"): "3: against Random-Choice",
     ("seed002", r"caps 1x and 0\.75x .*"): "2: alike within measured noise, not 10 %",
     ("seed002", r"the culling is effective.*"): "6: the conclusion's row",
+    ("seed002", r"without occlusion culling frame time rises.*"): "3: r beyond 2/√n, not 0.5",
     ("seed003", r".*(linear|O\(V × VP\)).*"): "3: the lecture's bounds, not invented bands",
     ("seed003", r"g-buffer memory.*"): "3: the tolerance's origin stated",
     ("seed004-model", r"Table 1.*"): "1: the paper's form judged; 5: measured causes",
