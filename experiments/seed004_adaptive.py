@@ -690,7 +690,7 @@ def _scenes(frames: dict[str, pd.DataFrame], params: Params):
         windows = reps.worst_window_ratio if len(reps) else pd.Series([c.worst_window_ratio])
         case = {
             "sc": sc, "c": c, "fr": fr, "qu": qu, "want": sc == "scene3", "ad": ad, "reps": reps,
-            "ratio": qu.mean_ms / fr.mean_ms, "gap": gap.mean(), "ratios": ratios,
+            "ratio": qu.mean_ms / fr.mean_ms, "gap": gap.mean(), "gaps": gap, "ratios": ratios,
             "windows": windows, "visited": visited, "node": node,
             "extra": ad[["ms_apply", "ms_estimate", "ms_decide", "ms_fit"]].mean(),
             "path": ", ".join(f"{int(w['from'])}→{int(w.to)} at frame {int(w.frame)}"
@@ -823,7 +823,7 @@ CLAIMS = (
             lambda q: DOC_QUERIES_3 if q.want else DOC_QUERIES_12,
             lambda q: f"mean ms frustum {q.fr.mean_ms:.1f}, queries {q.qu.mean_ms:.1f} (ratio "
             f"{q.ratio:.2f}); frustum − queries {q.gap:+.1f} ms"
-            + _plays(q, "mean_ms_queries", ".1f"),
+            + (" (plays: " + ", ".join(f"{v:+.1f}" for v in q.gaps) + ")" if len(q.reps) else ""),
             TREND,
             Rule(lambda q: (1 if q.want else -1) * q.gap, ">", 0, "ms", noise=lambda q: q.gap_noise,
                  flips=(alter("summary", "mean_ms", 0.1, "method == 'queries'"),
@@ -947,9 +947,10 @@ CLAIMS = (
                  alter("regression", "elements", expr="1e6 - 3e3 * q ** 0.5"),
                  alter("regression", "elements", expr="1e6 - 3e3 * log(1 + q)"))),
         basis="ln(1+q) leaves the least misfit of the three shapes (least squares, three "
-        "coefficients each; noise not measured)",
-        why=lambda q: f"{min(q.rms, key=q.rms.get)} fits these points better; with few query "
-        "counts tried the shapes are hard to tell apart",
+        "coefficients each; the hidden elements are e(q)'s g(q) term, formula (10); noise not "
+        "measured)",
+        why=lambda q: f"g = {min(q.rms, key=q.rms.get)} fits these points better; why: cause "
+        "not measured",
         when=lambda q: q.qs >= 3 and q.curved,  # elements linear in q: nothing was hidden
     ),)),
     Row(
