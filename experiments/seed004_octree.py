@@ -568,7 +568,6 @@ def _table2(frames: dict[str, pd.DataFrame], params: Params):
         "cam_slopes": _camera_slopes(per_cam),
         "per_node": (d.ms / d.nodes_checked).to_numpy(),
         "doc_slope": float(np.polyfit(np.log(DOC_NODES_CHECKED), np.log(DOC_MS), 1)[0]),
-        "within": bool((t2.nodes_checked <= t2.nodes_checked_budget).all()),
         "med": later.groupby("scene", sort=False)[cols].median(),
         "lay": frames["layouts"].groupby("layout", sort=False)[["record_upload_ms", "draw_ms"]]
         .median(),
@@ -679,8 +678,9 @@ CLAIMS = (
             f"{q.slope:.2f} against the nodes actually checked; per camera "
             + ", ".join(f"{v:.2f}" for v in q.cam_slopes) + ")",
             TREND,
-            (Rule(lambda q: float(q.within), ">", 0, name="within the budget", flips=(
-                alter("table2", "nodes_checked", plus=1e5),)),
+            (Rule(lambda q: (q.t2.nodes_checked_budget - q.t2.nodes_checked).min(), ">=", 0,
+                  "nodes", name="within the budget", noise=lambda q: 0.0, flips=(
+                      alter("table2", "nodes_checked", plus=1e5),)),
              Rule(lambda q: q.slope, "<=", 1.0, name="slope", noise=_slope_noise, flips=(
                  alter("table2", "ms", expr="1e-3 * nodes_checked ** 2"),))),
             basis="never more nodes checked than the budget, and time grows at most in "
