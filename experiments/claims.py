@@ -211,6 +211,9 @@ def _text(t: Text, q: Any) -> str:
 
 
 def _margin_text(rule: Rule, m: float, noise: float | None, several: bool) -> str:
+    label = f"{rule.name}: " if several and rule.name else ""
+    if math.isinf(m):  # nothing to compare with (e.g. the first column of a curve)
+        return label + "no edge"
     num = "–" if m != m else f"{m:+,.0f}" if abs(m) >= 1000 else f"{m:+.3g}"
     unit = f" {rule.unit}" if rule.unit else ""
     spread = (
@@ -220,7 +223,7 @@ def _margin_text(rule: Rule, m: float, noise: float | None, several: bool) -> st
         if noise == 0
         else f" (noise {noise:.2g})"
     )
-    return (f"{rule.name}: " if several and rule.name else "") + num + unit + spread
+    return label + num + unit + spread
 
 
 @dataclass
