@@ -62,8 +62,10 @@ CITY_SPECS = (
     "hiz-2phase",
     "hiz-gpu",
     "hiz-2phase(threads=1)",
+    "hiz-2phase(threads=1, order='id')",
     "hiz-2phase(occluders_first=True)",
     "hiz-2phase(occluders_first=True, threads=1)",
+    "hiz-2phase(occluders_first=True, next_from='late', threads=1)",
 )
 # Issue 24's targets.
 TARGET_FRUSTUM_MS = 2.0  # frustum culling of 10⁶ boxes, ≈ 1 % in view

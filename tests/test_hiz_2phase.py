@@ -320,11 +320,11 @@ def test_the_draw_order_changes_neither_the_kept_sets_nor_the_depth(small_market
             assert "sort" in a.stats.timings_ms and "sort" not in b.stats.timings_ms
             order = near.method.last_order
             assert not np.array_equal(order, by_id.method.last_order)
-            box = small_market.aabbs[order]
-            eye = np.asarray(cam.eye, np.float32)
+            box = small_market.aabbs[order].astype(np.float64)
+            eye = np.asarray(cam.eye, np.float64)
             gap = np.clip(eye, box[:, 0], box[:, 1]) - eye
-            eye_gap.append(np.einsum("ij,ij->i", gap, gap))
+            eye_gap.append(np.sqrt(np.einsum("ij,ij->i", gap, gap)))
     # The passes' boundaries are where the distance drops: at most 2 (early, late) or 3
-    # (early, late occluders, the rest) runs of non-decreasing distances.
+    # (early, late occluders, the rest) runs of non-decreasing distances (float32 keys).
     for d in eye_gap:
-        assert np.count_nonzero(np.diff(d) < 0) <= 2 + bool(options), d
+        assert np.count_nonzero(np.diff(d) < -1e-5 * (1 + d[1:])) <= 2 + bool(options), d

@@ -79,6 +79,7 @@ import time
 
 import numpy as np
 
+from soc.culling.draw_order import front_to_back
 from soc.culling.frustum import aabbs_in_frustum, ids_in_frustum
 from soc.culling.hierarchy import Hierarchy
 from soc.culling.hiz_cpu import (
@@ -172,7 +173,7 @@ class TwoPhaseCulling(CullMethod):
         then rejects the fragments of what is behind before shading them) or by object id.
         The depth, the kept set and so conservativeness do not depend on it. City flight, 30
         frames at 1080p with ``occluders_first``: draw 111 instead of 127 ms a frame, for a
-        0.4 ms sort (1.4 ms for the 15k objects kept without ``occluders_first``).
+        sort of 0.1 ms (0.4 ms for the 15k objects kept without ``occluders_first``).
     hierarchy : bool
         Test on the CPU by a walk of the scene's BVH (default True) or object by object
         (False: the reference; the same codes, ``tests/test_hierarchy.py``). The GL test
@@ -320,15 +321,12 @@ class TwoPhaseCulling(CullMethod):
         return 1e3 * (time.perf_counter() - t0)
 
     def _sorted(self, camera, ids: np.ndarray, timings: dict) -> np.ndarray:
-        """``ids`` in the order a pass draws them (:attr:`order`): by the distance from the
-        eye to each AABB (0 inside), nearest first, ties by id; stage ``sort``."""
+        """``ids`` in the order a pass draws them (:attr:`order`): nearest box first
+        (:func:`soc.culling.draw_order.front_to_back`); stage ``sort``."""
         if self.order == "id" or len(ids) < 2:
             return ids
         with stage(timings, "sort"):
-            box = self.scene.aabbs[ids]
-            eye = np.asarray(camera.eye, np.float32)
-            gap = np.clip(eye, box[:, 0], box[:, 1]) - eye
-            return ids[np.argsort(np.einsum("ij,ij->i", gap, gap), kind="stable")]
+            return front_to_back(self.scene.aabbs, ids, camera.eye)
 
     def _classify(self, camera, timings, ids=None, prefix: str = "") -> np.ndarray:
         """Codes (OCCLUDED / VISIBLE / OUTSIDE) of objects ``ids`` (default all, with the
