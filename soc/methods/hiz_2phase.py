@@ -141,7 +141,7 @@ class TwoPhaseCulling(CullMethod):
         work), the late occluders' (with ``occluders_first``, in frames where it tests again:
         the drawn objects join that test, fewer hidden objects drawn early next frame for no
         extra pyramid; city flight, 30 frames at 1080p: 1,430 kept a frame instead of 1,604,
-        cull + draw ÷ ideal 1.66 instead of 1.76; otherwise as "early") or the finished
+        cull + draw ÷ ideal 1.59 instead of 1.83 (load 6-7); otherwise as "early") or the finished
         frame's (a second pyramid and test of the drawn objects).
     early_pass : {"shaded", "depth"}
         Draw the early set shaded (default; ``visible`` = early ∪ late) or depth only, then
@@ -173,7 +173,7 @@ class TwoPhaseCulling(CullMethod):
         then rejects the fragments of what is behind before shading them) or by object id.
         The depth, the kept set and so conservativeness do not depend on it. City flight, 30
         frames at 1080p with ``occluders_first``: draw 111 instead of 127 ms a frame, for a
-        sort of 0.1 ms (0.4 ms for the 15k objects kept without ``occluders_first``).
+        sort of 0.2 ms (0.4 ms for the 15k objects kept without ``occluders_first``).
     hierarchy : bool
         Test on the CPU by a walk of the scene's BVH (default True) or object by object
         (False: the reference; the same codes, ``tests/test_hierarchy.py``). The GL test
