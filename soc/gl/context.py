@@ -440,3 +440,10 @@ def default_context(threads: int | None = None) -> GLContext:
     glctx = _default_context(threads)
     glctx.ctx  # noqa: B018 - fetching ctx makes the context current
     return glctx
+
+
+def default_renderer() -> str | None:
+    """The GL renderer of the process-wide context (``GL_RENDERER``, e.g. ``"llvmpipe (LLVM
+    15.0.6, 256 bits)"``) when one was made, else None; makes none (results record which GL
+    measured them)."""
+    return _default.renderer if _default is not None else None
