@@ -46,6 +46,7 @@ import pandas as pd
 
 from experiments import claims as claims_mod
 from experiments.common import UsageError, atomic_write, check_writable, default_out
+from soc.gl.context import default_renderer
 
 # Every experiment module, in report order. A new figure: one module here.
 MODULES: tuple[str, ...] = (
@@ -418,6 +419,7 @@ def run(
             "frames": list(frames),
             "pictures": {exp.plot_name(p): exp.caption(p) for p in exp.plots},
             "seconds": res.seconds,
+            "gl": default_renderer(),  # which GL measured it (None: the run drew nothing)
         }
         atomic_write(folder / "inputs.json", lambda p: p.write_text(json.dumps(meta, indent=1)))
     return res

@@ -94,6 +94,8 @@ def experiment_lines(
         return [*lines, f"_not run_ (`vislod figures --only {exp.key}`)", ""], pd.DataFrame()
     lines += [f"**Claims: {tally(res.claims)}.**", ""]
     meta = json.loads((res.folder / "inputs.json").read_text())
+    if meta.get("gl"):
+        lines += [f"Measured on {meta['gl']}.", ""]
     for stem, caption in meta.get("pictures", {}).items():
         png = res.folder / f"{stem}.png"
         if png.is_file():
