@@ -65,8 +65,13 @@ ROOTS = 2048
 # Pyramid levels below its own that a node box is judged at, at most (the objects' refine
 # bounds it from above; any value keeps the kept set, fewer make node tests cheaper).
 NODE_REFINE = 2
-# First storage-buffer binding of the walk's buffers (bvh_walk.common.glsl: 8 to 11).
+# First storage-buffer binding of the walk's buffers (bvh_walk.common.glsl: 8 to 12).
 WALK_BINDING = 8
+# How a pass walks (:meth:`GpuHierarchy.run`): one dispatch per tree level over a queue of
+# nodes, or each invocation whole subtrees of the cut.
+WALK_MODES = ("levels", "subtrees")
+# Compute work-group size of the shaders that walk (their ``local_size_x``).
+GROUP = 64
 
 
 @numba.njit(cache=True)
@@ -169,11 +174,24 @@ class GpuHierarchy:
         if "exact_outside" in program:
             program["exact_outside"].value = bool(exact_outside)
 
-    def run_levels(self, program, groups: int) -> None:
-        """Dispatch ``program`` (bound) once per tree level, ``walk_level`` = 0, 1, …, with a
-        storage barrier between levels."""
-        self.queue.write(self._header)
+    def run(self, program, mode: str = "levels", groups: int = 32) -> None:
+        """Dispatch ``program`` (its buffers and uniforms bound, :meth:`bind` included) to walk
+        the tree as ``mode`` says (:data:`WALK_MODES`), at most ``groups`` work groups a
+        dispatch; its writes are visible to what follows.
+
+        ``"levels"``: once per tree level, ``walk_level`` = 0, 1, …, each dispatch as many
+        groups as the level before appended nodes for (``glDispatchComputeIndirect``: the
+        counts stay on the GPU), with a storage barrier between levels. ``"subtrees"``: one
+        dispatch, every invocation walking every stride-th root of the cut."""
+        if mode not in WALK_MODES:
+            raise ValueError(f"walk mode must be one of {WALK_MODES}, got {mode!r}")
         ctx = self.glctx.ctx
+        program["levels_walk"].value = mode == "levels"
+        if mode == "subtrees":
+            program.run(min(-(-self.root_count // GROUP), groups))
+            ctx.memory_barrier()
+            return
+        self.queue.write(self._header)
         program["max_groups"].value = groups
         for level in range(self.depth):
             program["walk_level"].value = level

@@ -368,9 +368,8 @@ class HizTest:
         self.refine = int(refine)
         self.program = glctx.compute("hiz_test.comp")
         self._walk_program = None  # hiz_walk.comp, compiled on the first walk()
-        self.exact_outside = True
-        self.levels_walk = False
         self._walk_out = None  # counters + one bit per object of walk()
+        self.last_walk: tuple[int, int, int] | None = None  # walk()'s nodes, node and box tests
         self._ids = None  # (K,) uint32 candidate ids, grown on demand
         self._out = None  # (K,) uint32 results
         self._boxes = None  # uploaded boxes of test_boxes()
@@ -505,6 +504,8 @@ class HizTest:
         frustum: bool = True,
         display=None,
         node_refine: int | None = None,
+        mode: str = "levels",
+        exact_outside: bool = True,
     ) -> tuple[np.ndarray, int, int]:
         """:meth:`classify` of every object by a walk of the object hierarchy in one dispatch
         (``hiz_walk.comp.glsl``): the same kept set and the same count outside the frustum,
@@ -520,6 +521,13 @@ class HizTest:
             Levels finer than its own a node box is judged at (at most :attr:`refine`;
             default :data:`soc.culling.bvh_gpu.NODE_REFINE`): any value gives the same
             result.
+        mode : str
+            How the dispatch walks (:data:`soc.culling.bvh_gpu.WALK_MODES`): level by level
+            (default) or whole subtrees per invocation; the same result.
+        exact_outside : bool
+            Walk a hidden subtree that crosses the frustum on with frustum tests only, so that
+            ``outside`` is exact (default); False drops it (``outside`` then counts only the
+            objects outside the frustum that are not under a hidden node).
 
         Returns
         -------
@@ -548,17 +556,12 @@ class HizTest:
         set_test_uniforms(prog, pyramid, camera, self.footprint, self.refine, display)
         prog["frustum"].value = bool(frustum)
         refine = NODE_REFINE if node_refine is None else int(node_refine)
-        tree.bind(prog, min(refine, self.refine), self.exact_outside)
+        tree.bind(prog, min(refine, self.refine), exact_outside)
         boxes.bind_to_storage_buffer(0)
         out.bind_to_storage_buffer(1)
-        if self.levels_walk:
-            prog["levels_walk"].value = True
-            tree.run_levels(prog, TEST_GROUPS)
-        else:
-            prog["levels_walk"].value = False
-            prog.run(min(-(-tree.root_count // TEST_GROUP), TEST_GROUPS))
-        self.glctx.ctx.memory_barrier()
+        tree.run(prog, mode, TEST_GROUPS)
         data = np.frombuffer(out.read(size=4 * words), np.uint32)
         bits = np.unpackbits(data[header:].view(np.uint8), bitorder="little")
-        self.last_walk_counts = data[:4].copy()
+        # Nodes visited, node boxes judged, object boxes judged.
+        self.last_walk = (int(data[3]), int(data[1]), int(data[2]))
         return bits[:n].astype(bool), int(data[0]), int(data[1]) + int(data[2])

@@ -60,7 +60,7 @@ import time
 
 import numpy as np
 
-from soc.culling.bvh_gpu import NODE_REFINE, gpu_hierarchy
+from soc.culling.bvh_gpu import NODE_REFINE, WALK_MODES, gpu_hierarchy
 from soc.culling.clusters import MAX_TRIANGLES, scene_clusters, whole_objects
 from soc.culling.hiz_cpu import check_test_options
 from soc.culling.hiz_gpu import (
@@ -93,7 +93,6 @@ BINDINGS = (
     "frame",
 )
 PASSED_BINDING = 13  # gpu_driven.common.glsl's passed lists (8-12: bvh_walk.common.glsl's)
-WALKS = ("levels", "subtrees")
 
 
 @register
@@ -165,8 +164,8 @@ class GpuDriven(CullMethod):
             raise ValueError(f"count must be one of {COUNTS}, got {count!r}")
         if next_from not in NEXT_FROM:
             raise ValueError(f"next_from must be one of {NEXT_FROM}, got {next_from!r}")
-        if walk not in WALKS:
-            raise ValueError(f"walk must be one of {WALKS}, got {walk!r}")
+        if walk not in WALK_MODES:
+            raise ValueError(f"walk must be one of {WALK_MODES}, got {walk!r}")
         self.walk = walk
         self.next_from = next_from
         footprint, refine = check_test_options(footprint, refine)
@@ -253,14 +252,9 @@ class GpuDriven(CullMethod):
         tree = self.hierarchy
         if walk:
             tree.bind(program, min(NODE_REFINE, self.refine))
-            program["levels_walk"].value = self.walk == "levels"
-            if self.walk == "levels":
-                tree.run_levels(program, TEST_GROUPS)
-                return
-            groups = -(-tree.root_count // TEST_GROUP)
-        else:
-            groups = -(-len(self.scene) // TEST_GROUP)
-        program.run(min(groups, TEST_GROUPS))
+            tree.run(program, self.walk, TEST_GROUPS)
+            return
+        program.run(min(-(-len(self.scene) // TEST_GROUP), TEST_GROUPS))
         self.glctx.ctx.memory_barrier()
 
     def _draw(self, camera, late: bool, *, color: bool, clear: bool, clear_color: bool) -> float:

@@ -55,6 +55,8 @@ void walk_object(uint o, bool inside, bool hidden);  // the including shader's
 uint walk_outside = 0u;  // objects this invocation found outside the frustum
 uint walk_nodes_judged = 0u;  // node boxes it tested against the pyramid
 uint walk_visits = 0u;  // nodes it visited
+// A hidden node that crosses the frustum: walk its subtree on with frustum tests only, to
+// count its objects outside the frustum as the flat test does (else they count as hidden).
 uniform bool exact_outside;
 
 vec3 walk_lo(uint i) { return vec3(walk_boxes[6u * i], walk_boxes[6u * i + 1u], walk_boxes[6u * i + 2u]); }

@@ -10,11 +10,12 @@ layout(std430, binding = 0) readonly buffer Boxes { float boxes[]; };  // (N, 6)
 layout(std430, binding = 1) buffer Result { uint result[]; };
 
 uniform bool frustum;  // test the frustum (else every object box is judged)
-uniform bool levels_walk;
+uniform bool levels_walk;  // one node per invocation and dispatch per level (else subtrees)
 
 const uint WALK_OUTSIDE = 0u;  // objects outside the frustum
 const uint WALK_NODES = 1u;    // node boxes judged
 const uint WALK_OBJECTS = 2u;  // object boxes judged
+const uint WALK_VISITS = 3u;   // nodes visited
 const uint WALK_HEADER = 4u;
 
 #include "hiz_test.common"
@@ -39,5 +40,5 @@ void main() {
     if (walk_outside > 0u) atomicAdd(result[WALK_OUTSIDE], walk_outside);
     if (walk_nodes_judged > 0u) atomicAdd(result[WALK_NODES], walk_nodes_judged);
     if (judged > 0u) atomicAdd(result[WALK_OBJECTS], judged);
-    atomicAdd(result[3], walk_visits);
+    if (walk_visits > 0u) atomicAdd(result[WALK_VISITS], walk_visits);
 }
