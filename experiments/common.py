@@ -37,15 +37,29 @@ class UsageError(ValueError):
 
 # -- where results go -------------------------------------------------------------------------
 
+ROOT = Path(__file__).resolve().parents[1]  # the checkout, when the package runs from one
+GALLERY = ROOT / "docs" / "gallery"  # the tracked pictures (:mod:`experiments.gallery`)
+
+
+def in_checkout() -> bool:
+    """The package runs from a vislod checkout (README.md and docs/ beside it), not from an
+    installed wheel, whose site-packages must stay as pip left it."""
+    return (ROOT / "pyproject.toml").is_file()
+
+
+def gallery_path(stem: str, folder: Path | None = None) -> Path:
+    """Where the picture ``stem`` (``<key>_<plot>``) lives in the tracked gallery (``folder``,
+    default :data:`GALLERY`)."""
+    return Path(folder if folder is not None else GALLERY) / f"{stem}.png"
+
 
 def default_results_dir() -> Path:
     """``results/`` at the repository root (the current directory when not run from a checkout),
     or ``$VISLOD_RESULTS`` when set (tests and CI keep their results out of the checkout)."""
     if os.environ.get("VISLOD_RESULTS"):
         return Path(os.environ["VISLOD_RESULTS"])
-    root = Path(__file__).resolve().parents[1]
-    if (root / "pyproject.toml").is_file():
-        return root / "results"
+    if in_checkout():
+        return ROOT / "results"
     return Path.cwd() / "results"
 
 

@@ -19,10 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from experiments import terminal
-from experiments.common import atomic_write, default_results_dir
+from experiments.common import ROOT, atomic_write, default_results_dir, gallery_path, in_checkout
 
-ROOT = Path(__file__).resolve().parents[1]
-FOLDER = ROOT / "docs" / "gallery"
 README_BEGIN, README_END = "<!-- begin gallery -->", "<!-- end gallery -->"
 WIDTH = 1600  # pixels: readable on a code host's page at full width
 MAX_BYTES = 200_000  # per picture, so that the gallery stays small in git
@@ -83,10 +81,7 @@ SHOTS = (
 )
 
 
-def path(stem: str, folder: Path | None = None) -> Path:
-    """Where the picture ``stem`` (``<key>_<plot>``) lives in the gallery (``folder``,
-    default :data:`FOLDER`)."""
-    return Path(folder if folder is not None else FOLDER) / f"{stem}.png"
+path = gallery_path  # where a picture lives in the gallery (``<key>_<plot>``)
 
 
 def save(fig: Any, target: Path, width: int = WIDTH, max_bytes: int = MAX_BYTES) -> Path:
@@ -189,12 +184,6 @@ def update_readme(readme: Path | None = None, folder: Path | None = None) -> Pat
     return atomic_write(
         readme, lambda p: p.write_text(f"{head}{README_BEGIN}\n{body}{README_END}{tail}")
     )
-
-
-def in_checkout() -> bool:
-    """The package runs from a vislod checkout (README.md and docs/ beside it), not from an
-    installed wheel, whose site-packages must stay as pip left it."""
-    return (ROOT / "pyproject.toml").is_file()
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -130,8 +130,11 @@ def test_readme_without_markers_is_an_error(tmp_path):
 
 def test_outside_a_checkout_it_refuses_with_one_line(monkeypatch, tmp_path, capsys):
     """Installed from a wheel, ROOT is site-packages: nothing is written there."""
+    from experiments import common
+
+    monkeypatch.setattr(common, "ROOT", tmp_path)
     monkeypatch.setattr(gallery, "ROOT", tmp_path)
-    monkeypatch.setattr(gallery, "FOLDER", tmp_path / "docs" / "gallery")
+    monkeypatch.setattr(common, "GALLERY", tmp_path / "docs" / "gallery")
     assert gallery.main([]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "checkout" in err[0]

@@ -144,7 +144,9 @@ def test_report_section_shows_pictures_captions_and_claims(toy, tmp_path):
     from experiments.report import experiment_lines
 
     harness.run(toy, quick=True, out=tmp_path, progress=False)
-    lines, verdicts = experiment_lines(tmp_path, toy, gallery=False)
+    lines, claims = experiment_lines(tmp_path, toy, gallery=False)
     text = "\n".join(lines)
     assert "![toy_ms](toy/toy_ms.png)" in text and "*Milliseconds per frame" in text
-    assert "| slope | 2.00 |" in text and verdicts == ["numbers", "image"]
+    assert "| slope | 2.00 |" in text and list(claims.verdict) == ["numbers", "image"]
+    # the section opens with its tally (issue 23)
+    assert lines[2].startswith("**Claims: 2 rows: 1 image, 1 numbers;")
