@@ -270,3 +270,27 @@ def test_gpu_driven_walks_to_the_same_frames_as_testing_every_box(small_market, 
 def test_gpu_driven_options_are_checked(clutter_scenes):
     with pytest.raises(ValueError, match="walk must be one of"):
         soc.Culler(clutter_scenes[0], "gpu-driven", (64, 64), walk="sideways")
+
+
+@pytest.mark.parametrize("options", [{}, {"footprint": 4, "refine": 3},
+                                     {"occluder_resolution": (111, 66)}])  # fmt: skip
+def test_hiz_gpu_walks_to_the_same_frames_as_testing_every_box(small_market, options):
+    """``hiz-gpu`` by the walk (either mode; the default) keeps and frustum-culls exactly what
+    it does testing every box, over a flight and random views at an odd resolution, with the
+    conservative raster at a coarse occluder resolution too; and tests fewer boxes."""
+    res = (333, 197)
+    cams = flight(small_market, frames=100, width=res[0], height=res[1])[30:36]
+    cams += random_cameras(small_market, 4, seed=5, width=res[0], height=res[1])
+    with soc.Culler(small_market, "hiz-gpu", res, hierarchy=False, **options) as flat:
+        want = [flat.cull(cam) for cam in cams]
+    for mode in WALK_MODES:
+        with soc.Culler(small_market, "hiz-gpu", res, walk=mode, **options) as walked:
+            assert walked.method.use_hierarchy
+            got = [walked.cull(cam) for cam in cams]
+        for i, (a, b) in enumerate(zip(want, got, strict=True)):
+            np.testing.assert_array_equal(a.visible, b.visible, err_msg=f"{mode} view {i}")
+            assert a.stats.frustum_culled == b.stats.frustum_culled, (mode, i)
+        assert sum(b.stats.queries for b in got) < sum(a.stats.queries for a in want)
+    assert sum(int((~a.visible).sum()) for a in want) > 0
+    with pytest.raises(ValueError, match="walk must be one of"):
+        soc.Culler(small_market, "hiz-gpu", res, walk="sideways")
