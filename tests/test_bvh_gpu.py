@@ -233,6 +233,39 @@ def test_the_cut_partitions_the_nodes_below_it(n, leaf_size, target):
     assert len(roots) >= min(target, (h.skip == np.arange(1, len(h) + 1)).sum())
 
 
+@pytest.mark.parametrize(
+    ("n", "leaf_size", "roots", "mode"),
+    [(300, 4, 2048, "subtrees"), (5000, 3, 64, "levels"), (1, 4, 8, "subtrees")],
+)
+def test_auto_walks_subtrees_only_when_the_cut_is_all_leaves(n, leaf_size, roots, mode):
+    """``"auto"`` is one dispatch over leaf roots when the cut reaches the leaves, else a
+    dispatch per level; it walks to the same kept set; a mode it does not know is an error."""
+    scene, cam = _scene(n, n, False, 0.1)
+    res = (64, 48)
+    cam = cam.with_resolution(res)
+    glctx = default_context()
+    tree = gpu_hierarchy(glctx.geometry(scene), leaf_size, roots)
+    h = tree.hierarchy
+    roots_of_cut = cut(h.skip, roots).astype(np.int64)
+    assert (h.skip[roots_of_cut] == roots_of_cut + 1).all() == (mode == "subtrees")
+    assert tree.auto_mode == mode
+    target, pyramid, tester = DepthTarget(glctx, res), DepthPyramid(glctx, res), HizTest(glctx)
+    try:
+        with glctx.current():
+            target.texture.write(_depth_near_boxes(scene, cam, res, n).tobytes())
+            pyramid.build(target.texture)
+            boxes = glctx.geometry(scene).boxes
+            want = tester.walk(pyramid, cam, boxes, tree, mode=mode)
+            got = tester.walk(pyramid, cam, boxes, tree, mode="auto")
+            np.testing.assert_array_equal(got[0], want[0])
+            assert got[1:] == want[1:]
+            with pytest.raises(ValueError, match="walk mode must be one of"):
+                tester.walk(pyramid, cam, boxes, tree, mode="sideways")
+    finally:
+        for obj in (tester, pyramid, target):
+            obj.release()
+
+
 def _driven_run(scene, cams, res, resets, options) -> list:
     """Per frame of ``cams`` (reset before the frames in ``resets``): kept set, triangles
     drawn, drawn clusters, objects outside the frustum, draw commands early and late."""

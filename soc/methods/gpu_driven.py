@@ -60,7 +60,7 @@ import time
 
 import numpy as np
 
-from soc.culling.bvh_gpu import NODE_REFINE, WALK_MODES, gpu_hierarchy
+from soc.culling.bvh_gpu import NODE_REFINE, WALK_OPTIONS, gpu_hierarchy
 from soc.culling.clusters import MAX_TRIANGLES, scene_clusters, whole_objects
 from soc.culling.hiz_cpu import check_test_options
 from soc.culling.hiz_gpu import (
@@ -127,6 +127,13 @@ class GpuDriven(CullMethod):
         How the draws learn their command count: the GL reads it from the GPU buffer where it
         can (``glMultiDrawElementsIndirectCount``, GL 4.6 or ``ARB_indirect_parameters``;
         default), or it is read back, 4 bytes per pass (``"read"``; the fallback elsewhere).
+    hierarchy : bool
+        The late pass walks the scene's object hierarchy (:mod:`soc.culling.bvh_gpu`; default
+        True: a subtree outside the frustum or behind the pyramid is dropped whole) or tests
+        every object box (False: the reference; the same frames, ``tests/test_bvh_gpu.py``).
+    walk : {"auto", "levels", "subtrees"}
+        How the walk dispatches (:meth:`soc.culling.bvh_gpu.GpuHierarchy.run`; ``"auto"``,
+        the default: :attr:`~soc.culling.bvh_gpu.GpuHierarchy.auto_mode`); the same result.
 
     Attributes
     ----------
@@ -156,7 +163,7 @@ class GpuDriven(CullMethod):
         next_from: str = "early",
         cluster_triangles: int = MAX_TRIANGLES,
         hierarchy: bool = True,
-        walk: str = "levels",
+        walk: str = "auto",
     ):
         if granularity not in GRANULARITIES:
             raise ValueError(f"granularity must be one of {GRANULARITIES}, got {granularity!r}")
@@ -164,8 +171,8 @@ class GpuDriven(CullMethod):
             raise ValueError(f"count must be one of {COUNTS}, got {count!r}")
         if next_from not in NEXT_FROM:
             raise ValueError(f"next_from must be one of {NEXT_FROM}, got {next_from!r}")
-        if walk not in WALK_MODES:
-            raise ValueError(f"walk must be one of {WALK_MODES}, got {walk!r}")
+        if walk not in WALK_OPTIONS:
+            raise ValueError(f"walk must be one of {WALK_OPTIONS}, got {walk!r}")
         self.walk = walk
         self.next_from = next_from
         footprint, refine = check_test_options(footprint, refine)

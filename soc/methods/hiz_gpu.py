@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from soc.culling.bvh_gpu import WALK_MODES, gpu_hierarchy
+from soc.culling.bvh_gpu import WALK_OPTIONS, gpu_hierarchy
 from soc.culling.depth_prepass import ConservativeOccluders, DepthTarget, render_occluders
 from soc.culling.frustum import aabbs_in_frustum
 from soc.culling.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
@@ -64,9 +64,9 @@ class GpuHizCulling(CullMethod):
         (:meth:`soc.culling.hiz_gpu.HizTest.walk`: a subtree outside the frustum or behind the
         pyramid is dropped whole; default True) or every box (False: the reference; the same
         kept set and frustum-culled count, ``tests/test_bvh_gpu.py``).
-    walk : str
-        How the walk dispatches (:data:`soc.culling.bvh_gpu.WALK_MODES`): ``"levels"``
-        (default) or ``"subtrees"``; the same result.
+    walk : {"auto", "levels", "subtrees"}
+        How the walk dispatches (:meth:`soc.culling.bvh_gpu.GpuHierarchy.run`; ``"auto"``,
+        the default: :attr:`~soc.culling.bvh_gpu.GpuHierarchy.auto_mode`); the same result.
     """
 
     name = "hiz-gpu"
@@ -83,11 +83,11 @@ class GpuHizCulling(CullMethod):
         occluder_resolution: tuple[int, int] | None = None,
         conservative: bool | None = None,
         hierarchy: bool = True,
-        walk: str = "levels",
+        walk: str = "auto",
     ):
         super().__init__(geometry, resolution, config)
-        if walk not in WALK_MODES:
-            raise ValueError(f"walk must be one of {WALK_MODES}, got {walk!r}")
+        if walk not in WALK_OPTIONS:
+            raise ValueError(f"walk must be one of {WALK_OPTIONS}, got {walk!r}")
         display = _resolution(*resolution)
         occ = display if occluder_resolution is None else _resolution(*occluder_resolution)
         if occ[0] > display[0] or occ[1] > display[1]:
