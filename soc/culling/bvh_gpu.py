@@ -10,16 +10,20 @@ objects' *grown* boxes, the object ids in tree order, and a cut of subtree roots
 :meth:`Hierarchy.refit` restricts them on the CPU). No CPU work per frame: a shader that
 includes ``bvh_walk.common.glsl`` walks it in one dispatch.
 
-**The walk** (``walk_subtree`` in ``bvh_walk.common.glsl``): every invocation walks whole
-subtrees of the cut (:func:`cut`), depth first without a stack — the preorder and skip
-indices say where a subtree ends, and what an ancestor decided holds while the node index is
-below a bound. A node outside the frustum drops its subtree (its objects are counted outside);
-a node inside the frustum spares its objects their frustum test; a node hidden behind the
-pyramid drops its subtree when it is inside the frustum, else the subtree is walked with
-frustum tests only (so the objects outside the frustum are counted exactly as the flat test
-counts them). At a leaf the including shader tests its objects as the flat test does. Measured
-on llvmpipe, whose compute invocations run as SIMD lanes of its threads: a queue of nodes per
-level (one dispatch per level) was not needed — see ``results/BENCHMARKS.md``.
+**The walk** (:data:`WALK_MODES`, :meth:`GpuHierarchy.run`). ``"subtrees"``
+(``walk_subtree`` in ``bvh_walk.common.glsl``): every invocation walks whole subtrees of the
+cut (:func:`cut`), depth first without a stack — the preorder and skip indices say where a
+subtree ends, and what an ancestor decided holds while the node index is below a bound.
+``"levels"`` (``walk_level_all``): one dispatch per tree level over a queue of the level's
+nodes, each node appending its children (with what it decided) for the next, the dispatch
+size read from the GPU (``glDispatchComputeIndirect``). Either way a node outside the frustum
+drops its subtree (its objects are counted outside); a node inside the frustum spares its
+objects their frustum test; a node hidden behind the pyramid drops its subtree when it is
+inside the frustum, else the subtree is walked with frustum tests only (so the objects
+outside the frustum are counted exactly as the flat test counts them; ``exact_outside=False``
+drops it too). At a leaf the including shader tests its objects as the flat test does.
+``"auto"`` picks by the cut (:attr:`GpuHierarchy.auto_mode`; measured in
+``results/BENCHMARKS.md``).
 
 **The same kept set as the flat test, in float32** (``hiz_test.common.glsl``'s
 ``outside_frustum`` and ``judge`` on every grown object box). The node box is the exact
@@ -128,9 +132,9 @@ class GpuHierarchy:
         leaf (each invocation then judges one leaf box and its objects, in one dispatch),
         else ``"levels"`` (the subtrees below a cut above the leaves are walked one per
         invocation, unevenly; a dispatch per level shares their nodes out). Measured on
-        llvmpipe: on castle-2114 (578 leaf roots) the subtrees walk cost as much as testing
-        every box and the level walk 0.02–0.06 of the ideal frame more; on the city (10⁶
-        objects, 2,048 roots at depth 11 of 20) the level walk's test took 17–70 ms where the
+        llvmpipe: on castle-2114 (578 leaf roots) the subtrees walk cost no more than testing
+        every box, the level walk 0.02–0.06 of the ideal frame more; on the city (10⁶
+        objects, 2,048 roots at depth 11 of 19) the level walk's test took 17–70 ms where the
         subtrees walk took 38–85 ms (``results/BENCHMARKS.md``).
     """
 
