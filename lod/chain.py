@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from lod import cache as _cache
-from lod.mesh_error import SAMPLES, SurfaceSamples, hausdorff
+from lod.mesh_error import SAMPLES, SurfaceSamples, hausdorff_to
 
 # fast-simplification's ``agg`` (threshold growth exponent). Measured with build_chain to
 # 1/16 (noisy icosphere 82k triangles / smooth torus 160k; final-level Hausdorff error):
@@ -65,7 +65,7 @@ AGG_MAX = 9.0
 # 1/16 in one run, so a second run at agg 5 follows), and its coarse levels stay 30-40 % worse:
 # one run keeps accumulating quadrics where the cascade starts afresh at every level.
 CASCADE = True
-# Threads measuring the levels' errors (numpy and scipy's k-d trees release the GIL).
+# Threads measuring the levels' errors (the sampling and distance kernels release the GIL).
 ERROR_THREADS = 2
 DEFAULT_RATIOS = (1.0, 0.5, 0.25, 0.125, 0.0625)
 
@@ -371,9 +371,10 @@ def build_chain(
 
 def _measure_errors(full_mesh: tuple, meshes: list[tuple]) -> list[float]:
     """Sampled symmetric Hausdorff distance of each level to ``full_mesh`` (0 for the input
-    itself), object units. Sampling, k-d trees and distance queries run mostly outside the
-    GIL, so they are spread over ``ERROR_THREADS`` threads: first every surface's samples,
-    then the distances. The numbers do not depend on the thread count."""
+    itself), object units. The sampling and the distances run outside the GIL, so every
+    surface's samples, then the full mesh's points against each level, are spread over
+    ``ERROR_THREADS`` threads; the levels' points against the full mesh are one stream of its
+    triangles (``lod.mesh_error.hausdorff_to``). The numbers do not depend on the threads."""
     from concurrent.futures import ThreadPoolExecutor
 
     todo = [k for k, mesh in enumerate(meshes) if mesh[1] is not full_mesh[1]]
@@ -381,7 +382,7 @@ def _measure_errors(full_mesh: tuple, meshes: list[tuple]) -> list[float]:
         full, *levels = pool.map(
             lambda m: SurfaceSamples.of(*m), [full_mesh, *(meshes[k] for k in todo)]
         )
-        dist = list(pool.map(lambda s: hausdorff(s, full), levels))
+    dist = hausdorff_to(levels, full, threads=ERROR_THREADS)
     errors = [0.0] * len(meshes)
     for k, d in zip(todo, dist, strict=True):
         errors[k] = d
