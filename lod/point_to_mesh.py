@@ -10,12 +10,15 @@ box meets, grown by a radius ``r``. After one such pass each point knows the lea
 to the triangles within ``r`` of it — its exact distance whenever that is ≤ r (no triangle
 that close was skipped: its box, grown by r, holds the point). Points left above ``r`` are
 the only ones that can raise a maximum above ``r``; a next pass with ``r`` = the largest
-distance they have seen (or 4 r when they have seen none) settles them, and points whose
-bound is already below the maximum are dropped. Two passes at most in practice (``r`` from
-the previous level's error); a point far from everything (a component the simplifier
-deleted) only adds passes that are quick, for they carry few points.
+distance they have seen (at most 4 r; 4 r when they have seen none) settles them, and points
+whose bound is already below the maximum are dropped — during a pass too, as soon as one
+triangle brings them there (the early break of Taha & Hanbury 2015, "An efficient algorithm
+for calculating the exact Hausdorff distance"). Two or three passes in practice; a point far
+from everything (a component the simplifier deleted) only adds passes that are quick, for
+they carry few points. :func:`max_distances` takes points of several groups (a chain's levels)
+with a maximum and a floor each: one stream of a big mesh serves them all.
 
-Stages of :func:`max_distance`: grid of the points (cell ≥ r, counting sort) → stream the
+Stages of :func:`max_distances`: grid of the points (cell ≥ r, counting sort) → stream the
 triangles (``_stream``) → settle or carry each point → next pass. The point–triangle kernel
 is :mod:`lod.triangle_distance`.
 """
@@ -28,9 +31,10 @@ import numpy as np
 from lod.triangle_distance import distance2, is_sliver
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+_inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 # Cells of the point grid at most (a dense array of int32 starts: 8 MiB); the cell edge grows
-# until the points' bounding box fits in as many.
+# until the points' bounding box fits in as many (8 M cells, finer, were no faster: cache).
 GRID_CELLS = 1 << 21
 
 
@@ -151,8 +155,15 @@ def _settle(points, group, v, f, best2, radius, spacing, prune):
     active = np.arange(q)
     r = radius if radius > 0 else 0.1 * _spacing(points, active, spacing)
     bound = np.full(q, np.inf)  # least squared distance seen so far: an upper bound
+    # a point whose bound falls to its group's maximum so far is done: it cannot raise it
+    # (the early break of Taha & Hanbury 2015, "An efficient algorithm for calculating the
+    # exact Hausdorff distance"); without ``prune`` only an exact 0 is enough
+    enough = np.zeros(q)
     while active.shape[0] > 0:
-        _pass(points, active, v, f, r, spacing, bound)
+        if prune:
+            for i in active:
+                enough[i] = best2[group[i]]
+        _pass(points, active, v, f, r, spacing, bound, enough)
         r2 = r * r
         if prune:
             for i in active:
@@ -172,8 +183,10 @@ def _settle(points, group, v, f, best2, radius, spacing, prune):
                 else:
                     reach = max(reach, bound[i])
         active = keep[:n_keep]
-        # every kept point has d ≤ sqrt(bound): a pass that far settles it
-        r = 4.0 * r if unseen else max(np.sqrt(reach), 1.0000001 * r)
+        # every kept point has d ≤ sqrt(bound): a pass that far settles it; but one far
+        # bound (a long sliver's box was near) must not make every point search far, so the
+        # radius grows at most 4× per pass
+        r = 4.0 * r if unseen else min(max(np.sqrt(reach), 1.0000001 * r), 4.0 * r)
     return bound
 
 
@@ -199,9 +212,10 @@ def _spacing(points, active, spacing):
 
 
 @_jit
-def _pass(points, active, v, f, r, spacing, bound):
+def _pass(points, active, v, f, r, spacing, bound, enough):
     """One pass at radius r: bound[i] = min(bound[i], squared distances from point i to every
-    triangle whose bounding box lies within r of it), for the active points."""
+    triangle whose bounding box lies within r of it), for the active points; a point stops
+    early once bound[i] ≤ enough[i]."""
     # the grid: active points sorted by cell (counting sort), cells ≥ r
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
@@ -217,11 +231,12 @@ def _pass(points, active, v, f, r, spacing, bound):
             dims[a] = np.int64((hi[a] - lo[a]) / cell) + 1
         if dims[0] * dims[1] * dims[2] <= GRID_CELLS:
             break
-        cell = max(2.0 * cell, ext / 100.0)
+        cell = max(1.25 * cell, ext / 100.0)
+    n = active.shape[0]
     n_cells = dims[0] * dims[1] * dims[2]
     start = np.zeros(n_cells + 1, np.int32)
-    key = np.empty(active.shape[0], np.int64)
-    for j in range(active.shape[0]):
+    key = np.empty(n, np.int64)
+    for j in range(n):
         i = active[j]
         c = 0
         for a in range(3):
@@ -231,25 +246,27 @@ def _pass(points, active, v, f, r, spacing, bound):
     for c in range(n_cells):
         start[c + 1] += start[c]
     fill = start[:-1].copy()
-    who = np.empty(active.shape[0], np.int64)  # point ids in cell order
-    for j in range(active.shape[0]):
+    who = np.empty(n, np.int64)  # point ids in cell order
+    for j in range(n):
         who[fill[key[j]]] = active[j]
         fill[key[j]] += 1
-    pts = np.empty((active.shape[0], 3))
-    best = np.empty(active.shape[0])
-    for s in range(active.shape[0]):
+    pts = np.empty((n, 3))
+    best = np.empty(n)
+    stop = np.empty(n)
+    for s in range(n):
         pts[s] = points[who[s]]
         best[s] = bound[who[s]]
-    _stream(pts, best, lo, cell, dims, start, v, f, r)
-    for s in range(active.shape[0]):
+        stop[s] = enough[who[s]]
+    _stream(pts, best, stop, lo, cell, dims, start, v, f, r)
+    for s in range(n):
         bound[who[s]] = best[s]
 
 
 @_jit
-def _stream(pts, best, lo, cell, dims, start, v, f, r):
+def _stream(pts, best, stop, lo, cell, dims, start, v, f, r):
     """Every triangle of (v, f), once: offered to the points of the cells that its bounding box,
     grown by r, meets; best[s] = min(best[s], squared distance) for the points within r of
-    the box."""
+    the box, until best[s] ≤ stop[s]."""
     r2 = r * r
     inv = 1.0 / cell
     nx, ny, nz = dims[0], dims[1], dims[2]
@@ -261,12 +278,12 @@ def _stream(pts, best, lo, cell, dims, start, v, f, r):
         ax, ay, az = np.float64(v[a, 0]), np.float64(v[a, 1]), np.float64(v[a, 2])
         bx, by, bz = np.float64(v[b, 0]), np.float64(v[b, 1]), np.float64(v[b, 2])
         cx, cy, cz = np.float64(v[c, 0]), np.float64(v[c, 1]), np.float64(v[c, 2])
-        blx, bly, blz = min(ax, bx, cx), min(ay, by, cy), min(az, bz, cz)
-        bhx, bhy, bhz = max(ax, bx, cx), max(ay, by, cy), max(az, bz, cz)
+        box = (min(ax, bx, cx), min(ay, by, cy), min(az, bz, cz),
+               max(ax, bx, cx), max(ay, by, cy), max(az, bz, cz))  # fmt: skip
         # the cells that the grown box meets (none when it misses the grid)
-        x0, x1 = (blx - ox) * inv, (bhx - ux) * inv
-        y0, y1 = (bly - oy) * inv, (bhy - uy) * inv
-        z0, z1 = (blz - oz) * inv, (bhz - uz) * inv
+        x0, x1 = (box[0] - ox) * inv, (box[3] - ux) * inv
+        y0, y1 = (box[1] - oy) * inv, (box[4] - uy) * inv
+        z0, z1 = (box[2] - oz) * inv, (box[5] - uz) * inv
         if x1 < 0 or y1 < 0 or z1 < 0 or x0 >= nx or y0 >= ny or z0 >= nz:
             continue
         i0 = np.int64(x0) if x0 > 0 else 0
@@ -275,19 +292,33 @@ def _stream(pts, best, lo, cell, dims, start, v, f, r):
         i1 = np.int64(x1) if x1 < nx - 1 else nx - 1
         j1 = np.int64(y1) if y1 < ny - 1 else ny - 1
         k1 = np.int64(z1) if z1 < nz - 1 else nz - 1
-        sliver = -1  # computed on the first candidate
+        tri = (ax, ay, az, bx, by, bz, cx, cy, cz)
+        sliver = -1  # computed for the first point near the box
         for i in range(i0, i1 + 1):
             for j in range(j0, j1 + 1):
-                row = (i * ny + j) * nz
-                for s in range(start[row + k0], start[row + k1 + 1]):  # cells (i, j, k0..k1)
-                    px, py, pz = pts[s, 0], pts[s, 1], pts[s, 2]
-                    dx = max(blx - px, px - bhx, 0.0)
-                    dy = max(bly - py, py - bhy, 0.0)
-                    dz = max(blz - pz, pz - bhz, 0.0)
-                    if dx * dx + dy * dy + dz * dz > r2:
-                        continue
-                    if sliver < 0:
-                        sliver = 1 if is_sliver(ax, ay, az, bx, by, bz, cx, cy, cz) else 0
-                    d = distance2(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz, sliver == 1)
-                    if d < best[s]:
-                        best[s] = d
+                row = (i * ny + j) * nz  # cells (i, j, k0..k1) are one run of points
+                sliver = _offer(
+                    pts, best, stop, start[row + k0], start[row + k1 + 1], box, r2, tri, sliver
+                )
+
+
+@_inline
+def _offer(pts, best, stop, s0, s1, box, r2, tri, sliver):
+    """Points s0..s1−1 within r of the triangle's box take its squared distance if less.
+    sliver: 1/0 as ``is_sliver`` says, −1 not known yet; returns it, known once needed."""
+    for s in range(s0, s1):
+        if best[s] <= stop[s]:
+            continue
+        px, py, pz = pts[s, 0], pts[s, 1], pts[s, 2]
+        dx = max(box[0] - px, px - box[3], 0.0)
+        dy = max(box[1] - py, py - box[4], 0.0)
+        dz = max(box[2] - pz, pz - box[5], 0.0)
+        if dx * dx + dy * dy + dz * dz > r2:
+            continue
+        ax, ay, az, bx, by, bz, cx, cy, cz = tri
+        if sliver < 0:
+            sliver = 1 if is_sliver(ax, ay, az, bx, by, bz, cx, cy, cz) else 0
+        d = distance2(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz, sliver == 1)
+        if d < best[s]:
+            best[s] = d
+    return sliver
