@@ -36,6 +36,9 @@ _inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always
 # Cells of the point grid at most (a dense array of int32 starts: 8 MiB); the cell edge grows
 # until the points' bounding box fits in as many (8 M cells, finer, were no faster: cache).
 GRID_CELLS = 1 << 21
+# Triangles per block: passes after the first skip the blocks whose box (grown by the radius)
+# meets no point's cell. 64: a patch of a few triangles across in a mesh's usual order.
+BLOCK = 64
 
 
 def max_distance(
@@ -159,11 +162,14 @@ def _settle(points, group, v, f, best2, radius, spacing, prune):
     # (the early break of Taha & Hanbury 2015, "An efficient algorithm for calculating the
     # exact Hausdorff distance"); without ``prune`` only an exact 0 is enough
     enough = np.zeros(q)
+    blocks = np.empty(((f.shape[0] + BLOCK - 1) // BLOCK, 6))  # filled by the first pass
+    passes = 0
     while active.shape[0] > 0:
         if prune:
             for i in active:
                 enough[i] = best2[group[i]]
-        _pass(points, active, v, f, r, spacing, bound, enough)
+        _pass(points, active, v, f, r, spacing, bound, enough, blocks, passes > 0)
+        passes += 1
         r2 = r * r
         if prune:
             for i in active:
@@ -212,10 +218,10 @@ def _spacing(points, active, spacing):
 
 
 @_jit
-def _pass(points, active, v, f, r, spacing, bound, enough):
+def _pass(points, active, v, f, r, spacing, bound, enough, blocks, known):
     """One pass at radius r: bound[i] = min(bound[i], squared distances from point i to every
     triangle whose bounding box lies within r of it), for the active points; a point stops
-    early once bound[i] ≤ enough[i]."""
+    early once bound[i] ≤ enough[i]. blocks, known: as ``_stream`` takes them."""
     # the grid: active points sorted by cell (counting sort), cells ≥ r
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
@@ -257,49 +263,88 @@ def _pass(points, active, v, f, r, spacing, bound, enough):
         pts[s] = points[who[s]]
         best[s] = bound[who[s]]
         stop[s] = enough[who[s]]
-    _stream(pts, best, stop, lo, cell, dims, start, v, f, r)
+    _stream(pts, best, stop, lo, cell, dims, start, v, f, r, blocks, known)
     for s in range(n):
         bound[who[s]] = best[s]
 
 
 @_jit
-def _stream(pts, best, stop, lo, cell, dims, start, v, f, r):
+def _stream(pts, best, stop, lo, cell, dims, start, v, f, r, blocks, known):
     """Every triangle of (v, f), once: offered to the points of the cells that its bounding box,
     grown by r, meets; best[s] = min(best[s], squared distance) for the points within r of
-    the box, until best[s] ≤ stop[s]."""
+    the box, until best[s] ≤ stop[s].
+
+    blocks (⌈m / BLOCK⌉, 6): the box (lo xyz, hi xyz) of each run of BLOCK triangles, written
+    when not ``known``, else read: later passes carry few points, and a block whose grown box
+    meets no point's cell is skipped whole (the mesh's order keeps a run's box small)."""
     r2 = r * r
     inv = 1.0 / cell
     nx, ny, nz = dims[0], dims[1], dims[2]
     # grid coordinates of the grown box's corners are (x ∓ r − lo) / cell
     ox, oy, oz = lo[0] + r, lo[1] + r, lo[2] + r
     ux, uy, uz = lo[0] - r, lo[1] - r, lo[2] - r
-    for t in range(f.shape[0]):
-        a, b, c = f[t, 0], f[t, 1], f[t, 2]
-        ax, ay, az = np.float64(v[a, 0]), np.float64(v[a, 1]), np.float64(v[a, 2])
-        bx, by, bz = np.float64(v[b, 0]), np.float64(v[b, 1]), np.float64(v[b, 2])
-        cx, cy, cz = np.float64(v[c, 0]), np.float64(v[c, 1]), np.float64(v[c, 2])
-        box = (min(ax, bx, cx), min(ay, by, cy), min(az, bz, cz),
-               max(ax, bx, cx), max(ay, by, cy), max(az, bz, cz))  # fmt: skip
-        # the cells that the grown box meets (none when it misses the grid)
-        x0, x1 = (box[0] - ox) * inv, (box[3] - ux) * inv
-        y0, y1 = (box[1] - oy) * inv, (box[4] - uy) * inv
-        z0, z1 = (box[2] - oz) * inv, (box[5] - uz) * inv
-        if x1 < 0 or y1 < 0 or z1 < 0 or x0 >= nx or y0 >= ny or z0 >= nz:
+    for blk in range(blocks.shape[0]):
+        if known and not _occupied(blocks[blk], ox, oy, oz, ux, uy, uz, inv, dims, start):
             continue
-        i0 = np.int64(x0) if x0 > 0 else 0
-        j0 = np.int64(y0) if y0 > 0 else 0
-        k0 = np.int64(z0) if z0 > 0 else 0
-        i1 = np.int64(x1) if x1 < nx - 1 else nx - 1
-        j1 = np.int64(y1) if y1 < ny - 1 else ny - 1
-        k1 = np.int64(z1) if z1 < nz - 1 else nz - 1
-        tri = (ax, ay, az, bx, by, bz, cx, cy, cz)
-        sliver = -1  # computed for the first point near the box
-        for i in range(i0, i1 + 1):
-            for j in range(j0, j1 + 1):
-                row = (i * ny + j) * nz  # cells (i, j, k0..k1) are one run of points
-                sliver = _offer(
-                    pts, best, stop, start[row + k0], start[row + k1 + 1], box, r2, tri, sliver
-                )
+        qlx = qly = qlz = np.inf  # this block's box, when not known
+        qhx = qhy = qhz = -np.inf
+        for t in range(blk * BLOCK, min((blk + 1) * BLOCK, f.shape[0])):
+            a, b, c = f[t, 0], f[t, 1], f[t, 2]
+            ax, ay, az = np.float64(v[a, 0]), np.float64(v[a, 1]), np.float64(v[a, 2])
+            bx, by, bz = np.float64(v[b, 0]), np.float64(v[b, 1]), np.float64(v[b, 2])
+            cx, cy, cz = np.float64(v[c, 0]), np.float64(v[c, 1]), np.float64(v[c, 2])
+            box = (min(ax, bx, cx), min(ay, by, cy), min(az, bz, cz),
+                   max(ax, bx, cx), max(ay, by, cy), max(az, bz, cz))  # fmt: skip
+            if not known:
+                qlx, qly, qlz = min(qlx, box[0]), min(qly, box[1]), min(qlz, box[2])
+                qhx, qhy, qhz = max(qhx, box[3]), max(qhy, box[4]), max(qhz, box[5])
+            # the cells that the grown box meets (none when it misses the grid)
+            x0, x1 = (box[0] - ox) * inv, (box[3] - ux) * inv
+            y0, y1 = (box[1] - oy) * inv, (box[4] - uy) * inv
+            z0, z1 = (box[2] - oz) * inv, (box[5] - uz) * inv
+            if x1 < 0 or y1 < 0 or z1 < 0 or x0 >= nx or y0 >= ny or z0 >= nz:
+                continue
+            i0 = np.int64(x0) if x0 > 0 else 0
+            j0 = np.int64(y0) if y0 > 0 else 0
+            k0 = np.int64(z0) if z0 > 0 else 0
+            i1 = np.int64(x1) if x1 < nx - 1 else nx - 1
+            j1 = np.int64(y1) if y1 < ny - 1 else ny - 1
+            k1 = np.int64(z1) if z1 < nz - 1 else nz - 1
+            tri = (ax, ay, az, bx, by, bz, cx, cy, cz)
+            sliver = -1  # computed for the first point near the box
+            for i in range(i0, i1 + 1):
+                for j in range(j0, j1 + 1):
+                    row = (i * ny + j) * nz  # cells (i, j, k0..k1) are one run of points
+                    sliver = _offer(
+                        pts, best, stop, start[row + k0], start[row + k1 + 1], box, r2, tri, sliver
+                    )
+        if not known:
+            blocks[blk, 0], blocks[blk, 1], blocks[blk, 2] = qlx, qly, qlz
+            blocks[blk, 3], blocks[blk, 4], blocks[blk, 5] = qhx, qhy, qhz
+
+
+@_inline
+def _occupied(box, ox, oy, oz, ux, uy, uz, inv, dims, start):
+    """Whether a point lies in a cell that ``box`` (6,), grown by r, meets (the grid
+    coordinates of its corners are (x ∓ r − lo) / cell)."""
+    nx, ny, nz = dims[0], dims[1], dims[2]
+    x0, x1 = (box[0] - ox) * inv, (box[3] - ux) * inv
+    y0, y1 = (box[1] - oy) * inv, (box[4] - uy) * inv
+    z0, z1 = (box[2] - oz) * inv, (box[5] - uz) * inv
+    if x1 < 0 or y1 < 0 or z1 < 0 or x0 >= nx or y0 >= ny or z0 >= nz:
+        return False
+    i0 = np.int64(x0) if x0 > 0 else 0
+    j0 = np.int64(y0) if y0 > 0 else 0
+    k0 = np.int64(z0) if z0 > 0 else 0
+    i1 = np.int64(x1) if x1 < nx - 1 else nx - 1
+    j1 = np.int64(y1) if y1 < ny - 1 else ny - 1
+    k1 = np.int64(z1) if z1 < nz - 1 else nz - 1
+    for i in range(i0, i1 + 1):
+        for j in range(j0, j1 + 1):
+            row = (i * ny + j) * nz
+            if start[row + k0] < start[row + k1 + 1]:
+                return True
+    return False
 
 
 @_inline
