@@ -13,16 +13,14 @@ vertices and degenerate faces) → simplify each level (cascade: from the previo
 restart: every level as from the full mesh, all of them snapshots of one simplifier run,
 ``lod.replay``) → clean each level → measure errors → accumulate → cache on disk.
 
-Cost (bench_lod_chain: 5 levels of a 1.3 M-triangle mesh, 2 shared cores, best of 3): 1.6×
-one fast-simplification call to the coarsest level (4.9 s vs 2.95 s; the issue's target is
-≤ 2×). The four cascaded simplifications take 1.15× that call, the error measurement
-≈ 0.45× (on 2 threads), welding and compaction 0.05×. Before (sorting welds and
-compactions, one global refinement reach and 4 candidates per point in ``lod.mesh_error``)
-the same chain took 3.4× (10.0 s), with the same levels and errors. With 6 levels (issue 24,
-CPU time, load 13): cascade 1.91× one call (of which errors ≈ 0.8×); restart 2.24×, from
-5.45× when it made one call per level (the same levels: the one-run snapshots are each
-call's mesh); so a chain within 1.2× of one call is out of reach while the error is measured
-as it is — the error measurement alone costs ~0.8× of the call (results/BENCHMARKS.md).
+Cost (bench_lod_chain, 6 levels, this process's CPU time, 2 shared cores, load 4-5; the
+issue's target is ≤ 1.2× one fast-simplification call to the coarsest level): the cascade
+costs 1.61-1.85× that call on igea subdivided (1.07 M triangles) and 1.34-1.63× on a noisy
+icosphere (1.3 M); its five simplifier calls alone 0.97-1.01× and 0.98-1.30×, the error
+measurement 0.42-0.48× and 0.29-0.33× (exact maxima streamed over point grids,
+``lod.mesh_error``; before, with k-d trees: 1.96× and 0.8×, the cascade 3.18× and 1.91×),
+welding and compaction ≈ 0.05×. So the simplifier calls alone nearly use up the target: a
+cascade within 1.2× would need the error measurement near 0.1× (results/BENCHMARKS.md).
 
 Triangle counts: each level holds ``round(ratio · m)`` triangles (m = input triangles) up to
 the simplifier's granularity (one pass may overshoot by a few triangles; measured within ±5 %
