@@ -22,7 +22,7 @@
     vislod seed004-model [--quick] [--out DIR]
     vislod seed004-octree [--quick] [--frames N] [--objects 70000] [--out DIR]
     vislod seed004-adaptive [--quick] [--frames N] [--scale S] [--scenes A,B] [--out DIR]
-    vislod figures [--only NAME ...] [--force] [--quick] [--out results]
+    vislod figures [--only NAME ...] [--force] [--quick] [--out results] [--claims-only]
     vislod sweep [--scenes SPEC ...] [--seeds N ...] [--methods ...] [--displays WxH ...]
                  [--resolutions WxH ...] [--frames N] [--chunk N] [--oracle] [--draw]
                  [--scheduler tcp://H:P] [--workers N] [--gl-threads N] [--force] [--quick]
@@ -256,6 +256,11 @@ def build_parser() -> argparse.ArgumentParser:
     figs.add_argument("--list", action="store_true", help="list the figures and exit")
     figs.add_argument("--force", action="store_true", help="re-run figures already done")
     figs.add_argument(
+        "--claims-only",
+        action="store_true",
+        help="judge the stored frames' claims anew (no compute), then the report",
+    )
+    figs.add_argument(
         "--quick", action="store_true", help="small scenes, few frames (VISLOD_QUICK=1)"
     )
     figs.add_argument(
@@ -387,7 +392,7 @@ CULL_HEADERS = {
 def cmd_figures(args: argparse.Namespace) -> int:
     import os
 
-    from experiments.figures import run_figures
+    from experiments.figures import reclaim_figures, run_figures
     from experiments.harness import experiments
 
     if args.list:
@@ -395,6 +400,9 @@ def cmd_figures(args: argparse.Namespace) -> int:
 
         rows = [(f.key, f.seed, f"~{f.minutes:g} min", f.title) for f in experiments()]
         print(terminal.table(pd.DataFrame(rows, columns=["figure", "seed", "time", "title"])))
+        return 0
+    if args.claims_only:
+        reclaim_figures(args.out, quick=args.quick, only=args.only)
         return 0
     data = args.data or os.environ.get("VISLOD_DATA") or None
     run_figures(

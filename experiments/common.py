@@ -38,6 +38,7 @@ class UsageError(ValueError):
 # -- where results go -------------------------------------------------------------------------
 
 ROOT = Path(__file__).resolve().parents[1]  # the checkout, when the package runs from one
+GALLERY = ROOT / "docs" / "gallery"  # the tracked pictures (:mod:`experiments.gallery`)
 
 
 def in_checkout() -> bool:
@@ -48,8 +49,8 @@ def in_checkout() -> bool:
 
 def gallery_path(stem: str, folder: Path | None = None) -> Path:
     """Where the picture ``stem`` (``<key>_<plot>``) lives in the tracked gallery (``folder``,
-    default ``docs/gallery/``: :mod:`experiments.gallery`)."""
-    return Path(folder if folder is not None else ROOT / "docs" / "gallery") / f"{stem}.png"
+    default :data:`GALLERY`)."""
+    return Path(folder if folder is not None else GALLERY) / f"{stem}.png"
 
 
 def default_results_dir() -> Path:

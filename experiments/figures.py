@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from experiments import harness, terminal
-from experiments.common import UsageError, check_writable, default_out
+from experiments.common import GALLERY, UsageError, check_writable, default_out
 
 
 def figure_names() -> list[str]:
@@ -32,6 +32,30 @@ def _overrides(params: Any) -> dict[str, Any]:
     return {
         f.name: getattr(params, f.name) for f in dataclasses.fields(params) if f.name != "quick"
     }
+
+
+def reclaim_figures(
+    out: str | Path | None = None, *, quick: bool = False, only: Sequence[str] | None = None
+) -> dict[str, Any]:
+    """Claims only: every stored experiment's claims evaluated anew on its frames (no
+    compute), then ``REPORT.md``. Returns ``{"reclaimed": [...], "missing": [...],
+    "report": path}``."""
+    from experiments.report import write_report
+
+    names = figure_names()
+    unknown = sorted(set(only or ()) - set(names))
+    if unknown:
+        raise UsageError(f"unknown figure(s) {', '.join(unknown)}; available: {', '.join(names)}")
+    out = check_writable(Path(out) if out is not None else default_out(quick))
+    done, missing = [], []
+    for exp in harness.experiments():
+        if not only or exp.key in only:
+            (done if harness.reclaim(exp, out) is not None else missing).append(exp.key)
+    if missing:
+        print(f"not run, no frames to judge (run them first): {', '.join(missing)}")
+    report = write_report(out, quick=quick)
+    print(f"claims re-evaluated: {', '.join(done) or 'none'}; report: {report}")
+    return {"reclaimed": done, "missing": missing, "report": report}
 
 
 def run_figures(
@@ -112,5 +136,5 @@ def refresh_gallery(out: Path, ran: Sequence[str]) -> list[Path]:
     written = gallery.write(out, only=keys) if keys else []
     if written:
         gallery.update_readme()
-        print(terminal.paragraph(f"gallery: {len(written)} pictures redrawn in {gallery.FOLDER}"))
+        print(terminal.paragraph(f"gallery: {len(written)} pictures redrawn in {GALLERY}"))
     return written

@@ -21,7 +21,6 @@ from typing import Any
 from experiments import terminal
 from experiments.common import ROOT, atomic_write, default_results_dir, gallery_path, in_checkout
 
-FOLDER = ROOT / "docs" / "gallery"
 README_BEGIN, README_END = "<!-- begin gallery -->", "<!-- end gallery -->"
 WIDTH = 1600  # pixels: readable on a code host's page at full width
 MAX_BYTES = 200_000  # per picture, so that the gallery stays small in git

@@ -7,8 +7,10 @@ An experiment module defines three functions and registers them with :func:`expe
 - plotting functions ``plot_x(frames, params) -> matplotlib.figure.Figure`` — each draws one
   picture from those frames only; the first paragraph of its docstring is the picture's
   caption (what is plotted);
-- ``claims(frames, params) -> DataFrame`` — rows beside the document's numbers, built with
-  :func:`claim`, each with a verdict a reviewer would sign (:data:`VERDICTS`).
+- its claims: a table of declarative rows (:mod:`experiments.claims`) that the harness
+  evaluates on the frames — the document's words, our quantity, the rule with its bound and
+  margin — each with a verdict a reviewer would sign (:data:`VERDICTS`); a function
+  ``claims(frames, params) -> DataFrame`` of :func:`claim` rows still works.
 
 Its parameters are a frozen dataclass whose defaults are the full run, with a ``quick``
 variant (:attr:`Experiment.quick`) for notebooks and CI. The harness gives every experiment
@@ -26,6 +28,7 @@ section of ``REPORT.md`` (:mod:`experiments.report`) and its notebook cells
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import importlib
 import importlib.util
@@ -41,7 +44,9 @@ from typing import Any
 
 import pandas as pd
 
+from experiments import claims as claims_mod
 from experiments.common import UsageError, atomic_write, check_writable, default_out
+from soc.gl.context import default_renderer
 
 # Every experiment module, in report order. A new figure: one module here.
 MODULES: tuple[str, ...] = (
@@ -58,73 +63,18 @@ MODULES: tuple[str, ...] = (
     "experiments.seed004_adaptive",
 )
 
-# -- verdicts ------------------------------------------------------------------------------------
+# -- verdicts (claims as data: experiments.claims) ----------------------------------------------
 
-NUMBERS = "numbers"  # the same quantity, within a tolerance the row states
-TREND = "trend"  # the document's qualitative claim asserted on our data; the row states how
-DIFFERS = "differs"  # measured and not the same; the row gives the measured cause
-IMAGE = "image"  # the same kind of picture, drawn by us
-MEASURED = "measured"  # the document gives no number (or goes beyond it): ours alone
-VERDICTS = (NUMBERS, TREND, DIFFERS, IMAGE, MEASURED)
-CLAIM_COLUMNS = ("item", "document", "ours", "verdict", "basis", "why")
-
-
-def claim(
-    item: str,
-    document: Any,
-    ours: Any,
-    verdict: str,
-    *,
-    basis: str = "",
-    why: str = "",
-) -> dict[str, str]:
-    """One row of a claims table.
-
-    Parameters
-    ----------
-    item : str
-        What is compared, e.g. ``"Abb. 9, models culled, MT+FC"``.
-    document, ours : Any
-        The document's words or number (quote it exactly) and ours (formatted here with
-        :func:`fmt` unless a string).
-    verdict : str
-        One of :data:`VERDICTS`. ``numbers`` needs ``basis`` = the tolerance ("within 5
-        percentage points"); ``trend`` needs ``basis`` = the assertion made on our data
-        ("each stage culls at least as many models as the one before: holds"); ``differs``
-        needs ``why`` = the measured cause.
-    """
-    if verdict not in VERDICTS:
-        raise ValueError(f"verdict must be one of {', '.join(VERDICTS)}, got {verdict!r}")
-    if verdict in (NUMBERS, TREND) and not basis:
-        raise ValueError(f"a {verdict!r} verdict states its basis (tolerance or assertion): {item}")
-    if verdict == DIFFERS and not why:
-        raise ValueError(f"a 'differs' verdict gives the measured cause: {item}")
-    return {
-        "item": item,
-        "document": fmt(document),
-        "ours": fmt(ours),
-        "verdict": verdict,
-        "basis": basis,
-        "why": why,
-    }
+NUMBERS, TREND, DIFFERS, IMAGE, MEASURED = claims_mod.VERDICTS
+VERDICTS = claims_mod.VERDICTS
+CLAIM_COLUMNS = claims_mod.COLUMNS
+claim = claims_mod.claim
+fmt = claims_mod.fmt
 
 
 def claims_frame(rows: Sequence[Mapping[str, str]]) -> pd.DataFrame:
     """The claims table as a DataFrame with :data:`CLAIM_COLUMNS`."""
-    return pd.DataFrame(list(rows), columns=list(CLAIM_COLUMNS))
-
-
-def fmt(x: Any, digits: int = 2) -> str:
-    """A number for a claims row: thousands separators, ``digits`` decimals for floats."""
-    if x is None:
-        return "–"
-    if isinstance(x, bool):
-        return "yes" if x else "no"
-    if isinstance(x, int | float) and not isinstance(x, bool):
-        if isinstance(x, float) and x != x:
-            return "–"
-        return f"{x:,.{digits}f}" if isinstance(x, float) else f"{x:,}"
-    return str(x)
+    return claims_mod.frame_of(rows)
 
 
 # -- the registry --------------------------------------------------------------------------------
@@ -149,7 +99,11 @@ class Experiment:
     quick : Mapping
         Overrides of ``params`` for quick mode (seconds to a minute, small scenes).
     compute, plots, claims :
-        The three parts (see the module docstring); ``plots`` in display order.
+        The three parts (see the module docstring); ``plots`` in display order; ``claims``
+        the function that gives the claims table (for a declarative table: its evaluation).
+    table : tuple
+        The declarative claims table (:class:`experiments.claims.Row` and ``Each``), empty
+        when the claims are a function.
     minutes : float
         Rough full-run time on this machine, for ``vislod figures``' progress bar.
     extras : tuple of str
@@ -179,6 +133,7 @@ class Experiment:
     notebook: str = ""
     intro: str = ""
     module: str = ""
+    table: tuple = ()
 
     def make_params(self, quick: bool = False, data: str | None = None, **overrides: Any):
         """Parameters for a run: the defaults, the quick overrides, then ``overrides``;
@@ -219,13 +174,17 @@ def experiment(
     params: type,
     compute: Callable[..., Frames],
     plots: Sequence[Callable[..., Any]],
-    claims: Callable[..., pd.DataFrame],
+    claims: Callable[..., pd.DataFrame] | claims_mod.Table,
     quick: Mapping[str, Any] | None = None,
     **attrs: Any,
 ) -> Experiment:
-    """Register an experiment (call once at the end of its module); returns it."""
+    """Register an experiment (call once at the end of its module); returns it. ``claims``
+    is a declarative table (:mod:`experiments.claims`) or a function of frames and params."""
     if not dataclasses.is_dataclass(params):
         raise TypeError(f"{key}: params must be a dataclass, got {params!r}")
+    if not callable(claims):
+        attrs["table"] = tuple(claims)
+        claims = functools.partial(claims_mod.evaluate, attrs["table"])
     module = inspect.getmodule(compute)
     intro = attrs.pop("intro", None)
     if intro is None:
@@ -349,16 +308,45 @@ def is_done(exp: Experiment, params: Any, out: Path) -> bool:
         return False
 
 
+def stored_params(exp: Experiment, meta: Mapping[str, Any]) -> Any:
+    """The parameters a run's ``inputs.json`` recorded, as ``exp.params`` (lists read back
+    as tuples; fields the dataclass no longer has are dropped, new ones keep defaults)."""
+
+    def tup(v: Any) -> Any:
+        return tuple(tup(x) for x in v) if isinstance(v, list) else v
+
+    names = {f.name for f in dataclasses.fields(exp.params)}
+    return exp.params(**{k: tup(v) for k, v in meta.get("params", {}).items() if k in names})
+
+
 def load(exp: Experiment, out: Path, params: Any = None) -> Results | None:
-    """Read a finished run's frames and claims back (``None`` when it has not run)."""
+    """Read a finished run's frames and claims back (``None`` when it has not run); without
+    ``params``, the ones the run recorded (:func:`stored_params`)."""
     folder = folder_of(exp, out)
     stamp = folder / "inputs.json"
     if not stamp.is_file():
         return None
     meta = json.loads(stamp.read_text())
+    if params is None:
+        params = stored_params(exp, meta)
     frames = {n: pd.read_csv(folder / f"{n}.csv") for n in meta.get("frames", [])}
     claims = pd.read_csv(folder / "claims.csv", keep_default_na=False, dtype=str)
     return Results(exp, params, frames, claims, folder, seconds=meta.get("seconds", 0.0))
+
+
+def reclaim(exp: Experiment, out: Path) -> Results | None:
+    """Evaluate the experiment's claims anew on its stored frames and parameters (no compute)
+    and rewrite its ``claims.csv``; ``inputs.json`` records the source the claims came from.
+    ``None`` when the experiment has not run in ``out``."""
+    res = load(exp, out)
+    if res is None:
+        return None
+    res.claims = exp.claims(res.frames, res.params)
+    _write_csv(res.folder / "claims.csv", res.claims)
+    stamp = res.folder / "inputs.json"
+    meta = {**json.loads(stamp.read_text()), "claims_source": _source_hash(exp.module)}
+    atomic_write(stamp, lambda p: p.write_text(json.dumps(meta, indent=1)))
+    return res
 
 
 def _check_frames(exp: Experiment, frames: Any) -> Frames:
@@ -431,6 +419,7 @@ def run(
             "frames": list(frames),
             "pictures": {exp.plot_name(p): exp.caption(p) for p in exp.plots},
             "seconds": res.seconds,
+            "gl": default_renderer(),  # which GL measured it (None: the run drew nothing)
         }
         atomic_write(folder / "inputs.json", lambda p: p.write_text(json.dumps(meta, indent=1)))
     return res

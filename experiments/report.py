@@ -4,9 +4,11 @@ verdict per row, read from the harness's files (:func:`experiments.harness.load`
 Verdicts (:data:`experiments.harness.VERDICTS`): **numbers** (the same quantity within the
 tolerance the row states), **trend** (the document's qualitative claim asserted on our data, as
 the row states), **differs** (with the measured cause), **image** (the same kind of picture,
-drawn by us), **measured** (the document gives no number, or the row goes beyond it). An
-experiment whose files are missing is listed as "not run". Under each picture its caption (the
-first paragraph of its plotting function's docstring).
+drawn by us), **measured** (the document gives no number, or the row goes beyond it). Each
+claims table opens with its tally (rows by verdict, borderline rows) and gives every rule's
+margin (:mod:`experiments.claims`). An experiment whose files are missing is listed as "not
+run". Under each picture its caption (the first paragraph of its plotting function's
+docstring).
 """
 
 from __future__ import annotations
@@ -15,6 +17,9 @@ import json
 import os
 from pathlib import Path
 
+import pandas as pd
+
+from experiments.claims import BORDERLINE
 from experiments.common import ROOT, atomic_write, gallery_path, in_checkout
 
 
@@ -45,36 +50,59 @@ def _is_tracked_report_folder(out: Path) -> bool:
     return in_checkout() and Path(out).resolve() == (ROOT / "results").resolve()
 
 
+def tally(claims: pd.DataFrame) -> str:
+    """``"12 rows: 3 differs, 9 trend; 1 borderline, 2 with noise not measured"``."""
+    if claims.empty:
+        return "no rows"
+    counts = claims.verdict.value_counts().sort_index()
+    text = f"{len(claims)} rows: " + ", ".join(f"{n} {v}" for v, n in counts.items())
+    borderline = int((claims.get("borderline", pd.Series(dtype=str)) == BORDERLINE).sum())
+    margin = claims.get("margin", pd.Series(dtype=str)).astype(str)
+    unmeasured = int(margin.str.contains("noise not measured").sum())
+    return text + f"; {borderline} borderline, {unmeasured} with noise not measured"
+
+
+def claims_lines(claims: pd.DataFrame) -> list[str]:
+    """The claims table in markdown: one row per claim with its margin (how far from
+    flipping, in the rule's units, and the measured noise) and a borderline mark."""
+    lines = [
+        "| item | document | ours | verdict | margin | basis / why |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in claims.fillna("").itertuples():
+        note = "; ".join(t for t in (r.basis, r.why) if t)
+        mark = " (**borderline**)" if getattr(r, "borderline", "") == BORDERLINE else ""
+        lines.append(
+            f"| {_cell(r.item)} | {_cell(r.document)} | {_cell(r.ours)} | **{r.verdict}**{mark} "
+            f"| {_cell(getattr(r, 'margin', ''))} | {_cell(note)} |"
+        )
+    return lines
+
+
 def experiment_lines(
     out: Path, exp, *, gallery: bool, report_dir: Path | None = None
-) -> tuple[list[str], list[str]]:
-    """A harness experiment's section (pictures with captions, then its claims) and its
-    verdicts; "not run" when its files are missing. ``out``: the results folder read;
-    ``report_dir``: where the report goes (default ``out``); ``gallery``: see
+) -> tuple[list[str], pd.DataFrame]:
+    """A harness experiment's section (its claims' tally, pictures with captions, then its
+    claims) and its claims; "not run" when its files are missing. ``out``: the results folder
+    read; ``report_dir``: where the report goes (default ``out``); ``gallery``: see
     :func:`image_lines`."""
     from experiments import harness
 
     lines = [f"## Seed {exp.seed} — {exp.title}", ""]
     res = harness.load(exp, out)
     if res is None:
-        return [*lines, f"_not run_ (`vislod figures --only {exp.key}`)", ""], []
+        return [*lines, f"_not run_ (`vislod figures --only {exp.key}`)", ""], pd.DataFrame()
+    lines += [f"**Claims: {tally(res.claims)}.**", ""]
     meta = json.loads((res.folder / "inputs.json").read_text())
+    if meta.get("gl"):
+        lines += [f"Measured on {meta['gl']}.", ""]
     for stem, caption in meta.get("pictures", {}).items():
         png = res.folder / f"{stem}.png"
         if png.is_file():
             lines += image_lines(report_dir or out, png, exp.key, gallery=gallery)
             lines += ["", f"*{caption}*", ""]
-    lines += [
-        "| item | document | ours | verdict | basis / why |",
-        "|---|---|---|---|---|",
-    ]
-    for r in res.claims.itertuples():
-        note = "; ".join(t for t in (r.basis, r.why) if t)
-        lines.append(
-            f"| {_cell(r.item)} | {_cell(r.document)} | {_cell(r.ours)} | **{r.verdict}** "
-            f"| {_cell(note)} |"
-        )
-    return [*lines, ""], list(res.claims.verdict)
+    lines += claims_lines(res.claims)
+    return [*lines, ""], res.claims
 
 
 def write_report(out: Path, *, quick: bool = False, to: Path | None = None) -> Path:
@@ -97,15 +125,19 @@ def write_report(out: Path, *, quick: bool = False, to: Path | None = None) -> P
         "**measured** (the document gives no number, or the row goes beyond it).",
         "",
     ]
-    counts: dict[str, int] = {}
-    sections = []
+    sections, tables = [], []
     for exp in harness.experiments():
-        sec, verdicts = experiment_lines(out, exp, gallery=gallery, report_dir=to)
+        sec, claims = experiment_lines(out, exp, gallery=gallery, report_dir=to)
         sections.append(sec)
-        for v in verdicts:
-            counts[v] = counts.get(v, 0) + 1
-    tally = ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
-    lines += [f"Rows: {tally or 'none yet'}.", ""]
+        tables.append(claims)
+    every = pd.concat([t for t in tables if not t.empty] or [pd.DataFrame()], ignore_index=True)
+    lines += [
+        f"All claims: {tally(every) if not every.empty else 'none yet'}. A row's margin is how "
+        "far its value lies from the edge of its rule, in the rule's units (negative: the rule "
+        "fails), with the noise measured for it (its origin in the row's basis; deterministic: "
+        "counts of a seeded run); **borderline**: within that noise of the edge.",
+        "",
+    ]
     for sec in sections:
         lines += sec
     text = "\n".join(lines) + "\n"

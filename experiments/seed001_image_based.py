@@ -32,7 +32,7 @@ DataFrames → five plots → :func:`claims`.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from experiments import harness
+from experiments.claims import IMAGE, NUMBERS, TREND, Each, Row, Rule, alter, holds_text
 from experiments.common import QUICK_OCCLUDEES, UsageError, res_str
 from experiments.seed000_pictures import decode, encode
 
@@ -53,7 +54,6 @@ EXAMPLE_SEPARATION = 1.0  # the stereo picture
 EXAMPLE_AGE = 4  # the warp picture
 DOC_POLYGONS = 12_000_000  # «12 Mio Polygone, 800 x 600»
 DOC_SPEEDUP = 20.0  # «ca.(!) Faktor 20 schneller»
-FAST = 10.0  # "much faster": render / warp at least this (half the lecture's factor)
 
 
 @dataclass(frozen=True)
@@ -636,126 +636,154 @@ def plot_composite(frames: dict[str, pd.DataFrame], params: Params):
 # -- claims ---------------------------------------------------------------------------------------
 
 
-def _holds(ok: bool) -> str:
-    return "holds" if ok else "does not hold"
-
-
-def claims(frames: dict[str, pd.DataFrame], params: Params) -> pd.DataFrame:
-    """The lecture's named problems asserted on our sweeps, its speed-up against our ratio of
-    render to warp time, and the composite exact."""
+def _sweeps(frames: dict[str, pd.DataFrame], params: Params):
+    """The one case: stereo holes by separation (``st``), warp means by age at splat 1 px with
+    (``one``) and without (``ign``) object transforms, by splat size at the oldest age
+    (``by``), the timing medians and the composite."""
     st = frames["stereo"].groupby("separation").mean(numeric_only=True)
     ag = _age_means(frames)
-    rows = []
-    holes = st.hole_pct.to_numpy()
-    ok = bool(holes[0] == 0 and np.all(np.diff(holes) >= 0) and holes[-1] > 0)
-    rows.append(harness.claim(
-        "stereo by warping: holes, more the wider the eyes are apart",
-        "«Probleme: Löcher!»",
-        "holes % by separation: " + ", ".join(f"{b:g}: {h:.2f}" for b, h in st.hole_pct.items()),
-        harness.TREND if ok else harness.DIFFERS,
-        basis="no holes at separation 0, non-decreasing with separation, some at the widest: "
-        + _holds(ok),
-        why="" if ok else "holes do not grow monotonically with the separation (see stereo)",
-    ))  # fmt: skip
     moving = ag[ag.object_motion != "ignored"]
     one = moving[moving.splat_size == 1.0].set_index("age")
-    h = one.hole_pct.to_numpy()
-    ok = bool(h[0] == 0 and np.all(np.diff(h) >= 0) and h[-1] > 0)
-    rows.append(harness.claim(
-        "warping renderer: holes in the server frame, more the older the frame",
-        "«Löcher im Server-Frame»",
-        "holes % by age (splat 1 px): " + ", ".join(f"{k}: {v:.2f}" for k, v in
-                                                     one.hole_pct.items()),
-        harness.TREND if ok else harness.DIFFERS,
-        basis="none at age 0, non-decreasing with age, some at the oldest: " + _holds(ok),
-        why="" if ok else "holes do not grow monotonically with the age (see warp)",
-    ))  # fmt: skip
+    ign = ag[ag.object_motion == "ignored"].set_index("age")
     oldest = int(moving.age.max())
     by = moving[moving.age == oldest].set_index("splat_size")
-    lo, hi = by.index.min(), by.index.max()
-    ok = bool(by.hole_pct[hi] < by.hole_pct[lo] and by.color_mae[hi] > by.color_mae[lo])
-    rows.append(harness.claim(
-        f"warping renderer: splat size, age {oldest}",
+    tm, info = frames["timing"], frames["scene"].iloc[0]
+    med = tm.median(numeric_only=True)
+    warp = min(med.warp_points_ms, med.warp_scatter_ms)
+    yield {
+        "st": st, "one": one, "ign": ign, "ks": [k for k in one.index if k > 0 and k in ign.index],
+        "oldest": oldest, "by": by, "lo": by.index.min(), "hi": by.index.max(),
+        "last": one.loc[oldest], "med": med, "warp": warp, "tri": int(info.triangles),
+        "display": info.display, "px": params.display[0] * params.display[1],
+        "best": max(med.speedup_points, med.speedup_scatter), "c": frames["composite"].iloc[0],
+        "pictures": set(frames["pictures"].picture),
+    }  # fmt: skip
+
+
+def _grows(value: Callable[[Any], np.ndarray], flips: tuple) -> tuple[Rule, ...]:
+    """None at the first point, never falling, some at the last (pp of the pixels)."""
+    return (
+        Rule(lambda q: value(q)[0], "==", 0, "pp", name="none first", noise=_DET, flips=flips),
+        Rule(lambda q: float(np.diff(value(q)).min()) if len(value(q)) > 1 else 0.0, ">=", 0, "pp",
+             name="never falls", noise=_DET),
+        Rule(lambda q: value(q)[-1], ">", 0, "pp", name="some last", noise=_DET),
+    )  # fmt: skip
+
+
+_DET = lambda q: 0.0  # noqa: E731  (pixel counts of seeded renders: deterministic)
+
+
+def _holes_flips(frame: str, col: str) -> tuple:
+    return (alter(frame, "hole_pct", plus=5.0, where=f"{col} == 0"),
+            alter(frame, "hole_pct", shuffle=True))  # fmt: skip
+
+
+def _speed_why(q) -> str:
+    r, w, n, tri = q.med.render_ms, q.warp, DOC_POLYGONS, q.tri
+    return (
+        f"a warp costs a point per pixel, {1e3 * w / q.px:.2f} µs each on llvmpipe ({w:.1f} ms "
+        f"for {q.px:,} px), while our render of {tri:,} triangles takes {r:.1f} ms "
+        f"({tri / n:.1%} of the lecture's 12 M polygons); the warp does not grow with polygons: "
+        f"were render time linear in triangles, 12 M would take ≈{r * n / tri / 1e3:.1f} s, "
+        f"{r * n / tri / w:.0f}× the warp (an extrapolation, not measured)"
+    )
+
+
+# The table is laid out by hand, one row per block (the formatter would spread it out).
+# fmt: off
+CLAIMS = (Each(_sweeps, (
+    Row(
+        "stereo by warping: holes, more the wider the eyes are apart", "«Probleme: Löcher!»",
+        lambda q: "holes % by separation: "
+        + ", ".join(f"{b:g}: {h:.2f}" for b, h in q.st.hole_pct.items()),
+        TREND,
+        _grows(lambda q: q.st.hole_pct.to_numpy(), _holes_flips("stereo", "separation")),
+        basis="no holes at separation 0, non-decreasing with separation, some at the widest",
+        why="holes do not grow monotonically with the separation (see stereo)",
+    ),
+    Row(
+        "warping renderer: holes in the server frame, more the older the frame",
+        "«Löcher im Server-Frame»",
+        lambda q: "holes % by age (splat 1 px): "
+        + ", ".join(f"{k}: {v:.2f}" for k, v in q.one.hole_pct.items()),
+        TREND,
+        _grows(lambda q: q.one.hole_pct.to_numpy(), _holes_flips("warp", "age")),
+        basis="none at age 0, non-decreasing with age, some at the oldest",
+        why="holes do not grow monotonically with the age (see warp)",
+    ),
+    Row(
+        "warping renderer: splat size, age {oldest}",
         "«Server-Frames sehen unscharf aus (wg. Point-Splats)»; «Wie groß sollen die "
         "Point-Splats sein?»",
-        "holes % / colour MAE by splat size: " + ", ".join(
-            f"{s:g} px: {r.hole_pct:.2f} / {r.color_mae:.2f}" for s, r in by.iterrows()),
-        harness.TREND if ok else harness.DIFFERS,
-        basis=f"the largest splat ({hi:g} px) leaves fewer holes and a larger colour error "
-        f"(blur) than the smallest ({lo:g} px): " + _holds(ok),
-        why="" if ok else "larger splats do not trade holes for colour error here (see warp)",
-    ))  # fmt: skip
-    ign = ag[ag.object_motion == "ignored"].set_index("age")
-    ks = [k for k in one.index if k > 0 and k in ign.index]
-    ok = bool(ks) and all(one.mover_wrong_pct[k] < ign.mover_wrong_pct[k] for k in ks)
-    rows.append(harness.claim(
+        lambda q: "holes % / colour MAE by splat size: " + ", ".join(
+            f"{s:g} px: {r.hole_pct:.2f} / {r.color_mae:.2f}" for s, r in q.by.iterrows()),
+        TREND,
+        (Rule(lambda q: q.by.hole_pct[q.lo] - q.by.hole_pct[q.hi], ">", 0, "pp", name="holes",
+              noise=_DET, flips=(alter("warp", "hole_pct", 10.0, "splat_size == 3"),)),
+         Rule(lambda q: q.by.color_mae[q.hi] - q.by.color_mae[q.lo], ">", 0, "", name="blur",
+              noise=_DET)),
+        basis=lambda q: f"the largest splat ({q.hi:g} px) leaves fewer holes and a larger colour "
+        f"error (blur) than the smallest ({q.lo:g} px): " + holds_text(q.holds),
+        why="larger splats do not trade holes for colour error here (see warp)",
+    ),
+    Row(
         "warping renderer: per-pixel object ids + newest object transforms",
         "«Die Frames sind wesentlich aktueller (Kamera und Obj-Pos.!)»",
-        "moving objects' pixels wrong %, with / without their transforms: " + ", ".join(
-            f"age {k}: {one.mover_wrong_pct[k]:.1f} / {ign.mover_wrong_pct[k]:.1f}" for k in ks),
-        harness.TREND if ok else harness.DIFFERS,
-        basis="at every age > 0 fewer of the moving objects' pixels are wrong with their "
-        "newest transforms than without: " + _holds(ok),
-        why="" if ok else "the moving objects' error is dominated by disocclusion, not motion",
-    ))  # fmt: skip
-    last = one.loc[oldest]
-    ok = bool(last.border_hole_pct > 0)
-    rows.append(harness.claim(
+        lambda q: "moving objects' pixels wrong %, with / without their transforms: " + ", ".join(
+            f"age {k}: {q.one.mover_wrong_pct[k]:.1f} / {q.ign.mover_wrong_pct[k]:.1f}"
+            for k in q.ks),
+        TREND,
+        Rule(lambda q: min((q.ign.mover_wrong_pct[k] - q.one.mover_wrong_pct[k] for k in q.ks),
+                           default=float("nan")), ">", 0, "pp", noise=_DET, flips=(
+            alter("warp", "mover_wrong_pct", 0.0, "object_motion == 'ignored'"),)),
+        basis="at every age > 0 fewer of the moving objects' pixels are wrong with their newest "
+        "transforms than without",
+        why="the moving objects' error is dominated by disocclusion, not motion",
+    ),
+    Row(
         "warping renderer: empty places at the borders",
         "«Leere Stellen an den Rändern des Servers-Frames (evtl. View-Frustum im Client "
         "vergrößern)»",
-        f"age {oldest}, splat 1 px: holes {last.hole_pct:.2f} % of pixels, of them at the "
-        f"border (outside the old view) {last.border_hole_pct:.2f} %, inside "
-        f"{last.interior_hole_pct:.2f} % (disoccluded or undersampled)",
-        harness.TREND if ok else harness.DIFFERS,
-        basis="some holes lie where the surface was outside the old view: " + _holds(ok),
-        why="" if ok else "the flight turns too little for the view to uncover its borders",
-    ))  # fmt: skip
-    tm, info = frames["timing"], frames["scene"].iloc[0]
-    sp, sc = tm.speedup_points.median(), tm.speedup_scatter.median()
-    best = max(sp, sc)
-    tri = int(info.triangles)
-    render, warp = (
-        tm.render_ms.median(),
-        min(tm.warp_points_ms.median(), tm.warp_scatter_ms.median()),
-    )
-    px = params.display[0] * params.display[1]
-    ok = best >= FAST
-    rows.append(harness.claim(
+        "age {oldest}, splat 1 px: holes {last.hole_pct:.2f} % of pixels, of them at the border "
+        "(outside the old view) {last.border_hole_pct:.2f} %, inside "
+        "{last.interior_hole_pct:.2f} % (disoccluded or undersampled)",
+        TREND,
+        Rule(lambda q: q.last.border_hole_pct, ">", 0, "pp", noise=_DET, flips=(
+            alter("warp", "border_hole_pct", 0.0),)),
+        basis="some holes lie where the surface was outside the old view",
+        why="the flight turns too little for the view to uncover its borders",
+    ),
+    Row(
         "warping renderer: speed-up over rendering",
         "«12 Mio Polygone, 800 x 600»: «ca.(!) Faktor 20 schneller»",
-        f"render / warp, median over views: GL points {sp:.2f}×, compute scatter {sc:.2f}× "
-        f"({tri:,} triangles at {info.display}; render {tm.render_ms.median():.1f} ms, warp "
-        f"{tm.warp_points_ms.median():.1f} / {tm.warp_scatter_ms.median():.1f} ms)",
-        harness.TREND if ok else harness.DIFFERS,
-        basis=f"ratios only (llvmpipe vs the lecture's GPU): a warp at least {FAST:g}× faster "
-        "than a full render: " + _holds(ok),
-        why="" if ok else
-        f"a warp costs a point per pixel, {1e3 * warp / px:.2f} µs each on llvmpipe ({warp:.1f} "
-        f"ms for {px:,} px), while our render of {tri:,} triangles takes {render:.1f} ms "
-        f"({tri / DOC_POLYGONS:.1%} of the lecture's 12 M polygons); the warp does not "
-        f"grow with polygons: were render time linear in triangles, 12 M would take "
-        f"≈{render * DOC_POLYGONS / tri / 1e3:.1f} s, {render * DOC_POLYGONS / tri / warp:.0f}× "
-        "the warp (an extrapolation, not measured)",
-    ))  # fmt: skip
-    c = frames["composite"].iloc[0]
-    ok = bool(c.exact)
-    rows.append(harness.claim(
+        "render / warp, median over views: GL points {med.speedup_points:.2f}×, compute scatter "
+        "{med.speedup_scatter:.2f}× ({tri:,} triangles at {display}; render "
+        "{med.render_ms:.1f} ms, warp {med.warp_points_ms:.1f} / {med.warp_scatter_ms:.1f} ms)",
+        TREND,
+        Rule(lambda q: q.best, ">=", DOC_SPEEDUP, "×", flips=(
+            alter("timing", "speedup_scatter", 100.0), alter("timing", "speedup_points", 100.0))),
+        basis=f"the lecture's «ca.(!) Faktor {DOC_SPEEDUP:g}»: a warp at least {DOC_SPEEDUP:g}× "
+        "faster than a full render (ratios only: llvmpipe vs the lecture's GPU; noise not "
+        "measured)",
+        why=_speed_why,
+    ),
+    Row(
         "image composition by per-pixel z",
         "«Image Compositor kombiniert die Einzelbilder durch Z-Vergleich pro Pixel»",
-        f"{int(c.parts)} random object subsets: ids differ at {int(c.ids_differ)} px, colour at "
-        f"{int(c.color_differs)} px of {int(c.pixels):,}",
-        harness.NUMBERS if ok else harness.DIFFERS,
+        "{c.parts:.0f} random object subsets: ids differ at {c.ids_differ:.0f} px, colour at "
+        "{c.color_differs:.0f} px of {c.pixels:,.0f}",
+        NUMBERS,
+        Rule(lambda q: q.c.ids_differ + q.c.color_differs, "==", 0, "px", noise=_DET, flips=(
+            alter("composite", "ids_differ", plus=1),)),
         basis="exact: 0 pixels differ from the full render",
-        why="" if ok else "depth ties between subsets resolve differently from one draw",
-    ))  # fmt: skip
-    for picture, item, doc in (
-        ("stereo", "stereo by warping: the picture", "«Stereo ohne 2x rendern» (figure)"),
-        ("warp", "warped server frame with its holes", "«Loch!» (figure)"),
-    ):
-        if (frames["pictures"].picture == picture).any():
-            rows.append(harness.claim(item, doc, f"plot_{picture}_images", harness.IMAGE))
-    return harness.claims_frame(rows)
+        why="depth ties between subsets resolve differently from one draw",
+    ),
+    Row("stereo by warping: the picture", "«Stereo ohne 2x rendern» (figure)",
+        "plot_stereo_images", IMAGE, when=lambda q: "stereo" in q.pictures),
+    Row("warped server frame with its holes", "«Loch!» (figure)", "plot_warp_images", IMAGE,
+        when=lambda q: "warp" in q.pictures),
+)),)
+# fmt: on
 
 
 EXPERIMENT = harness.experiment(
@@ -765,9 +793,10 @@ EXPERIMENT = harness.experiment(
     params=Params,
     compute=compute,
     plots=[plot_stereo_images, plot_stereo_error, plot_warp_age, plot_warp_images, plot_composite],
-    claims=claims,
+    claims=CLAIMS,
     quick={"display": (320, 240), "views": 3, "ages": (0, 1, 2, 4, 8), "repeats": 3},
     minutes=4.0,
     aliases=("image-based",),
     notebook="seed001_rendering",
 )
+claims = EXPERIMENT.claims  # claims(frames, params): the table evaluated

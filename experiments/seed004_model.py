@@ -36,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from experiments import harness
+from experiments.claims import MEASURED, NUMBERS, TREND, Each, Row, Rule, alter
 from experiments.common import UsageError, res_str
 
 # Seed 004, Table 1 (SPEC.md "Seed 004"): objects, measured ms, model ms, model error %.
@@ -51,11 +52,7 @@ DOC_CLAIM = (
 )
 
 DENSE_SIZE_RANGE = (0.3, 1.5)  # edges as long as the spacing: depth complexity ~5-18
-ERROR_TOLERANCE_PCT = 10.0  # a row matches when |our error| <= this: the document's errors
-# reach 9.54 %, so a model as good as the paper's stays inside it
-TARGET_ERROR_PCT = 15.0  # the issue's target on held-back sizes (median over the sizes)
-NOISY_IQR = 0.10  # rounds whose interquartile range exceeds this fraction are "noisy"
-SLOPE_TOLERANCE = 0.25  # log-log slope of frame time vs objects: ours within this of theirs
+ERROR_TOLERANCE_PCT = max(DOC_ERROR_PCT)  # a row matches when |error| <= the document's largest
 OVERLAP = "sum"  # our reading of (2) on llvmpipe (see soc.models.perf_model.frame_time)
 CALIBRATION_SCALE = 1.0  # batch scale of the calibration (CalibrationSetup.scale)
 REFIT_FRAMES = 200  # frames of statistics per query-model re-fit
@@ -402,153 +399,158 @@ def _slope(objects, ms) -> float:
     return float(np.polyfit(np.log(objects), np.log(ms), 1)[0])
 
 
-def _error_cause(
-    r: pd.Series, hidden: float, best: pd.Series, best_hidden: float, statistic: str
-) -> str:
-    """The measured cause of one row's model error beyond the tolerance: more fragments
-    hidden than at the best-predicted size (an over-prediction), or a wide spread of its
-    rounds (a busy machine); otherwise it says that neither explains it."""
-    if r.error_pct > 0 and hidden > best_hidden + 0.05:
-        return (
-            f"formula (2) prices all {r.fragments_gl:,.0f} rasterized fragments as shaded; "
-            f"{hidden:.0%} of them fail the depth test here, {best_hidden:.0%} at "
-            f"{best.objects:,} boxes (error {best.error_pct:+.1f} %)"
-        )
-    iqr = (r.ms_p75 - r.ms_p25) / r.ms_measured
-    hid = (
-        f"{hidden:.0%} hidden vs {best_hidden:.0%} at {best.objects:,} boxes, error "
-        f"{best.error_pct:+.1f} %"
-    )
-    if iqr > NOISY_IQR:
-        return (
-            f"timing noise: this size's rounds spread {r.ms_p25:.2f}-{r.ms_p75:.2f} ms "
-            f"(interquartile {iqr:.0%} of its {statistic}) on the shared cores; fragments {hid}"
-        )
-    return (
-        f"cause not identified: not hidden fragments ({hid}), nor the spread of its rounds "
-        f"(interquartile {iqr:.0%} of its {statistic})"
-    )
-
-
-def claims(frames: dict[str, pd.DataFrame], params: Params) -> pd.DataFrame:
-    """Table 1 row by row on the model error (the comparable quantity), the document's
-    claim over all rows, the frame time's growth, formula (1), and what goes beyond."""
-    t = frames["table1"]
+def _table1(frames: dict[str, pd.DataFrame], params: Params):
+    """The one case: Table 1's random rows (``rnd``) with the paper's form's and our reading's
+    errors, the growth slopes (ours, per round, and the document's over the same sizes) and
+    the measured per-frame constant."""
+    t, rounds = frames["table1"], frames["rounds"]
     rnd = t[t.kind == "random"]
-    rows = []
-    hidden_all = 1.0 - rnd.fragments_shaded / rnd.fragments_gl.clip(lower=1)
-    best = rnd.loc[rnd.error_pct.abs().idxmin()]
-    best_hidden = hidden_all[best.name]
-    for _, r in rnd.iterrows():
-        doc = (
-            f"error {r.doc_error_pct:g} % (measured {r.doc_ms_measured:g} ms, model "
-            f"{r.doc_ms_model:g} ms)"
-            if np.isfinite(r.doc_error_pct)
-            else "– (not a Table 1 size)"
-        )
-        ours = (
-            f"error {r.error_pct:+.1f} % (measured {r.ms_measured:.3f} ms, model "
-            f"{r.ms_predicted:.3f} ms)"
-        )
-        ok = abs(r.error_pct) <= ERROR_TOLERANCE_PCT
-        hidden = 1.0 - r.fragments_shaded / max(r.fragments_gl, 1)
-        rows.append(
-            harness.claim(
-                f"Table 1, {r.objects:,} random boxes: model error",
-                doc,
-                ours,
-                harness.NUMBERS if ok else harness.DIFFERS,
-                basis=f"|model error| within {ERROR_TOLERANCE_PCT:g} % (the document's reach "
-                "9.54 %); absolute ms not compared: llvmpipe on CPU cores vs the paper's GTX "
-                f"1070, ours {r.ms_measured / r.doc_ms_measured:.0f}× theirs"
-                if np.isfinite(r.doc_ms_measured)
-                else f"|model error| within {ERROR_TOLERANCE_PCT:g} %",
-                why="" if ok else _error_cause(r, hidden, best, best_hidden, params.statistic),
-            )
-        )
-    err = rnd.error_pct.abs()
-    holds = err.median() <= ERROR_TOLERANCE_PCT and err.max() <= TARGET_ERROR_PCT
-    rows.append(
-        harness.claim(
-            "Table 1: the model over all sizes",
-            DOC_CLAIM,
-            f"median |error| {err.median():.1f} %, max {err.max():.1f} % over "
-            f"{len(rnd)} held-back sizes (document: max 9.54 %)",
-            harness.TREND if holds else harness.DIFFERS,
-            basis=f"median |error| <= {ERROR_TOLERANCE_PCT:g} % and every size within "
-            f"{TARGET_ERROR_PCT:g} %: " + ("holds" if holds else "does not hold"),
-            why="" if holds else f"largest error at {int(rnd.objects[err.idxmax()]):,} boxes",
-        )
-    )
     big = rnd[rnd.objects >= 1000]
-    if len(big) >= 2:
-        ours_s = _slope(big.objects, big.ms_measured)
-        doc_n = [n for n in DOC_OBJECTS if big.objects.min() <= n <= big.objects.max()]
-        doc_ms = [DOC_MEASURED_MS[DOC_OBJECTS.index(n)] for n in doc_n]
-        doc_s = _slope(doc_n, doc_ms) if len(doc_n) >= 2 else np.nan
-        ok = abs(ours_s - doc_s) <= SLOPE_TOLERANCE
-        rows.append(
-            harness.claim(
-                f"Table 1: growth of frame time, {big.objects.min():,}-{big.objects.max():,} boxes",
-                f"log-log slope {doc_s:.2f} (measured ms vs objects)",
-                f"log-log slope {ours_s:.2f}",
-                harness.NUMBERS if ok else harness.DIFFERS,
-                basis=f"slopes within ±{SLOPE_TOLERANCE:g}; the slope compares, the levels "
-                "(llvmpipe vs a GPU) do not",
-                why="" if ok else "llvmpipe's fixed cost per frame weighs more at small sizes",
-            )
-        )
-    pf = rnd.error_paper_form_pct.abs()
-    rows.append(
-        harness.claim(
-            "Table 1: the paper's form of (2) on llvmpipe",
-            "max of the stages; T_vert = N_Δ·T_Δ, T_frag = f·T_frag (full-screen triangle)",
-            f"median |error| {pf.median():.1f} %, max {pf.max():.1f} %",
-            harness.MEASURED,
-            basis="goes beyond the document: its form on a CPU rasterizer, which does not "
-            "overlap the stages",
-        )
-    )
-    for _, r in t[t.kind == "dense"].iterrows():
-        rows.append(
-            harness.claim(
-                f"dense boxes, {r.objects:,} (limitation)",
-                "–",
-                f"error {r.error_pct:+.1f} %, {r.fragments_shaded / r.fragments_gl:.0%} of "
-                "the rasterized fragments shaded",
-                harness.MEASURED,
-                basis="goes beyond the document: depth complexity ~5-18, the model prices "
-                "every fragment as shaded",
-            )
-        )
-    mem = frames["memory"]
-    same = int(mem["match"].sum())
-    rows.append(
-        harness.claim(
+    doc_n = [n for n in DOC_OBJECTS if big.objects.min() <= n <= big.objects.max()]
+    doc_ms = [DOC_MEASURED_MS[DOC_OBJECTS.index(n)] for n in doc_n]
+    per_round = rounds[(rounds.kind == "random") & (rounds.objects >= 1000)]
+    slopes = [_slope(g.objects, g.ms) for _, g in per_round.groupby("round") if len(g) >= 2]
+    const = frames["constants"].set_index("constant").value
+    t_frame = float(const.get("T_frame", np.nan))
+    yield {
+        "rnd": rnd, "big": big, "pf": rnd.error_paper_form_pct.abs(), "ours": rnd.error_pct.abs(),
+        "ours_s": _slope(big.objects, big.ms_measured) if len(big) >= 2 else np.nan,
+        "doc_s": _slope(doc_n, doc_ms) if len(doc_n) >= 2 else np.nan,
+        "s_noise": float(np.std(slopes)) if len(slopes) >= 3 else None, "rounds": len(slopes),
+        "t_frame": t_frame, "mem": frames["memory"], "fits": frames["refit"],
+        "net_s": _slope(big.objects, (big.ms_measured - t_frame).clip(lower=1e-6))
+        if len(big) >= 2 else np.nan,
+    }  # fmt: skip
+
+
+def _rows(frames: dict[str, pd.DataFrame], params: Params):
+    """One case per random-box row of Table 1 (``r``): the error's noise (pp) if the measured
+    time moved by half its rounds' interquartile range, and the share of fragments hidden."""
+    for _, r in frames["table1"][frames["table1"].kind == "random"].iterrows():
+        semi = (r.ms_p75 - r.ms_p25) / 2
+        yield {"r": r, "noise": 100 * r.ms_paper_form * semi / r.ms_measured**2,
+               "hidden": 1.0 - r.fragments_shaded / max(r.fragments_gl, 1)}  # fmt: skip
+
+
+def _reading(q) -> str:
+    """Our reading of (2) on llvmpipe (stages summed, t(E) per triangle) for one size, with
+    what the measurements say about its error."""
+    r = q.r
+    text = f"our reading (stages summed, t(E) per triangle): error {r.error_pct:+.1f} %"
+    if abs(r.error_pct) <= ERROR_TOLERANCE_PCT:
+        return text
+    if r.error_pct < 0 and r.ms_p25 > r.ms_predicted:
+        return text + (f"; every round but the fastest quarter is slower than it (p25 "
+                       f"{r.ms_p25:.3f} > {r.ms_predicted:.3f} ms): not timing noise; cause not "
+                       "measured")  # fmt: skip
+    if r.error_pct > 0:
+        share = 100 * q.hidden * r["ms_T_frag(S)"] / r.ms_measured
+        return text + (f"; {q.hidden:.0%} of the rasterized fragments fail the depth test and are "
+                       f"priced as shaded: at most {share:+.1f} % of the error; the rest, cause "
+                       "not measured")  # fmt: skip
+    return text + "; cause not measured"
+
+
+_PAPER_WHY = ("the paper's form prices a frame by its largest stage; llvmpipe runs the stages one "
+              "after another (the same constants summed are our reading)")  # fmt: skip
+
+
+_ALL = "kind == 'random'"
+
+# The table is laid out by hand, one row per block (the formatter would spread it out).
+# fmt: off
+CLAIMS = (
+    Each(_rows, (Row(
+        "Table 1, {r.objects:,} random boxes: model error (the paper's form of (2))",
+        lambda q: f"error {q.r.doc_error_pct:g} % (measured {q.r.doc_ms_measured:g} ms, model "
+        f"{q.r.doc_ms_model:g} ms)" if np.isfinite(q.r.doc_error_pct)
+        else "– (not a Table 1 size)",
+        "error {r.error_paper_form_pct:+.1f} % (measured {r.ms_measured:.3f} ms, the paper's "
+        "form {r.ms_paper_form:.3f} ms)",
+        NUMBERS,
+        Rule(lambda q: abs(q.r.error_paper_form_pct), "<=", ERROR_TOLERANCE_PCT, "pp",
+             noise=lambda q: q.noise, flips=(
+                 alter("table1", "error_paper_form_pct", plus=50.0),
+                 alter("table1", "error_paper_form_pct", 0.0))),
+        basis=lambda q: f"|error| within {ERROR_TOLERANCE_PCT:g} %, the document's largest (its "
+        "max of the stages, T_vert = N_Δ·T_Δ, T_frag = f·T_frag from the full-screen triangle); "
+        "noise: the error's change if the measured ms moved by half its rounds' interquartile "
+        "range" + (f"; absolute ms not compared: llvmpipe on CPU cores vs the paper's GTX 1070, "
+                   f"ours {q.r.ms_measured / q.r.doc_ms_measured:.0f}× theirs"
+                   if np.isfinite(q.r.doc_ms_measured) else ""),
+        why=_PAPER_WHY,
+        note=_reading,
+    ),)),
+    Each(_table1, (
+        Row(
+            "Table 1: the model over all sizes (the paper's form of (2))", DOC_CLAIM,
+            lambda q: f"the paper's form: median |error| {q.pf.median():.1f} %, max "
+            f"{q.pf.max():.1f} % over {len(q.rnd)} held-back sizes (document: max 9.54 %); our "
+            f"reading (stages summed): median {q.ours.median():.1f} %, max {q.ours.max():.1f} %",
+            TREND,
+            Rule(lambda q: q.pf.max(), "<=", ERROR_TOLERANCE_PCT, "pp", flips=(
+                alter("table1", "error_paper_form_pct", 0.0),
+                alter("table1", "error_paper_form_pct", plus=50.0))),
+            basis=f"every size within {ERROR_TOLERANCE_PCT:g} %, the document's largest error",
+            why=lambda q: f"largest at {int(q.rnd.objects[q.pf.idxmax()]):,} boxes; the paper's "
+            "form takes the largest stage where llvmpipe adds them: summed with the same "
+            f"constants the median |error| is {q.ours.median():.1f} %",
+        ),
+        Row(
+            lambda q: f"Table 1: growth of frame time, {q.big.objects.min():,}-"
+            f"{q.big.objects.max():,} boxes",
+            "log-log slope {doc_s:.2f} (measured ms vs objects)", "log-log slope {ours_s:.2f}",
+            NUMBERS,
+            Rule(lambda q: abs(q.ours_s - q.doc_s), "<=", lambda q: q.s_noise or 0.005, "",
+                 noise=lambda q: q.s_noise, flips=(
+                     alter("rounds", "ms", expr="objects ** 0.9", where=_ALL),
+                     alter("table1", "ms_measured", expr="0.01 * objects ** 0.97", where=_ALL))),
+            basis=lambda q: "the slopes agree within our slope's run-to-run spread (std of the "
+            f"per-round slopes over {q.rounds} rounds; with fewer than 3: to the printed two "
+            "decimals); the slope compares, the levels "
+            "(llvmpipe vs a GPU) do not",
+            why=lambda q: f"llvmpipe's measured fixed cost per frame (T_frame {q.t_frame:.2f} ms: "
+            "clear, finish) flattens the small sizes: without it the slope is "
+            f"{q.net_s:.2f}",
+            when=lambda q: len(q.big) >= 2,
+        ),
+    )),
+    Each(lambda f, p: ({"r": r} for _, r in f["table1"][f["table1"].kind == "dense"].iterrows()),
+         (Row(
+             "dense boxes, {r.objects:,} (limitation)", "–",
+             lambda q: f"error of our reading {q.r.error_pct:+.1f} %, the paper's form "
+             f"{q.r.error_paper_form_pct:+.1f} %; {q.r.fragments_shaded / q.r.fragments_gl:.0%} of "
+             "the rasterized fragments shaded",
+             MEASURED,
+             basis="goes beyond the document: depth complexity ~5-18, the model prices every "
+             "fragment as shaded",
+         ),)),
+    Each(_table1, (
+        Row(
             "formula (1): scene memory",
             "M_scene = N_vert·M_vert + N_index·M_index + N_tc·M_tc + N_norm·M_norm + Σ M_tex "
             "+ Σ M_buf + Σ M_desc",
-            f"formula = allocated GL bytes in {same}/{len(mem)} scenes",
-            harness.NUMBERS if same == len(mem) else harness.DIFFERS,
-            basis="exact: 0 bytes apart",
-            why="" if same == len(mem) else "formula and allocation disagree (see memory.csv)",
-        )
-    )
-    fits = frames["refit"]
-    later = fits[~fits.compiling]
-    last = fits.iloc[-1]
-    rows.append(
-        harness.claim(
+            lambda q: f"formula = the GL buffer and texture sizes in {int(q.mem['match'].sum())}/"
+            f"{len(q.mem)} scenes",
+            MEASURED,
+            basis="true by construction, not a test of the formula: (1) is summed from the "
+            "counts in the layout we upload, and the other side reads back the sizes we asked GL "
+            "for (llvmpipe reports no memory of its own); it checks our bookkeeping only",
+        ),
+        Row(
             "formulas (8)-(10): re-fit while rendering",
             "coefficients regressed from statistics gathered while rendering (no time given)",
-            f"{later.ms.median():.2f} ms per re-fit of {REFIT_FRAMES} frames (first, "
-            f"compiling: {fits.ms.iloc[0]:.0f} ms); {int(later.converged.sum())}/{len(later)} "
-            f"converged; best q {int(last.q_best):,} vs {int(last.q_best_truth):,} true",
-            harness.MEASURED,
+            lambda q: f"{q.fits[~q.fits.compiling].ms.median():.2f} ms per re-fit of "
+            f"{REFIT_FRAMES} frames (first, compiling: {q.fits.ms.iloc[0]:.0f} ms); "
+            f"{int(q.fits[~q.fits.compiling].converged.sum())}/{len(q.fits[~q.fits.compiling])} "
+            f"converged; best q {int(q.fits.iloc[-1].q_best):,} vs "
+            f"{int(q.fits.iloc[-1].q_best_truth):,} true",
+            MEASURED,
             basis="synthetic statistics from (8)-(10) with 2 % noise and this context's unit times",
-        )
-    )
-    return harness.claims_frame(rows)
+        ),
+    )),
+)
+# fmt: on
 
 
 EXPERIMENT = harness.experiment(
@@ -558,7 +560,7 @@ EXPERIMENT = harness.experiment(
     params=Params,
     compute=compute,
     plots=[plot_table1],
-    claims=claims,
+    claims=CLAIMS,
     quick={
         "sizes": (10, 20, 30, 100, 1000, 5000),
         "dense_sizes": (1000,),
@@ -569,3 +571,4 @@ EXPERIMENT = harness.experiment(
     extras=("fit",),
     notebook="seed004_adaptive",
 )
+claims = EXPERIMENT.claims  # claims(frames, params): the table evaluated

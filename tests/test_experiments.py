@@ -148,7 +148,7 @@ def test_a_flat_curve_is_not_the_documents_numbers(run):
     c = seed000_demo.claims(frames, run.params).set_index("item")
     trend = c.loc["Abb. 8 right, % triangles culled vs depth resolution"]
     assert trend.verdict == "differs" and "same at every resolution" in trend.why
-    table = c[c.index.str.startswith("Abb. 8 table")]
+    table = c[c.index.str.startswith("Abb. 8 table, ")]
     assert len(table) == len(doc.DEPTH_RESOLUTIONS) and (table.verdict == "differs").all()
 
 

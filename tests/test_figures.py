@@ -102,8 +102,9 @@ def test_unknown_figure_is_rejected_before_anything_runs(tmp_path, fakes):
 def test_report_has_a_verdict_per_row_and_says_why_rows_differ(tmp_path, fakes):
     figures.run_figures(tmp_path, only=["a"], progress=False)
     text = (tmp_path / "REPORT.md").read_text()
-    assert "Rows: 1 differs, 1 trend." in text
-    assert "| holds | claim | 1 | **trend** | ms never rises: holds |" in text
+    tally = "2 rows: 1 differs, 1 trend; 0 borderline, 0 with noise not measured"
+    assert f"All claims: {tally}." in text and f"**Claims: {tally}.**" in text
+    assert "| holds | claim | 1 | **trend** |  | ms never rises: holds |" in text
     assert "the queries cost more than they hide" in text
     assert "*Milliseconds per frame.*" in text
     assert "_not run_ (`vislod figures --only b`)" in text
@@ -177,9 +178,9 @@ def test_every_experiment_names_its_module_and_known_extras():
 def test_the_tracked_report_shows_pictures_from_the_gallery(tmp_path, monkeypatch):
     """The checkout's REPORT.md links docs/gallery/ (relative to the report); a picture not
     there yet is named with the command that draws it; any other report links its PNGs."""
-    from experiments import gallery
+    from experiments import common
 
-    monkeypatch.setattr(gallery, "FOLDER", tmp_path / "gallery")
+    monkeypatch.setattr(common, "GALLERY", tmp_path / "gallery")
     (tmp_path / "gallery").mkdir()
     (tmp_path / "gallery" / "seed000_abb1.png").write_bytes(b"png")
     report_dir, png = tmp_path / "results", tmp_path / "results" / "seed000" / "seed000_abb1.png"
@@ -197,3 +198,15 @@ def test_a_report_outside_the_checkouts_results_shows_every_png_beside_it(tmp_pa
     """Only the tracked results/REPORT.md is limited to tracked images."""
     figures.run_figures(tmp_path, only=["a"], progress=False)
     assert "![a_ms](a/a_ms.png)" in (tmp_path / "REPORT.md").read_text()
+
+
+def test_claims_only_judges_the_stored_frames_again_without_computing(tmp_path, fakes):
+    figures.run_figures(tmp_path, only=["a"], progress=False)
+    assert fakes == ["a"]
+    (tmp_path / "a" / "claims.csv").write_text("item,document,ours,verdict,basis,why\n")
+    got = figures.reclaim_figures(tmp_path)
+    assert fakes == ["a"]  # nothing computed
+    assert got["reclaimed"] == ["a"] and got["missing"] == ["b"]
+    claims = (tmp_path / "a" / "claims.csv").read_text()
+    assert "margin,borderline" in claims and "makes a frame slower" in claims
+    assert "claims_source" in (tmp_path / "a" / "inputs.json").read_text()

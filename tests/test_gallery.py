@@ -134,7 +134,7 @@ def test_outside_a_checkout_it_refuses_with_one_line(monkeypatch, tmp_path, caps
 
     monkeypatch.setattr(common, "ROOT", tmp_path)
     monkeypatch.setattr(gallery, "ROOT", tmp_path)
-    monkeypatch.setattr(gallery, "FOLDER", tmp_path / "docs" / "gallery")
+    monkeypatch.setattr(common, "GALLERY", tmp_path / "docs" / "gallery")
     assert gallery.main([]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "checkout" in err[0]

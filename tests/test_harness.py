@@ -144,7 +144,32 @@ def test_report_section_shows_pictures_captions_and_claims(toy, tmp_path):
     from experiments.report import experiment_lines
 
     harness.run(toy, quick=True, out=tmp_path, progress=False)
-    lines, verdicts = experiment_lines(tmp_path, toy, gallery=False)
+    lines, claims = experiment_lines(tmp_path, toy, gallery=False)
     text = "\n".join(lines)
     assert "![toy_ms](toy/toy_ms.png)" in text and "*Milliseconds per frame" in text
-    assert "| slope | 2.00 |" in text and verdicts == ["numbers", "image"]
+    assert "| slope | 2.00 |" in text and list(claims.verdict) == ["numbers", "image"]
+    # the section opens with its tally (issue 23)
+    assert lines[2].startswith("**Claims: 2 rows: 1 image, 1 numbers;")
+
+
+def test_a_run_records_which_gl_measured_it(toy, tmp_path, monkeypatch):
+    """inputs.json names the GL renderer of the run's context, and the report says it; a run
+    that made no context records None and the report says nothing (issue 21 item 5)."""
+    import json
+
+    from experiments.report import experiment_lines
+    from soc.gl.context import default_context, default_renderer
+
+    assert default_renderer() in (None, default_context().renderer)
+    monkeypatch.setattr(harness, "default_renderer", lambda: None)
+    harness.run(toy, quick=True, out=tmp_path / "none", progress=False)
+    assert json.loads((tmp_path / "none" / "toy" / "inputs.json").read_text())["gl"] is None
+    lines, _ = experiment_lines(tmp_path / "none", toy, gallery=False)
+    assert not any(line.startswith("Measured on") for line in lines)
+
+    renderer = default_context().renderer
+    monkeypatch.setattr(harness, "default_renderer", lambda: renderer)
+    harness.run(toy, quick=True, out=tmp_path / "gl", progress=False)
+    assert json.loads((tmp_path / "gl" / "toy" / "inputs.json").read_text())["gl"] == renderer
+    lines, _ = experiment_lines(tmp_path / "gl", toy, gallery=False)
+    assert f"Measured on {renderer}." in lines

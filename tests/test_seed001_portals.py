@@ -23,14 +23,15 @@ def test_frames_are_tidy_and_conservative(run):
     params, frames = run
     assert set(frames) == set(exp.FRAMES)
     f = frames["frames"]
-    assert set(f.method) == {"oracle", "frustum", "portals"}
-    assert len(f) == 3 * params.frames
+    assert set(f.method) == {"oracle", "frustum", "portals", exp.CELLS}
+    assert len(f) == 4 * params.frames
     for col in ("frame", "room", "kept", "culled", "culled_pct", "false_culls", "ms_cull"):
         assert col in f, col
     assert (f.false_culls == 0).all()
     w = f.pivot(index="frame", columns="method", values="kept")
     assert (w.portals <= w.frustum).all()
     assert (w.oracle <= w.portals).all()  # the oracle's visible set bounds what is kept
+    assert (w[exp.CELLS] <= w.frustum).all()  # the cell visibility culls after the frustum
     rooms = frames["rooms"]
     total = rooms[rooms.room == "all"].set_index("method")
     assert total.culled_pct["portals"] > total.culled_pct["frustum"]

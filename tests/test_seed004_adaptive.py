@@ -72,16 +72,19 @@ def test_claims_give_causes_for_modes_and_quote_the_paper(tiny):
     assert set(c.verdict) <= set(harness.VERDICTS) and "reproduced" not in set(c.verdict)
 
 
-def test_mode_causes_on_a_constructed_adaptive_run():
-    """A run that never leaves mode 1: the cause counts the decisions that preferred mode 1."""
+def test_modes_by_the_papers_conditions_on_a_constructed_run():
+    """Issue 23: the paper's rule stays in mode 1 while (5) holds (our ``condition5`` column is
+    its negation, the switch condition) and in mode 2 while (6) holds; a run that never leaves
+    mode 1 though (5) failed once disagrees with it at that decision."""
     nan = np.nan
-    ad = pd.DataFrame({"mode": [1] * 4, "pred_T1": [1.0, nan, 2.0, 3.0],
-                       "pred_T2": [2.0, nan, 3.0, 1.0], "pred_T3": [3.0, nan, 4.0, 5.0],
+    ad = pd.DataFrame({"frame": [0, 1, 2, 3], "mode": [1] * 4, "next_mode": [1] * 4,
+                       "pred_T1": [1.0, nan, 2.0, 3.0],
                        "condition5": [0, nan, 0, 1], "condition6": [0, nan, 0, 0]})  # fmt: skip
-    why = exp._modes_cause(ad)
-    assert "on its 3 decisions" in why and "mode 1 on 2, mode 2 on 1 (1 of them" in why
-    assert "mode 3 on 0" in why
-    assert "condition (5) held on 1" in why
+    modes, at = exp.document_modes(ad)
+    assert modes == [1, 2] and at == {"5": 3, "6": None}
+    assert exp._disagreements(ad) == (1, 3)
+    ad.loc[3, "condition6"] = 1
+    assert exp.document_modes(ad) == ([1, 2, 3], {"5": 3, "6": 3})
 
 
 def test_q_star_titles_say_what_minus_one_means():

@@ -299,9 +299,9 @@ class GLContext(BindableContext):
         """A cached program from ``soc/shaders/<name>.glsl`` files, e.g. ``"mesh.vert"``."""
         key = (vertex, fragment or "")
         if key not in self._programs:
-            src = {"vertex_shader": _shader_source(vertex)}
+            src = {"vertex_shader": shader_source(vertex)}
             if fragment:
-                src["fragment_shader"] = _shader_source(fragment)
+                src["fragment_shader"] = shader_source(fragment)
             with self.current():
                 self._programs[key] = self._mgl.program(**src)
         return self._programs[key]
@@ -311,7 +311,7 @@ class GLContext(BindableContext):
         key = (name,)
         if key not in self._programs:
             with self.current():
-                self._programs[key] = self._mgl.compute_shader(_shader_source(name))
+                self._programs[key] = self._mgl.compute_shader(shader_source(name))
         return self._programs[key]
 
     # -- scene geometry, uploaded once per scene and shared by every user --------------------
@@ -405,7 +405,7 @@ def uses_gl(obj):
     return binding.uses_gl(obj, default=_default_context)
 
 
-def _shader_source(name: str) -> str:
+def shader_source(name: str) -> str:
     """``soc/shaders/<name>.glsl``, each ``#include "<other>"`` line replaced by that file's
     source (code shared by several shaders lives in ``<name>.common.glsl``)."""
     path = resources.files("soc.shaders").joinpath(f"{name}.glsl")
@@ -413,7 +413,7 @@ def _shader_source(name: str) -> str:
         raise FileNotFoundError(f"shader soc/shaders/{name}.glsl does not exist")
     lines = path.read_text().splitlines()
     return "\n".join(
-        _shader_source(line.split('"')[1]) if line.startswith("#include ") else line
+        shader_source(line.split('"')[1]) if line.startswith("#include ") else line
         for line in lines
     )
 
@@ -440,3 +440,10 @@ def default_context(threads: int | None = None) -> GLContext:
     glctx = _default_context(threads)
     glctx.ctx  # noqa: B018 - fetching ctx makes the context current
     return glctx
+
+
+def default_renderer() -> str | None:
+    """The GL renderer of the process-wide context (``GL_RENDERER``, e.g. ``"llvmpipe (LLVM
+    15.0.6, 256 bits)"``) when one was made, else None; makes none (results record which GL
+    measured them)."""
+    return _default.renderer if _default is not None else None

@@ -32,13 +32,12 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cache
-from importlib import resources
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from soc.gl.context import uses_gl
+from soc.gl.context import shader_source, uses_gl
 from soc.gl.raw import GL_QUERY_RESULT, GL_SAMPLES_PASSED
 from soc.rendering.renderer import SKY
 from soc.scenes.camera import Camera, _resolution
@@ -327,18 +326,6 @@ class ShadingStats:
 # -- the renderer -----------------------------------------------------------------------------
 
 
-def _source(name: str) -> str:
-    """``soc/shaders/<name>.glsl`` with ``#include "<other>"`` lines replaced by that file."""
-    text = resources.files("soc.shaders").joinpath(f"{name}.glsl").read_text()
-    lines = []
-    for line in text.splitlines():
-        if line.startswith("#include "):
-            lines.append(_source(line.split('"')[1]))
-        else:
-            lines.append(line)
-    return "\n".join(lines)
-
-
 @uses_gl
 class ShadingRenderer:
     """Forward and deferred shading of a scene at ``resolution`` pixels with point lights.
@@ -379,7 +366,7 @@ class ShadingRenderer:
         self.gbuffer_fbo = ctx.framebuffer([self.normal, self.diffuse, self.material], self.depth)
         self.light_fbo = ctx.framebuffer([self.color])
         self._programs = {
-            key: ctx.program(vertex_shader=_source(vert), fragment_shader=_source(frag))
+            key: ctx.program(vertex_shader=shader_source(vert), fragment_shader=shader_source(frag))
             for key, vert, frag in (
                 ("forward", "mesh.vert", "forward_shade.frag"),
                 ("gbuffer", "mesh.vert", "gbuffer_fill.frag"),

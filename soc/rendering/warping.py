@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 
 from soc.culling.oracle import NO_OBJECT
-from soc.gl.context import uses_gl
+from soc.gl.context import shader_source, uses_gl
 from soc.gl.raw import GL_COLOR
 from soc.rendering.renderer import LIGHT_DIR, SKY
 from soc.scenes.camera import Camera, _resolution
@@ -457,19 +457,6 @@ class FrameRenderer:
         return self.target.read()
 
 
-def _source(name: str) -> str:
-    """``soc/shaders/<name>.glsl`` with ``#include "<other>"`` lines replaced by that file."""
-    from soc.gl.context import _shader_source
-
-    lines = []
-    for line in _shader_source(name).splitlines():
-        if line.startswith("#include "):
-            lines.append(_shader_source(line.split('"')[1]))
-        else:
-            lines.append(line)
-    return "\n".join(lines) + "\n"
-
-
 @uses_gl
 class Warper:
     """The warping server: one splat per pixel of a :class:`FrameRenderer`'s last frame,
@@ -517,15 +504,15 @@ class Warper:
         if engine == "points":
             self.target = _Target(self.glctx, resolution)
             self.program = ctx.program(
-                vertex_shader=_source("warp_splat.vert"),
-                fragment_shader=_source("warp_splat.frag"),
+                vertex_shader=shader_source("warp_splat.vert"),
+                fragment_shader=shader_source("warp_splat.frag"),
             )
             self._vao = ctx.vertex_array(self.program, [])
             self._programs = [self.program]
         else:
             self.target = _Target(self.glctx, resolution, depth_attachment=False)
-            self.scatter = ctx.compute_shader(_source("warp_scatter.comp"))
-            self.resolve = ctx.compute_shader(_source("warp_resolve.comp"))
+            self.scatter = ctx.compute_shader(shader_source("warp_scatter.comp"))
+            self.resolve = ctx.compute_shader(shader_source("warp_resolve.comp"))
             self._programs = [self.scatter, self.resolve]
             w, h = self.resolution
             self.nearest = ctx.buffer(reserve=4 * w * h)
