@@ -13,16 +13,14 @@ vertices and degenerate faces) → simplify each level (cascade: from the previo
 restart: every level as from the full mesh, all of them snapshots of one simplifier run,
 ``lod.replay``) → clean each level → measure errors → accumulate → cache on disk.
 
-Cost (bench_lod_chain: 5 levels of a 1.3 M-triangle mesh, 2 shared cores, best of 3): 1.6×
-one fast-simplification call to the coarsest level (4.9 s vs 2.95 s; the issue's target is
-≤ 2×). The four cascaded simplifications take 1.15× that call, the error measurement
-≈ 0.45× (on 2 threads), welding and compaction 0.05×. Before (sorting welds and
-compactions, one global refinement reach and 4 candidates per point in ``lod.mesh_error``)
-the same chain took 3.4× (10.0 s), with the same levels and errors. With 6 levels (issue 24,
-CPU time, load 13): cascade 1.91× one call (of which errors ≈ 0.8×); restart 2.24×, from
-5.45× when it made one call per level (the same levels: the one-run snapshots are each
-call's mesh); so a chain within 1.2× of one call is out of reach while the error is measured
-as it is — the error measurement alone costs ~0.8× of the call (results/BENCHMARKS.md).
+Cost (bench_lod_chain, 6 levels, this process's CPU time, 2 shared cores, load 4-5; the
+issue's target is ≤ 1.2× one fast-simplification call to the coarsest level): the cascade
+costs 1.61-1.85× that call on igea subdivided (1.07 M triangles) and 1.34-1.63× on a noisy
+icosphere (1.3 M); its five simplifier calls alone 0.97-1.01× and 0.98-1.30×, the error
+measurement 0.42-0.48× and 0.29-0.33× (exact maxima streamed over point grids,
+``lod.mesh_error``; before, with k-d trees: 1.96× and 0.8×, the cascade 3.18× and 1.91×),
+welding and compaction ≈ 0.05×. So the simplifier calls alone nearly use up the target: a
+cascade within 1.2× would need the error measurement near 0.1× (results/BENCHMARKS.md).
 
 Triangle counts: each level holds ``round(ratio · m)`` triangles (m = input triangles) up to
 the simplifier's granularity (one pass may overshoot by a few triangles; measured within ±5 %
@@ -39,10 +37,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from lod import cache as _cache
-from lod.mesh_error import SAMPLES, SurfaceSamples, hausdorff
+from lod.mesh_error import SAMPLES, SurfaceSamples, hausdorff_to
 
 # fast-simplification's ``agg`` (threshold growth exponent). Measured with build_chain to
 # 1/16 (noisy icosphere 82k triangles / smooth torus 160k; final-level Hausdorff error):
@@ -65,7 +64,7 @@ AGG_MAX = 9.0
 # 1/16 in one run, so a second run at agg 5 follows), and its coarse levels stay 30-40 % worse:
 # one run keeps accumulating quadrics where the cascade starts afresh at every level.
 CASCADE = True
-# Threads measuring the levels' errors (numpy and scipy's k-d trees release the GIL).
+# Threads measuring the levels' errors (the sampling and distance kernels release the GIL).
 ERROR_THREADS = 2
 DEFAULT_RATIOS = (1.0, 0.5, 0.25, 0.125, 0.0625)
 
@@ -172,28 +171,71 @@ def validate_ratios(ratios: Sequence[float]) -> tuple[float, ...]:
 
 # --------------------------------------------------------------------------- prepare
 
+_jit = numba.njit(cache=True, nogil=True)
+
 
 def _drop_degenerate(faces: np.ndarray) -> np.ndarray:
     """Faces with three distinct indices."""
-    f = faces
-    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
-    return f[keep]
+    f = np.asarray(faces)
+    return f[_distinct(f)] if len(f) else f
 
 
 def _compact(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Drop degenerate faces and unreferenced vertices: → float32 (n, 3), int32 (m, 3).
 
     Vertices keep their order. A mask and a running count, not ``np.unique``: O(n) instead of
-    sorting 3m indices (0.3 s per level of the 1.3 M-triangle benchmark mesh).
+    sorting 3m indices (0.3 s per level of the 1.3 M-triangle benchmark mesh); compiled, as
+    the numpy version's masks and gathers were 0.1 s per call on that mesh.
     """
-    f = _drop_degenerate(np.asarray(faces))
-    used = np.zeros(len(vertices), dtype=bool)
-    used[f.ravel()] = True
-    new_index = np.cumsum(used, dtype=np.int64) - 1
-    return (
-        np.ascontiguousarray(np.asarray(vertices)[used], dtype=np.float32),
-        np.ascontiguousarray(new_index[f], dtype=np.int32),
-    )
+    f = np.ascontiguousarray(faces)
+    v = np.asarray(vertices)
+    keep = _distinct(f) if len(f) else np.zeros(0, bool)
+    new_index, n = _renumber(f, keep, len(v))
+    out_v = np.empty((n, 3), np.float32)
+    out_f = np.empty((int(keep.sum()), 3), np.int32)
+    if len(out_f):
+        _gather(v, f, keep, new_index, out_v, out_f)
+    return out_v, out_f
+
+
+@_jit
+def _distinct(f):
+    """(m,) bool: the faces whose three indices differ."""
+    out = np.empty(f.shape[0], np.bool_)
+    for t in range(f.shape[0]):
+        out[t] = f[t, 0] != f[t, 1] and f[t, 1] != f[t, 2] and f[t, 0] != f[t, 2]
+    return out
+
+
+@_jit
+def _renumber(f, keep, n):
+    """(n,) int64 new index of each vertex used by a kept face (−1 if none), in vertex order,
+    and how many there are."""
+    new_index = np.full(n, -1, np.int64)
+    for t in range(f.shape[0]):
+        if keep[t]:
+            for k in range(3):
+                new_index[f[t, k]] = 0
+    count = 0
+    for i in range(n):
+        if new_index[i] == 0:
+            new_index[i] = count
+            count += 1
+    return new_index, count
+
+
+@_jit
+def _gather(v, f, keep, new_index, out_v, out_f):
+    for i in range(v.shape[0]):
+        if new_index[i] >= 0:
+            for a in range(3):
+                out_v[new_index[i], a] = v[i, a]
+    m = 0
+    for t in range(f.shape[0]):
+        if keep[t]:
+            for k in range(3):
+                out_f[m, k] = new_index[f[t, k]]
+            m += 1
 
 
 def _coordinate_hash(v: np.ndarray) -> np.ndarray:
@@ -371,9 +413,10 @@ def build_chain(
 
 def _measure_errors(full_mesh: tuple, meshes: list[tuple]) -> list[float]:
     """Sampled symmetric Hausdorff distance of each level to ``full_mesh`` (0 for the input
-    itself), object units. Sampling, k-d trees and distance queries run mostly outside the
-    GIL, so they are spread over ``ERROR_THREADS`` threads: first every surface's samples,
-    then the distances. The numbers do not depend on the thread count."""
+    itself), object units. The sampling and the distances run outside the GIL, so every
+    surface's samples, then the full mesh's points against each level, are spread over
+    ``ERROR_THREADS`` threads; the levels' points against the full mesh are one stream of its
+    triangles (``lod.mesh_error.hausdorff_to``). The numbers do not depend on the threads."""
     from concurrent.futures import ThreadPoolExecutor
 
     todo = [k for k, mesh in enumerate(meshes) if mesh[1] is not full_mesh[1]]
@@ -381,7 +424,7 @@ def _measure_errors(full_mesh: tuple, meshes: list[tuple]) -> list[float]:
         full, *levels = pool.map(
             lambda m: SurfaceSamples.of(*m), [full_mesh, *(meshes[k] for k in todo)]
         )
-        dist = list(pool.map(lambda s: hausdorff(s, full), levels))
+    dist = hausdorff_to(levels, full, threads=ERROR_THREADS)
     errors = [0.0] * len(meshes)
     for k, d in zip(todo, dist, strict=True):
         errors[k] = d

@@ -5,163 +5,67 @@ The error of a level of detail is the symmetric Hausdorff distance to the full m
 
     H(A, B) = max( sup_{a ∈ A} d(a, B), sup_{b ∈ B} d(b, A) ),   d(p, S) = min_{s ∈ S} ‖p − s‖,
 
-in object units. We approximate it as Metro does, by sampling, in four stages:
+in object units. We approximate it as Metro does, by sampling, in two stages:
 
 1. ``SurfaceSamples.of``: area-weighted random points on each surface plus its vertices
    when they are fewer than the samples (the distance from a coarse mesh to a fine one
    peaks at coarse vertices);
-2. ``SurfaceSamples.distance_from``: for every query point, the nearest of the other
-   surface's samples and triangle centroids (scipy cKDTree) name candidate triangles; the
-   exact point–triangle distance to each candidate (vectorized) and the minimum over them —
-   an upper bound of the distance. ``max_distance_from`` takes one candidate for every point,
-   then ``CANDIDATES`` for the points whose bound still exceeds the exact distance of the few
-   largest;
-3. ``SurfaceSamples.max_distance_from``: the points in decreasing order of that bound are
-   refined exactly, in growing batches, until the next bound is below the largest exact
-   distance: every triangle T whose centroid lies within ``bound + reach(T)`` (reach = its
-   centroid-to-corner distance, rounded up to its size class) is tested, which must include
-   the closest one;
-4. ``hausdorff``: the maximum of both one-sided maxima (the second one only refines points
-   whose bound exceeds the first).
+2. ``SurfaceSamples.max_distance_from``: the largest distance from one surface's points to
+   the other surface's triangles, exact (:mod:`lod.point_to_mesh`: the points in a grid,
+   the triangles streamed over it once per pass); ``hausdorff`` takes both sides (the second
+   one only needs the points that may exceed the first), ``hausdorff_to`` many surfaces
+   against one (a chain's levels against the full mesh: that mesh streamed once for all).
 
-Tolerance. Step 3 makes the maximum over the query points exact; step 2 alone returns an
-upper bound of d(p, B) per point, exact when the closest
-triangle of B holds one of the candidate samples or centroids (almost always: the tree holds
-every centroid, so candidates are never sparser than B's own triangles); otherwise it exceeds
-the truth by at most the covering radius of the tree points, ≤ ``spacing =
-sqrt(area(B) / samples)`` and ≤ the triangle size of B. Step 1 takes
-the supremum over finitely many points of A, which underestimates it by at most A's own
-spacing: 0 ≤ H − H_sampled ≲ spacing (the sampled value never overestimates);
-``SurfaceSamples.spacing`` reports it. Tests check exact values on meshes whose
-distance is known in closed form.
+Tolerance. Stage 2 is exact up to rounding (the point–triangle kernel,
+:mod:`lod.triangle_distance`, is exact for slivers too). Stage 1 takes the supremum over
+finitely many points of A, which underestimates it by at most A's own spacing
+``sqrt(area / samples)``: 0 ≤ H − H_sampled ≲ spacing (the sampled value never
+overestimates); ``SurfaceSamples.spacing`` reports it. Tests check exact values on meshes
+whose distance is known in closed form, and brute force over every point–triangle pair.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numba
 import numpy as np
-from scipy.spatial import cKDTree
 
-# Surface samples per mesh (on top of its vertices). 50k keeps the error measurement of a
-# whole 5-level chain of a 1.3 M-triangle mesh near 2 s of CPU (two thirds building the
-# samples and k-d trees over every centroid, which do not depend on this number); spacing
-# ≈ 1.6 % of a unit sphere's radius (a loose worst-case bound: measured errors agree far
-# closer, see tests). Fewer samples save little and lose accuracy: on that chain 10k/20k/50k
-# samples give 0.0064/0.0063/0.0070 at 1/16 where 200k give 0.0076.
+from lod import point_to_mesh
+
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+
+# Surface samples per mesh (on top of its vertices). 50k: spacing ≈ 1.6 % of a unit sphere's
+# radius (a loose worst-case bound: measured errors agree far closer, see tests). Fewer
+# samples lose accuracy: on a 1.3 M-triangle chain 10k/20k/50k samples give
+# 0.0064/0.0063/0.0070 at 1/16 where 200k give 0.0076.
 SAMPLES = 50_000
-# Nearest samples whose triangles are tested exactly per query point in the second pass of
-# stage 2. 4 catches the closest triangle in >99 % of queries on the meshes we tried; fewer
-# leaves more points to the exact stage 3 (fandisk: 3× slower with 1), more costs linearly.
-CANDIDATES = 4
-# Query points refined exactly in the first batch of step 3, doubling per batch up to
-# REFINE_BATCH: the bounds of step 2 are almost always exact, so the first few points usually
-# settle the maximum and the rest is skipped.
-REFINE_FIRST = 16
-REFINE_BATCH = 2048
-# Triangles whose reach (centroid-to-corner distance) exceeds this multiple of the median get
-# their own k-d trees in step 3, one per size class: on meshes with a few long triangles (CAD
-# models, coarse levels) one global reach made every refinement ball hold the whole mesh
-# (fandisk_13k at 1/8: 13 s → 1 s, the same distance).
-LARGE_REACH = 2.0
-# At most this many (point, triangle) pairs per refinement batch (~100 MB of float64 work).
-REFINE_PAIRS = 1_000_000
 # Seed of the sampler: errors are deterministic.
 SEED = 0
 
 
-def _sq_rows(a: np.ndarray) -> np.ndarray:
-    """Squared norms of the columns of a (3, m) array, (m,)."""
-    return a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
-
-
-def _closest_on_triangles(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """Distances from points to triangles, pairwise: tri (n, 3, 3), p (n, 3) → (n,) float64.
-
-    Ericson, "Real-Time Collision Detection" §5.1.5 (Voronoi regions of the triangle), vectorized.
-    """
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    ab, ac, ap = b - a, c - a, p - a
-    d1 = np.einsum("ij,ij->i", ab, ap)
-    d2 = np.einsum("ij,ij->i", ac, ap)
-    bp = p - b
-    d3 = np.einsum("ij,ij->i", ab, bp)
-    d4 = np.einsum("ij,ij->i", ac, bp)
-    cp = p - c
-    d5 = np.einsum("ij,ij->i", ab, cp)
-    d6 = np.einsum("ij,ij->i", ac, cp)
-    va = d3 * d6 - d5 * d4
-    vb = d5 * d2 - d1 * d6
-    vc = d1 * d4 - d3 * d2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        # interior of the face (default), then the regions overriding it, most specific last
-        denom = va + vb + vc
-        v = vb / denom
-        w = vc / denom
-        q = a + ab * v[:, None] + ac * w[:, None]
-        # edge bc
-        m = (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0)
-        w_bc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        q[m] = b[m] + (c - b)[m] * w_bc[m, None]
-        # edge ac
-        m = (vb <= 0) & (d2 >= 0) & (d6 <= 0)
-        w_ac = d2 / (d2 - d6)
-        q[m] = a[m] + ac[m] * w_ac[m, None]
-        # edge ab
-        m = (vc <= 0) & (d1 >= 0) & (d3 <= 0)
-        v_ab = d1 / (d1 - d3)
-        q[m] = a[m] + ab[m] * v_ab[m, None]
-        # vertices
-        m = (d6 >= 0) & (d5 <= d6)
-        q[m] = c[m]
-        m = (d3 >= 0) & (d4 <= d3)
-        q[m] = b[m]
-        m = (d1 <= 0) & (d2 <= 0)
-        q[m] = a[m]
-    # degenerate (zero-area) triangles leave NaN in the face branch: fall back to the vertices
-    bad = ~np.isfinite(q).all(axis=1)
-    if bad.any():
-        corners = np.linalg.norm(tri[bad] - p[bad, None, :], axis=2)
-        q[bad] = tri[bad][np.arange(bad.sum()), corners.argmin(axis=1)]
-    return np.linalg.norm(p - q, axis=1)
-
-
 @dataclass(frozen=True)
 class SurfaceSamples:
-    """Points on a triangle mesh with the triangle each lies on, and k-d trees over them.
+    """Points on a triangle mesh, and the mesh.
 
-    points: (s, 3) float64 query points on the surface, object units; face: (t,) int64, the
-    triangle of each point of ``tree`` (samples then centroids); vertices (n, 3) float64 and
-    faces (m, 3) int64 of the mesh; spacing: float, object units, the typical distance
-    between neighbouring samples (the error tolerance, see the module docstring); reach:
-    float, the largest centroid-to-corner distance of the ordinary triangles; large: one
-    ``(tree over centroids, triangle ids (k,) int64, reach)`` per size class of the triangles
-    whose reach exceeds ``reach`` (classes double in reach).
+    points: (s, 3) float64 points on the surface, object units; vertices (n, 3) float32 or
+    float64 and faces (m, 3) int of the mesh; spacing: float, object units, the typical
+    distance between neighbouring samples (the error tolerance, see the module docstring).
     """
 
     points: np.ndarray
-    face: np.ndarray
     vertices: np.ndarray
     faces: np.ndarray
     spacing: float
-    tree: cKDTree
-    reach: float
-    large: tuple[tuple[cKDTree, np.ndarray, float], ...] = ()
 
     @classmethod
     def of(cls, vertices: np.ndarray, faces: np.ndarray, samples: int = SAMPLES) -> SurfaceSamples:
         """Sample a mesh: vertices (n, 3) float, faces (m, 3) int, m ≥ 1."""
-        v = np.asarray(vertices, dtype=np.float64)
-        f = np.asarray(faces, dtype=np.int64)
-        # per-triangle arithmetic on (3, m) rows: contiguous, 2-3× faster than (m, 3) columns
-        vt = np.ascontiguousarray(v.T)
-        c0, c1, c2 = vt[:, f[:, 0]], vt[:, f[:, 1]], vt[:, f[:, 2]]
-        e1, e2 = c1 - c0, c2 - c0
-        area = 0.5 * np.sqrt(
-            (e1[1] * e2[2] - e1[2] * e2[1]) ** 2
-            + (e1[2] * e2[0] - e1[0] * e2[2]) ** 2
-            + (e1[0] * e2[1] - e1[1] * e2[0]) ** 2
-        )
+        v = np.asarray(vertices)
+        v = np.ascontiguousarray(v, dtype=np.float32 if v.dtype == np.float32 else np.float64)
+        f = np.ascontiguousarray(faces, dtype=np.int64)
+        area, used = _areas_and_used(v, f)
         total = float(area.sum())
         rng = np.random.default_rng(SEED)
         if total > 0:
@@ -172,131 +76,98 @@ class SurfaceSamples:
         r = rng.random((samples, 2))
         flip = r.sum(axis=1) > 1
         r[flip] = 1 - r[flip]
-        pts = (c0[:, face] + r[:, 0] * e1[:, face] + r[:, 1] * e2[:, face]).T
-        # the vertices themselves (one incident triangle each): the distance from a coarse
-        # mesh to a fine one peaks at coarse vertices; skipped when they outnumber the samples
-        # (a fine mesh, whose vertices are then as dense as the samples anyway). A scatter,
-        # not np.unique: O(n) (any incident triangle will do).
-        owner = np.full(len(v), -1, dtype=np.int64)
-        owner[f.ravel()] = np.arange(f.size) // 3
-        used = np.flatnonzero(owner >= 0)
+        pts = _points_on(v, f, face, r)
+        # the vertices themselves: the distance from a coarse mesh to a fine one peaks at
+        # coarse vertices; skipped when they outnumber the samples (a fine mesh, whose
+        # vertices are then as dense as the samples anyway)
+        used = np.flatnonzero(used)
         if len(used) <= samples:
-            pts = np.concatenate([pts, v[used]])
-            face = np.concatenate([face, owner[used]])
+            pts = np.concatenate([pts, v[used].astype(np.float64)])
         spacing = float(np.sqrt(total / samples)) if total > 0 else 0.0
-        centroid = (c0 + c1 + c2) / 3.0
-        tri_reach = np.sqrt(
-            np.maximum(
-                np.maximum(_sq_rows(c0 - centroid), _sq_rows(c1 - centroid)),
-                _sq_rows(c2 - centroid),
-            )
-        )
-        centroid = centroid.T
-        tree_pts = np.concatenate([pts[:samples], centroid])
-        tree_face = np.concatenate([face[:samples], np.arange(len(f))])
-        reach, large = _size_classes(centroid, tri_reach)
-        # unbalanced (sliding-midpoint) tree: 1.5× faster to build, queries as fast
-        tree = cKDTree(tree_pts, balanced_tree=False)
-        return cls(np.ascontiguousarray(pts), tree_face, v, f, spacing, tree, reach, large)
+        return cls(pts, v, f, spacing)
 
-    def corners(self, ids: np.ndarray) -> np.ndarray:
-        """(k, 3, 3) float64 corner positions of triangles ``ids`` (k,)."""
-        return self.vertices[self.faces[ids]]
+    def distance_from(self, points: np.ndarray) -> np.ndarray:
+        """Exact distance of each point (q, 3) to this surface, (q,) float64, object units."""
+        return point_to_mesh.distances(points, self.vertices, self.faces)
 
-    def distance_from(self, points: np.ndarray, candidates: int = CANDIDATES) -> np.ndarray:
-        """Distance of each point (q, 3) to this surface, (q,) float64 (upper bound, see above):
-        the nearest over the triangles of the ``candidates`` nearest tree points."""
-        k = max(1, min(int(candidates), len(self.face)))
-        _, idx = self.tree.query(points, k=k, workers=-1)
-        cand = self.face[idx.reshape(len(points), k)]  # (q, k)
-        d = _closest_on_triangles(
-            self.corners(cand.ravel()), np.repeat(np.asarray(points, np.float64), k, axis=0)
-        )
-        return d.reshape(-1, k).min(axis=1)
-
-    def max_distance_from(self, points: np.ndarray, floor: float = 0.0) -> float:
+    def max_distance_from(
+        self, points: np.ndarray, floor: float = 0.0, spacing: float = 0.0
+    ) -> float:
         """max(floor, max_i d(points_i, this surface)), exact over the given (q, 3) points;
-        object units. Points whose upper bound is at most ``floor`` are not refined."""
-        points = np.asarray(points, dtype=np.float64)
-        # stage 2 in two passes: one candidate for every point, then CANDIDATES only for
-        # the points whose bound exceeds the exact distance of the few largest (on smooth
-        # meshes almost none: 3× faster than CANDIDATES everywhere, the same maximum)
-        bound = self.distance_from(points, 1)
-        top = np.argsort(-bound)[:REFINE_FIRST]
-        top = top[bound[top] > floor]
-        exact, taken = self._exact(points[top], bound[top])
-        bound[top[:taken]] = exact
-        best = max(float(floor), float(exact.max(initial=0.0)))
-        loose = np.flatnonzero(bound > best)
-        if CANDIDATES > 1 and len(loose):
-            bound[loose] = np.minimum(bound[loose], self.distance_from(points[loose]))
-        # stage 3: refine the points in decreasing order of their bound
-        order = np.argsort(-bound)
-        start, size = 0, REFINE_FIRST
-        while start < len(order):
-            batch = order[start : start + size]
-            batch = batch[bound[batch] > best]  # bounds are sorted: a prefix survives
-            if len(batch) == 0:
-                break
-            exact, taken = self._exact(points[batch], bound[batch])
-            start += taken
-            size = min(2 * size, REFINE_BATCH)
-            best = max(best, float(exact.max()))
-        return best
-
-    def _exact(self, points: np.ndarray, bound: np.ndarray) -> tuple[np.ndarray, int]:
-        """Exact distances of a prefix of ``points`` (q, 3) given upper bounds (q,): returns
-        (distances of the first ``taken`` points, taken); taken < q only when the candidate
-        pairs would exceed ``REFINE_PAIRS`` (then at least 1)."""
-        if len(points) == 0:
-            return np.zeros(0), 0
-        # every triangle T with |p − centroid(T)| ≤ bound(p) + reach(T) may hold the closest
-        # point: the ordinary ones through the main tree, each size class through its own (a
-        # few big triangles must not widen every ball)
-        searches = [(self.tree, self.face, self.reach), *self.large]
-        sizes = sum(
-            np.asarray(tr.query_ball_point(points, bound + r, return_length=True))
-            for tr, _, r in searches
+        object units. Points whose distance is at most ``floor`` may be skipped early.
+        ``spacing``: of the points (≤ 0: estimated from their bounding box)."""
+        return point_to_mesh.max_distance(
+            points, self.vertices, self.faces, floor=floor, spacing=spacing
         )
-        # keep the candidate pairs bounded (memory): a prefix of the points
-        taken = max(1, int(np.searchsorted(np.cumsum(sizes), REFINE_PAIRS, side="right")))
-        points, bound = points[:taken], bound[:taken]
-        owner, cand = [], []
-        for tr, ids, r in searches:
-            balls = tr.query_ball_point(points, bound + r)
-            counts = np.fromiter((len(x) for x in balls), dtype=np.int64, count=len(balls))
-            owner.append(np.repeat(np.arange(taken), counts))
-            cand.append(ids[np.concatenate(balls).astype(np.int64)])
-        who = np.concatenate(owner)
-        d = _closest_on_triangles(self.corners(np.concatenate(cand)), points[who])
-        exact = np.full(taken, np.inf)
-        np.minimum.at(exact, who, d)
-        return exact, taken
 
 
-def _size_classes(
-    centroid: np.ndarray, tri_reach: np.ndarray
-) -> tuple[float, tuple[tuple[cKDTree, np.ndarray, float], ...]]:
-    """Split triangles by reach (centroid-to-corner distance, (m,) float64): the ordinary ones
-    (reach ≤ LARGE_REACH × the median) and classes of larger ones whose reach doubles per
-    class, each with a k-d tree over its centroids. Returns (ordinary reach, classes)."""
-    limit = LARGE_REACH * float(np.median(tri_reach))
-    big = np.flatnonzero(tri_reach > limit)
-    if len(big) == 0 or limit <= 0:
-        return float(tri_reach.max()), ()
-    reach = float(tri_reach[tri_reach <= limit].max())
-    level = np.ceil(np.log2(tri_reach[big] / limit)).astype(np.int64)
-    classes = []
-    for j in np.unique(level):
-        ids = big[level == j]
-        classes.append((cKDTree(centroid[ids]), ids, float(tri_reach[ids].max())))
-    return reach, tuple(classes)
+@_jit
+def _areas_and_used(v, f):
+    """(m,) float64 triangle areas (the arithmetic of the numpy expression they replace, so
+    the sampler draws the same points) and (n,) bool: the vertices some face uses."""
+    area = np.empty(f.shape[0])
+    used = np.zeros(v.shape[0], np.bool_)
+    for t in range(f.shape[0]):
+        a, b, c = f[t, 0], f[t, 1], f[t, 2]
+        used[a] = used[b] = used[c] = True
+        e1x, e1y, e1z = (
+            np.float64(v[b, 0]) - v[a, 0],
+            np.float64(v[b, 1]) - v[a, 1],
+            np.float64(v[b, 2]) - v[a, 2],
+        )
+        e2x, e2y, e2z = (
+            np.float64(v[c, 0]) - v[a, 0],
+            np.float64(v[c, 1]) - v[a, 1],
+            np.float64(v[c, 2]) - v[a, 2],
+        )
+        nx = e1y * e2z - e1z * e2y
+        ny = e1z * e2x - e1x * e2z
+        nz = e1x * e2y - e1y * e2x
+        area[t] = 0.5 * np.sqrt(nx * nx + ny * ny + nz * nz)
+    return area, used
+
+
+@_jit
+def _points_on(v, f, face, r):
+    """(s, 3) float64: point c0 + r0 (c1 − c0) + r1 (c2 − c0) on triangle face[i]."""
+    out = np.empty((face.shape[0], 3))
+    for i in range(face.shape[0]):
+        t = face[i]
+        for k in range(3):
+            c0 = np.float64(v[f[t, 0], k])
+            out[i, k] = c0 + r[i, 0] * (v[f[t, 1], k] - c0) + r[i, 1] * (v[f[t, 2], k] - c0)
+    return out
 
 
 def hausdorff(a: SurfaceSamples, b: SurfaceSamples) -> float:
     """Sampled symmetric Hausdorff distance between two sampled surfaces, object units."""
-    # the second one-sided maximum only matters where it exceeds the first
-    return a.max_distance_from(b.points, floor=b.max_distance_from(a.points))
+    # the second one-sided maximum only needs the points that may exceed the first
+    return a.max_distance_from(
+        b.points, floor=b.max_distance_from(a.points, spacing=a.spacing), spacing=b.spacing
+    )
+
+
+def hausdorff_to(
+    surfaces: Sequence[SurfaceSamples], full: SurfaceSamples, threads: int = 1
+) -> list[float]:
+    """``hausdorff(s, full)`` for every surface s, object units: the points of ``full``
+    against each surface (on ``threads`` threads), then every surface's points against
+    ``full`` in one stream of its triangles (the big mesh read once, not once per surface)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    if not surfaces:
+        return []
+    with ThreadPoolExecutor(max(1, threads)) as pool:
+        floors = list(
+            pool.map(lambda s: s.max_distance_from(full.points, spacing=full.spacing), surfaces)
+        )
+    points = np.concatenate([s.points for s in surfaces])
+    group = np.repeat(np.arange(len(surfaces)), [len(s.points) for s in surfaces])
+    spacing = min(s.spacing for s in surfaces) / np.sqrt(len(surfaces))
+    out = point_to_mesh.max_distances(
+        points, group, full.vertices, full.faces, floors, spacing=spacing
+    )
+    return [float(x) for x in out]
 
 
 def mesh_hausdorff(

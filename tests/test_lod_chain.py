@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 
 import lod.chain
 from lod.chain import _weld, accumulate_errors, build_chain, quadric_simplify
-from lod.mesh_error import SurfaceSamples, _closest_on_triangles, hausdorff, mesh_hausdorff
+from lod.mesh_error import SurfaceSamples, hausdorff, hausdorff_to, mesh_hausdorff
+from lod.triangle_distance import point_triangle_distance
 
 RATIOS = (1.0, 0.5, 0.25, 0.125, 0.0625)
 
@@ -85,7 +86,7 @@ def test_point_triangle_distance_matches_trimesh(seed):
     tri = rng.normal(size=(200, 3, 3))
     p = rng.normal(size=(200, 3)) * 2
     ref = np.linalg.norm(trimesh.triangles.closest_point(tri, p) - p, axis=1)
-    np.testing.assert_allclose(_closest_on_triangles(tri, p), ref, atol=1e-9)
+    np.testing.assert_allclose(point_triangle_distance(p, tri), ref, atol=1e-9)
 
 
 def test_messy_mesh_unreferenced_duplicates_borders_components():
@@ -204,16 +205,15 @@ def test_quadric_simplify_welds_hits_the_target_and_validates():
 def _brute_max_distance(points, tri):
     """(q,) distance of each point to the nearest of all triangles, every pair computed."""
     q, m = len(points), len(tri)
-    d = _closest_on_triangles(np.tile(tri, (q, 1, 1)), np.repeat(points, m, axis=0))
+    d = point_triangle_distance(np.repeat(points, m, axis=0), np.tile(tri, (q, 1, 1)))
     return d.reshape(q, m).min(axis=1)
 
 
 def test_max_distance_is_exact_next_to_a_long_sliver():
     """A unit sphere, a small sphere and a 6-unit sliver (almost no area, so no samples)
-    whose far end lies next to the small sphere. Points beside that end see only the small
-    sphere's samples among their nearest tree points (bound ≈ 1.2, truth ≈ 0.05); the
-    sliver's centroid is 4 units away, out of reach of the ordinary triangles' balls — only
-    its size class finds it. Brute force over all pairs agrees."""
+    whose far end lies next to the small sphere: points beside that end are nearest to the
+    sliver (≈ 0.05), whose bounding box is huge and whose centroid is 4 units away. Brute
+    force over all pairs agrees, per point and for the maximum."""
     a = trimesh.creation.icosphere(2)
     b = trimesh.creation.icosphere(1, radius=0.3)
     sliver = np.array([[2.0, 0, 0], [8.0, 0, 0], [2.0, 0.01, 0]])
@@ -221,17 +221,17 @@ def test_max_distance_is_exact_next_to_a_long_sliver():
     n0, n1 = len(a.vertices), len(a.vertices) + len(b.vertices)
     f = np.concatenate([a.faces, b.faces + n0, [[n1, n1 + 1, n1 + 2]]])
     s = SurfaceSamples.of(v, f, samples=400)
-    assert len(s.large) >= 1  # the sliver has its own size class
     rng = np.random.default_rng(7)
     d = rng.normal(size=(300, 3))
     shell = d / np.linalg.norm(d, axis=1, keepdims=True) * rng.uniform(1.0, 1.3, (300, 1))
     end = [7.9, 0.05, 0.0] + rng.uniform(-0.03, 0.03, (20, 3))
-    pts = np.concatenate([shell, end])
+    far = rng.uniform(-50, 50, (5, 3))  # far from everything: passes of growing radius
+    pts = np.concatenate([shell, end, far])
     brute = _brute_max_distance(pts, v[f])
-    bound = s.distance_from(pts)
-    assert np.all(bound >= brute - 1e-12)  # an upper bound per point
-    assert bound[300:].min() > 1.0 > 0.1 > brute[300:].max()  # loose where it matters
+    assert brute[300:320].max() < 0.1  # the sliver is the nearest there
+    np.testing.assert_allclose(s.distance_from(pts), brute, rtol=1e-12)
     assert s.max_distance_from(pts) == pytest.approx(brute.max(), rel=1e-12)
+    assert s.max_distance_from(pts[:320]) == pytest.approx(brute[:320].max(), rel=1e-12)
     # the floor: returned when nothing exceeds it, ignored when the maximum does
     assert s.max_distance_from(pts, floor=1e3) == 1e3
     assert s.max_distance_from(pts, floor=0.5 * brute.max()) == pytest.approx(brute.max())
@@ -248,3 +248,25 @@ def test_hausdorff_is_symmetric_and_the_max_of_both_sides():
     other = _brute_max_distance(sb.points, a.vertices[a.faces]).max()
     assert hausdorff(sa, sb) == pytest.approx(max(one, other), rel=1e-12)
     assert hausdorff(sb, sa) == pytest.approx(max(one, other), rel=1e-12)
+
+
+def test_hausdorff_to_many_is_hausdorff_of_each():
+    """The chain's path (every level's points against the full mesh in one stream) gives what
+    ``hausdorff`` gives level by level, for coarse, shifted, scaled and far surfaces."""
+    full = trimesh.creation.icosphere(3)
+    fs = SurfaceSamples.of(full.vertices, full.faces, 2000)
+    others = [
+        trimesh.creation.icosphere(1),
+        trimesh.creation.icosphere(2, radius=1.05),
+        trimesh.creation.box(extents=(1.2, 1.2, 1.2)),
+        trimesh.creation.icosphere(1, radius=0.2),  # deep inside: far from every triangle
+    ]
+    others[3].vertices += [5.0, 0, 0]  # and then far outside
+    ss = [SurfaceSamples.of(m.vertices, m.faces, 2000) for m in others]
+    many = hausdorff_to(ss, fs, threads=2)
+    for s, h in zip(ss, many, strict=True):
+        assert h == pytest.approx(hausdorff(s, fs), rel=1e-12)
+        one = _brute_max_distance(s.points, full.vertices[full.faces]).max()
+        other = _brute_max_distance(fs.points, s.vertices[s.faces]).max()
+        assert h == pytest.approx(max(one, other), rel=1e-12)
+    assert hausdorff_to([], fs) == []

@@ -162,16 +162,20 @@ _ARRAYS = (
 # -- stage 1: weld --------------------------------------------------------------------------------
 
 
-def weld_vertices(scene) -> np.ndarray:
+def weld_vertices(scene, objects: np.ndarray | None = None) -> np.ndarray:
     """(V,) int64 welded vertex ids: vertices of one object at the same position (bit for bit)
-    share an id; ids are global and never shared between objects.
+    share an id; ids are global and never shared between objects. With ``objects`` (K,) int,
+    only the vertices of those objects (their ranges, in order), ids from 0.
 
     By a 64-bit hash of (object, x, y, z): a collision (about V²/2⁶⁵, never seen) would only
     join two vertices for the growth's adjacency, never change bounds.
     """
-    n = len(scene)
-    owner = np.repeat(np.arange(n, dtype=np.uint64), np.diff(scene.vertex_offsets))
-    bits = np.ascontiguousarray(scene.vertices).view(np.uint32).astype(np.uint64)
+    if objects is None:
+        objects = np.arange(len(scene))
+    counts = np.diff(scene.vertex_offsets)[objects]
+    owner = np.repeat(np.asarray(objects, np.uint64), counts)
+    vertices = scene.vertices[_object_ranges(scene.vertex_offsets, np.asarray(objects))]
+    bits = np.ascontiguousarray(vertices).view(np.uint32).astype(np.uint64)
     with np.errstate(over="ignore"):
         h = owner * np.uint64(0x9E3779B97F4A7C15)
         for axis, mult in enumerate((0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0x27D4EB2F165667C5)):
@@ -221,10 +225,10 @@ def _morton_codes(points: np.ndarray, lo: np.ndarray, size: np.ndarray) -> np.nd
     return _spread_bits(q[:, 0]) | _spread_bits(q[:, 1]) << 1 | _spread_bits(q[:, 2]) << 2
 
 
-def _morton_ranks(scene, centroids: np.ndarray, lo: np.ndarray, size: np.ndarray):
-    """(F,) int64 face indices sorted, inside each object's range, by the Morton code of their
-    centroid in the object's AABB; and (F,) int64 the codes in that order."""
-    owner = np.repeat(np.arange(len(scene)), scene.triangle_counts)
+def _morton_ranks(owner: np.ndarray, centroids: np.ndarray, lo: np.ndarray, size: np.ndarray):
+    """(F,) int64 face indices sorted, inside each object's range (``owner`` (F,): the face's
+    object, sorted), by the Morton code of their centroid in the object's AABB (``lo``,
+    ``size`` per object); and (F,) int64 the codes in that order."""
     codes = _morton_codes(centroids, lo[owner], size[owner])
     by_rank = np.argsort(owner.astype(np.int64) << 30 | codes, kind="stable")
     return by_rank.astype(np.int64), codes[by_rank]
@@ -564,31 +568,20 @@ def build_clusters(
     """
     max_triangles, cone_weight = _check_params(max_triangles, cone_weight)
     gfaces = _global_faces(scene)
-    welded = weld_vertices(scene)
-    tri_w = np.ascontiguousarray(welded[gfaces])
-    centroids, normals, areas = _triangle_data(scene.vertices, gfaces)
-    n_welded = int(welded.max()) + 1
-    adj_start, adj_tris = _adjacency(tri_w, n_welded)
-    face_offsets = np.ascontiguousarray(scene.face_offsets, np.int64)
-    lo = scene.aabbs[:, 0].astype(np.float64)
-    size = np.maximum(scene.aabbs[:, 1] - scene.aabbs[:, 0], 1e-30).astype(np.float64)
-    by_rank, codes = _morton_ranks(scene, centroids, lo, size)
-    order, starts = _grow(
-        face_offsets,
-        tri_w,
-        centroids,
-        normals,
-        areas,
-        adj_start,
-        adj_tris,
-        by_rank,
-        codes,
-        lo,
-        size,
-        n_welded,
-        max_triangles,
-        float(cone_weight),
-    )
+    order = np.arange(len(gfaces), dtype=np.int64)
+    starts = np.zeros(len(gfaces), np.bool_)
+    starts[scene.face_offsets[:-1][scene.triangle_counts > 0]] = True
+    big = np.flatnonzero(scene.triangle_counts > max_triangles)
+    if len(big):
+        # Objects of at most max_triangles are one cluster each in their own order: only the
+        # faces of larger objects go through stages 1-2 (their arrays alone, renumbered; the
+        # growth sees the same adjacency, order and ties, so the clusters are the same).
+        big_faces = _object_ranges(scene.face_offsets, big)
+        sub_order, sub_starts = _grow_objects(
+            scene, big, big_faces, gfaces[big_faces], max_triangles, cone_weight
+        )
+        order[big_faces] = big_faces[sub_order]
+        starts[big_faces] = sub_starts
     first = np.flatnonzero(starts).astype(np.int64)
     count = np.diff(np.append(first, len(order))).astype(np.int32)
     owner = np.repeat(np.arange(len(scene), dtype=np.int32), scene.triangle_counts)
@@ -609,6 +602,47 @@ def build_clusters(
         max_triangles=max_triangles,
         cone_weight=cone_weight,
         key=cluster_key(scene, max_triangles, cone_weight),
+    )
+
+
+def _object_ranges(offsets: np.ndarray, objects: np.ndarray) -> np.ndarray:
+    """(K,) int64 the concatenated index ranges ``offsets[o]:offsets[o + 1]`` of ``objects``."""
+    lengths = offsets[objects + 1] - offsets[objects]
+    starts = np.repeat(offsets[objects] - np.concatenate([[0], np.cumsum(lengths)[:-1]]), lengths)
+    return (np.arange(int(lengths.sum()), dtype=np.int64) + starts).astype(np.int64)
+
+
+def _grow_objects(scene, objects, faces, gfaces, max_triangles, cone_weight):
+    """Stages 1-2 on the faces ``faces`` (K,) of ``objects`` (their whole ranges, in order;
+    ``gfaces`` (K, 3) their global vertex ids): ``order`` (K,) positions into ``faces`` in
+    cluster order and ``starts`` (K,) bool, True where a cluster begins."""
+    counts = scene.triangle_counts[objects]
+    face_offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    welded = np.full(len(scene.vertices), -1, np.int64)
+    welded[_object_ranges(scene.vertex_offsets, objects)] = weld_vertices(scene, objects)
+    tri_w = np.ascontiguousarray(welded[gfaces])
+    centroids, normals, areas = _triangle_data(scene.vertices, gfaces)
+    n_welded = int(tri_w.max()) + 1
+    adj_start, adj_tris = _adjacency(tri_w, n_welded)
+    lo = scene.aabbs[objects, 0].astype(np.float64)
+    size = np.maximum(scene.aabbs[objects, 1] - scene.aabbs[objects, 0], 1e-30).astype(np.float64)
+    owner = np.repeat(np.arange(len(objects)), counts)
+    by_rank, codes = _morton_ranks(owner, centroids, lo, size)
+    return _grow(
+        face_offsets,
+        tri_w,
+        centroids,
+        normals,
+        areas,
+        adj_start,
+        adj_tris,
+        by_rank,
+        codes,
+        lo,
+        size,
+        n_welded,
+        max_triangles,
+        float(cone_weight),
     )
 
 

@@ -367,16 +367,19 @@ class HizTest:
         self.footprint = footprint
         self.refine = int(refine)
         self.program = glctx.compute("hiz_test.comp")
+        self._walk_program = None  # hiz_walk.comp, compiled on the first walk()
+        self._walk_out = None  # counters + one bit per object of walk()
+        self.last_walk: tuple[int, int, int] | None = None  # walk()'s nodes, node and box tests
         self._ids = None  # (K,) uint32 candidate ids, grown on demand
         self._out = None  # (K,) uint32 results
         self._boxes = None  # uploaded boxes of test_boxes()
         self._capacity = 0
 
     def release(self) -> None:
-        for b in (self._ids, self._out, self._boxes):
+        for b in (self._ids, self._out, self._boxes, self._walk_out):
             if b is not None:
                 b.release()
-        self._ids = self._out = self._boxes = None
+        self._ids = self._out = self._boxes = self._walk_out = None
         self._capacity = 0
 
     def _reserve(self, n: int) -> None:
@@ -491,3 +494,74 @@ class HizTest:
         if len(data):
             self._boxes.write(data)
         return self.test(pyramid, camera, self._boxes, np.arange(len(data)), display)
+
+    def walk(
+        self,
+        pyramid: DepthPyramid,
+        camera: Camera,
+        boxes,
+        tree,
+        frustum: bool = True,
+        display=None,
+        node_refine: int | None = None,
+        mode: str = "levels",
+        exact_outside: bool = True,
+    ) -> tuple[np.ndarray, int, int]:
+        """:meth:`classify` of every object by a walk of the object hierarchy in one dispatch
+        (``hiz_walk.comp.glsl``): the same kept set and the same count outside the frustum,
+        testing only the nodes and objects the walk reaches.
+
+        Parameters
+        ----------
+        pyramid, camera, boxes, frustum, display
+            As for :meth:`classify` (``boxes`` (N, 6): every object's grown box).
+        tree : soc.culling.bvh_gpu.GpuHierarchy
+            The hierarchy of the same boxes (:func:`soc.culling.bvh_gpu.gpu_hierarchy`).
+        node_refine : int, optional
+            Levels finer than its own a node box is judged at (at most :attr:`refine`;
+            default :data:`soc.culling.bvh_gpu.NODE_REFINE`): any value gives the same
+            result.
+        mode : str
+            How the dispatch walks (:data:`soc.culling.bvh_gpu.WALK_MODES`): level by level
+            (default) or whole subtrees per invocation; the same result.
+        exact_outside : bool
+            Walk a hidden subtree that crosses the frustum on with frustum tests only, so that
+            ``outside`` is exact (default); False drops it (``outside`` then counts only the
+            objects outside the frustum that are not under a hidden node).
+
+        Returns
+        -------
+        visible : (N,) bool
+            Where :meth:`classify` gives :data:`VISIBLE` (objects of nodes emptied by
+            :meth:`~soc.culling.bvh_gpu.GpuHierarchy.refit`: unspecified).
+        outside : int
+            Objects :meth:`classify` reports :data:`OUTSIDE` (with ``frustum``).
+        tests : int
+            Node and object boxes judged against the pyramid.
+        """
+        from soc.culling.bvh_gpu import NODE_REFINE
+
+        n = len(tree.hierarchy.order)
+        header = 4  # hiz_walk.comp's WALK_HEADER
+        words = header + (n + 31) // 32
+        if self._walk_program is None:
+            self._walk_program = self.glctx.compute("hiz_walk.comp")
+        if self._walk_out is None or self._walk_out.size < 4 * words:
+            if self._walk_out is not None:
+                self._walk_out.release()
+            self._walk_out = self.glctx.ctx.buffer(reserve=4 * words)
+        out = self._walk_out
+        out.clear(4 * words)
+        prog = self._walk_program
+        set_test_uniforms(prog, pyramid, camera, self.footprint, self.refine, display)
+        prog["frustum"].value = bool(frustum)
+        refine = NODE_REFINE if node_refine is None else int(node_refine)
+        tree.bind(prog, min(refine, self.refine), exact_outside)
+        boxes.bind_to_storage_buffer(0)
+        out.bind_to_storage_buffer(1)
+        tree.run(prog, mode, TEST_GROUPS)
+        data = np.frombuffer(out.read(size=4 * words), np.uint32)
+        bits = np.unpackbits(data[header:].view(np.uint8), bitorder="little")
+        # Nodes visited, node boxes judged, object boxes judged.
+        self.last_walk = (int(data[3]), int(data[1]), int(data[2]))
+        return bits[:n].astype(bool), int(data[0]), int(data[1]) + int(data[2])

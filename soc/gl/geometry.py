@@ -94,6 +94,7 @@ class SceneGeometry:
         self.indirect = ctx.buffer(reserve=max(n, 1) * 20, dynamic=True)
         self._vaos: dict[tuple, object] = {}
         self._clusters: dict[str, ClusterBuffers] = {}  # by Clusters.key, uploaded on need
+        self._attached: dict = {}  # attached(): GPU objects made from this geometry, by key
 
     @property
     def scene(self):
@@ -112,6 +113,9 @@ class SceneGeometry:
         for c in self._clusters.values():
             c.release()
         self._clusters.clear()
+        for a in self._attached.values():
+            a.release()
+        self._attached.clear()
         for b in (
             self.vbo,
             self.ibo,
@@ -178,6 +182,16 @@ class SceneGeometry:
         held = self._clusters.get(clusters.key)
         if held is None:
             held = self._clusters[clusters.key] = ClusterBuffers(self, clusters)
+        return held
+
+    def attached(self, key, make):
+        """The object ``make(self)`` made for ``key`` (hashable) on first need, kept until this
+        geometry is released, and released with it (it must have ``release()``): GPU data
+        derived from the scene that several methods share, e.g. the object hierarchy's
+        buffers (:func:`soc.culling.bvh_gpu.gpu_hierarchy`)."""
+        held = self._attached.get(key)
+        if held is None:
+            held = self._attached[key] = make(self)
         return held
 
     # -- drawing ----------------------------------------------------------------------------

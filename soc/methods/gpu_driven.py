@@ -60,6 +60,7 @@ import time
 
 import numpy as np
 
+from soc.culling.bvh_gpu import NODE_REFINE, WALK_OPTIONS, gpu_hierarchy
 from soc.culling.clusters import MAX_TRIANGLES, scene_clusters, whole_objects
 from soc.culling.hiz_cpu import check_test_options
 from soc.culling.hiz_gpu import (
@@ -75,6 +76,7 @@ from soc.methods.base import CullMethod, MethodOutput, register, stage
 from soc.metrics import gpu_stage
 
 GRANULARITIES = ("cluster", "object")
+_ZERO = bytes(4)
 COUNTS = ("auto", "read")
 NEXT_FROM = ("early", "final")
 # Counters at the start of the frame buffer (gpu_driven.common.glsl's FRAME_*), then the bits.
@@ -90,6 +92,7 @@ BINDINGS = (
     "commands",
     "frame",
 )
+PASSED_BINDING = 13  # gpu_driven.common.glsl's passed lists (8-12: bvh_walk.common.glsl's)
 
 
 @register
@@ -124,6 +127,13 @@ class GpuDriven(CullMethod):
         How the draws learn their command count: the GL reads it from the GPU buffer where it
         can (``glMultiDrawElementsIndirectCount``, GL 4.6 or ``ARB_indirect_parameters``;
         default), or it is read back, 4 bytes per pass (``"read"``; the fallback elsewhere).
+    hierarchy : bool
+        The late pass walks the scene's object hierarchy (:mod:`soc.culling.bvh_gpu`; default
+        True: a subtree outside the frustum or behind the pyramid is dropped whole) or tests
+        every object box (False: the reference; the same frames, ``tests/test_bvh_gpu.py``).
+    walk : {"auto", "levels", "subtrees"}
+        How the walk dispatches (:meth:`soc.culling.bvh_gpu.GpuHierarchy.run`; ``"auto"``,
+        the default: :attr:`~soc.culling.bvh_gpu.GpuHierarchy.auto_mode`); the same result.
 
     Attributes
     ----------
@@ -152,6 +162,8 @@ class GpuDriven(CullMethod):
         count: str = "auto",
         next_from: str = "early",
         cluster_triangles: int = MAX_TRIANGLES,
+        hierarchy: bool = True,
+        walk: str = "auto",
     ):
         if granularity not in GRANULARITIES:
             raise ValueError(f"granularity must be one of {GRANULARITIES}, got {granularity!r}")
@@ -159,6 +171,9 @@ class GpuDriven(CullMethod):
             raise ValueError(f"count must be one of {COUNTS}, got {count!r}")
         if next_from not in NEXT_FROM:
             raise ValueError(f"next_from must be one of {NEXT_FROM}, got {next_from!r}")
+        if walk not in WALK_OPTIONS:
+            raise ValueError(f"walk must be one of {WALK_OPTIONS}, got {walk!r}")
+        self.walk = walk
         self.next_from = next_from
         footprint, refine = check_test_options(footprint, refine)
         super().__init__(geometry, resolution, config)
@@ -172,6 +187,7 @@ class GpuDriven(CullMethod):
         else:
             self.clusters = whole_objects(scene)
         self.gpu = geometry.clusters(self.clusters)
+        self.hierarchy = gpu_hierarchy(geometry) if hierarchy else None
         self.renderer = Renderer(geometry, resolution)
         self.pyramid = DepthPyramid(self.glctx, self.renderer.resolution)
         self.early = self.glctx.compute("gpu_driven_early.comp")
@@ -186,6 +202,10 @@ class GpuDriven(CullMethod):
         self.cluster_state = ctx.buffer(reserve=4 * c)
         self.commands = ctx.buffer(reserve=2 * c * COMMAND_BYTES)
         self.frame = ctx.buffer(reserve=4 * words)
+        self._list_words = n + 1
+        self.passed = ctx.buffer(reserve=4 * 2 * self._list_words)
+        self._frame_id = 0  # frames culled (object_state holds frame ids; 0 = never)
+        self._list = 0  # which of the two passed lists this frame appends to
         self.reset()
         sizes = {
             "object_count": n,
@@ -201,7 +221,7 @@ class GpuDriven(CullMethod):
         self.last_commands = (0, 0)
 
     def release(self) -> None:
-        for b in (self.object_state, self.cluster_state, self.commands, self.frame):
+        for b in (self.object_state, self.cluster_state, self.commands, self.frame, self.passed):
             b.release()
         self.pyramid.release()
         self.renderer.release()
@@ -210,6 +230,7 @@ class GpuDriven(CullMethod):
         """Forget last frame's visibility: the next frame draws nothing early."""
         self.object_state.clear()
         self.cluster_state.clear()
+        self.passed.clear()
 
     # -- the frame ---------------------------------------------------------------------------
 
@@ -227,11 +248,19 @@ class GpuDriven(CullMethod):
         )
         for binding, buf in enumerate(buffers):
             buf.bind_to_storage_buffer(binding)
+        self.passed.bind_to_storage_buffer(PASSED_BINDING)
 
-    def _run(self, program) -> None:
-        """Dispatch a pass over all objects (a fixed number of invocations, each taking every
-        stride-th object, as hiz_test.comp) and make its writes visible to what follows."""
+    def _run(self, program, walk: bool = False) -> None:
+        """Dispatch a pass (a fixed number of invocations, each taking every stride-th object,
+        list entry or subtree, as hiz_test.comp; with ``walk``, the late pass's walk of the
+        hierarchy, one dispatch per level with ``walk="levels"``) and make its writes visible
+        to what follows."""
         self._bind_buffers()
+        tree = self.hierarchy
+        if walk:
+            tree.bind(program, min(NODE_REFINE, self.refine))
+            tree.run(program, self.walk, TEST_GROUPS)
+            return
         program.run(min(-(-len(self.scene) // TEST_GROUP), TEST_GROUPS))
         self.glctx.ctx.memory_barrier()
 
@@ -254,14 +283,27 @@ class GpuDriven(CullMethod):
         finish = self.glctx.finish
         clusters = self.granularity == "cluster"
         occlusion = bool(cfg.depth_test)
+        self._frame_id += 1
+        words = self._list_words
+        list_in, list_out = (1 - self._list) * words, self._list * words
+        self._list = 1 - self._list
         for prog in (self.early, self.late):
             set_frustum_uniforms(prog, camera)
             prog["frustum"].value = bool(cfg.frustum)
             prog["test_clusters"].value = clusters
             prog["merge"].value = self.merge
+            for name, value in (
+                ("frame_id", self._frame_id),
+                ("list_in", list_in),
+                ("list_out", list_out),
+            ):
+                if name in prog:  # the compiler drops what a pass does not read
+                    prog[name].value = value
+        walk = self.hierarchy is not None
 
         with stage(timings, "early", finish):
             self.frame.clear()
+            self.passed.write(_ZERO, offset=4 * list_out)
             if occlusion:  # frustum culling only: no early set
                 self._run(self.early)
         early_ms = self._draw(camera, False, color=draw, clear=True, clear_color=draw)
@@ -274,7 +316,8 @@ class GpuDriven(CullMethod):
                 set_test_uniforms(late, self.pyramid, camera, self.footprint, self.refine)
             late["occlusion"].value = occlusion
             late["refresh"].value = False
-            self._run(late)
+            late["walk"].value = walk
+            self._run(late, walk)
         late_ms = self._draw(camera, True, color=draw, clear=False, clear_color=False)
         if occlusion and self.next_from == "final":
             with stage(timings, "next pyramid", finish):

@@ -3,11 +3,12 @@
 
 Per frame: frustum test of the occluders' AABBs (numpy) → those occluder meshes into a depth
 buffer at the method's resolution → max-depth pyramid (one full-viewport triangle per level)
-→ one compute dispatch testing every grown AABB against the frustum and then against the
-pyramid level where its screen rectangle spans at most ``footprint``² texels → one read-back
-of a code per object (occluded / visible / outside the frustum, the last counted as frustum
-culled). No per-object draw, query or GL call. Conservative at the resolution it runs at (the
-proof is in :mod:`soc.culling.hiz_gpu`).
+→ one compute pass testing the grown AABBs against the frustum and then against the
+pyramid level where its screen rectangle spans at most ``footprint``² texels, by a walk of the
+scene's object hierarchy (:mod:`soc.culling.bvh_gpu`; every box with ``hierarchy=False``) →
+one read-back of a visibility bit per object and the count outside the frustum (flat: a code
+per object, occluded / visible / outside). No per-object draw, query or GL call.
+Conservative at the resolution it runs at (the proof is in :mod:`soc.culling.hiz_gpu`).
 
 With ``conservative=True`` (or an ``occluder_resolution`` coarser than the culler's) the
 occluder depth is rasterized inner-conservatively (Hasselgren, Akenine-Möller & Ohlsson, GPU
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from soc.culling.bvh_gpu import WALK_OPTIONS, gpu_hierarchy
 from soc.culling.depth_prepass import ConservativeOccluders, DepthTarget, render_occluders
 from soc.culling.frustum import aabbs_in_frustum
 from soc.culling.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
@@ -57,6 +59,14 @@ class GpuHizCulling(CullMethod):
         resolution (at equal resolutions the ordinary raster is exact and holds more).
         ``conservative=False`` at a coarse resolution is seed 000's coarse depth buffer,
         which culls visible objects of the finer display.
+    hierarchy : bool
+        Test by a walk of the scene's object hierarchy in the compute pass
+        (:meth:`soc.culling.hiz_gpu.HizTest.walk`: a subtree outside the frustum or behind the
+        pyramid is dropped whole; default True) or every box (False: the reference; the same
+        kept set and frustum-culled count, ``tests/test_bvh_gpu.py``).
+    walk : {"auto", "levels", "subtrees"}
+        How the walk dispatches (:meth:`soc.culling.bvh_gpu.GpuHierarchy.run`; ``"auto"``,
+        the default: :attr:`~soc.culling.bvh_gpu.GpuHierarchy.auto_mode`); the same result.
     """
 
     name = "hiz-gpu"
@@ -72,8 +82,12 @@ class GpuHizCulling(CullMethod):
         refine: int = 1,
         occluder_resolution: tuple[int, int] | None = None,
         conservative: bool | None = None,
+        hierarchy: bool = True,
+        walk: str = "auto",
     ):
         super().__init__(geometry, resolution, config)
+        if walk not in WALK_OPTIONS:
+            raise ValueError(f"walk must be one of {WALK_OPTIONS}, got {walk!r}")
         display = _resolution(*resolution)
         occ = display if occluder_resolution is None else _resolution(*occluder_resolution)
         if occ[0] > display[0] or occ[1] > display[1]:
@@ -90,6 +104,9 @@ class GpuHizCulling(CullMethod):
         aabbs = self.scene.aabbs[self._occluders].astype(np.float64)
         self._occluder_aabbs = aabbs  # (M, 2, 3) for their frustum test
         self._all = np.arange(len(self.scene), dtype=np.uint32)
+        self.use_hierarchy = bool(hierarchy)
+        self.walk = walk
+        self.hierarchy = gpu_hierarchy(geometry) if hierarchy else None
 
     def release(self) -> None:
         if self.raster is not None:
@@ -128,6 +145,19 @@ class GpuHizCulling(CullMethod):
                 render_occluders(self.geometry, self.target, camera, occluders)
         with stage(timings, "pyramid", finish):
             self.pyramid.build(self.target.texture)
+        if self.hierarchy is not None:
+            with stage(timings, "test", finish):
+                visible, outside, tests = self.tester.walk(
+                    self.pyramid,
+                    camera,
+                    self.geometry.boxes,
+                    self.hierarchy,
+                    frustum=self.config.frustum,
+                    display=self._display(camera),
+                    mode=self.walk,
+                )
+            # Boxes tested against the pyramid: the node and object boxes the walk judged.
+            return MethodOutput(visible, outside, tests, timings)
         with stage(timings, "test", finish):
             codes = self.tester.classify(
                 self.pyramid,

@@ -12,10 +12,12 @@ layout(std430, binding = 1) readonly buffer ObjectBoxes { float object_boxes[]; 
 layout(std430, binding = 2) readonly buffer Clusters { uvec4 clusters[]; };
 // (C, 6) the clusters' grown AABBs.
 layout(std430, binding = 3) readonly buffer ClusterBoxes { float cluster_boxes[]; };
-// (N) 1 when a cluster of the object passed last frame's late test, else 0.
+// (N) the frame (frame_id) in which the early pass last drew a cluster of the object; 0: never.
 layout(std430, binding = 4) buffer ObjectState { uint object_state[]; };
-// (C) bit 0: passed last frame's late test (drawn early this frame if in the frustum);
-// bit 1: drawn early this frame (set by the early pass, cleared by the late pass).
+// (C) bit 0: passed the object's last late test (drawn early next frame if in the frustum);
+// bit 1: drawn early (set by the early pass, cleared by the late pass; it means this frame only
+// where object_state is this frame). Valid for the objects of the passed lists: the late pass
+// writes every cluster of an object it lists.
 layout(std430, binding = 5) buffer ClusterState { uint cluster_state[]; };
 // (2, max_commands, 5) draw commands: count, instances, first index, base vertex, base
 // instance (= the object id), the early pass's then the late pass's.
@@ -23,6 +25,10 @@ layout(std430, binding = 6) writeonly buffer Commands { uint commands[]; };
 // The frame's output, zeroed before the frame: FRAME_* counters, then the drawn objects' bits
 // (from object_bits), then the drawn clusters' bits (from cluster_bits).
 layout(std430, binding = 7) buffer Frame { uint frame[]; };
+// Two lists of objects with a cluster that passed a late test, list_words apart: a count, then
+// the ids. The early pass reads last frame's (list_in), the late pass appends to this frame's
+// (list_out, its count zeroed before).
+layout(std430, binding = 13) buffer Passed { uint passed[]; };
 
 const uint EARLY = 0u;
 const uint LATE = 1u;
@@ -37,6 +43,9 @@ uniform uint max_commands;   // commands per pass the buffer holds (C)
 uniform uint object_bits;    // first word of the drawn-object bits in `frame`
 uniform uint cluster_bits;   // first word of the drawn-cluster bits
 uniform bool merge;          // one command for consecutive drawn clusters of an object
+uniform uint frame_id;       // this frame's number (from 1; object_state)
+uniform uint list_in;        // first word of last frame's passed list
+uniform uint list_out;       // first word of this frame's passed list
 
 vec3 object_lo(uint o) { return vec3(object_boxes[6u * o], object_boxes[6u * o + 1u], object_boxes[6u * o + 2u]); }
 vec3 object_hi(uint o) { return vec3(object_boxes[6u * o + 3u], object_boxes[6u * o + 4u], object_boxes[6u * o + 5u]); }

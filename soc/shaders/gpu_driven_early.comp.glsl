@@ -1,9 +1,9 @@
 #version 450
 // gpu-driven's early pass: the draw commands of what passed last frame's late test and is
-// still in the frustum, no occlusion test (niagara's early cull). Per object whose state says
-// a cluster passed: the object's box against the frustum, then each such cluster's box (with
-// `test_clusters`); the clusters drawn are flagged (state bit 1) for the late pass, which
-// must not draw them again, and their runs appended as commands.
+// still in the frustum, no occlusion test (niagara's early cull). Per object of last frame's
+// passed list: the object's box against the frustum, then each cluster that passed (with
+// `test_clusters`); the clusters drawn are flagged (state bit 1, object_state = this frame)
+// for the late pass, which must not draw them again, and their runs appended as commands.
 #include "gpu_driven.common"
 #include "hiz_test.common"
 
@@ -12,8 +12,9 @@ uniform bool test_clusters;  // granularity "cluster": test each cluster's box t
 
 void main() {
     uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
-    for (uint o = gl_GlobalInvocationID.x; o < object_count; o += stride) {
-        if (object_state[o] == 0u) continue;
+    uint count = passed[list_in];
+    for (uint k = gl_GlobalInvocationID.x; k < count; k += stride) {
+        uint o = passed[list_in + 1u + k];
         uvec4 obj = objects[o];
         if (frustum && outside_frustum(object_lo(o), object_hi(o))) continue;
         // A lone cluster's box is the object's: tested already.
@@ -32,6 +33,9 @@ void main() {
             }
         }
         run_flush(run, EARLY, obj.z, o);
-        if (drawn) mark_object(o);
+        if (drawn) {
+            mark_object(o);
+            object_state[o] = frame_id;
+        }
     }
 }

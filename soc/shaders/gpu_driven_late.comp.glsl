@@ -1,8 +1,12 @@
 #version 450
-// gpu-driven's late pass: every object's box against the frustum and the pyramid of the early
-// depth, then the boxes of the clusters of those that pass (with `test_clusters`); a cluster
-// that passes and was not drawn early is appended to the late commands, and every cluster's
-// state becomes "passed" or not for next frame's early pass (niagara's late cull).
+// gpu-driven's late pass: the objects' boxes against the frustum and the pyramid of the early
+// depth — by a walk of the object hierarchy (bvh_walk.common: a node outside or hidden drops
+// its subtree, a node inside spares its objects' frustum tests; the same objects pass as when
+// every box is tested) or every box (`walk` off, the reference) — then the boxes of the
+// clusters of those that pass (with `test_clusters`); a cluster that passes and was not drawn
+// early is appended to the late commands, every cluster of a passing object gets its state
+// ("passed" or not) for next frame's early pass, and the object joins this frame's passed list
+// (niagara's late cull).
 //
 // Conservative for any early set: the early depth is the depth of a subset of the scene, so
 // at every pixel it is >= the finished frame's; a cluster with a sample the oracle sees has
@@ -10,74 +14,98 @@
 // soc/culling/hiz_gpu.py), and the cluster is drawn here unless it was drawn early.
 #include "gpu_driven.common"
 #include "hiz_test.common"
+#include "bvh_walk.common"
 
 uniform bool frustum;        // frustum-test boxes
 uniform bool occlusion;      // test boxes against the pyramid (off: frustum culling only)
 uniform bool test_clusters;  // granularity "cluster": test each cluster's box too
+uniform bool walk;           // walk the hierarchy (else test every object box)
+uniform bool levels_walk;    // the walk one dispatch per level (else subtrees per invocation)
 // Refresh instead (next_from="final", after the late draw, against the finished frame's
-// pyramid): only what passed is tested again, and what fails no longer counts as passed;
-// nothing is drawn. A cluster occluded by the finished depth was occluded by the early one
-// too had it been drawn: the finished depth is nearer everywhere.
+// pyramid): only this frame's passed list is tested again, and what fails no longer counts as
+// passed; nothing is drawn. A cluster occluded by the finished depth was occluded by the
+// early one too had it been drawn: the finished depth is nearer everywhere.
 uniform bool refresh;
 
-uint judged = 0u;  // boxes this invocation tested against the pyramid
+uint judged = 0u;  // object and cluster boxes this invocation tested against the pyramid
 
-// 2: outside the frustum, 1: may be visible, 0: occluded.
-uint classify(vec3 lo, vec3 hi) {
-    if (frustum && outside_frustum(lo, hi)) return 2u;
+// 2: outside the frustum, 1: may be visible, 0: occluded. `inside`: known inside the frustum.
+uint classify(vec3 lo, vec3 hi, bool inside) {
+    if (frustum && !inside && outside_frustum(lo, hi)) return 2u;
     if (!occlusion) return 1u;
     ++judged;
     return judge(lo, hi);
 }
 
-void main() {
-    uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
-    uint outside = 0u;
-    for (uint o = gl_GlobalInvocationID.x; o < object_count; o += stride) {
-        uvec4 obj = objects[o];
-        if (refresh) {
-            if (object_state[o] == 0u) continue;
-            bool passed = classify(object_lo(o), object_hi(o)) == 1u;
-            bool any_passed = false;
-            for (uint c = obj.x; c < obj.x + obj.y; ++c) {
-                if (cluster_state[c] == 0u) continue;
-                bool pass = passed && (!test_clusters || obj.y == 1u ||
-                                       classify(cluster_lo(c), cluster_hi(c)) == 1u);
-                cluster_state[c] = pass ? 1u : 0u;
-                any_passed = any_passed || pass;
-            }
-            object_state[o] = any_passed ? 1u : 0u;
-            continue;
+void list_object(uint o) {
+    passed[list_out + 1u + atomicAdd(passed[list_out], 1u)] = o;
+}
+
+// The clusters of object o, whose box may be visible: each tested (a lone cluster's box is the
+// object's: judged already), drawn late unless drawn early, its state written.
+void late_object(uint o, bool inside) {
+    uvec4 obj = objects[o];
+    bool early = object_state[o] == frame_id;
+    bool each = test_clusters && obj.y > 1u;
+    Run run = Run(0u, 0u);
+    bool passed_any = false, drawn = false;
+    for (uint c = obj.x; c < obj.x + obj.y; ++c) {
+        bool pass = !each || classify(cluster_lo(c), cluster_hi(c), inside) == 1u;
+        bool late = pass && !(early && (cluster_state[c] & 2u) != 0u);
+        cluster_state[c] = pass ? 1u : 0u;
+        passed_any = passed_any || pass;
+        if (late) {
+            run_add(run, LATE, c, obj.z, o);
+            drawn = true;
+        } else {
+            run_flush(run, LATE, obj.z, o);
         }
-        uint code = classify(object_lo(o), object_hi(o));
-        if (code == 2u) ++outside;
-        if (code != 1u) {
-            if (object_state[o] != 0u) {  // forget what passed last frame
-                for (uint c = obj.x; c < obj.x + obj.y; ++c) cluster_state[c] = 0u;
-                object_state[o] = 0u;
-            }
-            continue;
-        }
-        // A lone cluster's box is the object's: judged already.
-        bool each = test_clusters && obj.y > 1u;
-        Run run = Run(0u, 0u);
-        bool passed = false, drawn = false;
-        for (uint c = obj.x; c < obj.x + obj.y; ++c) {
-            bool pass = !each || classify(cluster_lo(c), cluster_hi(c)) == 1u;
-            bool late = pass && (cluster_state[c] & 2u) == 0u;
-            cluster_state[c] = pass ? 1u : 0u;
-            passed = passed || pass;
-            if (late) {
-                run_add(run, LATE, c, obj.z, o);
-                drawn = true;
-            } else {
-                run_flush(run, LATE, obj.z, o);
-            }
-        }
-        run_flush(run, LATE, obj.z, o);
-        object_state[o] = passed ? 1u : 0u;
-        if (drawn) mark_object(o);
     }
-    if (outside > 0u) atomicAdd(frame[FRAME_OUTSIDE], outside);
-    if (judged > 0u) atomicAdd(frame[FRAME_JUDGED], judged);
+    run_flush(run, LATE, obj.z, o);
+    if (passed_any) list_object(o);
+    if (drawn) mark_object(o);
+}
+
+void walk_object(uint o, bool inside, bool hidden) {
+    if (hidden) {  // occluded unless outside the frustum: only counted
+        if (!inside && outside_frustum(object_lo(o), object_hi(o))) ++walk_outside;
+        return;
+    }
+    uint code = classify(object_lo(o), object_hi(o), inside);
+    if (code == 2u) ++walk_outside;
+    if (code == 1u) late_object(o, inside);
+}
+
+// next_from="final": this frame's passed list against the finished frame's pyramid.
+void refresh_list() {
+    uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    uint count = passed[list_out];
+    for (uint k = gl_GlobalInvocationID.x; k < count; k += stride) {
+        uint o = passed[list_out + 1u + k];
+        uvec4 obj = objects[o];
+        bool pass_object = classify(object_lo(o), object_hi(o), false) == 1u;
+        for (uint c = obj.x; c < obj.x + obj.y; ++c) {
+            if (cluster_state[c] == 0u) continue;
+            bool pass = pass_object && (!test_clusters || obj.y == 1u ||
+                                        classify(cluster_lo(c), cluster_hi(c), false) == 1u);
+            cluster_state[c] = pass ? 1u : 0u;
+        }
+    }
+}
+
+void main() {
+    if (refresh) {
+        refresh_list();
+    } else if (!walk) {
+        uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+        for (uint o = gl_GlobalInvocationID.x; o < object_count; o += stride) {
+            walk_object(o, false, false);
+        }
+    } else if (levels_walk) {
+        walk_level_all(frustum, occlusion);
+    } else {
+        walk_all(frustum, occlusion);
+    }
+    if (walk_outside > 0u) atomicAdd(frame[FRAME_OUTSIDE], walk_outside);
+    if (judged + walk_nodes_judged > 0u) atomicAdd(frame[FRAME_JUDGED], judged + walk_nodes_judged);
 }

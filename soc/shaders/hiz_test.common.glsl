@@ -101,12 +101,14 @@ bool centres(vec2 rmin, vec2 rmax, ivec2 res, out ivec2 c0, out ivec2 c1) {
     return all(lessThanEqual(c0, c1));
 }
 
-// 1 unless the box [lo, hi] certainly covers no pixel centre or is behind the depth at every
-// pixel centre it may cover (or 1: it reaches the near plane, kept untested); else 0.
-uint judge(vec3 lo, vec3 hi) {
-    // Project the 8 corners: clip-space bounds of the box.
-    vec2 rmin = vec2(1e30), rmax = vec2(-1e30);
-    float zmin = 1e30, wmin = 1e30;
+// The clip-space bounds of the box [lo, hi] from its 8 projected corners: the NDC rectangle
+// [rmin, rmax], the nearest NDC depth zmin and the smallest clip w (wmin).
+void project_corners(vec3 lo, vec3 hi, out vec2 rmin, out vec2 rmax, out float zmin,
+                     out float wmin) {
+    rmin = vec2(1e30);
+    rmax = vec2(-1e30);
+    zmin = 1e30;
+    wmin = 1e30;
     for (int c = 0; c < 8; ++c) {
         vec3 t = vec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
         vec4 p = view_proj * vec4(mix(lo, hi, t), 1.0);
@@ -117,10 +119,12 @@ uint judge(vec3 lo, vec3 hi) {
         rmax = max(rmax, ndc.xy);
         zmin = min(zmin, ndc.z);
     }
-    if (wmin < min_w) {  // reaches the near plane (or behind the eye): keep untested
-        return 1u;
-    }
+}
 
+// 1 unless the NDC rectangle [rmin, rmax] at nearest NDC depth zmin certainly covers no pixel
+// centre or is behind the depth at every pixel centre it may cover; else 0. The box is judged
+// down to `refine_levels` levels finer than its own.
+uint judge_rect(vec2 rmin, vec2 rmax, float zmin, int refine_levels) {
     // Pixel centres (i + 0.5, j + 0.5) inside the rectangle widened by the margin, at level
     // 0's own resolution and at each display resolution; the level-0 texels holding any of
     // them are read (their index ranges joined per axis). A display centre i lies in texel
@@ -155,5 +159,17 @@ uint judge(vec3 lo, vec3 hi) {
     // Refinement: a box not behind the texels at this level is judged at up to `refine`
     // levels finer, whose texels cover the same pixels with maxima no larger: this only turns
     // boxes occluded, never the other way.
-    return reaches(lvl, max(lvl - refine, 0), p0, p1, nearest) ? 1u : 0u;
+    return reaches(lvl, max(lvl - refine_levels, 0), p0, p1, nearest) ? 1u : 0u;
+}
+
+// 1 unless the box [lo, hi] certainly covers no pixel centre or is behind the depth at every
+// pixel centre it may cover (or 1: it reaches the near plane, kept untested); else 0.
+uint judge(vec3 lo, vec3 hi) {
+    vec2 rmin, rmax;
+    float zmin, wmin;
+    project_corners(lo, hi, rmin, rmax, zmin, wmin);
+    if (wmin < min_w) {  // reaches the near plane (or behind the eye): keep untested
+        return 1u;
+    }
+    return judge_rect(rmin, rmax, zmin, refine);
 }
