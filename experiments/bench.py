@@ -101,9 +101,9 @@ def methods_markdown(result: bench_floor.FloorResult, command: str) -> str:
             markdown_table(methods_table(result), fmt),
             "",
             "'everything' draws all objects without culling; 'ideal' draws exactly the oracle's",
-            "visible set with no culling cost. 'false keeps ÷ visible' = hidden objects kept per",
-            "object the oracle sees. Temporal methods (results reused across frames) may cull",
-            "visible objects for a frame: their false culls are the popping.",
+            "visible set, nearest first, with no culling cost. 'false keeps ÷ visible' = hidden",
+            "objects kept per object the oracle sees. Temporal methods (results reused across",
+            "frames) may cull visible objects for a frame: their false culls are the popping.",
         ]
     )
 
