@@ -27,9 +27,11 @@ from test_hierarchy import RESOLUTIONS, _scene
 import soc
 from soc.culling.bvh_gpu import WALK_MODES, GpuHierarchy, cut, gpu_hierarchy
 from soc.culling.depth_prepass import DepthTarget, render_occluders
+from soc.culling.frustum import aabbs_in_frustum
 from soc.culling.hierarchy import Hierarchy
 from soc.culling.hiz_cpu import VIEW_CULLED, build_pyramid, project_boxes
-from soc.culling.hiz_gpu import MAX_REFINE, OUTSIDE, VISIBLE, DepthPyramid, HizTest
+from soc.culling.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
+from soc.culling.hiz_options import MAX_REFINE
 from soc.gl.context import default_context
 from soc.gl.geometry import grown_aabbs
 from soc.scenes.paths import flight, random_cameras
@@ -68,6 +70,24 @@ def _depth_near_boxes(scene, cam, resolution, seed) -> np.ndarray:
     return depth
 
 
+def _same_outside_up_to_the_planes(scene, cam, gpu: np.ndarray, cpu: np.ndarray) -> None:
+    """The GL test (float32) and the CPU walk (numba) put the same objects outside the
+    frustum, except objects within a hair of a frustum plane, where the two arithmetics may
+    round either way: each such object's box, shrunk by 1e-4 of the scene's diagonal, is
+    outside, and grown by as much, inside (a few at most)."""
+    differ = np.flatnonzero(gpu != cpu)
+    if not len(differ):
+        return
+    assert len(differ) <= max(2, len(gpu) // 100), f"{len(differ)} objects differ: {differ}"
+    eps = 1e-4 * scene.diagonal
+    base = grown_aabbs(scene.aabbs, scene.diagonal)[differ]
+    grown = base + np.array([-eps, eps])[:, None]
+    shrunk = scene.aabbs[differ] + np.array([eps, -eps])[:, None]
+    shrunk = np.where(shrunk[:, :1] <= shrunk[:, 1:], shrunk, shrunk.mean(axis=1, keepdims=True))
+    at_a_plane = aabbs_in_frustum(grown, cam) & ~aabbs_in_frustum(shrunk, cam)
+    assert at_a_plane.all(), f"objects {differ[~at_a_plane]} differ away from the planes"
+
+
 def _compare(scene, cam, resolution, tree, depth, reads, frustum, display, node_refines):
     """Build the pyramid of ``depth`` (None: the scene's occluders drawn), then for every read
     (footprint, refine), walk mode and node refinement: the walk's kept set and outside count
@@ -93,7 +113,7 @@ def _compare(scene, cam, resolution, tree, depth, reads, frustum, display, node_
                 cpu, _ = tree.hierarchy.classify_pyramid(
                     cpu_pyramid, cam, frustum, 1, tester.footprint, tester.refine
                 )
-                np.testing.assert_array_equal(codes == OUTSIDE, cpu == VIEW_CULLED)
+                _same_outside_up_to_the_planes(scene, cam, codes == OUTSIDE, cpu == VIEW_CULLED)
                 for mode in WALK_MODES:
                     for node_refine in node_refines:
                         visible, outside, tests = tester.walk(
