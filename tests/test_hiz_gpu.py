@@ -10,13 +10,8 @@ from conftest import check_conservative
 
 import soc
 from soc.culling.depth_prepass import DepthTarget
-from soc.culling.hiz_gpu import (
-    MAX_REFINE,
-    DepthPyramid,
-    HizTest,
-    pyramid_sizes,
-    reference_pyramid,
-)
+from soc.culling.hiz_gpu import DepthPyramid, HizTest, pyramid_sizes, reference_pyramid
+from soc.culling.hiz_options import MAX_REFINE
 from soc.gl.context import default_context
 from soc.scenes.paths import flight, random_cameras
 

@@ -9,7 +9,8 @@ import numpy as np
 
 import soc
 from soc.culling.depth_prepass import DepthTarget, render_occluders
-from soc.culling.hiz_gpu import MAX_REFINE, DepthPyramid, HizTest
+from soc.culling.hiz_gpu import DepthPyramid, HizTest
+from soc.culling.hiz_options import MAX_REFINE
 from soc.culling.octant_boxes import EMPTY_HI, EMPTY_LO, grown_octant_aabbs, octant_aabbs
 from soc.gl.context import default_context
 from soc.scenes.clutter import box_mesh

@@ -322,7 +322,7 @@ class Hierarchy:
             ``VIEW_CULLED``, ``VISIBLE`` or ``OCCLUDED``, as the flat test gives them.
         stats : WalkStats
         """
-        from soc.culling.hiz_cpu import check_test_options
+        from soc.culling.hiz_options import check_test_options
 
         footprint, refine = check_test_options(footprint, refine)
         depth = (

@@ -39,6 +39,7 @@ import numpy as np
 
 from soc.constants import NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
 from soc.culling.frustum import outside_frustum
+from soc.culling.hiz_options import check_test_options
 
 # Results per box of :func:`classify_objects` (the codes of :mod:`soc.culling.hiz_gpu` and
 # :mod:`soc.culling.masked`, MaskedOcclusionCulling's OCCLUDED / VISIBLE / VIEW_CULLED).
@@ -281,10 +282,6 @@ def _project_boxes(boxes, m, width, height, rect, z_near):  # pragma: no cover -
         z_near[k] = z
 
 
-# Texels per axis read at a box's pyramid level (as soc.culling.hiz_gpu.FOOTPRINTS): 2, the
-# classic HiZ read, or 4.
-FOOTPRINTS = (2, 4)
-
 # Rows of a walk's stack (:func:`_pyramid_test`): at most footprint² texels of the first
 # level, then at most 3 more per level descended (a texel popped, its ≤ 4 children pushed).
 WALK_STACK = 16 + 3 * 32
@@ -312,7 +309,7 @@ def boxes_visible(
         rectangle spans at most ``footprint`` × ``footprint`` texels.
     refine : int
         Levels finer than that one the box is judged at (default 0; a large value, e.g.
-        :data:`soc.culling.hiz_gpu.MAX_REFINE`, judges it at level 0, the pixels).
+        :data:`soc.culling.hiz_options.MAX_REFINE`, judges it at level 0, the pixels).
 
     A box is visible when some texel of the judging level ``max(k - refine, 0)`` under its
     rectangle holds a depth >= its nearest depth. The walk reads the level-``k`` texels, then
@@ -329,15 +326,6 @@ def boxes_visible(
         footprint, refine, out,
     )  # fmt: skip
     return out
-
-
-def check_test_options(footprint: int, refine: int) -> tuple[int, int]:
-    """``(footprint, refine)`` as ints, or a ValueError saying which is wrong."""
-    if footprint not in FOOTPRINTS:
-        raise ValueError(f"footprint must be one of {FOOTPRINTS}, got {footprint!r}")
-    if int(refine) != refine or refine < 0:
-        raise ValueError(f"refine must be an integer >= 0, got {refine!r}")
-    return int(footprint), int(refine)
 
 
 @numba.njit(cache=True, inline="always")

@@ -63,6 +63,7 @@ from __future__ import annotations
 import numpy as np
 
 from soc.constants import FRUSTUM_SLACK, NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
+from soc.culling.hiz_options import MAX_REFINE, check_test_options
 from soc.gl.context import uses_gl
 from soc.gl.geometry import grown_aabbs
 from soc.scenes.camera import Camera, _resolution
@@ -72,14 +73,6 @@ from soc.scenes.camera import Camera, _resolution
 # vertices to 1/256 px; 1/32 px covers both with room to spare and costs nothing measurable.
 HIZ_PIXEL_MARGIN = 1.0 / 32.0
 
-# Texels per axis read at the chosen pyramid level: 2 (≤ 4 reads, the classic HiZ footprint)
-# or 4 (≤ 16 reads, one level finer, tighter for boxes that straddle texel borders).
-FOOTPRINTS = (2, 4)
-
-# Most refinement levels (:class:`HizTest` ``refine``): down to level 0 from the top of the
-# largest pyramid. The test descends only into texels a box is not behind, so a deep refine
-# costs reads where boxes are nearly occluded, not everywhere.
-MAX_REFINE = 23
 
 # Compute work-group size of hiz_test.comp (must match its ``local_size``), and the most work
 # groups one test dispatches: beyond TEST_GROUP * TEST_GROUPS candidates each invocation
@@ -349,7 +342,7 @@ class HizTest:
     ----------
     glctx : GLContext
     footprint : int
-        Texels per axis read at the chosen level, one of :data:`FOOTPRINTS`.
+        Texels per axis read at the chosen level, one of :data:`soc.culling.hiz_options.FOOTPRINTS`.
     refine : int
         Levels finer than its own a box that is not occluded at its level is judged at
         (clamped at level 0); 0 (default) is the classic single read. The shader descends
@@ -359,13 +352,9 @@ class HizTest:
     """
 
     def __init__(self, glctx, footprint: int = 2, refine: int = 0):
-        if footprint not in FOOTPRINTS:
-            raise ValueError(f"footprint must be one of {FOOTPRINTS}, got {footprint!r}")
-        if not (isinstance(refine, int | np.integer) and 0 <= refine <= MAX_REFINE):
-            raise ValueError(f"refine must be an integer in [0, {MAX_REFINE}], got {refine!r}")
+        self.footprint, refine = check_test_options(footprint, refine)
+        self.refine = min(refine, MAX_REFINE)  # the same reads: no pyramid is deeper
         self.glctx = glctx
-        self.footprint = footprint
-        self.refine = int(refine)
         self.program = glctx.compute("hiz_test.comp")
         self._walk_program = None  # hiz_walk.comp, compiled on the first walk()
         self._walk_out = None  # counters + one bit per object of walk()

@@ -62,15 +62,14 @@ import numpy as np
 
 from soc.culling.bvh_gpu import NODE_REFINE, WALK_OPTIONS, gpu_hierarchy
 from soc.culling.clusters import MAX_TRIANGLES, scene_clusters, whole_objects
-from soc.culling.hiz_cpu import check_test_options
 from soc.culling.hiz_gpu import (
-    MAX_REFINE,
     TEST_GROUP,
     TEST_GROUPS,
     DepthPyramid,
     set_frustum_uniforms,
     set_test_uniforms,
 )
+from soc.culling.hiz_options import MAX_REFINE, check_test_options
 from soc.gl.indirect_count import COMMAND_BYTES, CountedDraws
 from soc.methods.base import CullMethod, MethodOutput, register, stage
 from soc.metrics import gpu_stage
@@ -115,7 +114,7 @@ class GpuDriven(CullMethod):
         :data:`~soc.culling.clusters.MAX_TRIANGLES`, 128).
     footprint, refine : int
         The HiZ test's footprint (2 or 4, default 4) and refinement levels (default
-        :data:`~soc.culling.hiz_gpu.MAX_REFINE`, down to the frame's pixels), as
+        :data:`~soc.culling.hiz_options.MAX_REFINE`, down to the frame's pixels), as
         ``hiz-2phase``'s.
     merge : bool
         Draw consecutive drawn clusters of an object as one command (default True).

@@ -39,7 +39,7 @@ class HiZCpuCulling(CullMethod):
         of Intel's framework) or 4 (:func:`soc.culling.hiz_cpu.boxes_visible`).
     refine : int
         Levels finer than its own a box that is not behind its texels is judged at (default
-        0; :data:`soc.culling.hiz_gpu.MAX_REFINE` judges it at the pixels), as hiz-gpu's.
+        0; :data:`soc.culling.hiz_options.MAX_REFINE` judges it at the pixels), as hiz-gpu's.
     threads : int or None
         Threads of the transform, the raster, the pyramid's first level and the flat box
         tests (default None: numba's thread count); the depth and the codes are the same for
@@ -73,7 +73,7 @@ class HiZCpuCulling(CullMethod):
         hierarchy: bool = True,
     ):
         from soc.culling.hierarchy import Hierarchy
-        from soc.culling.hiz_cpu import check_test_options
+        from soc.culling.hiz_options import check_test_options
         from soc.culling.software_raster import RECORD, occluder_triangles, raster_threads
 
         self.footprint, self.refine = check_test_options(footprint, refine)
