@@ -19,8 +19,7 @@ import ctypes
 
 import numpy as np
 
-from soc.constants import QUERY_DEPTH_BIAS_NDC
-from soc.culling.queries import near_plane_straddlers
+from soc.culling.queries import bind_box_pass, near_plane_straddlers
 from soc.gl import compiled as _compiled
 from soc.gl import raw as glraw
 from soc.gl.context import uses_gl
@@ -175,17 +174,9 @@ class BoxQueries:
         return at_near
 
     def _stage_grown(self, target, camera, grown: np.ndarray) -> None:
-        import moderngl
-
         if len(grown):
             self._upload(grown)
-        ctx = self.glctx.ctx
-        target.fbo.use()
-        target.fbo.depth_mask = False
-        ctx.enable_only(moderngl.DEPTH_TEST)
-        ctx.depth_func = "<="
-        self.program["view_proj"].write(camera.gl_bytes(camera.view_proj))
-        self.program["depth_bias"].value = QUERY_DEPTH_BIAS_NDC
+        bind_box_pass(self.glctx.ctx, self.program, target, camera)
 
     @property
     def vao(self):

@@ -67,6 +67,7 @@ from soc.constants import FRUSTUM_SLACK, NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
 from soc.culling.bvh import BVH, build
 from soc.culling.frustum import outside_frustum
 from soc.culling.hiz_cpu import (
+    _U32,
     FLOAT32_TRANSFORM_ULPS,
     OCCLUDED,
     RECT_MARGIN_PX,
@@ -108,8 +109,6 @@ ROOTS_PER_THREAD = 16
 # Stack entries of the depth-first numbering (:func:`_preorder`): one pending sibling per
 # level of the tree (median splits: ~log2 N levels).
 STACK = 256
-
-_U32 = 2.0**-24
 
 
 @dataclass(frozen=True)

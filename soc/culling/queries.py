@@ -30,6 +30,19 @@ from soc.gl import raw as glraw
 from soc.gl.context import uses_gl
 
 
+def bind_box_pass(ctx, program, target, camera) -> None:
+    """GL state for drawing query boxes into ``target``: its depth tested (``<=``), never
+    written, nothing else enabled; ``program`` given the camera and the boxes' depth bias."""
+    import moderngl
+
+    target.fbo.use()
+    target.fbo.depth_mask = False
+    ctx.enable_only(moderngl.DEPTH_TEST)
+    ctx.depth_func = "<="
+    program["view_proj"].write(camera.gl_bytes(camera.view_proj))
+    program["depth_bias"].value = QUERY_DEPTH_BIAS_NDC
+
+
 def near_plane_straddlers(boxes: np.ndarray, camera) -> np.ndarray:
     """(N,) bool: boxes (N, 2, 3) with a corner in front of ``near * (1 + margin)``.
 
@@ -82,19 +95,12 @@ class OcclusionQueries:
         passed : (K,) bool
             True where at least one sample of the box passed the depth test.
         """
-        import moderngl
-
         ids = np.asarray(ids, dtype=np.int64)
         passed = np.zeros(len(ids), np.uint32)
         if len(ids) == 0:
             return passed.astype(bool)
         ctx = self.glctx.ctx
-        target.fbo.use()
-        target.fbo.depth_mask = False
-        ctx.enable_only(moderngl.DEPTH_TEST)
-        ctx.depth_func = "<="
-        self.program["view_proj"].write(camera.gl_bytes(camera.view_proj))
-        self.program["depth_bias"].value = QUERY_DEPTH_BIAS_NDC
+        bind_box_pass(ctx, self.program, target, camera)
         vao = self.geometry.box_vao(self.program)
         if self.compiled:
             fns = compiled_gl.entry_points(self.glctx)
