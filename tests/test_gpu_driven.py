@@ -21,15 +21,17 @@ from soc.scenes.primitives import icosphere, sheet, translate
 
 # Option sets: whole objects; clusters of 128 (most test objects are one cluster); clusters of
 # 4 triangles (every box is three clusters); the next set from the finished depth with one
-# command per cluster and the count read back; the classic 2×2 HiZ read.
+# command per cluster and the count read back; the classic 2×2 HiZ read; the early set also
+# tested against last frame's depth, reprojected.
 MODES = [
     {"granularity": "object"},
     {"granularity": "cluster"},
     {"granularity": "cluster", "cluster_triangles": 4},
     {"cluster_triangles": 8, "next_from": "final", "merge": False, "count": "read"},
     {"cluster_triangles": 4, "footprint": 2, "refine": 0},
+    {"cluster_triangles": 8, "reproject": True},
 ]
-MODE_IDS = ["object", "cluster", "cluster-4", "final-unmerged-read", "classic"]
+MODE_IDS = ["object", "cluster", "cluster-4", "final-unmerged-read", "classic", "reproject"]
 
 
 @pytest.mark.parametrize("options", MODES, ids=MODE_IDS)
@@ -90,10 +92,11 @@ def _big_meshes() -> soc.Scene:
     return soc.Scene.from_meshes(meshes, occluder=[True, True, False, False, False])
 
 
-@pytest.mark.parametrize("triangles", [128, 16])
-def test_no_visible_cluster_is_culled_walking_past_a_wall(triangles):
+@pytest.mark.parametrize(("triangles", "reproject"), [(128, False), (16, False), (16, True)])
+def test_no_visible_cluster_is_culled_walking_past_a_wall(triangles, reproject):
     """A walk towards and along a wall, through a box, with the near plane cutting the sphere
-    and the ground; a cut to random views and back, a reset; at an odd resolution."""
+    and the ground; a cut to random views and back, a reset; at an odd resolution. With
+    ``reproject`` the early set is also tested against last frame's depth, reprojected."""
     scene = _big_meshes()
     res = (333, 197)
     walk = [
@@ -104,7 +107,9 @@ def test_no_visible_cluster_is_culled_walking_past_a_wall(triangles):
     ]
     cuts = random_cameras(scene, 4, seed=5, width=res[0], height=res[1])
     cams = walk[:6] + cuts[:2] + walk[6:10] + cuts[2:] + walk[10:]
-    culled, drawn = _cluster_run(scene, cams, res, resets={9}, cluster_triangles=triangles)
+    culled, drawn = _cluster_run(
+        scene, cams, res, resets={9}, cluster_triangles=triangles, reproject=reproject
+    )
     assert culled > drawn // 4  # the wall hides a part of the sphere, and views cut the rest
     assert len(scene_clusters(scene, triangles)) > 5 * len(scene)
 
@@ -116,12 +121,47 @@ def test_no_visible_cluster_is_culled_in_the_hard_cases(triangles):
         _cluster_run(case.scene, case.cameras, case.resolution, cluster_triangles=triangles)
 
 
-def test_no_visible_cluster_is_culled_on_the_market_flight(small_market):
+@pytest.mark.parametrize("reproject", [False, True])
+def test_no_visible_cluster_is_culled_on_the_market_flight(small_market, reproject):
     """A coherent stretch of the market flight: its walls hold thousands of triangles."""
     res = (480, 270)
     cams = flight(small_market, frames=100, width=res[0], height=res[1])[30:42]
-    culled, drawn = _cluster_run(small_market, cams, res)
+    culled, drawn = _cluster_run(small_market, cams, res, reproject=reproject)
     assert culled > 3 * drawn
+
+
+def test_reprojected_depth_is_the_next_frames_depth(small_market):
+    """Last frame's pyramid carried to this frame's camera agrees with this frame's own
+    pyramid (same level) where both hold a surface, and leaves out fewer clusters than it
+    keeps wrongly: on a coherent stretch of the flight the early pass draws fewer clusters
+    with it, and the frames drawn are the same objects."""
+    res = (480, 270)
+    cams = flight(small_market, frames=100, width=res[0], height=res[1])[30:40]
+    early = {}
+    for reproject in (False, True):
+        with soc.Culler(small_market, "gpu-driven", res, reproject=reproject) as c:
+            m = c.method
+            counts, kept = [], []
+            for cam in cams:
+                kept.append(c.cull(cam).visible)
+                counts.append(m.last_commands)
+            early[reproject] = counts
+            if reproject:
+                r = m.reprojection
+                with m.glctx.current():
+                    carried = np.frombuffer(r.texture.read(), np.float32).reshape(r.size[::-1])
+                    r.build(cams[-1].view_proj, cams[-1].view_proj)  # onto itself
+                    itself = np.frombuffer(r.texture.read(), np.float32).reshape(r.size[::-1])
+                    own = m.pyramid.level(r.level)
+    both = (carried < 1) & (own < 1)
+    assert both.mean() > 0.3
+    # Window depths: a frame's move shifts surfaces by a texel or so, rarely by more.
+    assert np.median(np.abs(carried[both] - own[both])) < 1e-3
+    # Carried onto its own camera, the level comes back where it was written (max over the
+    # 2×2 splats of neighbours: never nearer than the texel's own value, up to rounding).
+    filled = own < 1
+    assert (itself[filled] >= own[filled] - 1e-5).mean() > 0.99
+    assert sum(e[0] for e in early[True]) < sum(e[0] for e in early[False])
 
 
 def test_it_culls_and_draws_the_frame_of_everything(small_market):

@@ -228,7 +228,7 @@ class DepthPyramid:
                 program[name].value = unit
 
     def build(self, depth_texture) -> None:
-        """Reduce ``depth_texture`` (moderngl depth texture of :attr:`resolution`) into the
+        """Reduce ``depth_texture`` (moderngl depth or R32F texture of :attr:`resolution`) into the
         levels 1..: one full-viewport triangle per level (levels 1 and 2 together), with a
         texture barrier between the atlas levels (the next one reads what this one wrote),
         until the level read has at most :data:`TOP_SOURCE_TEXELS` texels: the levels above
@@ -246,7 +246,8 @@ class DepthPyramid:
         if len(self.sizes) == 1:
             self.depth = depth_texture
             return
-        depth_texture.compare_func = ""
+        if depth_texture.depth:  # an R32F texture (soc.culling.reprojection) has no compare mode
+            depth_texture.compare_func = ""
         depth_texture.repeat_x = depth_texture.repeat_y = False  # textureGather clamps
         depth_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.depth = depth_texture

@@ -70,6 +70,7 @@ from soc.culling.hiz_gpu import (
     set_test_uniforms,
 )
 from soc.culling.hiz_options import MAX_REFINE, check_test_options
+from soc.culling.reprojection import DEFAULT_LEVEL, ReprojectedDepth
 from soc.gl.indirect_count import COMMAND_BYTES, CountedDraws
 from soc.methods.base import CullMethod, MethodOutput, register, stage
 from soc.metrics import gpu_stage
@@ -130,6 +131,15 @@ class GpuDriven(CullMethod):
         The late pass walks the scene's object hierarchy (:mod:`soc.culling.bvh_gpu`; default
         True: a subtree outside the frustum or behind the pyramid is dropped whole) or tests
         every object box (False: the reference; the same frames, ``tests/test_bvh_gpu.py``).
+    reproject : bool
+        The early pass also leaves out what last frame's depth, seen from this frame's camera,
+        hides (:mod:`soc.culling.reprojection`): fewer clusters drawn early that the camera's
+        move has hidden. A guess: the late pass draws what it left out wrongly. Default False,
+        niagara's early pass (frustum only): on llvmpipe the reprojection costs about what it
+        saves (``results/BENCHMARKS.md``, "Last frame's depth, reprojected").
+    reproject_level : int
+        The level of last frame's pyramid carried over (default
+        :data:`~soc.culling.reprojection.DEFAULT_LEVEL`, 8×8 pixels a texel).
     walk : {"auto", "levels", "subtrees"}
         How the walk dispatches (:meth:`soc.culling.bvh_gpu.GpuHierarchy.run`; ``"auto"``,
         the default: :attr:`~soc.culling.bvh_gpu.GpuHierarchy.auto_mode`); the same result.
@@ -163,6 +173,8 @@ class GpuDriven(CullMethod):
         cluster_triangles: int = MAX_TRIANGLES,
         hierarchy: bool = True,
         walk: str = "auto",
+        reproject: bool = False,
+        reproject_level: int = DEFAULT_LEVEL,
     ):
         if granularity not in GRANULARITIES:
             raise ValueError(f"granularity must be one of {GRANULARITIES}, got {granularity!r}")
@@ -189,6 +201,10 @@ class GpuDriven(CullMethod):
         self.hierarchy = gpu_hierarchy(geometry) if hierarchy else None
         self.renderer = Renderer(geometry, resolution)
         self.pyramid = DepthPyramid(self.glctx, self.renderer.resolution)
+        self.reprojection = (
+            ReprojectedDepth(self.glctx, self.pyramid, reproject_level) if reproject else None
+        )
+        self._last_view_proj = None  # the camera of the frame that built self.pyramid
         self.early = self.glctx.compute("gpu_driven_early.comp")
         self.late = self.glctx.compute("gpu_driven_late.comp")
         self.draws = CountedDraws(self.glctx, prefer_native=count == "auto")
@@ -223,6 +239,8 @@ class GpuDriven(CullMethod):
         for b in (self.object_state, self.cluster_state, self.commands, self.frame, self.passed):
             b.release()
         self.pyramid.release()
+        if self.reprojection is not None:
+            self.reprojection.release()
         self.renderer.release()
 
     def reset(self) -> None:
@@ -230,6 +248,7 @@ class GpuDriven(CullMethod):
         self.object_state.clear()
         self.cluster_state.clear()
         self.passed.clear()
+        self._last_view_proj = None
 
     # -- the frame ---------------------------------------------------------------------------
 
@@ -299,6 +318,15 @@ class GpuDriven(CullMethod):
                 if name in prog:  # the compiler drops what a pass does not read
                     prog[name].value = value
         walk = self.hierarchy is not None
+        guess = occlusion and self.reprojection is not None and self._last_view_proj is not None
+        if guess:
+            with stage(timings, "reproject", finish):
+                self.reprojection.build(self._last_view_proj, camera.view_proj)
+                early = self.early
+                set_test_uniforms(
+                    early, self.reprojection.pyramid, camera, self.footprint, self.refine
+                )
+        self.early["reproject"].value = guess
 
         with stage(timings, "early", finish):
             self.frame.clear()
@@ -309,6 +337,7 @@ class GpuDriven(CullMethod):
         with stage(timings, "pyramid", finish):
             if occlusion:
                 self.pyramid.build(self.renderer.depth)
+        self._last_view_proj = np.array(camera.view_proj) if occlusion else None
         with stage(timings, "test", finish):
             late = self.late
             if occlusion:
