@@ -21,13 +21,13 @@ from soc.scenes.primitives import icosphere, sheet, translate
 
 # Option sets: whole objects; clusters of 128 (most test objects are one cluster); clusters of
 # 4 triangles (every box is three clusters); the next set from the finished depth with one
-# command per cluster and the count read back; the classic 2×2 HiZ read; the early set also
-# tested against last frame's depth, reprojected.
+# command per cluster, the count read back and clusters tested in the late pass's loop; the
+# classic 2×2 HiZ read; the early set also tested against last frame's depth, reprojected.
 MODES = [
     {"granularity": "object"},
     {"granularity": "cluster"},
     {"granularity": "cluster", "cluster_triangles": 4},
-    {"cluster_triangles": 8, "next_from": "final", "merge": False, "count": "read"},
+    {"cluster_triangles": 8, "next_from": "final", "merge": False, "count": "read", "split": False},
     {"cluster_triangles": 4, "footprint": 2, "refine": 0},
     {"cluster_triangles": 8, "reproject": True},
 ]
@@ -209,17 +209,21 @@ def test_depth_only_frames_leave_the_colour_alone(clutter_scenes):
         assert r.stats.timings_ms["draw"] > 0
 
 
-def test_count_read_back_merge_and_granularity_agree(small_market):
+def test_count_read_back_merge_split_and_granularity_agree(small_market):
     """The GL's count and the count read back draw the same; merging consecutive clusters
-    draws the same clusters in fewer commands; whole objects keep what clusters keep or more."""
+    draws the same clusters in fewer commands; the clusters tested in the late pass's loop
+    (``split=False``) are the ones the cluster pass draws; whole objects keep what clusters
+    keep or more."""
     res = (480, 270)
     cams = flight(small_market, frames=100, width=res[0], height=res[1])[40:46]
     variants = {
         "auto": {},
         "read": {"count": "read"},
         "unmerged": {"merge": False},
+        "loop": {"split": False},
         "object": {"granularity": "object"},
     }
+    commands = dict.fromkeys(variants, 0)
     cullers = {k: soc.Culler(small_market, "gpu-driven", res, **o) for k, o in variants.items()}
     try:
         if not cullers["auto"].method.draws.native:
@@ -227,14 +231,18 @@ def test_count_read_back_merge_and_granularity_agree(small_market):
         assert not cullers["read"].method.draws.native
         for cam in cams:
             r = {k: c.cull(cam) for k, c in cullers.items()}
-            for k in ("read", "unmerged"):
+            for k in ("read", "unmerged", "loop"):
                 assert np.array_equal(r[k].visible, r["auto"].visible), k
                 assert r[k].stats.triangles_drawn == r["auto"].stats.triangles_drawn, k
+            drawn = cullers["auto"].method.drawn_clusters()
+            assert np.array_equal(cullers["loop"].method.drawn_clusters(), drawn)
             assert not (r["auto"].visible & ~r["object"].visible).any()
-            merged = sum(cullers["auto"].method.last_commands)
-            assert merged < sum(cullers["unmerged"].method.last_commands)
+            for k, c in cullers.items():
+                commands[k] += sum(c.method.last_commands)
             obj = r["object"].stats
             assert obj.triangles_drawn == obj.triangles_visible
+        assert commands["auto"] < commands["unmerged"]
+        assert commands["loop"] == commands["auto"]
     finally:
         for c in cullers.values():
             c.close()
@@ -285,3 +293,24 @@ def test_bad_options_are_clear_errors(clutter_scenes):
     ):
         with pytest.raises(ValueError, match=match):
             soc.Culler(s, "gpu-driven", (64, 64), **options)
+
+
+def test_cullers_of_other_granularities_do_not_disturb_each_other(small_market):
+    """The compute programs are the GL context's, shared by every gpu-driven culler: a culler
+    of whole objects culling between the frames of a culler of clusters (other buffer sizes)
+    leaves its frames exactly what they are alone."""
+    res = (480, 270)
+    cams = flight(small_market, frames=100, width=res[0], height=res[1])[40:44]
+    with soc.Culler(small_market, "gpu-driven", res) as alone:
+        frames = []
+        for cam in cams:
+            alone.cull(cam, draw=True)
+            frames.append(alone.method.renderer.depth_image())
+    with (
+        soc.Culler(small_market, "gpu-driven", res) as c,
+        soc.Culler(small_market, "gpu-driven", res, granularity="object") as other,
+    ):
+        for cam, depth in zip(cams, frames, strict=True):
+            c.cull(cam, draw=True)
+            other.cull(cam, draw=True)
+            assert np.array_equal(c.method.renderer.depth_image(), depth)

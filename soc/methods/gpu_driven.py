@@ -16,9 +16,10 @@ Stages of one frame, at the method's resolution (it draws the frame into its own
    (:class:`soc.culling.hiz_gpu.DepthPyramid`);
 4. **test** — a compute pass (``gpu_driven_late.comp.glsl``) tests every object's box against
    the frustum and the pyramid (the footprint-and-refine test of ``hiz_test.common.glsl`` that
-   ``hiz-2phase`` uses), then the boxes of the clusters of the objects that pass; it writes the
-   commands of the clusters that pass and were not drawn early, and every cluster's state for
-   next frame;
+   ``hiz-2phase`` uses), then the boxes of the clusters of the objects that pass (those of
+   objects of several clusters in a pass of their own, ``gpu_driven_clusters.comp.glsl``, one
+   cluster per invocation: ``split``); it writes the commands of the clusters that pass and were
+   not drawn early, and every cluster's state for next frame;
 5. **late draw** — those commands, into the same depth;
 6. **read back** — the frame's counters and one bit per object (drawn or not): N / 8 bytes,
    because :class:`soc.Culler` returns the kept set. Nothing else crosses to the CPU: no
@@ -119,6 +120,11 @@ class GpuDriven(CullMethod):
         ``hiz-2phase``'s.
     merge : bool
         Draw consecutive drawn clusters of an object as one command (default True).
+    split : bool
+        Test the clusters of the objects of several clusters that pass the late test in a pass
+        of their own, one cluster per invocation (``gpu_driven_clusters.comp.glsl``; default
+        True), or in the late pass, one object's clusters in a loop (False: the reference; the
+        same clusters drawn and kept, the same commands).
     next_from : {"early", "final"}
         Which depth decides what next frame draws early: the early pass's pyramid (niagara's
         choice, default) or the finished frame's (a second pyramid and a test of what passed:
@@ -168,6 +174,7 @@ class GpuDriven(CullMethod):
         footprint: int = 4,
         refine: int = MAX_REFINE,
         merge: bool = True,
+        split: bool = True,
         count: str = "auto",
         next_from: str = "early",
         cluster_triangles: int = MAX_TRIANGLES,
@@ -193,6 +200,7 @@ class GpuDriven(CullMethod):
         scene = self.scene
         self.granularity = granularity
         self.footprint, self.refine, self.merge = footprint, refine, bool(merge)
+        self.split = bool(split) and granularity == "cluster"
         if granularity == "cluster":
             self.clusters = scene_clusters(scene, cluster_triangles)
         else:
@@ -207,6 +215,7 @@ class GpuDriven(CullMethod):
         self._last_view_proj = None  # the camera of the frame that built self.pyramid
         self.early = self.glctx.compute("gpu_driven_early.comp")
         self.late = self.glctx.compute("gpu_driven_late.comp")
+        self.cluster_pass = self.glctx.compute("gpu_driven_clusters.comp")
         self.draws = CountedDraws(self.glctx, prefer_native=count == "auto")
         ctx = self.glctx.ctx
         n, c = len(scene), self.gpu.count
@@ -218,20 +227,21 @@ class GpuDriven(CullMethod):
         self.commands = ctx.buffer(reserve=2 * c * COMMAND_BYTES)
         self.frame = ctx.buffer(reserve=4 * words)
         self._list_words = n + 1
-        self.passed = ctx.buffer(reserve=4 * 2 * self._list_words)
+        self._split_at = 2 * self._list_words  # gpu_driven.common.glsl's split lists
+        self.passed = ctx.buffer(reserve=4 * (self._split_at + 2 + c + n))
         self._frame_id = 0  # frames culled (object_state holds frame ids; 0 = never)
         self._list = 0  # which of the two passed lists this frame appends to
         self.reset()
-        sizes = {
+        # Set before every frame: the programs are the context's, shared by every gpu-driven
+        # culler of any scene and granularity.
+        self._sizes = {
             "object_count": n,
             "max_commands": c,
             "object_bits": self._object_bits,
             "cluster_bits": self._cluster_bits,
+            "cluster_count": c,
+            "split_at": self._split_at,
         }
-        for prog in (self.early, self.late):
-            for name, value in sizes.items():
-                if name in prog:  # the compiler drops what a pass does not read
-                    prog[name].value = value
         self.last_draws_ms: dict[str, float] = {}
         self.last_commands = (0, 0)
 
@@ -268,18 +278,19 @@ class GpuDriven(CullMethod):
             buf.bind_to_storage_buffer(binding)
         self.passed.bind_to_storage_buffer(PASSED_BINDING)
 
-    def _run(self, program, walk: bool = False) -> None:
+    def _run(self, program, walk: bool = False, items: int | None = None) -> None:
         """Dispatch a pass (a fixed number of invocations, each taking every stride-th object,
-        list entry or subtree, as hiz_test.comp; with ``walk``, the late pass's walk of the
-        hierarchy, one dispatch per level with ``walk="levels"``) and make its writes visible
-        to what follows."""
+        list entry, subtree or of ``items`` clusters, as hiz_test.comp; with ``walk``, the late
+        pass's walk of the hierarchy, one dispatch per level with ``walk="levels"``) and make
+        its writes visible to what follows."""
         self._bind_buffers()
         tree = self.hierarchy
         if walk:
             tree.bind(program, min(NODE_REFINE, self.refine))
             tree.run(program, self.walk, TEST_GROUPS)
             return
-        program.run(min(-(-len(self.scene) // TEST_GROUP), TEST_GROUPS))
+        items = len(self.scene) if items is None else items
+        program.run(min(-(-items // TEST_GROUP), TEST_GROUPS))
         self.glctx.ctx.memory_barrier()
 
     def _draw(self, camera, late: bool, *, color: bool, clear: bool, clear_color: bool) -> float:
@@ -305,16 +316,17 @@ class GpuDriven(CullMethod):
         words = self._list_words
         list_in, list_out = (1 - self._list) * words, self._list * words
         self._list = 1 - self._list
-        for prog in (self.early, self.late):
+        frame = {
+            "frame_id": self._frame_id,
+            "list_in": list_in,
+            "list_out": list_out,
+            "frustum": bool(cfg.frustum),
+            "test_clusters": clusters,
+            "merge": self.merge,
+        }
+        for prog in (self.early, self.late, self.cluster_pass):
             set_frustum_uniforms(prog, camera)
-            prog["frustum"].value = bool(cfg.frustum)
-            prog["test_clusters"].value = clusters
-            prog["merge"].value = self.merge
-            for name, value in (
-                ("frame_id", self._frame_id),
-                ("list_in", list_in),
-                ("list_out", list_out),
-            ):
+            for name, value in (self._sizes | frame).items():
                 if name in prog:  # the compiler drops what a pass does not read
                     prog[name].value = value
         walk = self.hierarchy is not None
@@ -331,6 +343,7 @@ class GpuDriven(CullMethod):
         with stage(timings, "early", finish):
             self.frame.clear()
             self.passed.write(_ZERO, offset=4 * list_out)
+            self.passed.write(_ZERO + _ZERO, offset=4 * self._split_at)
             if occlusion:  # frustum culling only: no early set
                 self._run(self.early)
         early_ms = self._draw(camera, False, color=draw, clear=True, clear_color=draw)
@@ -345,7 +358,17 @@ class GpuDriven(CullMethod):
             late["occlusion"].value = occlusion
             late["refresh"].value = False
             late["walk"].value = walk
+            late["split"].value = self.split
             self._run(late, walk)
+            if self.split:
+                cp = self.cluster_pass
+                if occlusion:
+                    set_test_uniforms(cp, self.pyramid, camera, self.footprint, self.refine)
+                cp["occlusion"].value = occlusion
+                cp["stage"].value = 0
+                self._run(cp, items=self.gpu.count)
+                cp["stage"].value = 1
+                self._run(cp)
         late_ms = self._draw(camera, True, color=draw, clear=False, clear_color=False)
         if occlusion and self.next_from == "final":
             with stage(timings, "next pyramid", finish):

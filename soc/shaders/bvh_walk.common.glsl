@@ -42,9 +42,6 @@ const uint ENTRY_NODE = 0x3fffffffu;
 uniform uint root_count;  // R
 uniform int node_refine;  // levels finer than its own a node box is judged at (<= refine)
 
-const int NODE_OUTSIDE = 0;
-const int NODE_INSIDE = 1;
-const int NODE_CROSSING = 2;
 // Float32 units in the last place (2^-24 each) allowed for one clip coordinate of a point of a
 // node box, relative to the sum of its terms' magnitudes: the corner (mix) and the 4-term dot
 // product of the projection take at most about 8.
@@ -61,25 +58,6 @@ uniform bool exact_outside;
 
 vec3 walk_lo(uint i) { return vec3(walk_boxes[6u * i], walk_boxes[6u * i + 1u], walk_boxes[6u * i + 2u]); }
 vec3 walk_hi(uint i) { return vec3(walk_boxes[6u * i + 3u], walk_boxes[6u * i + 4u], walk_boxes[6u * i + 5u]); }
-
-// NODE_OUTSIDE when outside_frustum() holds for every box inside [lo, hi], NODE_INSIDE when it
-// holds for none, else NODE_CROSSING. Beyond outside_frustum's slack (larger for the larger
-// box), one more rounding allowance (1e-5 of the magnitudes, against float32 errors of about
-// 1e-6 of them in both tests) on the outside side, and one on the inside side.
-int node_frustum(vec3 lo, vec3 hi) {
-    vec3 c = 0.5 * (lo + hi), h = 0.5 * (hi - lo);
-    float slack = plane_slack * (1.0 + length(h));
-    bool inside = true;
-    for (int i = 0; i < 6; ++i) {
-        vec3 n = planes[i].xyz;
-        float centre = dot(c, n) + planes[i].w;
-        float extent = dot(h, abs(n));
-        float rounding = plane_rounding * (dot(abs(c), abs(n)) + abs(planes[i].w) + extent);
-        if (centre + extent < -(slack + 2.0 * rounding)) return NODE_OUTSIDE;
-        if (centre - extent < rounding) inside = false;
-    }
-    return inside ? NODE_INSIDE : NODE_CROSSING;
-}
 
 // True only when judge() returns 0 for every box inside [lo, hi]. The node's corners are
 // projected as judge() projects a box's; every clip coordinate of a point of the node, exact

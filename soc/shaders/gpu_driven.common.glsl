@@ -16,7 +16,8 @@ layout(std430, binding = 3) readonly buffer ClusterBoxes { float cluster_boxes[]
 layout(std430, binding = 4) buffer ObjectState { uint object_state[]; };
 // (C) bit 0: passed the object's last late test (drawn early next frame if in the frustum);
 // bit 1: drawn early (set by the early pass, cleared by the late pass; it means this frame only
-// where object_state is this frame). Valid for the objects of the passed lists: the late pass
+// where object_state is this frame); bit 2: to be drawn late (between the two stages of
+// gpu_driven_clusters.comp only). Valid for the objects of the passed lists: the late pass
 // writes every cluster of an object it lists.
 layout(std430, binding = 5) buffer ClusterState { uint cluster_state[]; };
 // (2, max_commands, 5) draw commands: count, instances, first index, base vertex, base
@@ -27,7 +28,11 @@ layout(std430, binding = 6) writeonly buffer Commands { uint commands[]; };
 layout(std430, binding = 7) buffer Frame { uint frame[]; };
 // Two lists of objects with a cluster that passed a late test, list_words apart: a count, then
 // the ids. The early pass reads last frame's (list_in), the late pass appends to this frame's
-// (list_out, its count zeroed before).
+// (list_out, its count zeroed before). From split_at, the split lists of this frame (counts
+// zeroed before the late pass): at split_at the number of clusters and at split_at + 1 the
+// number of objects the late pass left to gpu_driven_clusters.comp, then the clusters
+// (cluster_count words: the cluster id, bit 31 set when its object is inside the frustum),
+// then the objects.
 layout(std430, binding = 13) buffer Passed { uint passed[]; };
 
 const uint EARLY = 0u;
@@ -46,6 +51,8 @@ uniform bool merge;          // one command for consecutive drawn clusters of an
 uniform uint frame_id;       // this frame's number (from 1; object_state)
 uniform uint list_in;        // first word of last frame's passed list
 uniform uint list_out;       // first word of this frame's passed list
+uniform uint split_at;       // first word of the split lists in `passed`
+uniform uint cluster_count;  // C
 
 vec3 object_lo(uint o) { return vec3(object_boxes[6u * o], object_boxes[6u * o + 1u], object_boxes[6u * o + 2u]); }
 vec3 object_hi(uint o) { return vec3(object_boxes[6u * o + 3u], object_boxes[6u * o + 4u], object_boxes[6u * o + 5u]); }
@@ -67,8 +74,16 @@ void emit(uint pass, uint first, uint count, uint base_vertex, uint o) {
 }
 
 // A run of drawn clusters of one object, contiguous in the index buffer: flushed as one
-// command when it cannot grow (or, without `merge`, at every cluster).
-struct Run { uint first; uint count; };
+// command when it cannot grow (or, without `merge`, at every cluster). The drawn-cluster bits of
+// the run's 32-cluster word are gathered in `bits` and set with one atomic when the run moves
+// to another word or is flushed (an object's clusters are consecutive: one atomic per word,
+// not per cluster).
+struct Run { uint first; uint count; uint word; uint bits; };
+
+void run_bits(inout Run run) {
+    if (run.bits != 0u) atomicOr(frame[cluster_bits + run.word], run.bits);
+    run.bits = 0u;
+}
 
 void run_add(inout Run run, uint pass, uint c, uint base_vertex, uint o) {
     uvec4 info = clusters[c];
@@ -78,12 +93,20 @@ void run_add(inout Run run, uint pass, uint c, uint base_vertex, uint o) {
     }
     if (run.count == 0u) run.first = info.x;
     run.count += info.y;
-    atomicOr(frame[cluster_bits + (c >> 5)], 1u << (c & 31u));
+    if ((c >> 5) != run.word) run_bits(run);
+    run.word = c >> 5;
+    run.bits |= 1u << (c & 31u);
 }
 
 void run_flush(inout Run run, uint pass, uint base_vertex, uint o) {
     if (run.count > 0u) emit(pass, run.first, run.count, base_vertex, o);
     run.count = 0u;
+    run_bits(run);
 }
 
 void mark_object(uint o) { atomicOr(frame[object_bits + (o >> 5)], 1u << (o & 31u)); }
+
+// Append object o to this frame's passed list.
+void list_object(uint o) {
+    passed[list_out + 1u + atomicAdd(passed[list_out], 1u)] = o;
+}

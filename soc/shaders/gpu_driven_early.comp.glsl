@@ -2,8 +2,9 @@
 // gpu-driven's early pass: the draw commands of what passed last frame's late test and is
 // still in the frustum (niagara's early cull) and, with `reproject`, not behind last frame's
 // depth seen from this camera. Per object of last frame's passed list: the object's box
-// against those, then each cluster that passed (with `test_clusters`); the clusters drawn are flagged (state bit 1, object_state = this frame)
-// for the late pass, which must not draw them again, and their runs appended as commands.
+// against those, then each cluster that passed (with `test_clusters`); the clusters drawn are
+// flagged (state bit 1, object_state = this frame) for the late pass, which must not draw them
+// again, and their runs appended as commands.
 #include "gpu_driven.common"
 #include "hiz_test.common"
 
@@ -14,9 +15,10 @@ uniform bool test_clusters;  // granularity "cluster": test each cluster's box t
 // left to the late pass, which draws it if this frame's depth does not hide it.
 uniform bool reproject;
 
-// Whether the box [lo, hi] is outside the frustum or, with `reproject`, hidden by last frame.
-bool skip(vec3 lo, vec3 hi) {
-    if (frustum && outside_frustum(lo, hi)) return true;
+// Whether the box [lo, hi] is outside the frustum (unless known `inside`) or, with
+// `reproject`, hidden by last frame.
+bool skip(vec3 lo, vec3 hi, bool inside) {
+    if (frustum && !inside && outside_frustum(lo, hi)) return true;
     return reproject && judge(lo, hi) == 0u;
 }
 
@@ -26,14 +28,17 @@ void main() {
     for (uint k = gl_GlobalInvocationID.x; k < count; k += stride) {
         uint o = passed[list_in + 1u + k];
         uvec4 obj = objects[o];
-        if (skip(object_lo(o), object_hi(o))) continue;
+        vec3 lo = object_lo(o), hi = object_hi(o);
+        // An object inside the frustum has its clusters inside (the walk's node test).
+        bool inside = frustum && obj.y > 1u && node_frustum(lo, hi) == NODE_INSIDE;
+        if (skip(lo, hi, inside)) continue;
         // A lone cluster's box is the object's: tested already.
-        bool each = test_clusters && (frustum || reproject) && obj.y > 1u;
-        Run run = Run(0u, 0u);
+        bool each = test_clusters && ((frustum && !inside) || reproject) && obj.y > 1u;
+        Run run = Run(0u, 0u, 0u, 0u);
         bool drawn = false;
         for (uint c = obj.x; c < obj.x + obj.y; ++c) {
             bool draw = (cluster_state[c] & 1u) != 0u;
-            if (draw && each) draw = !skip(cluster_lo(c), cluster_hi(c));
+            if (draw && each) draw = !skip(cluster_lo(c), cluster_hi(c), inside);
             if (draw) {
                 cluster_state[c] = 3u;
                 run_add(run, EARLY, c, obj.z, o);

@@ -3,7 +3,8 @@
 // depth — by a walk of the object hierarchy (bvh_walk.common: a node outside or hidden drops
 // its subtree, a node inside spares its objects' frustum tests; the same objects pass as when
 // every box is tested) or every box (`walk` off, the reference) — then the boxes of the
-// clusters of those that pass (with `test_clusters`); a cluster that passes and was not drawn
+// clusters of those that pass (with `test_clusters`; with `split`, those of objects of several
+// clusters in gpu_driven_clusters.comp, which follows); a cluster that passes and was not drawn
 // early is appended to the late commands, every cluster of a passing object gets its state
 // ("passed" or not) for next frame's early pass, and the object joins this frame's passed list
 // (niagara's late cull).
@@ -21,6 +22,9 @@ uniform bool occlusion;      // test boxes against the pyramid (off: frustum cul
 uniform bool test_clusters;  // granularity "cluster": test each cluster's box too
 uniform bool walk;           // walk the hierarchy (else test every object box)
 uniform bool levels_walk;    // the walk one dispatch per level (else subtrees per invocation)
+// Leave the clusters of an object of several clusters to gpu_driven_clusters.comp (one
+// invocation per cluster) instead of testing them here in a loop (`split` off, the reference).
+uniform bool split;
 // Refresh instead (next_from="final", after the late draw, against the finished frame's
 // pyramid): only this frame's passed list is tested again, and what fails no longer counts as
 // passed; nothing is drawn. A cluster occluded by the finished depth was occluded by the
@@ -37,17 +41,20 @@ uint classify(vec3 lo, vec3 hi, bool inside) {
     return judge(lo, hi);
 }
 
-void list_object(uint o) {
-    passed[list_out + 1u + atomicAdd(passed[list_out], 1u)] = o;
-}
-
 // The clusters of object o, whose box may be visible: each tested (a lone cluster's box is the
 // object's: judged already), drawn late unless drawn early, its state written.
 void late_object(uint o, bool inside) {
     uvec4 obj = objects[o];
+    if (split && test_clusters && obj.y > 1u) {  // to gpu_driven_clusters.comp
+        uint at = split_at + 2u + atomicAdd(passed[split_at], obj.y);
+        uint flag = inside ? 0x80000000u : 0u;
+        for (uint i = 0u; i < obj.y; ++i) passed[at + i] = (obj.x + i) | flag;
+        passed[split_at + 2u + cluster_count + atomicAdd(passed[split_at + 1u], 1u)] = o;
+        return;
+    }
     bool early = object_state[o] == frame_id;
     bool each = test_clusters && obj.y > 1u;
-    Run run = Run(0u, 0u);
+    Run run = Run(0u, 0u, 0u, 0u);
     bool passed_any = false, drawn = false;
     for (uint c = obj.x; c < obj.x + obj.y; ++c) {
         bool pass = !each || classify(cluster_lo(c), cluster_hi(c), inside) == 1u;

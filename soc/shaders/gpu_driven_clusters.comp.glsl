@@ -1,0 +1,76 @@
+#version 450
+// gpu-driven's cluster pass, after the late pass with `split`: the clusters of the objects of
+// several clusters that passed the late test, which the late pass listed (the split lists of
+// gpu_driven.common) instead of looping over them. Two stages, one dispatch each:
+//   stage 0: one cluster per invocation (every stride-th of the list): its box against the
+//            frustum (unless its object is inside) and the pyramid; its state for next frame
+//            (bit 0: passed), with bit 2 set when it is to be drawn late (it passed and was
+//            not drawn early);
+//   stage 1: one object per invocation: its late runs appended as commands (merged as the late
+//            pass merges them), bit 2 cleared, the object listed as passed when a cluster
+//            passed and marked drawn when one is drawn.
+// The late pass's loop keeps one SIMD lane busy with an object's clusters while the others wait
+// (llvmpipe runs 8 invocations in lockstep, a GPU 32 or 64); stage 0 gives every lane a cluster.
+// The decisions are the loop's (tests/test_gpu_driven.py compares the clusters drawn).
+#include "gpu_driven.common"
+#include "hiz_test.common"
+
+uniform bool frustum;    // frustum-test boxes
+uniform bool occlusion;  // test boxes against the pyramid
+uniform int stage;       // 0 or 1, see above
+
+void test_clusters() {
+    uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    uint count = passed[split_at];
+    uint judged = 0u;
+    for (uint k = gl_GlobalInvocationID.x; k < count; k += stride) {
+        uint entry = passed[split_at + 2u + k];
+        uint c = entry & 0x7FFFFFFFu;
+        bool inside = (entry >> 31) != 0u;
+        vec3 lo = cluster_lo(c), hi = cluster_hi(c);
+        bool pass = true;
+        if (frustum && !inside && outside_frustum(lo, hi)) {
+            pass = false;
+        } else if (occlusion) {
+            ++judged;
+            pass = judge(lo, hi) == 1u;
+        }
+        uint o = clusters[c].z;
+        bool early = object_state[o] == frame_id && (cluster_state[c] & 2u) != 0u;
+        cluster_state[c] = pass ? (early ? 1u : 5u) : 0u;
+    }
+    if (judged > 0u) atomicAdd(frame[FRAME_JUDGED], judged);
+}
+
+void emit_objects() {
+    uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    uint count = passed[split_at + 1u];
+    for (uint k = gl_GlobalInvocationID.x; k < count; k += stride) {
+        uint o = passed[split_at + 2u + cluster_count + k];
+        uvec4 obj = objects[o];
+        Run run = Run(0u, 0u, 0u, 0u);
+        bool passed_any = false, drawn = false;
+        for (uint c = obj.x; c < obj.x + obj.y; ++c) {
+            uint state = cluster_state[c];
+            cluster_state[c] = state & 1u;
+            passed_any = passed_any || (state & 1u) != 0u;
+            if ((state & 4u) != 0u) {
+                run_add(run, LATE, c, obj.z, o);
+                drawn = true;
+            } else {
+                run_flush(run, LATE, obj.z, o);
+            }
+        }
+        run_flush(run, LATE, obj.z, o);
+        if (passed_any) list_object(o);
+        if (drawn) mark_object(o);
+    }
+}
+
+void main() {
+    if (stage == 0) {
+        test_clusters();
+    } else {
+        emit_objects();
+    }
+}
