@@ -324,8 +324,11 @@ def set_test_uniforms(
     prog["level_info"].write(pyramid.level_info)
     prog["levels"].value = len(pyramid)
     prog["size"].value = pyramid.resolution
-    displays = _displays(display, pyramid.resolution)
+    own = tuple(pyramid.resolution)
+    others = [d for d in _displays(display, own) if tuple(d) != own]
+    displays = others + [own] * (MAX_DISPLAYS - len(others))
     prog["displays"].write(np.array(displays, np.int32).tobytes())
+    prog["display_count"].value = len(others)
     prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
     prog["min_w"].value = camera.near * (1.0 + NEAR_PLANE_MARGIN)
     prog["depth_bias"].value = QUERY_DEPTH_BIAS_NDC

@@ -62,7 +62,7 @@ import time
 import numpy as np
 
 from soc.culling.bvh_gpu import NODE_REFINE, WALK_OPTIONS, gpu_hierarchy
-from soc.culling.clusters import MAX_TRIANGLES, scene_clusters, whole_objects
+from soc.culling.clusters import scene_clusters, whole_objects
 from soc.culling.hiz_gpu import (
     TEST_GROUP,
     TEST_GROUPS,
@@ -80,6 +80,11 @@ GRANULARITIES = ("cluster", "object")
 _ZERO = bytes(4)
 COUNTS = ("auto", "read")
 NEXT_FROM = ("early", "final")
+# gpu-driven's clusters: 64 triangles, half the clusters module's usual size. With clusters
+# tested one per invocation (`split`), smaller clusters cost little more to cull and draw fewer
+# hidden triangles: on llvmpipe 64 beat 128 on every bench path (castle-2114, market and the
+# refilled castle, flight and walk; results/BENCHMARKS.md, "Cluster size").
+CLUSTER_TRIANGLES = 64
 # Counters at the start of the frame buffer (gpu_driven.common.glsl's FRAME_*), then the bits.
 FRAME_COMMANDS, FRAME_TRIANGLES, FRAME_OUTSIDE, FRAME_JUDGED, FRAME_HEADER = 0, 2, 4, 5, 8
 # Storage-buffer binding points of gpu_driven.common.glsl, in order.
@@ -108,12 +113,11 @@ class GpuDriven(CullMethod):
     Options
     -------
     granularity : {"cluster", "object"}
-        Cull and draw clusters of at most 128 triangles (default;
+        Cull and draw clusters of at most ``cluster_triangles`` triangles (default;
         :func:`soc.culling.clusters.scene_clusters`, built once per scene and cached), or
         whole objects.
     cluster_triangles : int
-        Most triangles per cluster (default
-        :data:`~soc.culling.clusters.MAX_TRIANGLES`, 128).
+        Most triangles per cluster (default :data:`CLUSTER_TRIANGLES`, 64).
     footprint, refine : int
         The HiZ test's footprint (2 or 4, default 4) and refinement levels (default
         :data:`~soc.culling.hiz_options.MAX_REFINE`, down to the frame's pixels), as
@@ -177,7 +181,7 @@ class GpuDriven(CullMethod):
         split: bool = True,
         count: str = "auto",
         next_from: str = "early",
-        cluster_triangles: int = MAX_TRIANGLES,
+        cluster_triangles: int = CLUSTER_TRIANGLES,
         hierarchy: bool = True,
         walk: str = "auto",
         reproject: bool = False,

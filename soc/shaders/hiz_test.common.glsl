@@ -14,6 +14,7 @@ uniform float plane_rounding;  // relative float32 rounding allowance of the pla
 uniform mat4 view_proj;
 uniform ivec2 size;         // level 0, texels
 uniform ivec2 displays[2]; // resolutions visibility is judged at (pixel centres), >= size
+uniform int display_count;  // how many of them differ from size (those come first)
 uniform float min_w;        // corners with clip w below this: keep the box untested
 uniform float depth_bias;   // NDC units, pulls the box towards the camera
 uniform float pixel_margin; // pixels added around the projected rectangle
@@ -153,14 +154,14 @@ uint judge_rect(vec2 rmin, vec2 rmax, float zmin, int refine_levels) {
     // 0's own resolution and at each display resolution; the level-0 texels holding any of
     // them are read (their index ranges joined per axis). A display centre i lies in texel
     // floor((i + 0.5) s), s = size / display; one within 1e-3 texel of a texel border takes
-    // both. At size == display both ranges are the same.
+    // both. At size == display both ranges are the same: such displays are skipped.
     ivec2 p0, p1;
     bool any_centre = centres(rmin, rmax, size, p0, p1);
     if (!any_centre) {
         p0 = size;
         p1 = ivec2(-1);
     }
-    for (int d = 0; d < 2; ++d) {
+    for (int d = 0; d < display_count; ++d) {
         ivec2 i0, i1;
         if (centres(rmin, rmax, displays[d], i0, i1)) {
             vec2 s = vec2(size) / vec2(displays[d]);
