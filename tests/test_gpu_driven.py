@@ -22,7 +22,8 @@ from soc.scenes.primitives import icosphere, sheet, translate
 # Option sets: whole objects; clusters of 128 (most test objects are one cluster); clusters of
 # 4 triangles (every box is three clusters); the next set from the finished depth with one
 # command per cluster, the count read back and clusters tested in the late pass's loop; the
-# classic 2×2 HiZ read; the early set also tested against last frame's depth, reprojected.
+# classic 2×2 HiZ read; the early set also tested against last frame's depth, reprojected; the
+# early pass looping over clusters instead of drawing last frame's runs.
 MODES = [
     {"granularity": "object"},
     {"granularity": "cluster"},
@@ -30,8 +31,17 @@ MODES = [
     {"cluster_triangles": 8, "next_from": "final", "merge": False, "count": "read", "split": False},
     {"cluster_triangles": 4, "footprint": 2, "refine": 0},
     {"cluster_triangles": 8, "reproject": True},
+    {"cluster_triangles": 8, "early_runs": False},
 ]
-MODE_IDS = ["object", "cluster", "cluster-4", "final-unmerged-read", "classic", "reproject"]
+MODE_IDS = [
+    "object",
+    "cluster",
+    "cluster-4",
+    "final-unmerged-read",
+    "classic",
+    "reproject",
+    "early-loop",
+]
 
 
 @pytest.mark.parametrize("options", MODES, ids=MODE_IDS)
@@ -92,11 +102,15 @@ def _big_meshes() -> soc.Scene:
     return soc.Scene.from_meshes(meshes, occluder=[True, True, False, False, False])
 
 
-@pytest.mark.parametrize(("triangles", "reproject"), [(128, False), (16, False), (16, True)])
-def test_no_visible_cluster_is_culled_walking_past_a_wall(triangles, reproject):
+@pytest.mark.parametrize(
+    ("triangles", "options"),
+    [(128, {}), (16, {}), (16, {"reproject": True}), (16, {"early_runs": False})],
+)
+def test_no_visible_cluster_is_culled_walking_past_a_wall(triangles, options):
     """A walk towards and along a wall, through a box, with the near plane cutting the sphere
     and the ground; a cut to random views and back, a reset; at an odd resolution. With
-    ``reproject`` the early set is also tested against last frame's depth, reprojected."""
+    ``reproject`` the early set is also tested against last frame's depth, reprojected; with
+    ``early_runs=False`` the early pass loops over the clusters."""
     scene = _big_meshes()
     res = (333, 197)
     walk = [
@@ -108,7 +122,7 @@ def test_no_visible_cluster_is_culled_walking_past_a_wall(triangles, reproject):
     cuts = random_cameras(scene, 4, seed=5, width=res[0], height=res[1])
     cams = walk[:6] + cuts[:2] + walk[6:10] + cuts[2:] + walk[10:]
     culled, drawn = _cluster_run(
-        scene, cams, res, resets={9}, cluster_triangles=triangles, reproject=reproject
+        scene, cams, res, resets={9}, cluster_triangles=triangles, **options
     )
     assert culled > drawn // 4  # the wall hides a part of the sphere, and views cut the rest
     assert len(scene_clusters(scene, triangles)) > 5 * len(scene)

@@ -8,8 +8,10 @@ Visibility lives on the GPU from frame to frame: a state word per object and per
 Stages of one frame, at the method's resolution (it draws the frame into its own target):
 
 1. **early** — a compute pass (``gpu_driven_early.comp.glsl``) writes the draw commands of
-   the clusters that passed last frame's late test and whose object (and own) box is still in
-   the frustum, consecutive clusters of an object as one command (``merge``), and flags them;
+   the clusters that passed last frame's late test and whose object box is still in the
+   frustum: the runs of consecutive clusters that the late stage wrote for it, one command
+   each (``early_runs``; or, looping over the clusters, those whose own box is in the frustum
+   too, consecutive ones as one command, ``merge``);
 2. **early draw** — those commands, drawn with ``glMultiDrawElementsIndirectCount`` (the
    count stays on the GPU; :class:`soc.gl.indirect_count.CountedDraws`);
 3. **pyramid** — the max-depth pyramid of that depth, built in GL
@@ -99,6 +101,7 @@ BINDINGS = (
     "frame",
 )
 PASSED_BINDING = 13  # gpu_driven.common.glsl's passed lists (8-12: bvh_walk.common.glsl's)
+RUNS_BINDING = 14  # its runs of clusters that passed
 
 
 @register
@@ -124,6 +127,11 @@ class GpuDriven(CullMethod):
         ``hiz-2phase``'s.
     merge : bool
         Draw consecutive drawn clusters of an object as one command (default True).
+    early_runs : bool
+        The early pass draws each object of last frame's passed list that is in the frustum by
+        the runs of its clusters that passed, written by last frame's late stage (default
+        True): no loop over its clusters, no test per cluster. False: a loop over the clusters
+        that tests each one against the frustum (also with ``reproject``, which needs it).
     split : bool
         Test the clusters of the objects of several clusters that pass the late test in a pass
         of their own, one cluster per invocation (``gpu_driven_clusters.comp.glsl``; default
@@ -178,6 +186,7 @@ class GpuDriven(CullMethod):
         footprint: int = 4,
         refine: int = MAX_REFINE,
         merge: bool = True,
+        early_runs: bool = True,
         split: bool = True,
         count: str = "auto",
         next_from: str = "early",
@@ -205,6 +214,7 @@ class GpuDriven(CullMethod):
         self.granularity = granularity
         self.footprint, self.refine, self.merge = footprint, refine, bool(merge)
         self.split = bool(split) and granularity == "cluster"
+        self.early_runs = bool(early_runs) and not reproject
         if granularity == "cluster":
             self.clusters = scene_clusters(scene, cluster_triangles)
         else:
@@ -226,7 +236,8 @@ class GpuDriven(CullMethod):
         self._object_bits = FRAME_HEADER
         self._cluster_bits = FRAME_HEADER + (n + 31) // 32
         words = self._cluster_bits + (c + 31) // 32
-        self.object_state = ctx.buffer(reserve=4 * n)
+        self.object_state = ctx.buffer(reserve=4 * 2 * n)
+        self.runs = ctx.buffer(reserve=16 * c)
         self.cluster_state = ctx.buffer(reserve=4 * c)
         self.commands = ctx.buffer(reserve=2 * c * COMMAND_BYTES)
         self.frame = ctx.buffer(reserve=4 * words)
@@ -250,7 +261,8 @@ class GpuDriven(CullMethod):
         self.last_commands = (0, 0)
 
     def release(self) -> None:
-        for b in (self.object_state, self.cluster_state, self.commands, self.frame, self.passed):
+        buffers = (self.object_state, self.cluster_state, self.commands, self.frame, self.passed)
+        for b in (*buffers, self.runs):
             b.release()
         self.pyramid.release()
         if self.reprojection is not None:
@@ -281,6 +293,7 @@ class GpuDriven(CullMethod):
         for binding, buf in enumerate(buffers):
             buf.bind_to_storage_buffer(binding)
         self.passed.bind_to_storage_buffer(PASSED_BINDING)
+        self.runs.bind_to_storage_buffer(RUNS_BINDING)
 
     def _run(self, program, walk: bool = False, items: int | None = None) -> None:
         """Dispatch a pass (a fixed number of invocations, each taking every stride-th object,
@@ -327,6 +340,8 @@ class GpuDriven(CullMethod):
             "frustum": bool(cfg.frustum),
             "test_clusters": clusters,
             "merge": self.merge,
+            "early_runs": self.early_runs,
+            "drawn_bit": 1 if self.early_runs else 2,
         }
         for prog in (self.early, self.late, self.cluster_pass):
             set_frustum_uniforms(prog, camera)

@@ -12,11 +12,13 @@ layout(std430, binding = 1) readonly buffer ObjectBoxes { float object_boxes[]; 
 layout(std430, binding = 2) readonly buffer Clusters { uvec4 clusters[]; };
 // (C, 6) the clusters' grown AABBs.
 layout(std430, binding = 3) readonly buffer ClusterBoxes { float cluster_boxes[]; };
-// (N) the frame (frame_id) in which the early pass last drew a cluster of the object; 0: never.
+// (2N) per object: [0, N) the frame (frame_id) in which the early pass last drew a cluster of
+// the object, 0: never; [N, 2N) how many runs of its clusters passed its last late test
+// (`runs`).
 layout(std430, binding = 4) buffer ObjectState { uint object_state[]; };
 // (C) bit 0: passed the object's last late test (drawn early next frame if in the frustum);
-// bit 1: drawn early (set by the early pass, cleared by the late pass; it means this frame only
-// where object_state is this frame); bit 2: to be drawn late (between the two stages of
+// bit 1: drawn early by the early pass's cluster loop (`early_runs` off; set by the early pass,
+// cleared by the late pass; it means this frame only where object_state is this frame); bit 2: to be drawn late (between the two stages of
 // gpu_driven_clusters.comp only). Valid for the objects of the passed lists: the late pass
 // writes every cluster of an object it lists.
 layout(std430, binding = 5) buffer ClusterState { uint cluster_state[]; };
@@ -34,6 +36,11 @@ layout(std430, binding = 7) buffer Frame { uint frame[]; };
 // (cluster_count words: the cluster id, bit 31 set when its object is inside the frustum),
 // then the objects.
 layout(std430, binding = 13) buffer Passed { uint passed[]; };
+// (C) the runs of clusters that passed an object's last late test, for next frame's early pass:
+// object o's at runs[objects[o].x + k], k < object_state[N + o]: first index, index count,
+// first cluster, cluster count (written where the states are written, read by the early pass
+// with `early_runs`).
+layout(std430, binding = 14) buffer Runs { uvec4 runs[]; };
 
 const uint EARLY = 0u;
 const uint LATE = 1u;
@@ -53,6 +60,10 @@ uniform uint list_in;        // first word of last frame's passed list
 uniform uint list_out;       // first word of this frame's passed list
 uniform uint split_at;       // first word of the split lists in `passed`
 uniform uint cluster_count;  // C
+// Which cluster_state bit says "drawn early" for an object drawn early this frame: 2 when the
+// early pass loops over clusters, 1 (passed last frame: all of those were drawn) with
+// `early_runs`.
+uniform uint drawn_bit;
 
 vec3 object_lo(uint o) { return vec3(object_boxes[6u * o], object_boxes[6u * o + 1u], object_boxes[6u * o + 2u]); }
 vec3 object_hi(uint o) { return vec3(object_boxes[6u * o + 3u], object_boxes[6u * o + 4u], object_boxes[6u * o + 5u]); }
@@ -109,4 +120,46 @@ void mark_object(uint o) { atomicOr(frame[object_bits + (o >> 5)], 1u << (o & 31
 // Append object o to this frame's passed list.
 void list_object(uint o) {
     passed[list_out + 1u + atomicAdd(passed[list_out], 1u)] = o;
+}
+
+// The runs of an object's clusters that pass, built as its clusters are visited in order
+// (passing_add for a cluster that passes, passing_break for one that does not) and closed
+// with passing_end: next frame's early commands (`runs`), merged as `merge` says.
+struct Passing { uint slot; uint first; uint count; uint c0; uint n; };
+
+Passing passing_start(uint o) { return Passing(objects[o].x, 0u, 0u, 0u, 0u); }
+
+void passing_break(inout Passing p) {
+    if (p.n > 0u) runs[p.slot++] = uvec4(p.first, p.count, p.c0, p.n);
+    p.count = 0u;
+    p.n = 0u;
+}
+
+void passing_add(inout Passing p, uint c) {
+    uvec4 info = clusters[c];
+    if (p.n > 0u && (!merge || p.first + p.count != info.x)) passing_break(p);
+    if (p.n == 0u) {
+        p.first = info.x;
+        p.c0 = c;
+    }
+    p.count += info.y;
+    p.n += 1u;
+}
+
+void passing_end(inout Passing p, uint o) {
+    passing_break(p);
+    object_state[object_count + o] = p.slot - objects[o].x;
+}
+
+// The drawn-cluster bits of clusters c0 .. c0 + k - 1, one atomic per 32-cluster word.
+void mark_clusters(uint c0, uint k) {
+    uint c = c0, end = c0 + k;
+    while (c < end) {
+        uint word = c >> 5;
+        uint stop = min(end, (word + 1u) << 5);
+        uint span = stop - c;
+        uint mask = span == 32u ? 0xFFFFFFFFu : ((1u << span) - 1u) << (c & 31u);
+        atomicOr(frame[cluster_bits + word], mask);
+        c = stop;
+    }
 }

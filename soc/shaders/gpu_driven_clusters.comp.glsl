@@ -7,8 +7,9 @@
 //            (bit 0: passed), with bit 2 set when it is to be drawn late (it passed and was
 //            not drawn early);
 //   stage 1: one object per invocation: its late runs appended as commands (merged as the late
-//            pass merges them), bit 2 cleared, the object listed as passed when a cluster
-//            passed and marked drawn when one is drawn.
+//            pass merges them), bit 2 cleared, the runs of its clusters that passed written
+//            for next frame's early pass, the object listed as passed when a cluster passed
+//            and marked drawn when one is drawn.
 // The late pass's loop keeps one SIMD lane busy with an object's clusters while the others wait
 // (llvmpipe runs 8 invocations in lockstep, a GPU 32 or 64); stage 0 gives every lane a cluster.
 // The decisions are the loop's (tests/test_gpu_driven.py compares the clusters drawn).
@@ -36,7 +37,7 @@ void test_clusters() {
             pass = judge(lo, hi) == 1u;
         }
         uint o = clusters[c].z;
-        bool early = object_state[o] == frame_id && (cluster_state[c] & 2u) != 0u;
+        bool early = object_state[o] == frame_id && (cluster_state[c] & drawn_bit) != 0u;
         cluster_state[c] = pass ? (early ? 1u : 5u) : 0u;
     }
     if (judged > 0u) atomicAdd(frame[FRAME_JUDGED], judged);
@@ -49,11 +50,17 @@ void emit_objects() {
         uint o = passed[split_at + 2u + cluster_count + k];
         uvec4 obj = objects[o];
         Run run = Run(0u, 0u, 0u, 0u);
+        Passing next = passing_start(o);
         bool passed_any = false, drawn = false;
         for (uint c = obj.x; c < obj.x + obj.y; ++c) {
             uint state = cluster_state[c];
             cluster_state[c] = state & 1u;
-            passed_any = passed_any || (state & 1u) != 0u;
+            if ((state & 1u) != 0u) {
+                passing_add(next, c);
+                passed_any = true;
+            } else {
+                passing_break(next);
+            }
             if ((state & 4u) != 0u) {
                 run_add(run, LATE, c, obj.z, o);
                 drawn = true;
@@ -62,6 +69,7 @@ void emit_objects() {
             }
         }
         run_flush(run, LATE, obj.z, o);
+        passing_end(next, o);
         if (passed_any) list_object(o);
         if (drawn) mark_object(o);
     }

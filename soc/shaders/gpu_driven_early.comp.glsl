@@ -14,6 +14,10 @@ uniform bool test_clusters;  // granularity "cluster": test each cluster's box t
 // of hiz_test.common then describe soc/culling/reprojection.py's pyramid): a box behind it is
 // left to the late pass, which draws it if this frame's depth does not hide it.
 uniform bool reproject;
+// Draw each listed object in the frustum by the runs of its clusters that passed last frame
+// (`runs`, one command each, no test per cluster, no cluster state written: the late pass
+// reads bit 0 as "drawn early"), instead of looping over its clusters.
+uniform bool early_runs;
 
 // Whether the box [lo, hi] is outside the frustum (unless known `inside`) or, with
 // `reproject`, hidden by last frame.
@@ -29,6 +33,20 @@ void main() {
         uint o = passed[list_in + 1u + k];
         uvec4 obj = objects[o];
         vec3 lo = object_lo(o), hi = object_hi(o);
+        if (early_runs) {  // the runs that passed, as the late stage wrote them
+            if (frustum && outside_frustum(lo, hi)) continue;
+            uint n = object_state[object_count + o];
+            for (uint r = 0u; r < n; ++r) {
+                uvec4 run = runs[obj.x + r];
+                emit(EARLY, run.x, run.y, obj.z, o);
+                mark_clusters(run.z, run.w);
+            }
+            if (n > 0u) {
+                mark_object(o);
+                object_state[o] = frame_id;
+            }
+            continue;
+        }
         // An object inside the frustum has its clusters inside (the walk's node test).
         bool inside = frustum && obj.y > 1u && node_frustum(lo, hi) == NODE_INSIDE;
         if (skip(lo, hi, inside)) continue;

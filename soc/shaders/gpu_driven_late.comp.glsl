@@ -55,11 +55,17 @@ void late_object(uint o, bool inside) {
     bool early = object_state[o] == frame_id;
     bool each = test_clusters && obj.y > 1u;
     Run run = Run(0u, 0u, 0u, 0u);
+    Passing next = passing_start(o);
     bool passed_any = false, drawn = false;
     for (uint c = obj.x; c < obj.x + obj.y; ++c) {
         bool pass = !each || classify(cluster_lo(c), cluster_hi(c), inside) == 1u;
-        bool late = pass && !(early && (cluster_state[c] & 2u) != 0u);
+        bool late = pass && !(early && (cluster_state[c] & drawn_bit) != 0u);
         cluster_state[c] = pass ? 1u : 0u;
+        if (pass) {
+            passing_add(next, c);
+        } else {
+            passing_break(next);
+        }
         passed_any = passed_any || pass;
         if (late) {
             run_add(run, LATE, c, obj.z, o);
@@ -69,6 +75,7 @@ void late_object(uint o, bool inside) {
         }
     }
     run_flush(run, LATE, obj.z, o);
+    passing_end(next, o);
     if (passed_any) list_object(o);
     if (drawn) mark_object(o);
 }
@@ -91,12 +98,19 @@ void refresh_list() {
         uint o = passed[list_out + 1u + k];
         uvec4 obj = objects[o];
         bool pass_object = classify(object_lo(o), object_hi(o), false) == 1u;
+        Passing next = passing_start(o);
         for (uint c = obj.x; c < obj.x + obj.y; ++c) {
-            if (cluster_state[c] == 0u) continue;
-            bool pass = pass_object && (!test_clusters || obj.y == 1u ||
-                                        classify(cluster_lo(c), cluster_hi(c), false) == 1u);
+            bool pass = cluster_state[c] != 0u && pass_object &&
+                        (!test_clusters || obj.y == 1u ||
+                         classify(cluster_lo(c), cluster_hi(c), false) == 1u);
             cluster_state[c] = pass ? 1u : 0u;
+            if (pass) {
+                passing_add(next, c);
+            } else {
+                passing_break(next);
+            }
         }
+        passing_end(next, o);
     }
 }
 
