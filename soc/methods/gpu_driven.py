@@ -82,11 +82,12 @@ GRANULARITIES = ("cluster", "object")
 _ZERO = bytes(4)
 COUNTS = ("auto", "read")
 NEXT_FROM = ("early", "final")
-# gpu-driven's clusters: 64 triangles, half the clusters module's usual size. With clusters
-# tested one per invocation (`split`), smaller clusters cost little more to cull and draw fewer
-# hidden triangles: on llvmpipe 64 beat 128 on every bench path (castle-2114, market and the
-# refilled castle, flight and walk; results/BENCHMARKS.md, "Cluster size").
-CLUSTER_TRIANGLES = 64
+# gpu-driven's clusters: 32 triangles, a quarter of the clusters module's usual size. With
+# clusters tested one per invocation (`split`) and drawn early by runs (`early_runs`), smaller
+# clusters cost little more to cull and draw fewer hidden triangles: on llvmpipe 64 beat 128 on
+# every bench path (castle-2114, market and the refilled castle, flight and walk), and 32 beat
+# 64 on castle-2114; 24 and 16 cost the same as 32 (results/BENCHMARKS.md, "Cluster size").
+CLUSTER_TRIANGLES = 32
 # Counters at the start of the frame buffer (gpu_driven.common.glsl's FRAME_*), then the bits.
 FRAME_COMMANDS, FRAME_TRIANGLES, FRAME_OUTSIDE, FRAME_JUDGED, FRAME_HEADER = 0, 2, 4, 5, 8
 # Storage-buffer binding points of gpu_driven.common.glsl, in order.
@@ -120,7 +121,7 @@ class GpuDriven(CullMethod):
         :func:`soc.culling.clusters.scene_clusters`, built once per scene and cached), or
         whole objects.
     cluster_triangles : int
-        Most triangles per cluster (default :data:`CLUSTER_TRIANGLES`, 64).
+        Most triangles per cluster (default :data:`CLUSTER_TRIANGLES`, 32).
     footprint, refine : int
         The HiZ test's footprint (2 or 4, default 4) and refinement levels (default
         :data:`~soc.culling.hiz_options.MAX_REFINE`, down to the frame's pixels), as
