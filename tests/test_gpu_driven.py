@@ -104,7 +104,13 @@ def _big_meshes() -> soc.Scene:
 
 @pytest.mark.parametrize(
     ("triangles", "options"),
-    [(128, {}), (16, {}), (16, {"reproject": True}), (16, {"early_runs": False})],
+    [
+        (128, {}),
+        (16, {}),
+        (16, {"reproject": True}),
+        (16, {"early_runs": False}),
+        (16, {"early_runs": False, "reproject": True}),
+    ],
 )
 def test_no_visible_cluster_is_culled_walking_past_a_wall(triangles, options):
     """A walk towards and along a wall, through a box, with the near plane cutting the sphere

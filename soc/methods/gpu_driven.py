@@ -131,8 +131,9 @@ class GpuDriven(CullMethod):
     early_runs : bool
         The early pass draws each object of last frame's passed list that is in the frustum by
         the runs of its clusters that passed, written by last frame's late stage (default
-        True): no loop over its clusters, no test per cluster. False: a loop over the clusters
-        that tests each one against the frustum (also with ``reproject``, which needs it).
+        True): no loop over its clusters, no test per cluster (``reproject`` then tests the
+        object's box). False: a loop over the clusters that tests each one against the
+        frustum (and with ``reproject`` against last frame's depth).
     split : bool
         Test the clusters of the objects of several clusters that pass the late test in a pass
         of their own, one cluster per invocation (``gpu_driven_clusters.comp.glsl``; default
@@ -215,7 +216,7 @@ class GpuDriven(CullMethod):
         self.granularity = granularity
         self.footprint, self.refine, self.merge = footprint, refine, bool(merge)
         self.split = bool(split) and granularity == "cluster"
-        self.early_runs = bool(early_runs) and not reproject
+        self.early_runs = bool(early_runs)
         if granularity == "cluster":
             self.clusters = scene_clusters(scene, cluster_triangles)
         else:
