@@ -63,6 +63,7 @@ import numba
 import numpy as np
 
 from soc.culling.hierarchy import LEAF_SIZE, Hierarchy
+from soc.errors import check_choice
 
 # Subtree roots the invocations share (a cut of the tree about this wide, :func:`cut`).
 ROOTS = 2048
@@ -200,8 +201,7 @@ class GpuHierarchy:
         groups as the level before appended nodes for (``glDispatchComputeIndirect``: the
         counts stay on the GPU), with a storage barrier between levels. ``"subtrees"``: one
         dispatch, every invocation walking every stride-th root of the cut."""
-        if mode not in WALK_OPTIONS:
-            raise ValueError(f"walk mode must be one of {WALK_OPTIONS}, got {mode!r}")
+        check_choice("walk mode", mode, WALK_OPTIONS)
         if mode == "auto":
             mode = self.auto_mode
         ctx = self.glctx.ctx

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numbers
 
+from soc.errors import check_choice
+
 # Texels per axis read at the chosen pyramid level: 2 (≤ 4 reads, the classic HiZ footprint)
 # or 4 (≤ 16 reads, one level finer, tighter for boxes that straddle texel borders).
 FOOTPRINTS = (2, 4)
@@ -21,8 +23,7 @@ def check_test_options(footprint: int, refine: int) -> tuple[int, int]:
     """``(footprint, refine)`` as ints, or a ValueError saying which is wrong and what is
     accepted (footprint one of :data:`FOOTPRINTS`, refine a whole number ≥ 0; levels past the
     pyramid's finest judge at the pixels, as :data:`MAX_REFINE` does)."""
-    if footprint not in FOOTPRINTS:
-        raise ValueError(f"footprint must be one of {FOOTPRINTS}, got {footprint!r}")
+    check_choice("footprint", footprint, FOOTPRINTS)
     if isinstance(refine, bool) or not isinstance(refine, numbers.Real) or refine != int(refine):
         raise ValueError(f"refine must be a whole number >= 0, got {refine!r}")
     if refine < 0:

@@ -47,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from soc.culling.frustum import aabbs_in_frustum, as_aabbs
+from soc.errors import check_choice
 from soc.gl.context import uses_gl
 
 DEFAULT_MAX_DEPTH = 8
@@ -651,8 +652,7 @@ class NodeBuffers:
     LAYOUTS = ("shared", "per-node")
 
     def __init__(self, octree: Octree, geometry, *, layout: str = "shared"):
-        if layout not in self.LAYOUTS:
-            raise ValueError(f"layout must be one of {self.LAYOUTS}, got {layout!r}")
+        check_choice("layout", layout, self.LAYOUTS)
         if octree.commands is None:
             raise ValueError("the octree records no commands: build it with Octree.for_scene")
         self.octree = octree

@@ -74,6 +74,7 @@ from soc.culling.hiz_gpu import (
 )
 from soc.culling.hiz_options import MAX_REFINE, check_test_options
 from soc.culling.reprojection import DEFAULT_LEVEL, ReprojectedDepth
+from soc.errors import check_choice
 from soc.gl.indirect_count import COMMAND_BYTES, CountedDraws
 from soc.methods.base import CullMethod, MethodOutput, register, stage
 from soc.metrics import gpu_stage
@@ -198,14 +199,10 @@ class GpuDriven(CullMethod):
         reproject: bool = False,
         reproject_level: int = DEFAULT_LEVEL,
     ):
-        if granularity not in GRANULARITIES:
-            raise ValueError(f"granularity must be one of {GRANULARITIES}, got {granularity!r}")
-        if count not in COUNTS:
-            raise ValueError(f"count must be one of {COUNTS}, got {count!r}")
-        if next_from not in NEXT_FROM:
-            raise ValueError(f"next_from must be one of {NEXT_FROM}, got {next_from!r}")
-        if walk not in WALK_OPTIONS:
-            raise ValueError(f"walk must be one of {WALK_OPTIONS}, got {walk!r}")
+        check_choice("granularity", granularity, GRANULARITIES)
+        check_choice("count", count, COUNTS)
+        check_choice("next_from", next_from, NEXT_FROM)
+        check_choice("walk", walk, WALK_OPTIONS)
         self.walk = walk
         self.next_from = next_from
         footprint, refine = check_test_options(footprint, refine)

@@ -91,6 +91,7 @@ from soc.culling.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
 from soc.culling.hiz_options import MAX_REFINE, check_test_options
 from soc.culling.octant_boxes import grown_octant_aabbs
 from soc.culling.software_raster import raster_threads
+from soc.errors import check_choice
 from soc.methods.base import CullMethod, MethodOutput, register, stage
 from soc.metrics import gpu_stage
 
@@ -217,14 +218,10 @@ class TwoPhaseCulling(CullMethod):
         hierarchy: bool = True,
         order: str = "front-to-back",
     ):
-        if next_from not in NEXT_FROM:
-            raise ValueError(f"next_from must be one of {NEXT_FROM}, got {next_from!r}")
-        if early_pass not in EARLY_PASSES:
-            raise ValueError(f"early_pass must be one of {EARLY_PASSES}, got {early_pass!r}")
-        if order not in ORDERS:
-            raise ValueError(f"order must be one of {ORDERS}, got {order!r}")
-        if test not in TESTS:
-            raise ValueError(f"test must be one of {TESTS}, got {test!r}")
+        check_choice("next_from", next_from, NEXT_FROM)
+        check_choice("early_pass", early_pass, EARLY_PASSES)
+        check_choice("order", order, ORDERS)
+        check_choice("test", test, TESTS)
         if octants and test == "cpu":
             raise ValueError("octants=True needs test='gpu' (the CPU test reads whole boxes only)")
         if test == "auto":

@@ -26,6 +26,7 @@ from soc.culling.bvh_gpu import WALK_OPTIONS, gpu_hierarchy
 from soc.culling.depth_prepass import ConservativeOccluders, DepthTarget, render_occluders
 from soc.culling.frustum import aabbs_in_frustum
 from soc.culling.hiz_gpu import OUTSIDE, VISIBLE, DepthPyramid, HizTest
+from soc.errors import check_choice
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
 from soc.scenes.camera import _resolution
 
@@ -86,8 +87,7 @@ class GpuHizCulling(CullMethod):
         walk: str = "auto",
     ):
         super().__init__(geometry, resolution, config)
-        if walk not in WALK_OPTIONS:
-            raise ValueError(f"walk must be one of {WALK_OPTIONS}, got {walk!r}")
+        check_choice("walk", walk, WALK_OPTIONS)
         display = _resolution(*resolution)
         occ = display if occluder_resolution is None else _resolution(*occluder_resolution)
         if occ[0] > display[0] or occ[1] > display[1]:

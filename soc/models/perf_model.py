@@ -70,6 +70,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
+from soc.errors import check_choice
 from soc.gl.context import uses_gl
 from soc.scenes.camera import Camera
 from soc.scenes.scene import Scene
@@ -388,8 +389,7 @@ def frame_time(constants: PerfConstants, work: Workload, overlap: str = "sum") -
         ``max(T_state + T_vert, T_frag)``. ``"sum"``: nothing overlaps. T_frame is added in
         every form.
     """
-    if overlap not in OVERLAPS:
-        raise ValueError(f"overlap must be one of {OVERLAPS}, got {overlap!r}")
+    check_choice("overlap", overlap, OVERLAPS)
     c, w = constants, work
     ns = 1e-6  # ms per ns
     vert_ns = w.triangles * c.t_tri_ns
@@ -628,8 +628,7 @@ def typical_ms(times: ArrayLike, statistic: str = "min") -> float:
     held-back error was 5-8 % (median over sizes) with minima in every run against 5-29 %
     with medians. On a quiet machine the two agree.
     """
-    if statistic not in STATISTICS:
-        raise ValueError(f"statistic must be one of {STATISTICS}, got {statistic!r}")
+    check_choice("statistic", statistic, STATISTICS)
     t = np.asarray(times, np.float64)
     if t.size == 0:
         raise ValueError("no timings")
@@ -702,8 +701,7 @@ class CalibrationSetup:
             raise ValueError(f"repeats must be >= 3, got {self.repeats}")
         if not (self.scale > 0 and math.isfinite(self.scale)):
             raise ValueError(f"scale must be positive and finite, got {self.scale}")
-        if self.statistic not in STATISTICS:
-            raise ValueError(f"statistic must be one of {STATISTICS}, got {self.statistic!r}")
+        check_choice("statistic", self.statistic, STATISTICS)
 
     def batch(self, pair: tuple[int, int]) -> tuple[int, int]:
         small, large = (max(1, round(v * self.scale)) for v in pair)

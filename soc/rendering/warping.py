@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from soc.culling.oracle import NO_OBJECT
+from soc.errors import check_choice
 from soc.gl.context import shader_source, uses_gl
 from soc.gl.raw import GL_COLOR
 from soc.rendering.renderer import LIGHT_DIR, SKY
@@ -493,8 +494,7 @@ class Warper:
 
         from soc.gl.context import default_context
 
-        if engine not in self.ENGINES:
-            raise ValueError(f"engine must be one of {self.ENGINES}, got {engine!r}")
+        check_choice("engine", engine, self.ENGINES)
         self.engine = engine
         self.glctx = glctx or default_context()
         self.resolution = _resolution(*resolution)
