@@ -151,6 +151,35 @@ void passing_end(inout Passing p, uint o) {
     object_state[object_count + o] = p.slot - objects[o].x;
 }
 
+// An object's clusters visited in order by the late stage (the late pass's loop, or the
+// cluster pass's second stage), each with its verdict: whether it passed (for next frame's
+// early runs and the passed list) and whether it is drawn late (the late commands).
+struct Visit { Run run; Passing next; bool passed_any; bool drawn; };
+
+Visit visit_start(uint o) { return Visit(Run(0u, 0u, 0u, 0u), passing_start(o), false, false); }
+
+void visit(inout Visit v, uint c, bool pass, bool late, uint base_vertex, uint o) {
+    if (pass) {
+        passing_add(v.next, c);
+        v.passed_any = true;
+    } else {
+        passing_break(v.next);
+    }
+    if (late) {
+        run_add(v.run, LATE, c, base_vertex, o);
+        v.drawn = true;
+    } else {
+        run_flush(v.run, LATE, base_vertex, o);
+    }
+}
+
+void visit_end(inout Visit v, uint base_vertex, uint o) {
+    run_flush(v.run, LATE, base_vertex, o);
+    passing_end(v.next, o);
+    if (v.passed_any) list_object(o);
+    if (v.drawn) mark_object(o);
+}
+
 // The drawn-cluster bits of clusters c0 .. c0 + k - 1, one atomic per 32-cluster word.
 void mark_clusters(uint c0, uint k) {
     uint c = c0, end = c0 + k;

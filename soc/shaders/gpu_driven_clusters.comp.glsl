@@ -49,29 +49,13 @@ void emit_objects() {
     for (uint k = gl_GlobalInvocationID.x; k < count; k += stride) {
         uint o = passed[split_at + 2u + cluster_count + k];
         uvec4 obj = objects[o];
-        Run run = Run(0u, 0u, 0u, 0u);
-        Passing next = passing_start(o);
-        bool passed_any = false, drawn = false;
+        Visit v = visit_start(o);
         for (uint c = obj.x; c < obj.x + obj.y; ++c) {
             uint state = cluster_state[c];
             cluster_state[c] = state & 1u;
-            if ((state & 1u) != 0u) {
-                passing_add(next, c);
-                passed_any = true;
-            } else {
-                passing_break(next);
-            }
-            if ((state & 4u) != 0u) {
-                run_add(run, LATE, c, obj.z, o);
-                drawn = true;
-            } else {
-                run_flush(run, LATE, obj.z, o);
-            }
+            visit(v, c, (state & 1u) != 0u, (state & 4u) != 0u, obj.z, o);
         }
-        run_flush(run, LATE, obj.z, o);
-        passing_end(next, o);
-        if (passed_any) list_object(o);
-        if (drawn) mark_object(o);
+        visit_end(v, obj.z, o);
     }
 }
 

@@ -54,30 +54,14 @@ void late_object(uint o, bool inside) {
     }
     bool early = object_state[o] == frame_id;
     bool each = test_clusters && obj.y > 1u;
-    Run run = Run(0u, 0u, 0u, 0u);
-    Passing next = passing_start(o);
-    bool passed_any = false, drawn = false;
+    Visit v = visit_start(o);
     for (uint c = obj.x; c < obj.x + obj.y; ++c) {
         bool pass = !each || classify(cluster_lo(c), cluster_hi(c), inside) == 1u;
         bool late = pass && !(early && (cluster_state[c] & drawn_bit) != 0u);
         cluster_state[c] = pass ? 1u : 0u;
-        if (pass) {
-            passing_add(next, c);
-        } else {
-            passing_break(next);
-        }
-        passed_any = passed_any || pass;
-        if (late) {
-            run_add(run, LATE, c, obj.z, o);
-            drawn = true;
-        } else {
-            run_flush(run, LATE, obj.z, o);
-        }
+        visit(v, c, pass, late, obj.z, o);
     }
-    run_flush(run, LATE, obj.z, o);
-    passing_end(next, o);
-    if (passed_any) list_object(o);
-    if (drawn) mark_object(o);
+    visit_end(v, obj.z, o);
 }
 
 void walk_object(uint o, bool inside, bool hidden) {
