@@ -19,7 +19,8 @@ from soc.scenes.paths import flight, random_cameras
 # occluders drawn early too; octant boxes; the classic 2×2 test without refinement; the
 # pyramid and test in GL or in numba, "auto" choosing numba on llvmpipe; the late occluders
 # drawn first and the rest tested again, the next set from that second test; objects drawn
-# by id): every one must be conservative in every frame.
+# by id; clusters instead of objects, of 32 and of 4 triangles): every one must be
+# conservative in every frame.
 MODES = [
     {"next_from": "early"},
     {"next_from": "final"},
@@ -34,6 +35,8 @@ MODES = [
     {"occluders_first": True, "early_pass": "depth", "next_from": "final", "test": "gpu"},
     {"occluders_first": True, "next_from": "late"},
     {"next_from": "late", "order": "id"},
+    {"granularity": "cluster"},
+    {"granularity": "cluster", "cluster_triangles": 4, "order": "id"},
 ]
 MODE_IDS = [
     "early",
@@ -49,6 +52,8 @@ MODE_IDS = [
     "occluders-first-depth-final-gpu",
     "occluders-first-late",
     "late-id-order",
+    "clusters",
+    "clusters-4-id-order",
 ]
 
 
@@ -165,9 +170,54 @@ def test_bad_options_and_alive_are_clear_errors(clutter_scenes):
         soc.Culler(clutter_scenes[0], "hiz-2phase", (64, 64), octants=True, test="cpu")
     with pytest.raises(ValueError, match="footprint"):
         soc.Culler(clutter_scenes[0], "hiz-2phase", (64, 64), footprint=3, test="cpu")
+    with pytest.raises(ValueError, match="granularity must be one of"):
+        soc.Culler(clutter_scenes[0], "hiz-2phase", (64, 64), granularity="triangle")
+    with pytest.raises(ValueError, match="cannot be combined with test='gpu', occluders_first"):
+        soc.Culler(
+            clutter_scenes[0], "hiz-2phase", (64, 64), granularity="cluster", test="gpu",
+            occluders_first=True,
+        )  # fmt: skip
     with soc.Culler(clutter_scenes[0], "hiz-2phase", (64, 64)) as c:
         with pytest.raises(ValueError, match="alive"):
             c.method.set_alive(np.ones(3, bool))
+
+
+@pytest.mark.parametrize("triangles", [32, 4])
+def test_no_visible_cluster_is_culled_with_clusters(small_market, clutter_scenes, triangles):
+    """granularity="cluster": every cluster the cluster-id render sees is drawn, in every frame
+    of a coherent market stretch and of camera cuts over clutter; an object is kept exactly
+    when a cluster of it is drawn; it draws fewer triangles than whole objects."""
+    from soc.culling.cluster_oracle import ClusterOracle
+
+    res = (333, 197)
+    clutter = clutter_scenes[1]
+    runs = [
+        (small_market, flight(small_market, frames=100, width=res[0], height=res[1])[30:40]),
+        (clutter, random_cameras(clutter, 8, seed=3, width=res[0], height=res[1])),
+    ]
+    fewer = 0
+    for scene, cams in runs:
+        opts = {"granularity": "cluster", "cluster_triangles": triangles}
+        with (
+            soc.Culler(scene, "hiz-2phase", res, **opts) as c,
+            soc.Culler(scene, "hiz-2phase", res) as whole,
+            soc.Oracle(scene) as oracle,
+            ClusterOracle(scene, c.method.clusters) as cluster_oracle,
+        ):
+            for i, cam in enumerate(cams):
+                truth = oracle.visible(cam, res)
+                r = c.cull(cam, truth=truth, draw=i % 2 == 0)
+                assert_conservative(r.visible, truth, f"frame {i} eye={cam.eye}")
+                drawn = c.method.last_clusters
+                seen = cluster_oracle.visible(cam, res)
+                assert not (seen & ~drawn).any(), f"frame {i}: culled visible clusters"
+                owner = c.method.clusters.object
+                assert np.array_equal(
+                    np.bincount(owner[drawn], minlength=len(scene)) > 0, r.visible
+                )
+                assert r.stats.triangles_drawn == int(c.method.clusters.count[drawn].sum())
+                fewer += r.stats.triangles_drawn < whole.cull(cam).stats.triangles_visible
+    assert fewer > 0
 
 
 def test_auto_tests_on_the_cpu_where_gl_runs_on_it_and_both_sides_judge_alike(small_market):

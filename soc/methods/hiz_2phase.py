@@ -79,6 +79,8 @@ import time
 
 import numpy as np
 
+from soc.culling.cluster_draws import cluster_commands, clusters_of
+from soc.culling.clusters import scene_clusters
 from soc.culling.draw_order import front_to_back
 from soc.culling.frustum import aabbs_in_frustum, ids_in_frustum
 from soc.culling.hierarchy import Hierarchy
@@ -99,6 +101,7 @@ NEXT_FROM = ("early", "late", "final")
 ORDERS = ("front-to-back", "id")
 EARLY_PASSES = ("shaded", "depth")
 TESTS = ("auto", "gpu", "cpu")
+GRANULARITIES = ("object", "cluster")
 # Late objects besides the occluders from which ``occluders_first`` tests them again: a read
 # back, a pyramid and a test (~5 ms on the city) cost more than drawing a few hundred small
 # objects that may be hidden.
@@ -179,6 +182,17 @@ class TwoPhaseCulling(CullMethod):
         Test on the CPU by a walk of the scene's BVH (default True) or object by object
         (False: the reference; the same codes, ``tests/test_hierarchy.py``). The GL test
         (``test="gpu"``) tests every box in its compute pass either way.
+    granularity : {"object", "cluster"}
+        Draw whole objects (default) or their clusters (:func:`soc.culling.clusters.scene_clusters`
+        of ``cluster_triangles``, as ``gpu-driven`` draws them): the early pass draws the
+        clusters that passed last frame, the clusters of the objects that pass are tested
+        in numba against the same pyramid, and those that pass and were not drawn early are
+        drawn late; an object is kept when a cluster of it is drawn. The CPU test only
+        (``test="cpu"``), with the default ``early_pass``, ``next_from`` and no
+        ``occluders``, ``occluders_first`` or ``octants``.
+    cluster_triangles : int
+        Most triangles per cluster with ``granularity="cluster"`` (default
+        :data:`soc.methods.gpu_driven.CLUSTER_TRIANGLES`).
 
     Attributes
     ----------
@@ -193,6 +207,10 @@ class TwoPhaseCulling(CullMethod):
         The kept objects of the last frame in the order they were shaded.
     last_walk : WalkStats or None
         The hierarchy walk's work in the last frame's test (None when it did not walk).
+    clusters : soc.culling.clusters.Clusters or None
+        With ``granularity="cluster"``, the scene's clusters.
+    last_clusters : (C,) bool
+        With ``granularity="cluster"``, the clusters the last frame drew (early or late).
     """
 
     name = "hiz-2phase"
@@ -217,6 +235,8 @@ class TwoPhaseCulling(CullMethod):
         threads: int | None = None,
         hierarchy: bool = True,
         order: str = "front-to-back",
+        granularity: str = "object",
+        cluster_triangles: int | None = None,
     ):
         check_choice("next_from", next_from, NEXT_FROM)
         check_choice("early_pass", early_pass, EARLY_PASSES)
@@ -224,6 +244,23 @@ class TwoPhaseCulling(CullMethod):
         check_choice("test", test, TESTS)
         if octants and test == "cpu":
             raise ValueError("octants=True needs test='gpu' (the CPU test reads whole boxes only)")
+        check_choice("granularity", granularity, GRANULARITIES)
+        if granularity == "cluster":
+            others = {
+                "test='gpu'": test == "gpu",
+                "octants": octants,
+                "occluders": occluders,
+                "occluders_first": occluders_first,
+                f"early_pass={early_pass!r}": early_pass != "shaded",
+                f"next_from={next_from!r}": next_from != "early",
+            }
+            bad = [k for k, v in others.items() if v]
+            if bad:
+                raise ValueError(
+                    f"granularity='cluster' tests clusters on the CPU with the default early "
+                    f"pass and next set; it cannot be combined with {', '.join(bad)}"
+                )
+            test = "cpu"
         if test == "auto":
             test = "cpu" if geometry.glctx.software and not octants else "gpu"
         super().__init__(geometry, resolution, config)
@@ -262,10 +299,28 @@ class TwoPhaseCulling(CullMethod):
         self._hierarchy = Hierarchy.for_scene(self.scene) if hierarchy else None
         self._tree = self._hierarchy  # refitted to the objects alive (set_alive)
         self.last_walk = None
+        self.granularity = granularity
+        self.clusters = None
+        if granularity == "cluster":
+            from soc.gl.geometry import grown_aabbs
+            from soc.methods.gpu_driven import CLUSTER_TRIANGLES
+
+            cl = scene_clusters(self.scene, cluster_triangles or CLUSTER_TRIANGLES)
+            self.clusters = cl
+            self._cluster_ibo = geometry.clusters(cl).ibo
+            self._cluster_boxes = np.ascontiguousarray(cl.aabbs, np.float32)
+            self._cluster_query = grown_aabbs(cl.aabbs, geometry.diagonal)
+            self._cluster_starts = np.asarray(cl.object_clusters[:-1], np.int64)
+            self._lone = np.diff(cl.object_clusters) == 1  # objects of one cluster
+            self._base_vertex = self.scene.vertex_offsets[:-1]
+            self._cluster_passed = np.zeros(len(cl.first), bool)  # last frame's
+            self._indirect = self.glctx.ctx.buffer(reserve=20 * 1024, dynamic=True)
 
     def release(self) -> None:
         if self.octants is not None:
             self.octants.release()
+        if self.clusters is not None:
+            self._indirect.release()
         if self.test == "gpu":
             self.tester.release()
             self.pyramid.release()
@@ -274,6 +329,8 @@ class TwoPhaseCulling(CullMethod):
     def reset(self) -> None:
         """Forget last frame's set: the next frame draws nothing early (all objects late)."""
         self.next_set[:] = False
+        if self.clusters is not None:
+            self._cluster_passed[:] = False
 
     def set_alive(self, alive: np.ndarray | None) -> None:
         """Objects that exist from the next frame on: (N,) bool, or None for all (dynamic
@@ -395,6 +452,9 @@ class TwoPhaseCulling(CullMethod):
             self.next_set[:] = False
             return MethodOutput(keep, int(self.alive.sum() - keep.sum()), 0, timings)
 
+        if self.clusters is not None:
+            return self._cull_clusters(camera, draw, timings)
+
         # Stage 1: last frame's set (and the occluders, if asked), minus what left the frustum
         # or died.
         with stage(timings, "frustum"):
@@ -475,3 +535,88 @@ class TwoPhaseCulling(CullMethod):
         n_out = int(np.count_nonzero(is_out))
         outside = n_out if self._all_alive else int(np.count_nonzero(is_out & self.alive))
         return MethodOutput(drawn, outside, n - n_out, timings)
+
+    # -- granularity="cluster" -------------------------------------------------------------
+
+    def _draw_clusters(self, camera, commands: np.ndarray, *, color: bool, clear: bool) -> float:
+        """Draw indirect ``commands`` (K, 5) over the scene's faces in cluster order, as
+        :meth:`_draw` draws objects; ms, finished."""
+        t0 = time.perf_counter()
+        with gpu_stage("draw"):
+            program = self.renderer.bind(
+                camera, color=color, clear=clear, clear_color=color and clear
+            )
+            if len(commands):
+                if commands.nbytes > self._indirect.size:
+                    self._indirect.orphan(commands.nbytes)
+                self._indirect.write(commands)
+                vao = self.geometry.mesh_vao(program, self._cluster_ibo)
+                vao.render_indirect(self._indirect, count=len(commands))
+        self.glctx.ctx.finish()
+        return 1e3 * (time.perf_counter() - t0)
+
+    def _per_object(self, cluster_mask: np.ndarray) -> np.ndarray:
+        """(N,) bool: the objects with a cluster in ``cluster_mask`` (C,) bool."""
+        return np.logical_or.reduceat(cluster_mask, self._cluster_starts)
+
+    def _cull_clusters(self, camera, draw: bool, timings: dict) -> MethodOutput:
+        """The frame with ``granularity="cluster"``: conservative as the object frame is (an
+        object the oracle sees has a cluster with a visible sample, whose box passes the same
+        test against the same early depth), at the level of clusters."""
+        cfg, cl = self.config, self.clusters
+        n = len(self.scene)
+        with stage(timings, "frustum"):
+            early = np.flatnonzero(self.next_set if self._all_alive else self.next_set & self.alive)
+            if cfg.frustum and len(early):
+                early = early[ids_in_frustum(self.scene.aabbs, early, camera.planes)]
+        early = self._sorted(camera, early, timings)
+        with stage(timings, "commands"):
+            commands, early_triangles = cluster_commands(
+                early, cl, self._cluster_passed, self._base_vertex
+            )
+            drawn_early = np.zeros_like(self._cluster_passed)
+            mine = clusters_of(early, cl)
+            drawn_early[mine] = self._cluster_passed[mine]
+        early_ms = self._draw_clusters(camera, commands, color=draw, clear=True)
+
+        codes = self._classify(camera, timings)
+        passed = codes == VISIBLE
+        if not self._all_alive:
+            passed &= self.alive
+        with stage(timings, "cluster test"):
+            ids = np.flatnonzero(passed)
+            passing = np.zeros_like(self._cluster_passed)
+            lone = ids[self._lone[ids]]
+            passing[self._cluster_starts[lone]] = True
+            several = clusters_of(ids, cl, several=True)
+            if len(several):
+                found, _ = classify_objects(
+                    self.cpu_pyramid,
+                    camera,
+                    self._cluster_boxes[several],
+                    self._cluster_query[several],
+                    cfg.frustum,
+                    self.threads,
+                    self.footprint,
+                    self.refine,
+                )
+                passing[several] = found == VISIBLE
+        late_clusters = passing & ~drawn_early
+        late = self._sorted(camera, np.flatnonzero(self._per_object(late_clusters)), timings)
+        with stage(timings, "commands"):
+            commands, late_triangles = cluster_commands(late, cl, late_clusters, self._base_vertex)
+        late_ms = self._draw_clusters(camera, commands, color=draw, clear=False)
+        self.last_order = np.concatenate([early, late])
+        self.last_draws_ms = {"early draw": early_ms, "late draw": late_ms}
+        timings["draw"] = early_ms + late_ms
+
+        self.last_clusters = drawn_early | late_clusters
+        drawn = self._per_object(self.last_clusters)
+        self._cluster_passed = passing
+        self.next_set = passed & self._per_object(passing)
+        is_out = codes == OUTSIDE
+        n_out = int(np.count_nonzero(is_out))
+        outside = n_out if self._all_alive else int(np.count_nonzero(is_out & self.alive))
+        return MethodOutput(
+            drawn, outside, n - n_out, timings, triangles_drawn=early_triangles + late_triangles
+        )
