@@ -67,7 +67,7 @@ def extra_specs(resolution: tuple[int, int] = DISPLAY) -> tuple[str, ...]:
         "hiz-cpu(threads=1)",
         "hiz-cpu(footprint=4, refine=23)",
         "gpu-driven(granularity='object')",
-        "hiz-2phase(granularity='cluster')",
+        CLUSTER_2PHASE,
     )
 
 
@@ -518,7 +518,7 @@ def targets_21(result: FloorResult, summary: pd.DataFrame) -> pd.DataFrame:
     the same bounds for ``hiz-2phase`` drawing clusters (its CPU-tested counterpart)."""
     rows = []
     big = result.objects >= LARGE_SCENE
-    limit = TARGET_GPU_DRIVEN_2114 if not big else TARGET_GPU_DRIVEN_27K
+    limit = TARGET_GPU_DRIVEN_27K if big else TARGET_GPU_DRIVEN_2114
     methods = summary["method"]
     chosen = methods.str.startswith("gpu-driven") | (methods == CLUSTER_2PHASE)
     for _, b in summary[chosen].iterrows():

@@ -15,6 +15,8 @@ from experiments.markdown import markdown_table, replace_section
 SPECS = ["frustum", "queries", "hiz-gpu", "hiz-gpu(footprint=4)"] + [
     m for m in ("hiz-2phase", "gpu-driven") if m in soc.method_names()
 ]
+if "hiz-2phase" in SPECS:
+    SPECS.append(bench_floor.CLUSTER_2PHASE)
 
 
 @pytest.fixture(scope="module")
@@ -56,8 +58,13 @@ def test_summary_ratios(result):
     assert s.loc["everything", "triangles ÷ ideal"] > 1.0
     tris = result.frames.pivot(index="frame", columns="method", values="triangles_drawn")
     assert (tris["frustum"] <= tris["everything"]).all() and (tris["ideal"] > 0).all()
-    if "gpu-driven" in tris:  # its own count (clusters), between nothing and everything
-        assert ((tris["gpu-driven"] > 0) & (tris["gpu-driven"] <= tris["everything"])).all()
+    # Methods drawing clusters count their own triangles, between nothing and everything, and
+    # are judged by issue 21's bounds.
+    clustered = [m for m in ("gpu-driven", bench_floor.CLUSTER_2PHASE) if m in tris]
+    for m in clustered:
+        assert ((tris[m] > 0) & (tris[m] <= tris["everything"])).all(), m
+    targets = bench_floor.targets_21(result, bench_floor.summarize(result))
+    assert set(targets["method"]) == set(clustered)
 
 
 def test_a_floor_run_on_the_walk(tmp_path):

@@ -10,6 +10,7 @@ import pytest
 from conftest import assert_conservative
 
 import soc
+import soc.testing
 from soc.rendering.renderer import Renderer
 from soc.scenes.clutter import box_mesh
 from soc.scenes.dynamic import subset
@@ -279,6 +280,49 @@ def test_it_culls_and_draws_the_frame_of_everything(small_market, early_pass):
                 assert same.mean() > 0.999, same.mean()
     reference.release()
     # Frame 1 draws frame 0's frustum set early; from frame 2 on the sets are occlusion culled.
+    assert kept[0] > 0.5 * n and max(kept[2:]) < 0.3 * n, kept
+
+
+@pytest.mark.parametrize("triangles", [32, 4])
+def test_clusters_in_the_hard_cases(triangles):
+    """granularity="cluster" over soc.testing's hard cases (camera inside a box, near plane
+    through objects, coplanar faces, flat objects, slits, odd resolutions), cameras in order:
+    no visible object culled, and no cluster the cluster-id render sees left undrawn."""
+    from soc.culling.cluster_oracle import ClusterOracle
+
+    opts = {"granularity": "cluster", "cluster_triangles": triangles}
+    report = soc.testing.assert_conservative("hiz-2phase", **opts)
+    assert report.culled_views > 0
+    for case in soc.testing.hard_cases():
+        with (
+            soc.Culler(case.scene, "hiz-2phase", case.resolution, **opts) as c,
+            ClusterOracle(case.scene, c.method.clusters) as cluster_oracle,
+        ):
+            for i, cam in enumerate(case.cameras):
+                c.cull(cam)
+                seen = cluster_oracle.visible(cam, case.resolution)
+                assert not (seen & ~c.method.last_clusters).any(), f"{case.name} frame {i}"
+
+
+def test_clusters_draw_the_frame_of_everything(small_market):
+    """granularity="cluster" on a coherent stretch: the depth drawn is exactly that of drawing
+    every object (so the early and late commands draw the clusters they name), the early pass
+    draws once there is a last frame, and the kept set settles to a small part of the scene."""
+    res = (480, 270)
+    cams = flight(small_market, frames=100, width=res[0], height=res[1])[20:30]
+    n = len(small_market)
+    reference = Renderer(soc.Culler(small_market, "none", res).geometry, res)
+    kept = []
+    with soc.Culler(small_market, "hiz-2phase", res, granularity="cluster") as c:
+        for i, cam in enumerate(cams):
+            last = c.method._cluster_passed.copy()  # what the early pass draws if in view
+            r = c.cull(cam, draw=True)
+            kept.append(int(r.visible.sum()))
+            reference.draw(cam, np.arange(n))
+            # Clusters counted as drawn early but not drawn would leave the depth farther.
+            assert np.array_equal(c.method.renderer.depth_image(), reference.depth_image()), i
+            assert (c.method.last_clusters & last).any() == (i > 0), i
+    reference.release()
     assert kept[0] > 0.5 * n and max(kept[2:]) < 0.3 * n, kept
 
 

@@ -201,15 +201,21 @@ class SceneGeometry:
 
         Returns the number of draw commands issued (K).
         """
-        ids = np.asarray(ids, dtype=np.int64)
-        if len(ids) == 0:
+        return self.draw_commands(program, self.commands[np.asarray(ids, dtype=np.int64)])
+
+    def draw_commands(self, program, commands: np.ndarray, index_buffer=None) -> int:
+        """Draw indirect ``commands`` (K, 5) uint32 (index count, instances, first index, base
+        vertex, base instance = object) over ``index_buffer`` (default the scene's faces; a
+        :class:`ClusterBuffers`' ``ibo`` holds them in cluster order) with one
+        multi-draw-indirect call. Returns K."""
+        cmds = np.ascontiguousarray(commands, dtype=np.uint32)
+        if len(cmds) == 0:
             return 0
-        cmds = np.ascontiguousarray(self.commands[ids])
         if cmds.nbytes > self.indirect.size:
             self.indirect.orphan(cmds.nbytes)
         self.indirect.write(cmds)
-        self.mesh_vao(program).render_indirect(self.indirect, count=len(ids))
-        return len(ids)
+        self.mesh_vao(program, index_buffer).render_indirect(self.indirect, count=len(cmds))
+        return len(cmds)
 
     def draw_boxes(self, program, ids: np.ndarray, edges: bool = False) -> None:
         """Draw the (grown) AABBs of objects ``ids`` as instanced boxes (no queries)."""

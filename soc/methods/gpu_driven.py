@@ -250,7 +250,6 @@ class GpuDriven(CullMethod):
         # culler of any scene and granularity.
         self._sizes = {
             "object_count": n,
-            "max_commands": c,
             "object_bits": self._object_bits,
             "cluster_bits": self._cluster_bits,
             "cluster_count": c,
@@ -340,7 +339,6 @@ class GpuDriven(CullMethod):
             "test_clusters": clusters,
             "merge": self.merge,
             "early_runs": self.early_runs,
-            "drawn_bit": 1 if self.early_runs else 2,
         }
         for prog in (self.early, self.late, self.cluster_pass):
             set_frustum_uniforms(prog, camera)
@@ -352,9 +350,8 @@ class GpuDriven(CullMethod):
         if guess:
             with stage(timings, "reproject", finish):
                 self.reprojection.build(self._last_view_proj, camera.view_proj)
-                early = self.early
                 set_test_uniforms(
-                    early, self.reprojection.pyramid, camera, self.footprint, self.refine
+                    self.early, self.reprojection.pyramid, camera, self.footprint, self.refine
                 )
         self.early["reproject"].value = guess
 

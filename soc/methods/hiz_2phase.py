@@ -94,7 +94,9 @@ from soc.culling.hiz_options import MAX_REFINE, check_test_options
 from soc.culling.octant_boxes import grown_octant_aabbs
 from soc.culling.software_raster import raster_threads
 from soc.errors import check_choice
+from soc.gl.geometry import grown_aabbs
 from soc.methods.base import CullMethod, MethodOutput, register, stage
+from soc.methods.gpu_driven import CLUSTER_TRIANGLES
 from soc.metrics import gpu_stage
 
 NEXT_FROM = ("early", "late", "final")
@@ -302,10 +304,8 @@ class TwoPhaseCulling(CullMethod):
         self.granularity = granularity
         self.clusters = None
         if granularity == "cluster":
-            from soc.gl.geometry import grown_aabbs
-            from soc.methods.gpu_driven import CLUSTER_TRIANGLES
-
-            cl = scene_clusters(self.scene, cluster_triangles or CLUSTER_TRIANGLES)
+            triangles = CLUSTER_TRIANGLES if cluster_triangles is None else cluster_triangles
+            cl = scene_clusters(self.scene, triangles)
             self.clusters = cl
             self._cluster_ibo = geometry.clusters(cl).ibo
             self._cluster_boxes = np.ascontiguousarray(cl.aabbs, np.float32)
@@ -314,13 +314,10 @@ class TwoPhaseCulling(CullMethod):
             self._lone = np.diff(cl.object_clusters) == 1  # objects of one cluster
             self._base_vertex = self.scene.vertex_offsets[:-1]
             self._cluster_passed = np.zeros(len(cl.first), bool)  # last frame's
-            self._indirect = self.glctx.ctx.buffer(reserve=20 * 1024, dynamic=True)
 
     def release(self) -> None:
         if self.octants is not None:
             self.octants.release()
-        if self.clusters is not None:
-            self._indirect.release()
         if self.test == "gpu":
             self.tester.release()
             self.pyramid.release()
@@ -355,22 +352,28 @@ class TwoPhaseCulling(CullMethod):
     def _draw(
         self,
         camera,
-        ids: np.ndarray,
+        ids: np.ndarray | None,
         *,
         color: bool,
         clear: bool,
         depth_func: str = "<",
         clear_color: bool = False,
+        commands: np.ndarray | None = None,
     ) -> float:
-        """Draw ``ids`` into the method's target, shaded as :class:`soc.Renderer` draws
-        (``color``) or depth only, after clearing the depth (``clear``) and the colour
-        (``clear``, with ``color`` or ``clear_color``); ms, finished."""
+        """Draw objects ``ids`` (or, with ``ids`` None, the cluster ``commands`` of
+        :func:`soc.culling.cluster_draws.cluster_commands`) into the method's target, shaded as
+        :class:`soc.Renderer` draws (``color``) or depth only, after clearing the depth
+        (``clear``) and the colour (``clear``, with ``color`` or ``clear_color``); ms,
+        finished."""
         t0 = time.perf_counter()
         with gpu_stage("draw"):  # the GL clock of the "draw" stage (see cull)
             program = self.renderer.bind(
                 camera, color=color, clear=clear, clear_color=clear_color, depth_func=depth_func
             )
-            self.geometry.draw_objects(program, ids)
+            if ids is None:
+                self.geometry.draw_commands(program, commands, self._cluster_ibo)
+            else:
+                self.geometry.draw_objects(program, ids)
         self.glctx.ctx.finish()
         return 1e3 * (time.perf_counter() - t0)
 
@@ -538,23 +541,6 @@ class TwoPhaseCulling(CullMethod):
 
     # -- granularity="cluster" -------------------------------------------------------------
 
-    def _draw_clusters(self, camera, commands: np.ndarray, *, color: bool, clear: bool) -> float:
-        """Draw indirect ``commands`` (K, 5) over the scene's faces in cluster order, as
-        :meth:`_draw` draws objects; ms, finished."""
-        t0 = time.perf_counter()
-        with gpu_stage("draw"):
-            program = self.renderer.bind(
-                camera, color=color, clear=clear, clear_color=color and clear
-            )
-            if len(commands):
-                if commands.nbytes > self._indirect.size:
-                    self._indirect.orphan(commands.nbytes)
-                self._indirect.write(commands)
-                vao = self.geometry.mesh_vao(program, self._cluster_ibo)
-                vao.render_indirect(self._indirect, count=len(commands))
-        self.glctx.ctx.finish()
-        return 1e3 * (time.perf_counter() - t0)
-
     def _per_object(self, cluster_mask: np.ndarray) -> np.ndarray:
         """(N,) bool: the objects with a cluster in ``cluster_mask`` (C,) bool."""
         return np.logical_or.reduceat(cluster_mask, self._cluster_starts)
@@ -577,7 +563,9 @@ class TwoPhaseCulling(CullMethod):
             drawn_early = np.zeros_like(self._cluster_passed)
             mine = clusters_of(early, cl)
             drawn_early[mine] = self._cluster_passed[mine]
-        early_ms = self._draw_clusters(camera, commands, color=draw, clear=True)
+        early_ms = self._draw(
+            camera, None, commands=commands, color=draw, clear=True, clear_color=draw
+        )
 
         codes = self._classify(camera, timings)
         passed = codes == VISIBLE
@@ -605,7 +593,7 @@ class TwoPhaseCulling(CullMethod):
         late = self._sorted(camera, np.flatnonzero(self._per_object(late_clusters)), timings)
         with stage(timings, "commands"):
             commands, late_triangles = cluster_commands(late, cl, late_clusters, self._base_vertex)
-        late_ms = self._draw_clusters(camera, commands, color=draw, clear=False)
+        late_ms = self._draw(camera, None, commands=commands, color=draw, clear=False)
         self.last_order = np.concatenate([early, late])
         self.last_draws_ms = {"early draw": early_ms, "late draw": late_ms}
         timings["draw"] = early_ms + late_ms

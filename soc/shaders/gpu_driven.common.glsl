@@ -18,11 +18,12 @@ layout(std430, binding = 3) readonly buffer ClusterBoxes { float cluster_boxes[]
 layout(std430, binding = 4) buffer ObjectState { uint object_state[]; };
 // (C) bit 0: passed the object's last late test (drawn early next frame if in the frustum);
 // bit 1: drawn early by the early pass's cluster loop (`early_runs` off; set by the early pass,
-// cleared by the late pass; it means this frame only where object_state is this frame); bit 2: to be drawn late (between the two stages of
-// gpu_driven_clusters.comp only). Valid for the objects of the passed lists: the late pass
-// writes every cluster of an object it lists.
+// cleared by the late pass; it means this frame only where object_state is this frame);
+// bit 2: to be drawn late (between the two stages of gpu_driven_clusters.comp only). Valid
+// for the objects of the passed lists: the late pass writes every cluster of an object it
+// lists.
 layout(std430, binding = 5) buffer ClusterState { uint cluster_state[]; };
-// (2, max_commands, 5) draw commands: count, instances, first index, base vertex, base
+// (2, cluster_count, 5) draw commands: count, instances, first index, base vertex, base
 // instance (= the object id), the early pass's then the late pass's.
 layout(std430, binding = 6) writeonly buffer Commands { uint commands[]; };
 // The frame's output, zeroed before the frame: FRAME_* counters, then the drawn objects' bits
@@ -51,7 +52,6 @@ const uint FRAME_OUTSIDE = 4u;    // objects outside the frustum
 const uint FRAME_JUDGED = 5u;     // boxes tested against the pyramid
 
 uniform uint object_count;   // N
-uniform uint max_commands;   // commands per pass the buffer holds (C)
 uniform uint object_bits;    // first word of the drawn-object bits in `frame`
 uniform uint cluster_bits;   // first word of the drawn-cluster bits
 uniform bool merge;          // one command for consecutive drawn clusters of an object
@@ -59,11 +59,15 @@ uniform uint frame_id;       // this frame's number (from 1; object_state)
 uniform uint list_in;        // first word of last frame's passed list
 uniform uint list_out;       // first word of this frame's passed list
 uniform uint split_at;       // first word of the split lists in `passed`
-uniform uint cluster_count;  // C
-// Which cluster_state bit says "drawn early" for an object drawn early this frame: 2 when the
-// early pass loops over clusters, 1 (passed last frame: all of those were drawn) with
-// `early_runs`.
-uniform uint drawn_bit;
+uniform uint cluster_count;  // C (also the commands a pass's half of `commands` holds)
+// The early pass draws each listed object in the frustum (and, with `reproject`, not hidden by
+// last frame) by the runs of its clusters that passed last frame (`runs`, one command each, no
+// test per cluster, no cluster state written), instead of looping over its clusters.
+uniform bool early_runs;
+
+// The cluster_state bit that says "drawn early" for an object drawn early this frame: bit 0
+// (passed last frame: all of those were drawn) with `early_runs`, else bit 1.
+uint drawn_early_bit() { return early_runs ? 1u : 2u; }
 
 vec3 object_lo(uint o) { return vec3(object_boxes[6u * o], object_boxes[6u * o + 1u], object_boxes[6u * o + 2u]); }
 vec3 object_hi(uint o) { return vec3(object_boxes[6u * o + 3u], object_boxes[6u * o + 4u], object_boxes[6u * o + 5u]); }
@@ -71,11 +75,11 @@ vec3 cluster_lo(uint c) { return vec3(cluster_boxes[6u * c], cluster_boxes[6u * 
 vec3 cluster_hi(uint c) { return vec3(cluster_boxes[6u * c + 3u], cluster_boxes[6u * c + 4u], cluster_boxes[6u * c + 5u]); }
 
 // Append one draw command of `pass`: `count` indices from `first` of object `o`. A pass writes
-// at most one command per cluster, so the slot never reaches max_commands (checked anyway).
+// at most one command per cluster, so the slot never reaches cluster_count (checked anyway).
 void emit(uint pass, uint first, uint count, uint base_vertex, uint o) {
     uint slot = atomicAdd(frame[FRAME_COMMANDS + pass], 1u);
-    if (slot >= max_commands) return;
-    uint at = 5u * (pass * max_commands + slot);
+    if (slot >= cluster_count) return;
+    uint at = 5u * (pass * cluster_count + slot);
     commands[at] = count;
     commands[at + 1u] = 1u;
     commands[at + 2u] = first;

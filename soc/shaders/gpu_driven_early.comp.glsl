@@ -14,11 +14,6 @@ uniform bool test_clusters;  // granularity "cluster": test each cluster's box t
 // of hiz_test.common then describe soc/culling/reprojection.py's pyramid): a box behind it is
 // left to the late pass, which draws it if this frame's depth does not hide it.
 uniform bool reproject;
-// Draw each listed object in the frustum (and, with `reproject`, not hidden by last frame) by
-// the runs of its clusters that passed last frame (`runs`, one command each, no test per
-// cluster, no cluster state written: the late pass reads bit 0 as "drawn early"), instead of
-// looping over its clusters.
-uniform bool early_runs;
 
 // Whether the box [lo, hi] is outside the frustum (unless known `inside`) or, with
 // `reproject`, hidden by last frame.
