@@ -182,21 +182,13 @@ def _time_point(r, cam, ids, params: Params) -> dict[str, list]:
 
 
 def _row(p, path, scene, ids, fragments, runs) -> dict[str, Any]:
+    """A row of the times frame: the point, what was drawn, the medians of its frames."""
     pixels = p["side"] ** 2
-    row = {
-        "sweep": p["sweep"],
-        "order": p["order"],
-        "path": path,
-        "subdivisions": p["subdivisions"],
-        "triangles": int(scene.triangle_counts[ids].sum()),
-        "objects": len(ids),
-        "side": p["side"],
-        "pixels": pixels,
-        "lights": p["lights"],
-        "fragments": fragments,
-        "overdraw": fragments / pixels,
-        "repeats": len(runs),
-    }
+    row = {"sweep": p["sweep"], "order": p["order"], "path": path,
+           "subdivisions": p["subdivisions"], "triangles": int(scene.triangle_counts[ids].sum()),
+           "objects": len(ids), "side": p["side"], "pixels": pixels, "lights": p["lights"],
+           "fragments": fragments, "overdraw": fragments / pixels,
+           "repeats": len(runs)}  # fmt: skip
     for prefix, attr in (("ms", "timings_ms"), ("cpu", "cpu_ms")):
         for stage in ("clear", "shade", "gbuffer", "lighting"):
             v = [getattr(x, attr)[stage] for x in runs if stage in getattr(x, attr)]
@@ -250,21 +242,13 @@ def gbuffer_memory(params: Params) -> pd.DataFrame:
     with sh.ShadingRenderer(sphere_stack(0, grid=1, layers=1), size) as r:
         storage = r.gbuffer_storage()
     gb = pd.DataFrame(
-        {
-            "texture": t.name,
-            "lecture": t.lecture,
-            "format": t.internal_format,
-            "format_read": f"0x{s.internal_format:04X}",
-            "format_matches": s.internal_format == t.gl_enum,
-            "bits": t.bits,
-            "bits_read": s.bits_per_texel,
-            "size_read": f"{s.width}x{s.height}",
-            "bytes_computed": computed[t.name],
-            "bytes_read": s.bytes,
-        }
-        for t in sh.GBUFFER
-        for s in [storage[t.name]]
-    )
+        {"texture": t.name, "lecture": t.lecture, "format": t.internal_format,
+         "format_read": f"0x{s.internal_format:04X}",
+         "format_matches": s.internal_format == t.gl_enum,
+         "bits": t.bits, "bits_read": s.bits_per_texel, "size_read": f"{s.width}x{s.height}",
+         "bytes_computed": computed[t.name], "bytes_read": s.bytes}
+        for t in sh.GBUFFER for s in [storage[t.name]]
+    )  # fmt: skip
     return gb.assign(
         resolution=f"{size[0]}x{size[1]}",
         mib_computed=computed["total"] / sh.MIB,
@@ -418,18 +402,14 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
 UNIT_SCALE = {"L": 1.0, "VP": 1e6, "V": 1e6}  # ms per light, per megapixel, per M triangles
 
 
-def _records(df: pd.DataFrame) -> list[dict[str, Any]]:
-    """A frame as row dicts, NaN (a column a row lacks) dropped."""
-    return [{k: v for k, v in r.items() if not (isinstance(v, float) and v != v)}
+def _rows(frames, name: str, **eq) -> list[dict[str, Any]]:
+    """The rows of frame ``name`` (of the claims' clock) whose columns equal ``eq``, as dicts
+    without the columns a row lacks (NaN)."""
+    df = frames[name]
+    for k, v in (({"clock": CLAIM_CLOCK} if "clock" in df else {}) | eq).items():
+        df = df[df[k] == v]
+    return [{k: v for k, v in r.items() if not (v is None or v != v)}
             for r in df.to_dict("records")]  # fmt: skip
-
-
-def _frames(frames) -> tuple[list, list, list]:
-    """The times, the CPU fits and the CPU crossovers as row dicts."""
-    rows_t = _records(frames["times"])
-    fit_rows = [f for f in _records(frames["fits"]) if f["clock"] == CLAIM_CLOCK]
-    cross = [c for c in _records(frames["crossovers"]) if c["clock"] == CLAIM_CLOCK]
-    return rows_t, fit_rows, cross
 
 
 def _fixed_label(f: dict[str, Any]) -> str:
@@ -439,43 +419,30 @@ def _fixed_label(f: dict[str, Any]) -> str:
     return " ".join(parts) or f["path"]
 
 
-def _linear(sweep: str, path: str, unit: str, smallest_side: bool = False, **kw):
-    """Cases (one, or none when the sweep did not run) of "time is linear in ``sweep``":
-    per fixed setting the log-log fit (``fitted``) and the linear fit T = a + b·x (``lins``)."""
+def _linear_rows(item: str, document: str, sweep: str, path: str, unit: str,
+                 smallest_side: bool = False, **kw) -> Each:  # fmt: skip
+    """ "time grows at most linearly in x": the lecture's O-bound, judged on the log-log slope
+    over the upper half of the sweep (the asymptote the O-notation speaks of). One case when
+    the sweep ran: per fixed setting its log-log fit and its linear fit T = a + b·x."""
 
     def cases(frames, params: Params):
-        rows_t, fit_rows, _ = _frames(frames)
-        want = dict(kw)
-        if smallest_side:
-            vs = sorted({r["side"] for r in rows_t if r["sweep"] == sweep})
-            if not vs:
-                return
-            want["side"] = vs[0]
-        fitted = [f for f in fit_rows if (f["sweep"], f["path"]) == (sweep, path)
-                  and all(f.get(k) == v for k, v in want.items())]  # fmt: skip
+        rows_t = _rows(frames, "times", sweep=sweep, path=path)
+        want = {**kw, "side": min(r["side"] for r in rows_t)} if smallest_side and rows_t else kw
+        fitted = _rows(frames, "fits", sweep=sweep, path=path, **want)
         if not fitted:
             return
         key, metric, lins = SWEEP_X[sweep], CLOCKS[CLAIM_CLOCK], []
         for f in fitted:
-            pts = sorted((r for r in rows_t if (r["sweep"], r["path"]) == (sweep, path)
-                          and all(r[k] == f[k] for k in SWEEP_FIXED[sweep])),
+            pts = sorted((r for r in rows_t if all(r[k] == f[k] for k in SWEEP_FIXED[sweep])),
                          key=lambda r: r[key])  # fmt: skip
             lins.append(linear_fit([r[key] for r in pts], [r[metric] for r in pts]))
-        worst = max(fitted, key=lambda f: f["slope_upper"])
-        noise = worst.get("slope_upper_noise", np.nan)
+        noise = max(fitted, key=lambda f: f["slope_upper"]).get("slope_upper_noise")
         yield {"sweep": sweep, "lins": lins, "slopes": [f["slope_upper"] for f in fitted],
-               "noise": noise if noise == noise else None,
-               "ours": "; ".join(
+               "noise": noise, "ours": "; ".join(
             f"{_fixed_label(f)}: {x['b'] * UNIT_SCALE[sweep]:.3g} ms per {unit}, residual "
             f"{x['residual_rel']:.0%}, log-log slope {f['slope_upper']:.2f} from "
             f"{f['upper_from']:,.0f}" for f, x in zip(fitted, lins, strict=True))}  # fmt: skip
 
-    return cases
-
-
-def _linear_rows(item: str, document: str, cases) -> Each:
-    """ "time grows at most linearly in x": the lecture's O-bound, judged on the log-log slope
-    over the upper half of the sweep (the asymptote the O-notation speaks of)."""
     return Each(cases, (Row(
         item, document, "{ours}", TREND,
         (Rule(lambda q: min(x["b"] for x in q.lins), ">", 0, "ms per unit", name="grows", flips=(
@@ -491,18 +458,16 @@ def _linear_rows(item: str, document: str, cases) -> Each:
 
 def _per_light(frames, params: Params):
     """Back to front, deferred-loop: forward's ms per light over deferred's per viewport."""
-    cw = [c for c in _frames(frames)[2]
-          if c["order"] == ORDERS[0] and c["path"] == "deferred-loop"]  # fmt: skip
+    cw = _rows(frames, "crossovers", order=ORDERS[0], path="deferred-loop")
     if cw:
         yield {"cw": cw}
 
 
 def _overtakes(frames, params: Params):
     """Per deferred path and draw order: the crossovers along L per viewport."""
-    cross = _frames(frames)[2]
     for path in PATHS[1:]:
         for order in ORDERS:
-            cs = [c for c in cross if (c["path"], c["order"]) == (path, order)]
+            cs = _rows(frames, "crossovers", path=path, order=order)
             if cs:
                 yield {"path": path, "order": order, "cs": cs, "worst": order == ORDERS[0],
                        "doc": DOC_PASSES if path.endswith("passes") else DOC_DEFERRED,
@@ -510,19 +475,19 @@ def _overtakes(frames, params: Params):
                            f"{c['side']}²: T_d/T_f {c['ratio_first']:.2f} (L={c['l_first']}) → "
                            f"{c['ratio_last']:.2f} (L={c['l_last']}), crossover L ≈ "
                            + (f"{c['crossover_measured']:.1f}"
-                              if c.get("crossover_measured") is not None else "none")
+                              if "crossover_measured" in c else "none")
                            for c in cs)}  # fmt: skip
 
 
 def _product(frames, params: Params):
     """At the largest V: forward's CPU time at the smallest and largest viewport of the V
     sweep, and the line T = a + b·VP through the two."""
-    rows_t = _frames(frames)[0]
-    vs = sorted({r["side"] for r in rows_t if r["sweep"] == "V"})
+    rows_t = _rows(frames, "times", sweep="V")
+    vs = sorted({r["side"] for r in rows_t})
     if len(vs) < 2:
         return
-    big = max(r["triangles"] for r in rows_t if r["sweep"] == "V")
-    vrows = [r for r in rows_t if (r["sweep"], r["path"], r["triangles"]) == ("V", "forward", big)]
+    big = max(r["triangles"] for r in rows_t)
+    vrows = [r for r in rows_t if (r["path"], r["triangles"]) == ("forward", big)]
     cpu = CLOCKS[CLAIM_CLOCK]
     t0, t1 = (next(r[cpu] for r in vrows if r["side"] == s) for s in (vs[0], vs[-1]))
     b = (t1 - t0) / (vs[-1] ** 2 - vs[0] ** 2)
@@ -541,16 +506,15 @@ _DEFERRED = "path != 'forward' and order == 'back-to-front'"
 # fmt: off
 CLAIMS = (
     _linear_rows("forward time grows at most linearly in L (back to front: every fragment lit)",
-                 DOC_FORWARD,
-                 _linear("L", "forward", "light", order=ORDERS[0])),
+                 DOC_FORWARD, "L", "forward", "light", order=ORDERS[0]),
     Each(_per_light, (Row(
         "deferred lights pixels, forward fragments: forward's ms per light over deferred's",
         DOC_PASSES,
-        lambda q: ", ".join(f"{c['side']}²: {c.get('per_light_ratio', float('nan')):.2f}× "
+        lambda q: ", ".join(f"{c['side']}²: {c.get('per_light_ratio', math.nan):.2f}× "
                             f"(fragments per pixel {c['overdraw']:.2f})" for c in q.cw),
         TREND,
-        Rule(lambda q: min((c["per_light_ratio"] if c.get("per_light_ratio") is not None
-                            else float("nan")) - c["overdraw"] for c in q.cw), ">=", 0, "×",
+        Rule(lambda q: min(c.get("per_light_ratio", math.nan) - c["overdraw"] for c in q.cw),
+             ">=", 0, "×",
              flips=(alter("crossovers", "overdraw", 100.0), alter("crossovers", "overdraw", 0.01))),
         basis="per-light cost ratio forward / deferred >= fragments per pixel at every viewport "
         "(back to front)",
@@ -578,12 +542,12 @@ CLAIMS = (
             when=lambda q: q.worst,
         ),
     )),
-    _linear_rows("forward time grows at most linearly in VP", DOC_FORWARD,
-                 _linear("VP", "forward", "megapixel")),
-    _linear_rows("deferred-loop time grows at most linearly in VP", DOC_DEFERRED,
-                 _linear("VP", "deferred-loop", "megapixel")),
+    _linear_rows("forward time grows at most linearly in VP", DOC_FORWARD, "VP", "forward",
+                 "megapixel"),
+    _linear_rows("deferred-loop time grows at most linearly in VP", DOC_DEFERRED, "VP",
+                 "deferred-loop", "megapixel"),
     _linear_rows("time grows at most linearly in V (forward at the smallest VP)", DOC_CONSTANT_L,
-                 _linear("V", "forward", "million triangles", smallest_side=True)),
+                 "V", "forward", "million triangles", smallest_side=True),
     Each(_product, (Row(
         "O(V × VP): at the largest V, time grows with VP at most like the pixels",
         DOC_CONSTANT_L,
@@ -620,6 +584,7 @@ CLAIMS = (
 # -- plots ------------------------------------------------------------------------------------
 
 STYLE = {"forward": "-", "deferred-loop": "--", "deferred-passes": ":"}
+COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")
 CLOCK_LABEL = {"wall": "wall ms", "cpu": "CPU ms (all threads: the work)"}
 
 
@@ -640,8 +605,7 @@ def plot_lights(frames, params: Params):
     cross = cross[(cross.clock == CLAIM_CLOCK) & (cross.path == "deferred-loop")]
     orders = [o for o in ORDERS if o in set(sel.order)]
     sides = sorted(set(sel.side))
-    colours = {s: c for s, c in zip(sides, ("tab:blue", "tab:orange", "tab:green", "tab:red",
-                                            "tab:purple"), strict=False)}  # fmt: skip
+    colours = dict(zip(sides, COLOURS, strict=False))
     metric = CLOCKS[CLAIM_CLOCK]
     fig = Figure(figsize=(13, 4.3 * len(orders) + 0.8))
     axes = fig.subplots(len(orders), 2, squeeze=False)
@@ -662,15 +626,13 @@ def plot_lights(frames, params: Params):
                 axes[i, 1].axvline(float(c.iloc[0]), color=colours[side], lw=0.8, alpha=0.6)
         od = o.overdraw.iloc[0]
         axes[i, 0].set_title(f"{order} ({od:.2f} fragments per pixel): CPU time", fontsize=10)
-        axes[i, 0].set_ylabel("CPU ms per frame")
-        axes[i, 0].set_yscale("log")
+        axes[i, 0].set(ylabel="CPU ms per frame", yscale="log")
         axes[i, 1].set_title(f"{order}: deferred / forward (< 1: deferred faster)", fontsize=10)
         axes[i, 1].axhline(1.0, color="black", lw=1)
         axes[i, 1].set_ylabel("time ratio")
         for ax in axes[i]:
             ax.set_xscale("symlog", base=2, linthresh=1.0)
-            ax.set_xlim(0, 1.15 * sel.lights.max())
-            ax.set_xlabel("lights L")
+            ax.set(xlim=(0, 1.15 * sel.lights.max()), xlabel="lights L")
             ax.grid(alpha=0.3, which="both")
     handles = [Line2D([], [], color=colours[s], lw=2, label=f"viewport {s}²") for s in sides]
     handles += [Line2D([], [], color="black", ls=STYLE[p], label=p) for p in PATHS]
@@ -692,7 +654,6 @@ def _sweep_plot(frames, sweep: str, series_key: str | None, xlabel: str, title: 
     groups = sorted(set(sel[series_key])) if series_key else [None]
     fig = Figure(figsize=(14, 5.2))
     axes = fig.subplots(1, 2)
-    cmap = ("tab:blue", "tab:orange", "tab:green", "tab:red")
     for ax, (clock, metric) in zip(axes, CLOCKS.items(), strict=True):
         for k, g in enumerate(groups):
             for path in PATHS:
@@ -704,7 +665,7 @@ def _sweep_plot(frames, sweep: str, series_key: str | None, xlabel: str, title: 
                 lab = path + (f" {g}²" if g is not None else "")
                 if len(f):
                     lab += f": slope {f.slope.iloc[0]:.2f} (upper {f.slope_upper.iloc[0]:.2f})"
-                color = cmap[k if series_key else PATHS.index(path)]
+                color = COLOURS[k if series_key else PATHS.index(path)]
                 ax.plot(pts[key], pts[metric], STYLE[path], marker="o", ms=3, color=color,
                         label=lab)  # fmt: skip
         x = np.array(sorted(set(sel[key])), float)
@@ -723,26 +684,16 @@ def plot_viewport(frames, params: Params):
     at fixed V and L (back to front); forward solid, deferred loop dashed, deferred passes
     dotted; the legend gives each path's fitted slope over all points and over the upper half
     (the lecture's bound: slope 1, grey)."""
-    return _sweep_plot(
-        frames,
-        "VP",
-        None,
-        "viewport pixels VP",
-        f"Seed 003 — time vs VP (L = {params.fixed_lights}, back to front)",
-    )
+    title = f"Seed 003 — time vs VP (L = {params.fixed_lights}, back to front)"
+    return _sweep_plot(frames, "VP", None, "viewport pixels VP", title)
 
 
 def plot_triangles(frames, params: Params):
     """Wall (left) and CPU time (right) per frame against the triangles V drawn, log-log, at
     two viewports (colours) and fixed L (back to front); forward solid, deferred loop dashed,
     deferred passes dotted; fitted slopes in the legend (the lecture's bound: slope 1, grey)."""
-    return _sweep_plot(
-        frames,
-        "V",
-        "side",
-        "triangles V",
-        f"Seed 003 — time vs V (L = {params.fixed_lights}, back to front)",
-    )
+    title = f"Seed 003 — time vs V (L = {params.fixed_lights}, back to front)"
+    return _sweep_plot(frames, "V", "side", "triangles V", title)
 
 
 def plot_stages(frames, params: Params):
