@@ -121,9 +121,11 @@ def _points(params: Params) -> list[dict[str, Any]]:
             for sweep, *axes in sweeps for p in itertools.product(*axes)]  # fmt: skip
 
 
-def measure(params: Params, *, progress: bool = True) -> tuple[list[dict[str, Any]], pd.DataFrame]:
-    """Every point of the sweeps timed with every path: one row per (point, path); and the
-    images frame of the reference setting."""
+def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
+    """``times``: one row per sweep point × path (wall ``ms_*`` and CPU ``cpu_*`` medians per
+    stage and in total, fragments, overdraw); ``fits``: log-log slopes; ``crossovers``: where
+    deferred overtakes forward along L; ``gbuffer``: one row per g-buffer texture;
+    ``images``: the reference frame and its g-buffer, one row per pixel."""
     from tqdm.auto import tqdm
 
     from soc.rendering.shading import ShadingRenderer, random_lights
@@ -163,7 +165,13 @@ def measure(params: Params, *, progress: bool = True) -> tuple[list[dict[str, An
                     lights = random_lights(box, params.reference[1], seed=params.seed,
                                            intensity=6.0)  # fmt: skip
                     images = _images(r, cam, orders[ORDERS[0]], lights)
-    return rows, images
+    return {
+        "times": pd.DataFrame(rows),
+        "fits": pd.DataFrame(fits(rows)),
+        "crossovers": pd.DataFrame(crossovers(rows)),
+        "gbuffer": gbuffer_memory(params),
+        "images": images,
+    }
 
 
 def _time_point(r, cam, ids, params: Params) -> dict[str, list]:
@@ -380,21 +388,6 @@ def _measured_crossover(lights: np.ndarray, ratio: np.ndarray) -> float | None:
         return float(lights[k] * y0 / (y0 - y1))
     x0, x1 = np.log(lights[k - 1]), np.log(lights[k])
     return float(np.exp(x0 + (x1 - x0) * y0 / (y0 - y1)))
-
-
-def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
-    """``times``: one row per sweep point × path (wall ``ms_*`` and CPU ``cpu_*`` medians per
-    stage and in total, fragments, overdraw); ``fits``: log-log slopes; ``crossovers``: where
-    deferred overtakes forward along L; ``gbuffer``: one row per g-buffer texture;
-    ``images``: the reference frame and its g-buffer, one row per pixel."""
-    rows, images = measure(params, progress=progress)
-    return {
-        "times": pd.DataFrame(rows),
-        "fits": pd.DataFrame(fits(rows)),
-        "crossovers": pd.DataFrame(crossovers(rows)),
-        "gbuffer": gbuffer_memory(params),
-        "images": images,
-    }
 
 
 # -- claims -----------------------------------------------------------------------------------
