@@ -1,35 +1,23 @@
-"""Seed 003: render time of forward vs deferred shading as functions of triangles V, viewport
-pixels VP and lights L, the fitted scaling, where deferred overtakes forward, and the g-buffer's
-memory at 1024 × 1024.
+"""Seed 003: render time of forward vs deferred shading against triangles V, viewport pixels
+VP and lights L, where deferred overtakes forward, and the g-buffer's memory at 1024 × 1024.
 
-The lecture ("Drei Rendering Algorithmen", seed 003) bounds forward rasterization by
-O(V · VP · L) in the worst case (every triangle's fragments lit by every light before the depth
-test), and deferred shading by O(V · VP + L · VP) (lighting after the depth test, per pixel);
-its g-buffer (depth 24 bit, normal 2 × 32 bit, diffuse 3 × 32 bit, material 16 bit) takes
-≈ 25 MB at 1024 × 1024. Here both paths (:mod:`soc.rendering.shading`) render a stack of tessellated
-spheres in front of a wall on this machine's GL context:
-
-- the L sweep: L = 1 … 256 at a few viewports, drawn back to front (every fragment passes the
-  depth test: the lecture's worst case) and front to back (early depth test: each pixel lit
-  about once, the best case for forward shading);
-- the VP sweep: 128² … 2048² pixels at fixed V and L;
-- the V sweep: 8 k … 2 M triangles (icosphere subdivision 1 … 5) at two viewports.
-
-Every point is the median of up to ``repeats`` frames after an untimed warm-up, the paths
-interleaved so that the machine's noise hits them alike. Each frame is timed twice: wall time
-(``ctx.finish()`` + ``perf_counter``) and CPU time of the process (llvmpipe's rasterizer
-threads are ours, so that is the work the lecture's W(n) counts); on a machine shared with
-other jobs wall time swings by 2-3× while CPU time stays within a few per cent, so the claims
-are judged on CPU time and every table and plot shows both. Slopes are least-squares fits of
-log10 time on log10 x (residual = RMS of the log10 residuals); per-light costs are linear fits
-Stages: :func:`measure` (every point of the sweeps, paths interleaved) → :func:`compute`
-(times, fits, crossovers, g-buffer, images as DataFrames) → plots and :func:`claims`.
+The lecture ("Drei Rendering Algorithmen") bounds forward rasterization by O(V · VP · L) in the
+worst case (every fragment lit by every light before the depth test) and deferred shading by
+O(V · VP + L · VP) (lighting per pixel, after the depth test); its g-buffer takes ≈ 25 MB at
+1024 × 1024. Both paths (:mod:`soc.rendering.shading`) render a
+:func:`~soc.scenes.sphere_stack.sphere_stack` on this machine's GL context, sweeping L (drawn
+back to front: every fragment passes the depth test, the worst case; and front to back), VP and
+V. Each point is the median of up to ``repeats`` frames, the paths interleaved, timed as wall
+time and as the process's CPU time (llvmpipe's threads: the work W(n), steady on a shared
+machine where wall time swings 2-3×). The claims are judged on CPU time: log-log slopes over the
+upper half of each sweep against the bound's exponent 1, per-light costs and crossovers from
+linear fits T = a + b·L, and the g-buffer's bytes as GL reports them.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -63,35 +51,14 @@ DOC_GBUFFER = (
 class Params:
     """Every setting of one seed-003 run.
 
-    Attributes
-    ----------
-    grid, layers : int
-        Spheres per row and column of a layer, layers one behind the other (plus the wall).
-    reference_subdivisions : int
-        Icosphere subdivision of the L and VP sweeps (20 · 4^s triangles per sphere).
-    subdivisions : tuple of int
-        The V sweep.
-    v_sides : tuple of int
-        Viewport sides (pixels, square) of the V sweep.
-    vp_sides : tuple of int
-        The VP sweep.
-    light_counts : tuple of int
-        The L sweep (L = 0, ambient only, enters the linear fits and the crossover, not the
-        log-log slopes).
-    l_sides : tuple of int
-        Viewport sides of the L sweep.
-    fixed_lights : int
-        L of the V and VP sweeps.
-    reference : (side, lights)
-        The setting whose stage timings are tabulated (a point of the L sweep).
-    repeats : int
-        Timed frames per point at most (median); fewer once ``budget_ms`` is spent.
-    budget_ms : float
-        Timed milliseconds per point after which no further repeat starts.
-    seed : int
-        Light placement.
-    gbuffer_side : int
-        Viewport side of the g-buffer memory check (the lecture's 1024).
+    The scene: ``grid × grid`` spheres per layer, ``layers`` deep. The sweeps: L over
+    ``light_counts`` (0 = ambient only: in the linear fits, not the log-log slopes) at
+    ``l_sides`` (square viewports, pixels a side); VP over ``vp_sides``; V over icosphere
+    ``subdivisions`` (20 · 4^s triangles a sphere) at ``v_sides``; the L and VP sweeps at
+    ``reference_subdivisions``, the VP and V sweeps at ``fixed_lights``. ``reference`` (side,
+    lights): the L-sweep point whose stages and images are shown. Up to ``repeats`` frames per
+    point, no further one once ``budget_ms`` is spent; ``seed`` places the lights;
+    ``gbuffer_side``: the memory check's viewport (the lecture's 1024).
     """
 
     grid: int = 5
@@ -126,77 +93,16 @@ class Params:
             )
 
 
-# -- the scene --------------------------------------------------------------------------------
-
-SPHERE_RADIUS = 0.8
-PITCH = 1.8  # sphere centres, world units
-LAYER_GAP = 3.0
-EYE_DISTANCE = 9.0  # from the front layer
-
-
-def sphere_stack(subdivisions: int, *, grid: int = 5, layers: int = 4):
-    """``layers`` layers of ``grid × grid`` icospheres (``20 · 4^subdivisions`` triangles
-    each), every other layer shifted by half a pitch, in front of a wall (object 0) that
-    fills the view: every pixel is covered and most by several layers, so the depth
-    complexity stays the same while V changes with the tessellation only."""
-    import soc
-    from soc.scenes import primitives as prim
-
-    if subdivisions < 0 or grid < 1 or layers < 1:
-        raise ValueError(f"need subdivisions >= 0, grid, layers >= 1; got {subdivisions}, "
-                         f"{grid}, {layers}")  # fmt: skip
-    v, f = prim.icosphere(SPHERE_RADIUS, subdivisions)
-    k, i, j = np.meshgrid(np.arange(layers), np.arange(grid), np.arange(grid), indexing="ij")
-    shift = 0.5 * PITCH * (k % 2)
-    centres = np.stack(
-        [(i - (grid - 1) / 2) * PITCH + shift, (j - (grid - 1) / 2) * PITCH + shift,
-         -k * LAYER_GAP], axis=-1,
-    ).reshape(-1, 3)  # fmt: skip
-    transforms = np.tile(np.eye(4), (len(centres), 1, 1))
-    transforms[:, :3, 3] = centres
-    spheres = prim.instance(v, f, transforms)
-    half = 3.0 * grid * PITCH
-    back = -layers * LAYER_GAP
-    wall_v, wall_f = prim.box([-half, -half, back - 0.5], [half, half, back])
-    return soc.Scene(
-        np.concatenate([wall_v, spheres.vertices]),
-        np.concatenate([wall_f, spheres.faces]),
-        np.r_[len(wall_v), spheres.vertex_counts],
-        np.r_[len(wall_f), spheres.face_counts],
-        np.zeros(1 + len(centres), bool),
-        meta={"source": f"sphere stack {grid}x{grid}x{layers}, subdivision {subdivisions}",
-              "synthetic": True},
-    )  # fmt: skip
-
-
-def camera(side: int):
-    """The square camera looking down −z at the stack, ``side × side`` pixels."""
-    import soc
-
-    return soc.Camera.look_at(
-        (0.4, 0.3, EYE_DISTANCE), (0.0, 0.0, -LAYER_GAP), fov_y=60.0, width=side, height=side,
-        near=1.0, far=60.0,
-    )  # fmt: skip
-
-
-def light_box(params: Params) -> np.ndarray:
-    """(2, 3) where lights are placed: among and in front of the spheres."""
-    half = 0.5 * params.grid * PITCH
-    return np.array([[-half, -half, -params.layers * LAYER_GAP], [half, half, 3.0]])
-
-
 def draw_order(scene, cam, order: str) -> np.ndarray:
-    """The frustum-visible objects sorted by distance: ``back-to-front`` draws farthest first
-    (every fragment passes the depth test), ``front-to-back`` nearest first."""
+    """The frustum-visible objects by the distance of their boxes' centres: ``back-to-front``
+    (every fragment passes the depth test) or ``front-to-back``."""
     import soc
 
     ids = np.flatnonzero(soc.aabbs_in_frustum(scene.aabbs, cam))
     dist = np.linalg.norm(scene.aabbs[ids].mean(axis=1) - np.asarray(cam.eye), axis=1)
-    if order == "back-to-front":
-        return ids[np.argsort(-dist, kind="stable")]
-    if order == "front-to-back":
-        return ids[np.argsort(dist, kind="stable")]
-    raise ValueError(f"unknown order {order!r}; use {' or '.join(ORDERS)}")
+    if order not in ORDERS:
+        raise ValueError(f"unknown order {order!r}; use {' or '.join(ORDERS)}")
+    return ids[np.argsort(-dist if order == "back-to-front" else dist, kind="stable")]
 
 
 # -- measuring --------------------------------------------------------------------------------
@@ -205,50 +111,34 @@ def draw_order(scene, cam, order: str) -> np.ndarray:
 def _points(params: Params) -> list[dict[str, Any]]:
     """Every point of the three sweeps as ``{sweep, order, subdivisions, side, lights}``."""
     s0, lf = params.reference_subdivisions, params.fixed_lights
-    pts = [
-        {"sweep": "L", "order": o, "subdivisions": s0, "side": side, "lights": n}
-        for o in ORDERS
-        for side in params.l_sides
-        for n in params.light_counts
-    ]
-    pts += [
-        {"sweep": "VP", "order": ORDERS[0], "subdivisions": s0, "side": side, "lights": lf}
-        for side in params.vp_sides
-    ]
-    pts += [
-        {"sweep": "V", "order": ORDERS[0], "subdivisions": s, "side": side, "lights": lf}
-        for s in params.subdivisions
-        for side in params.v_sides
-    ]
-    return pts
+    sweeps = (
+        ("L", ORDERS, [s0], params.l_sides, params.light_counts),
+        ("VP", ORDERS[:1], [s0], params.vp_sides, [lf]),
+        ("V", ORDERS[:1], params.subdivisions, params.v_sides, [lf]),
+    )
+    keys = ("order", "subdivisions", "side", "lights")
+    return [{"sweep": sweep, **dict(zip(keys, p, strict=True))}
+            for sweep, *axes in sweeps for p in itertools.product(*axes)]  # fmt: skip
 
 
-def measure(
-    params: Params, *, progress: bool = True
-) -> tuple[list[dict[str, Any]], dict[str, Any]]:
-    """Time every point of the sweeps with every path.
-
-    Returns
-    -------
-    rows : list of dict
-        One per (point, path): stage and total medians (ms), fragments, overdraw.
-    extra : dict
-        ``gbuffer``: the memory check; ``images``: forward / deferred images and the g-buffer
-        at the reference setting; ``seconds``.
-    """
+def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
+    """``times``: one row per sweep point × path (wall ``ms_*`` and CPU ``cpu_*`` medians per
+    stage and in total, fragments, overdraw); ``fits``: log-log slopes; ``crossovers``: where
+    deferred overtakes forward along L; ``gbuffer``: one row per g-buffer texture;
+    ``images``: the reference frame and its g-buffer, one row per pixel."""
     from tqdm.auto import tqdm
 
     from soc.rendering.shading import ShadingRenderer, random_lights
+    from soc.scenes.sphere_stack import sphere_stack, sphere_stack_camera, sphere_stack_light_box
 
-    t0 = time.perf_counter()
     points = _points(params)
     groups: dict[tuple[int, int], list[dict[str, Any]]] = {}
     for p in points:
         groups.setdefault((p["subdivisions"], p["side"]), []).append(p)
-    box = light_box(params)
+    box = sphere_stack_light_box(params.grid, params.layers)
     rows: list[dict[str, Any]] = []
     scenes: dict[int, Any] = {}
-    extra: dict[str, Any] = {}
+    images = pd.DataFrame()
     with tqdm(
         total=len(points) * len(PATHS), unit="frame", desc="seed 003", disable=not progress
     ) as bar:
@@ -257,7 +147,7 @@ def measure(
                 scenes.clear()  # one scene at a time: the 2 M-triangle one is large
                 scenes[sub] = sphere_stack(sub, grid=params.grid, layers=params.layers)
             scene = scenes[sub]
-            cam = camera(side)
+            cam = sphere_stack_camera(side)
             with ShadingRenderer(scene, (side, side)) as r:
                 orders = {o: draw_order(scene, cam, o) for o in ORDERS}
                 fragments = {o: r.count_fragments(cam, ids) for o, ids in orders.items()}
@@ -272,10 +162,16 @@ def measure(
                         rows.append(_row(p, path, scene, ids, fragments[p["order"]], runs[path]))
                         bar.update(1)
                 if (side, sub) == (params.reference[0], params.reference_subdivisions):
-                    extra["images"] = _pictures(r, cam, orders[ORDERS[0]], params)
-    extra["gbuffer"] = gbuffer_memory(params)
-    extra["seconds"] = time.perf_counter() - t0
-    return rows, extra
+                    lights = random_lights(box, params.reference[1], seed=params.seed,
+                                           intensity=6.0)  # fmt: skip
+                    images = _images(r, cam, orders[ORDERS[0]], lights)
+    return {
+        "times": pd.DataFrame(rows),
+        "fits": pd.DataFrame(fits(rows)),
+        "crossovers": pd.DataFrame(crossovers(rows)),
+        "gbuffer": gbuffer_memory(params),
+        "images": images,
+    }
 
 
 def _time_point(r, cam, ids, params: Params) -> dict[str, list]:
@@ -294,21 +190,13 @@ def _time_point(r, cam, ids, params: Params) -> dict[str, list]:
 
 
 def _row(p, path, scene, ids, fragments, runs) -> dict[str, Any]:
+    """A row of the times frame: the point, what was drawn, the medians of its frames."""
     pixels = p["side"] ** 2
-    row = {
-        "sweep": p["sweep"],
-        "order": p["order"],
-        "path": path,
-        "subdivisions": p["subdivisions"],
-        "triangles": int(scene.triangle_counts[ids].sum()),
-        "objects": len(ids),
-        "side": p["side"],
-        "pixels": pixels,
-        "lights": p["lights"],
-        "fragments": fragments,
-        "overdraw": fragments / pixels,
-        "repeats": len(runs),
-    }
+    row = {"sweep": p["sweep"], "order": p["order"], "path": path,
+           "subdivisions": p["subdivisions"], "triangles": int(scene.triangle_counts[ids].sum()),
+           "objects": len(ids), "side": p["side"], "pixels": pixels, "lights": p["lights"],
+           "fragments": fragments, "overdraw": fragments / pixels,
+           "repeats": len(runs)}  # fmt: skip
     for prefix, attr in (("ms", "timings_ms"), ("cpu", "cpu_ms")):
         for stage in ("clear", "shade", "gbuffer", "lighting"):
             v = [getattr(x, attr)[stage] for x in runs if stage in getattr(x, attr)]
@@ -320,82 +208,62 @@ def _row(p, path, scene, ids, fragments, runs) -> dict[str, Any]:
     return row
 
 
-def _pictures(r, cam, ids, params: Params) -> dict[str, Any]:
-    """Forward and deferred images at the reference setting, their difference, the g-buffer."""
-    from soc.rendering.shading import random_lights
-
-    r.set_lights(random_lights(light_box(params), params.reference[1], seed=params.seed,
-                               intensity=6.0))  # fmt: skip
-    r.render(cam, ids, path="forward")
-    forward = r.hdr_image()
-    r.render(cam, ids, path="deferred-loop")
-    loop = r.hdr_image()
-    g = r.gbuffer()
-    r.render(cam, ids, path="deferred-passes")
-    passes = r.hdr_image()
-    return {
-        "forward": forward,
-        "deferred": loop,
-        "gbuffer": g,
-        "max_abs_diff_loop": float(np.abs(forward - loop).max()),
-        "max_abs_diff_passes": float(np.abs(forward - passes).max()),
-        "max_abs_diff_uint8": int(
-            np.abs(_to_uint8(forward).astype(int) - _to_uint8(loop).astype(int)).max()
-        ),
-    }
-
-
-def _to_uint8(img: np.ndarray) -> np.ndarray:
-    return np.rint(np.clip(img, 0.0, 1.0) * 255.0).astype(np.uint8)
-
-
-def gbuffer_memory(params: Params) -> dict[str, Any]:
-    """The g-buffer at ``gbuffer_side``²: bytes per texture computed from the formats and read
-    back from the allocated textures (``glGetTextureLevelParameteriv``), beside the lecture."""
-    from soc.rendering.shading import (
-        GBUFFER,
-        LECTURE_GBUFFER_MB,
-        MIB,
-        ShadingRenderer,
-        gbuffer_bytes,
+def _images(r, cam, ids, lights) -> pd.DataFrame:
+    """The frame forward and deferred (loop) and its g-buffer, one row per pixel subsampled to
+    at most :data:`IMAGE_SIDE` a side; the differences of the full-size images as columns."""
+    r.set_lights(lights)
+    hdr = {}
+    for path in PATHS:
+        r.render(cam, ids, path=path)
+        hdr[path] = r.hdr_image()
+    g = r.gbuffer()  # both deferred paths fill the same g-buffer
+    fwd, loop = hdr["forward"], hdr["deferred-loop"]
+    u8 = np.rint(np.clip(np.stack([fwd, loop]), 0.0, 1.0) * 255.0).astype(int)
+    step = max(1, math.ceil(fwd.shape[0] / IMAGE_SIDE))
+    h, w = fwd[::step, ::step].shape[:2]
+    y, x = np.mgrid[0:h, 0:w]
+    cols: dict[str, Any] = {"y": y.ravel(), "x": x.ravel()}
+    named = {"forward": fwd, "deferred": loop, "diffuse": g["diffuse"], "normal": g["normal"]}
+    for name, img in named.items():
+        for k, c in enumerate("01" if name == "normal" else "rgb"):
+            cols[f"{name}_{c}"] = img[::step, ::step, k].ravel()
+    cols["depth"] = g["depth"][::step, ::step].ravel()
+    cols["material"] = g["material"][::step, ::step].ravel().astype(int)
+    return pd.DataFrame(cols).assign(
+        max_abs_diff_loop=float(np.abs(fwd - loop).max()),
+        max_abs_diff_passes=float(np.abs(fwd - hdr["deferred-passes"]).max()),
+        max_abs_diff_uint8=int(np.abs(u8[0] - u8[1]).max()),
+        side=fwd.shape[0],
     )
 
+
+def gbuffer_memory(params: Params) -> pd.DataFrame:
+    """One row per g-buffer texture at ``gbuffer_side``²: bytes computed from the formats and
+    read back from the allocated textures (``glGetTextureLevelParameteriv``), beside the
+    lecture's ≈ 25 MB (25 bytes per pixel: its MB are MiB). Bits read are what GL reports per
+    texel (a driver may pad in memory); the RGBA32F colour target is not counted."""
+    from soc.rendering import shading as sh
+    from soc.scenes.sphere_stack import sphere_stack
+
     size = (params.gbuffer_side, params.gbuffer_side)
-    computed = gbuffer_bytes(size)
-    with ShadingRenderer(sphere_stack(0, grid=1, layers=1), size) as r:
+    computed = sh.gbuffer_bytes(size)
+    with sh.ShadingRenderer(sphere_stack(0, grid=1, layers=1), size) as r:
         storage = r.gbuffer_storage()
-    textures = []
-    for t in GBUFFER:
-        s = storage[t.name]
-        textures.append(
-            {
-                "texture": t.name,
-                "lecture": t.lecture,
-                "format": t.internal_format,
-                "format_read": f"0x{s.internal_format:04X}",
-                "format_matches": s.internal_format == t.gl_enum,
-                "bits": t.bits,
-                "bits_read": s.bits_per_texel,
-                "size_read": f"{s.width}x{s.height}",
-                "bytes_computed": computed[t.name],
-                "bytes_read": s.bytes,
-            }
-        )
-    read = sum(t["bytes_read"] for t in textures)
-    return {
-        "resolution": f"{size[0]}x{size[1]}",
-        "textures": textures,
-        "bytes_computed": computed["total"],
-        "bytes_read": read,
-        "mib_computed": computed["total"] / MIB,
-        "mib_read": read / MIB,
-        "mb_computed": computed["total"] / 1e6,
-        "lecture_mb": LECTURE_GBUFFER_MB,
-        "note": "25 bytes per pixel; the lecture's '≈ 25 MB' is 25 MiB (26.2 · 10^6 bytes). "
-        "Bits read are what the GL reports per texel; a driver may pad in memory (e.g. depth 24 "
-        "in 32 bits), which GL does not expose. Not counted: the RGBA32F colour target "
-        "(16 bytes per pixel) both paths write.",
-    }
+    gb = pd.DataFrame(
+        {"texture": t.name, "lecture": t.lecture, "format": t.internal_format,
+         "format_read": f"0x{s.internal_format:04X}",
+         "format_matches": s.internal_format == t.gl_enum,
+         "bits": t.bits, "bits_read": s.bits_per_texel, "size_read": f"{s.width}x{s.height}",
+         "bytes_computed": computed[t.name], "bytes_read": s.bytes}
+        for t in sh.GBUFFER for s in [storage[t.name]]
+    )  # fmt: skip
+    return gb.assign(
+        resolution=f"{size[0]}x{size[1]}",
+        mib_computed=computed["total"] / sh.MIB,
+        mib_read=gb.bytes_read.sum() / sh.MIB,
+        mb_computed=computed["total"] / 1e6,
+        lecture_mb=sh.LECTURE_GBUFFER_MB,
+    )
 
 
 # -- analysis ---------------------------------------------------------------------------------
@@ -413,8 +281,7 @@ def loglog_fit(x: Sequence[float], y: Sequence[float]) -> dict[str, float]:
 
 
 def linear_fit(x: Sequence[float], y: Sequence[float]) -> dict[str, float]:
-    """``y ≈ a + b x`` by least squares: ``a`` (ms), ``b`` (ms per unit x), relative RMS
-    residual."""
+    """``y ≈ a + b x`` by least squares: ``a``, ``b`` and the relative RMS residual."""
     x, y = np.asarray(x, float), np.asarray(y, float)
     b, a = np.polyfit(x, y, 1)
     resid = float(np.sqrt(np.mean((a + b * x - y) ** 2)) / np.mean(y))
@@ -427,129 +294,80 @@ SWEEP_FIXED = {
     "VP": ("order", "lights", "subdivisions"),
     "V": ("order", "side", "lights"),
 }
-
-
 CLOCKS = {"wall": "ms_total", "cpu": "cpu_total"}  # clock → row column of a frame's total
 CLAIM_CLOCK = "cpu"  # the claims are judged on work (CPU ms), the lecture's W(n)
 
 
 def fits(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Log-log slopes of total time per clock (wall, CPU), sweep, path and fixed setting: over
-    all points and over the upper half of x (the asymptotic exponent the O-notation speaks
-    of). L = 0 is left out (no logarithm)."""
-    return [f for clock in CLOCKS for f in _fits(rows, clock)]
-
-
-def _fits(rows: Sequence[dict[str, Any]], clock: str) -> list[dict[str, Any]]:
-    metric = CLOCKS[clock]
-    out = []
-    for sweep, key in SWEEP_X.items():
-        fixed = SWEEP_FIXED[sweep]
-        sel = [r for r in rows if r["sweep"] == sweep]
-        for combo in dict.fromkeys(tuple(r[k] for k in fixed) for r in sel):
-            for path in PATHS:
-                pts = [r for r in sel if r["path"] == path and tuple(r[k] for k in fixed) == combo]
-                pts = sorted((r for r in pts if r[key] > 0), key=lambda r: r[key])
-                if len(pts) < 2:
-                    continue
-                x = [r[key] for r in pts]
-                y = [r[metric] for r in pts]
-                f = loglog_fit(x, y)
-                upper = pts[min(len(pts) // 2, len(pts) - 2) :]
-                fu = loglog_fit([r[key] for r in upper], [r[metric] for r in upper])
-                fu_noise = _slope_noise(upper, key, metric)
-                out.append(
-                    {
-                        "clock": clock,
-                        "sweep": sweep,
-                        "path": path,
+    """Log-log slopes of total time per clock, sweep, path and fixed setting, over all points
+    and over the upper half of x (the asymptotic exponent the O-notation speaks of); L = 0 is
+    left out (no logarithm)."""
+    t, out = pd.DataFrame(rows), []
+    for clock, metric in CLOCKS.items():
+        for sweep, key in SWEEP_X.items():
+            fixed = SWEEP_FIXED[sweep]
+            for combo, sel in t[t.sweep == sweep].groupby(list(fixed), sort=False):
+                for path in PATHS:
+                    pts = sel[(sel.path == path) & (sel[key] > 0)].sort_values(key, kind="stable")
+                    if len(pts) < 2:
+                        continue
+                    upper = pts.iloc[min(len(pts) // 2, len(pts) - 2) :]
+                    f, fu = loglog_fit(pts[key], pts[metric]), loglog_fit(upper[key], upper[metric])
+                    out.append({
+                        "clock": clock, "sweep": sweep, "path": path,
                         **dict(zip(fixed, combo, strict=True)),
-                        "x": key,
-                        "x_min": x[0],
-                        "x_max": x[-1],
-                        "points": len(pts),
-                        "slope": f["slope"],
-                        "residual": f["residual"],
+                        "x": key, "x_min": pts[key].iloc[0], "x_max": pts[key].iloc[-1],
+                        "points": len(pts), "slope": f["slope"], "residual": f["residual"],
                         "slope_upper": fu["slope"],
-                        "slope_upper_noise": fu_noise,
-                        "residual_upper": fu["residual"],
-                        "upper_from": upper[0][key],
+                        "slope_upper_noise": _slope_noise(upper, key, metric),
+                        "residual_upper": fu["residual"], "upper_from": upper[key].iloc[0],
                         "lecture_slope": 1.0,
-                    }
-                )
+                    })  # fmt: skip
     return out
 
 
-def _slope_noise(pts: Sequence[dict[str, Any]], key: str, metric: str) -> float:
-    """The spread of a log-log slope from its points' repeated frames: each point's standard
-    error (std of its frames / √frames, relative) carried through the least-squares weights;
-    NaN when a point has a single frame."""
-    lx = np.log10([r[key] for r in pts])
+def _slope_noise(pts: pd.DataFrame, key: str, metric: str) -> float:
+    """The spread of a log-log slope from its points' repeated frames: each point's relative
+    standard error carried through the least-squares weights; NaN for single frames."""
+    lx = np.log10(pts[key].to_numpy(float))
     w = (lx - lx.mean()) / np.sum((lx - lx.mean()) ** 2)
-    rel = [r.get(f"{metric}_sd", np.nan) / r[metric] / math.sqrt(r["repeats"]) for r in pts]
-    return float(np.sqrt(np.sum((w * np.asarray(rel) / math.log(10)) ** 2)))
+    rel = pts.get(f"{metric}_sd", np.nan) / pts[metric] / np.sqrt(pts.repeats)
+    return float(np.sqrt(np.sum((w * rel.to_numpy(float) / math.log(10)) ** 2)))
 
 
 def crossovers(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Where deferred overtakes forward along L, per clock, draw order, viewport and lighting
-    variant: from the linear fits ``T = a + b·L`` (``L* = (a_d − a_f) / (b_f − b_d)``) and from
-    the measurements (the first swept L at which deferred is faster, interpolated in log L)."""
-    return [c for clock in CLOCKS for c in _crossovers(rows, clock)]
-
-
-def _crossovers(rows: Sequence[dict[str, Any]], clock: str) -> list[dict[str, Any]]:
-    metric = CLOCKS[clock]
-    out = []
-    sel = [r for r in rows if r["sweep"] == "L"]
-    for order in dict.fromkeys(r["order"] for r in sel):
-        for side in dict.fromkeys(r["side"] for r in sel if r["order"] == order):
-
-            def series(path, order=order, side=side):
-                pts = sorted(
-                    (r for r in sel if (r["order"], r["side"], r["path"]) == (order, side, path)),
-                    key=lambda r: r["lights"],
-                )
-                return (
-                    np.array([r["lights"] for r in pts], float),
-                    np.array([r[metric] for r in pts], float),
-                    pts,
-                )
-
-            lf, tf, pf = series("forward")
-            ff = linear_fit(lf, tf)
-            for path in PATHS[1:]:
-                ld, td, _ = series(path)
-                fd = linear_fit(ld, td)
-                ratio = td / tf
-                out.append(
-                    {
-                        "clock": clock,
-                        "order": order,
-                        "side": side,
-                        "pixels": side * side,
-                        "path": path,
-                        "overdraw": pf[0]["overdraw"],
-                        "forward_ms_per_light": ff["b"],
-                        "deferred_ms_per_light": fd["b"],
+    """Where deferred overtakes forward along L, per clock, draw order, viewport and deferred
+    path: from the linear fits ``T = a + b·L`` and from the measurements."""
+    t, out = pd.DataFrame(rows), []
+    t = t[t.sweep == "L"]
+    for clock, metric in CLOCKS.items():
+        for order, by_order in t.groupby("order", sort=False):
+            for side, sel in by_order.groupby("side", sort=False):
+                s = {p: sel[sel.path == p].sort_values("lights", kind="stable") for p in PATHS}
+                lf, tf = s["forward"].lights.to_numpy(float), s["forward"][metric].to_numpy(float)
+                ff = linear_fit(lf, tf)
+                for path in PATHS[1:]:
+                    td = s[path][metric].to_numpy(float)
+                    fd, ratio = linear_fit(s[path].lights, td), td / tf
+                    out.append({
+                        "clock": clock, "order": order, "side": side, "pixels": side * side,
+                        "path": path, "overdraw": s["forward"].overdraw.iloc[0],
+                        "forward_ms_per_light": ff["b"], "deferred_ms_per_light": fd["b"],
                         "per_light_ratio": ff["b"] / fd["b"] if fd["b"] > 0 else None,
-                        "forward_ms_at_0": ff["a"],
-                        "deferred_ms_at_0": fd["a"],
+                        "forward_ms_at_0": ff["a"], "deferred_ms_at_0": fd["a"],
                         "fit_residual_rel": max(ff["residual_rel"], fd["residual_rel"]),
                         "crossover_fit": _fit_crossover(ff, fd),
                         "crossover_measured": _measured_crossover(lf, ratio),
-                        "ratio_first": float(ratio[0]),
-                        "ratio_last": float(ratio[-1]),
-                        "l_first": int(lf[0]),
-                        "l_last": int(lf[-1]),
-                    }
-                )
+                        "ratio_first": float(ratio[0]), "ratio_last": float(ratio[-1]),
+                        "l_first": int(lf[0]), "l_last": int(lf[-1]),
+                    })  # fmt: skip
     return out
 
 
 def _fit_crossover(ff: dict[str, float], fd: dict[str, float]) -> float | None:
-    """The L from which on the fitted deferred line stays below the forward one: 0 when it is
-    below at every L >= 0, None when it does not stay below for large L (its per-light cost
-    is not lower)."""
+    """The L from which on the fitted deferred line stays below the forward one
+    (``(a_d − a_f) / (b_f − b_d)``): 0 when below at every L >= 0, None when deferred's
+    per-light cost is not lower."""
     if fd["b"] >= ff["b"]:
         return 0.0 if fd["b"] == ff["b"] and fd["a"] < ff["a"] else None
     return max(0.0, (fd["a"] - ff["a"]) / (ff["b"] - fd["b"]))
@@ -557,8 +375,7 @@ def _fit_crossover(ff: dict[str, float], fd: dict[str, float]) -> float | None:
 
 def _measured_crossover(lights: np.ndarray, ratio: np.ndarray) -> float | None:
     """The smallest L from which on deferred stays faster (ratio < 1), interpolated in
-    log L / log ratio between the two swept points around it; the first L when it is faster
-    everywhere, None when it is never faster at the largest L."""
+    log L / log ratio between the swept points around it; None when not faster at the end."""
     if ratio[-1] >= 1.0:
         return None
     k = len(ratio) - 1
@@ -573,7 +390,19 @@ def _measured_crossover(lights: np.ndarray, ratio: np.ndarray) -> float | None:
     return float(np.exp(x0 + (x1 - x0) * y0 / (y0 - y1)))
 
 
+# -- claims -----------------------------------------------------------------------------------
+
 UNIT_SCALE = {"L": 1.0, "VP": 1e6, "V": 1e6}  # ms per light, per megapixel, per M triangles
+
+
+def _rows(frames, name: str, **eq) -> list[dict[str, Any]]:
+    """The rows of frame ``name`` (of the claims' clock) whose columns equal ``eq``, as dicts
+    without the columns a row lacks (NaN)."""
+    df = frames[name]
+    for k, v in (({"clock": CLAIM_CLOCK} if "clock" in df else {}) | eq).items():
+        df = df[df[k] == v]
+    return [{k: v for k, v in r.items() if not (v is None or v != v)}
+            for r in df.to_dict("records")]  # fmt: skip
 
 
 def _fixed_label(f: dict[str, Any]) -> str:
@@ -583,111 +412,30 @@ def _fixed_label(f: dict[str, Any]) -> str:
     return " ".join(parts) or f["path"]
 
 
-# -- the frames -------------------------------------------------------------------------------
-
-
-def _image_frame(images: dict[str, Any] | None) -> pd.DataFrame:
-    """The reference frame forward and deferred and the g-buffer, one row per pixel,
-    subsampled to at most :data:`IMAGE_SIDE` pixels a side; the full-resolution differences
-    as columns."""
-    if not images:
-        return pd.DataFrame()
-    g = images["gbuffer"]
-    side = images["forward"].shape[0]
-    step = max(1, math.ceil(side / IMAGE_SIDE))
-    fwd = images["forward"][::step, ::step]
-    h, w = fwd.shape[:2]
-    y, x = np.mgrid[0:h, 0:w]
-    cols: dict[str, Any] = {"y": y.ravel(), "x": x.ravel()}
-    for name, img in (("forward", fwd), ("deferred", images["deferred"][::step, ::step]),
-                      ("diffuse", g["diffuse"][::step, ::step])):  # fmt: skip
-        for k, c in enumerate("rgb"):
-            cols[f"{name}_{c}"] = img[..., k].ravel()
-    n = g["normal"][::step, ::step]
-    cols["normal_0"], cols["normal_1"] = n[..., 0].ravel(), n[..., 1].ravel()
-    cols["depth"] = g["depth"][::step, ::step].ravel()
-    cols["material"] = g["material"][::step, ::step].ravel().astype(int)
-    df = pd.DataFrame(cols)
-    for k in ("max_abs_diff_loop", "max_abs_diff_passes", "max_abs_diff_uint8"):
-        df[k] = images[k]
-    df["side"] = side
-    return df
-
-
-def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
-    """``times``: one row per sweep point × path (wall ``ms_*`` and CPU ``cpu_*`` medians per
-    stage and in total, fragments, overdraw); ``fits``: log-log slopes per clock, sweep, path
-    and fixed setting; ``crossovers``: where deferred overtakes forward along L;
-    ``gbuffer``: one row per g-buffer texture at ``gbuffer_side``² (bytes computed and read
-    from GL); ``images``: the reference frame and its g-buffer, one row per pixel."""
-    rows, extra = measure(params, progress=progress)
-    g = extra["gbuffer"]
-    gb = pd.DataFrame(g["textures"])
-    for k in ("resolution", "mib_computed", "mib_read", "mb_computed", "lecture_mb"):
-        gb[k] = g[k]
-    return {
-        "times": pd.DataFrame(rows),
-        "fits": pd.DataFrame(fits(rows)),
-        "crossovers": pd.DataFrame(crossovers(rows)),
-        "gbuffer": gb,
-        "images": _image_frame(extra.get("images")),
-    }
-
-
-def _records(df: pd.DataFrame) -> list[dict[str, Any]]:
-    """A frame as row dicts, NaN (a column a row lacks) dropped."""
-    return [{k: v for k, v in r.items() if not (isinstance(v, float) and v != v)}
-            for r in df.to_dict("records")]  # fmt: skip
-
-
-# -- claims -----------------------------------------------------------------------------------
-
-
-def _frames(frames) -> tuple[list, list, list]:
-    """The times, the CPU fits and the CPU crossovers as row dicts."""
-    rows_t = _records(frames["times"])
-    fit_rows = [f for f in _records(frames["fits"]) if f["clock"] == CLAIM_CLOCK]
-    cross = [c for c in _records(frames["crossovers"]) if c["clock"] == CLAIM_CLOCK]
-    return rows_t, fit_rows, cross
-
-
-def _linear(sweep: str, path: str, unit: str, smallest_side: bool = False, **kw):
-    """Cases (one, or none when the sweep did not run) of "time is linear in ``sweep``":
-    per fixed setting the log-log fit (``fitted``) and the linear fit T = a + b·x (``lins``)."""
+def _linear_rows(item: str, document: str, sweep: str, path: str, unit: str,
+                 smallest_side: bool = False, **kw) -> Each:  # fmt: skip
+    """ "time grows at most linearly in x": the lecture's O-bound, judged on the log-log slope
+    over the upper half of the sweep (the asymptote the O-notation speaks of). One case when
+    the sweep ran: per fixed setting its log-log fit and its linear fit T = a + b·x."""
 
     def cases(frames, params: Params):
-        rows_t, fit_rows, _ = _frames(frames)
-        want = dict(kw)
-        if smallest_side:
-            vs = sorted({r["side"] for r in rows_t if r["sweep"] == sweep})
-            if not vs:
-                return
-            want["side"] = vs[0]
-        fitted = [f for f in fit_rows if (f["sweep"], f["path"]) == (sweep, path)
-                  and all(f.get(k) == v for k, v in want.items())]  # fmt: skip
+        rows_t = _rows(frames, "times", sweep=sweep, path=path)
+        want = {**kw, "side": min(r["side"] for r in rows_t)} if smallest_side and rows_t else kw
+        fitted = _rows(frames, "fits", sweep=sweep, path=path, **want)
         if not fitted:
             return
         key, metric, lins = SWEEP_X[sweep], CLOCKS[CLAIM_CLOCK], []
         for f in fitted:
-            pts = sorted((r for r in rows_t if (r["sweep"], r["path"]) == (sweep, path)
-                          and all(r[k] == f[k] for k in SWEEP_FIXED[sweep])),
+            pts = sorted((r for r in rows_t if all(r[k] == f[k] for k in SWEEP_FIXED[sweep])),
                          key=lambda r: r[key])  # fmt: skip
             lins.append(linear_fit([r[key] for r in pts], [r[metric] for r in pts]))
-        worst = max(fitted, key=lambda f: f["slope_upper"])
-        noise = worst.get("slope_upper_noise", np.nan)
+        noise = max(fitted, key=lambda f: f["slope_upper"]).get("slope_upper_noise")
         yield {"sweep": sweep, "lins": lins, "slopes": [f["slope_upper"] for f in fitted],
-               "noise": noise if noise == noise else None,
-               "ours": "; ".join(
+               "noise": noise, "ours": "; ".join(
             f"{_fixed_label(f)}: {x['b'] * UNIT_SCALE[sweep]:.3g} ms per {unit}, residual "
             f"{x['residual_rel']:.0%}, log-log slope {f['slope_upper']:.2f} from "
             f"{f['upper_from']:,.0f}" for f, x in zip(fitted, lins, strict=True))}  # fmt: skip
 
-    return cases
-
-
-def _linear_rows(item: str, document: str, cases) -> Each:
-    """ "time grows at most linearly in x": the lecture's O-bound, judged on the log-log slope
-    over the upper half of the sweep (the asymptote the O-notation speaks of)."""
     return Each(cases, (Row(
         item, document, "{ours}", TREND,
         (Rule(lambda q: min(x["b"] for x in q.lins), ">", 0, "ms per unit", name="grows", flips=(
@@ -703,18 +451,16 @@ def _linear_rows(item: str, document: str, cases) -> Each:
 
 def _per_light(frames, params: Params):
     """Back to front, deferred-loop: forward's ms per light over deferred's per viewport."""
-    cw = [c for c in _frames(frames)[2]
-          if c["order"] == ORDERS[0] and c["path"] == "deferred-loop"]  # fmt: skip
+    cw = _rows(frames, "crossovers", order=ORDERS[0], path="deferred-loop")
     if cw:
         yield {"cw": cw}
 
 
 def _overtakes(frames, params: Params):
     """Per deferred path and draw order: the crossovers along L per viewport."""
-    cross = _frames(frames)[2]
     for path in PATHS[1:]:
         for order in ORDERS:
-            cs = [c for c in cross if (c["path"], c["order"]) == (path, order)]
+            cs = _rows(frames, "crossovers", path=path, order=order)
             if cs:
                 yield {"path": path, "order": order, "cs": cs, "worst": order == ORDERS[0],
                        "doc": DOC_PASSES if path.endswith("passes") else DOC_DEFERRED,
@@ -722,19 +468,19 @@ def _overtakes(frames, params: Params):
                            f"{c['side']}²: T_d/T_f {c['ratio_first']:.2f} (L={c['l_first']}) → "
                            f"{c['ratio_last']:.2f} (L={c['l_last']}), crossover L ≈ "
                            + (f"{c['crossover_measured']:.1f}"
-                              if c.get("crossover_measured") is not None else "none")
+                              if "crossover_measured" in c else "none")
                            for c in cs)}  # fmt: skip
 
 
 def _product(frames, params: Params):
     """At the largest V: forward's CPU time at the smallest and largest viewport of the V
     sweep, and the line T = a + b·VP through the two."""
-    rows_t = _frames(frames)[0]
-    vs = sorted({r["side"] for r in rows_t if r["sweep"] == "V"})
+    rows_t = _rows(frames, "times", sweep="V")
+    vs = sorted({r["side"] for r in rows_t})
     if len(vs) < 2:
         return
-    big = max(r["triangles"] for r in rows_t if r["sweep"] == "V")
-    vrows = [r for r in rows_t if (r["sweep"], r["path"], r["triangles"]) == ("V", "forward", big)]
+    big = max(r["triangles"] for r in rows_t)
+    vrows = [r for r in rows_t if (r["path"], r["triangles"]) == ("forward", big)]
     cpu = CLOCKS[CLAIM_CLOCK]
     t0, t1 = (next(r[cpu] for r in vrows if r["side"] == s) for s in (vs[0], vs[-1]))
     b = (t1 - t0) / (vs[-1] ** 2 - vs[0] ** 2)
@@ -753,16 +499,15 @@ _DEFERRED = "path != 'forward' and order == 'back-to-front'"
 # fmt: off
 CLAIMS = (
     _linear_rows("forward time grows at most linearly in L (back to front: every fragment lit)",
-                 DOC_FORWARD,
-                 _linear("L", "forward", "light", order=ORDERS[0])),
+                 DOC_FORWARD, "L", "forward", "light", order=ORDERS[0]),
     Each(_per_light, (Row(
         "deferred lights pixels, forward fragments: forward's ms per light over deferred's",
         DOC_PASSES,
-        lambda q: ", ".join(f"{c['side']}²: {c.get('per_light_ratio', float('nan')):.2f}× "
+        lambda q: ", ".join(f"{c['side']}²: {c.get('per_light_ratio', math.nan):.2f}× "
                             f"(fragments per pixel {c['overdraw']:.2f})" for c in q.cw),
         TREND,
-        Rule(lambda q: min((c["per_light_ratio"] if c.get("per_light_ratio") is not None
-                            else float("nan")) - c["overdraw"] for c in q.cw), ">=", 0, "×",
+        Rule(lambda q: min(c.get("per_light_ratio", math.nan) - c["overdraw"] for c in q.cw),
+             ">=", 0, "×",
              flips=(alter("crossovers", "overdraw", 100.0), alter("crossovers", "overdraw", 0.01))),
         basis="per-light cost ratio forward / deferred >= fragments per pixel at every viewport "
         "(back to front)",
@@ -790,12 +535,12 @@ CLAIMS = (
             when=lambda q: q.worst,
         ),
     )),
-    _linear_rows("forward time grows at most linearly in VP", DOC_FORWARD,
-                 _linear("VP", "forward", "megapixel")),
-    _linear_rows("deferred-loop time grows at most linearly in VP", DOC_DEFERRED,
-                 _linear("VP", "deferred-loop", "megapixel")),
+    _linear_rows("forward time grows at most linearly in VP", DOC_FORWARD, "VP", "forward",
+                 "megapixel"),
+    _linear_rows("deferred-loop time grows at most linearly in VP", DOC_DEFERRED, "VP",
+                 "deferred-loop", "megapixel"),
     _linear_rows("time grows at most linearly in V (forward at the smallest VP)", DOC_CONSTANT_L,
-                 _linear("V", "forward", "million triangles", smallest_side=True)),
+                 "V", "forward", "million triangles", smallest_side=True),
     Each(_product, (Row(
         "O(V × VP): at the largest V, time grows with VP at most like the pixels",
         DOC_CONSTANT_L,
@@ -832,6 +577,7 @@ CLAIMS = (
 # -- plots ------------------------------------------------------------------------------------
 
 STYLE = {"forward": "-", "deferred-loop": "--", "deferred-passes": ":"}
+COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")
 CLOCK_LABEL = {"wall": "wall ms", "cpu": "CPU ms (all threads: the work)"}
 
 
@@ -852,8 +598,7 @@ def plot_lights(frames, params: Params):
     cross = cross[(cross.clock == CLAIM_CLOCK) & (cross.path == "deferred-loop")]
     orders = [o for o in ORDERS if o in set(sel.order)]
     sides = sorted(set(sel.side))
-    colours = {s: c for s, c in zip(sides, ("tab:blue", "tab:orange", "tab:green", "tab:red",
-                                            "tab:purple"), strict=False)}  # fmt: skip
+    colours = dict(zip(sides, COLOURS, strict=False))
     metric = CLOCKS[CLAIM_CLOCK]
     fig = Figure(figsize=(13, 4.3 * len(orders) + 0.8))
     axes = fig.subplots(len(orders), 2, squeeze=False)
@@ -874,15 +619,13 @@ def plot_lights(frames, params: Params):
                 axes[i, 1].axvline(float(c.iloc[0]), color=colours[side], lw=0.8, alpha=0.6)
         od = o.overdraw.iloc[0]
         axes[i, 0].set_title(f"{order} ({od:.2f} fragments per pixel): CPU time", fontsize=10)
-        axes[i, 0].set_ylabel("CPU ms per frame")
-        axes[i, 0].set_yscale("log")
+        axes[i, 0].set(ylabel="CPU ms per frame", yscale="log")
         axes[i, 1].set_title(f"{order}: deferred / forward (< 1: deferred faster)", fontsize=10)
         axes[i, 1].axhline(1.0, color="black", lw=1)
         axes[i, 1].set_ylabel("time ratio")
         for ax in axes[i]:
             ax.set_xscale("symlog", base=2, linthresh=1.0)
-            ax.set_xlim(0, 1.15 * sel.lights.max())
-            ax.set_xlabel("lights L")
+            ax.set(xlim=(0, 1.15 * sel.lights.max()), xlabel="lights L")
             ax.grid(alpha=0.3, which="both")
     handles = [Line2D([], [], color=colours[s], lw=2, label=f"viewport {s}²") for s in sides]
     handles += [Line2D([], [], color="black", ls=STYLE[p], label=p) for p in PATHS]
@@ -904,7 +647,6 @@ def _sweep_plot(frames, sweep: str, series_key: str | None, xlabel: str, title: 
     groups = sorted(set(sel[series_key])) if series_key else [None]
     fig = Figure(figsize=(14, 5.2))
     axes = fig.subplots(1, 2)
-    cmap = ("tab:blue", "tab:orange", "tab:green", "tab:red")
     for ax, (clock, metric) in zip(axes, CLOCKS.items(), strict=True):
         for k, g in enumerate(groups):
             for path in PATHS:
@@ -916,7 +658,7 @@ def _sweep_plot(frames, sweep: str, series_key: str | None, xlabel: str, title: 
                 lab = path + (f" {g}²" if g is not None else "")
                 if len(f):
                     lab += f": slope {f.slope.iloc[0]:.2f} (upper {f.slope_upper.iloc[0]:.2f})"
-                color = cmap[k if series_key else PATHS.index(path)]
+                color = COLOURS[k if series_key else PATHS.index(path)]
                 ax.plot(pts[key], pts[metric], STYLE[path], marker="o", ms=3, color=color,
                         label=lab)  # fmt: skip
         x = np.array(sorted(set(sel[key])), float)
@@ -935,26 +677,16 @@ def plot_viewport(frames, params: Params):
     at fixed V and L (back to front); forward solid, deferred loop dashed, deferred passes
     dotted; the legend gives each path's fitted slope over all points and over the upper half
     (the lecture's bound: slope 1, grey)."""
-    return _sweep_plot(
-        frames,
-        "VP",
-        None,
-        "viewport pixels VP",
-        f"Seed 003 — time vs VP (L = {params.fixed_lights}, back to front)",
-    )
+    title = f"Seed 003 — time vs VP (L = {params.fixed_lights}, back to front)"
+    return _sweep_plot(frames, "VP", None, "viewport pixels VP", title)
 
 
 def plot_triangles(frames, params: Params):
     """Wall (left) and CPU time (right) per frame against the triangles V drawn, log-log, at
     two viewports (colours) and fixed L (back to front); forward solid, deferred loop dashed,
     deferred passes dotted; fitted slopes in the legend (the lecture's bound: slope 1, grey)."""
-    return _sweep_plot(
-        frames,
-        "V",
-        "side",
-        "triangles V",
-        f"Seed 003 — time vs V (L = {params.fixed_lights}, back to front)",
-    )
+    title = f"Seed 003 — time vs V (L = {params.fixed_lights}, back to front)"
+    return _sweep_plot(frames, "V", "side", "triangles V", title)
 
 
 def plot_stages(frames, params: Params):

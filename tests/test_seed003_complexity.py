@@ -12,6 +12,7 @@ import pytest
 
 from experiments import harness
 from experiments import seed003_complexity as s3
+from soc.scenes import sphere_stack, sphere_stack_camera
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -88,11 +89,11 @@ def test_crossovers_of_synthetic_rows():
 
 @pytest.mark.parametrize("sub", [0, 1, 2])
 def test_sphere_stack_counts(sub):
-    scene = s3.sphere_stack(sub, grid=3, layers=2)
+    scene = sphere_stack(sub, grid=3, layers=2)
     assert len(scene) == 1 + 3 * 3 * 2
     assert scene.triangle_counts[0] == 12  # the wall
     assert (scene.triangle_counts[1:] == 20 * 4**sub).all()
-    cam = s3.camera(64)
+    cam = sphere_stack_camera(64)
     far = s3.draw_order(scene, cam, "back-to-front")
     near = s3.draw_order(scene, cam, "front-to-back")
     assert far[0] == 0 and near[-1] == 0  # the wall is the farthest object

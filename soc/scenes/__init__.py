@@ -4,7 +4,8 @@ and inside cameras), and the scene sources: the generated default town (``market
 (``castle``), mesh
 files through trimesh (``load``), indoor rooms joined by portals (``rooms``) and a small scene
 of culling's hard cases for tests (``clutter``), scenes that change over time
-(``dynamic_scene``: seed 004's growing scenes), and a city of a million objects (``city``:
+(``dynamic_scene``: seed 004's growing scenes), a stack of spheres of constant depth
+complexity (``sphere_stack``: seed 003's), and a city of a million objects (``city``:
 market streets between blocks of buildings, seed 000's object mix at scale)."""
 
 from soc.scenes.castle import castle
@@ -15,6 +16,7 @@ from soc.scenes.files import load
 from soc.scenes.market import market
 from soc.scenes.random_boxes import random_boxes
 from soc.scenes.rooms import rooms, rooms_walk
+from soc.scenes.sphere_stack import sphere_stack, sphere_stack_camera
 
 __all__ = [
     "DynamicScene",
@@ -27,4 +29,6 @@ __all__ = [
     "random_boxes",
     "rooms",
     "rooms_walk",
+    "sphere_stack",
+    "sphere_stack_camera",
 ]
