@@ -113,6 +113,26 @@ def write_json(path: str | os.PathLike, data: Any) -> Path:
     return atomic_write(path, lambda p: p.write_text(text + "\n"))
 
 
+# -- parameters ---------------------------------------------------------------------------------
+
+
+def require(params: Any, *, distinct: Sequence[str] = (), **at_least: float) -> None:
+    """:class:`UsageError` unless each named field of ``params`` is at least its bound (every
+    element of a sequence, both sides of a resolution; an empty sequence fails) and the
+    ``distinct`` fields repeat no value: ``require(p, distinct=["sizes"], frames=2, sizes=1)``.
+    """
+    for name, bound in at_least.items():
+        value = getattr(params, name)
+        values = list(value) if isinstance(value, Sequence) else [value]
+        if not values or min(values) < bound:
+            shown = list(value) if isinstance(value, Sequence) else value
+            raise UsageError(f"{name} must be at least {bound:g}, got {shown!r}")
+    for name in distinct:
+        values = list(getattr(params, name))
+        if len(set(values)) != len(values):
+            raise UsageError(f"{name} must not repeat a value, got {values}")
+
+
 # -- resolutions -------------------------------------------------------------------------------
 
 _RES = re.compile(r"^\s*(\d+)\s*[x×X]\s*(\d+)\s*$")

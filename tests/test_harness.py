@@ -173,3 +173,28 @@ def test_a_run_records_which_gl_measured_it(toy, tmp_path, monkeypatch):
     assert json.loads((tmp_path / "gl" / "toy" / "inputs.json").read_text())["gl"] == renderer
     lines, _ = experiment_lines(tmp_path / "gl", toy, gallery=False)
     assert f"Measured on {renderer}." in lines
+
+
+def test_require_names_the_field_its_bound_and_the_value():
+    from dataclasses import dataclass
+
+    from experiments.common import UsageError, require
+
+    @dataclass(frozen=True)
+    class P:
+        frames: int = 10
+        display: tuple[int, int] = (64, 48)
+        sizes: tuple[int, ...] = (1, 2, 4)
+
+    require(P(), distinct=["sizes"], frames=2, display=16, sizes=1)
+    for bad, needle in [
+        (P(frames=1), "frames must be at least 2, got 1"),
+        (P(display=(64, 8)), "display must be at least 16, got [64, 8]"),
+        (P(sizes=()), "sizes must be at least 1, got []"),
+        (P(sizes=(0, 1)), "sizes must be at least 1, got [0, 1]"),
+    ]:
+        with pytest.raises(UsageError) as e:
+            require(bad, frames=2, display=16, sizes=1)
+        assert str(e.value) == needle
+    with pytest.raises(UsageError, match=r"sizes must not repeat a value, got \[2, 2\]"):
+        require(P(sizes=(2, 2)), distinct=["sizes"])
