@@ -182,9 +182,8 @@ def _row(scene: str, name: str, state, ms_apply: float, fr, truth) -> dict:
 
 
 def sweep(dyn, params: Params, renderer, bar) -> tuple[pd.DataFrame, dict, list[dict]]:
-    """At the last frame, a forced mode-3 method (same-frame queries, its planner choosing q)
-    renders the last camera ``sweep_frames`` times, then q = 0, n_0 and q* are timed.
-    Returns the regression's points, its fit row and the T(0)/T(n_0)/T(q*) rows."""
+    """The regression's points, fit row and T(0)/T(n_0)/T(q*) rows: at the last frame, a
+    mode-3 method (its planner choosing q) renders ``sweep_frames`` times, then times each q."""
     import soc
     from soc.models.adaptive import MAX_FIT_RMS
     from soc.models.query_model import best_query_count, fit_query_model
@@ -218,9 +217,8 @@ def sweep(dyn, params: Params, renderer, bar) -> tuple[pd.DataFrame, dict, list[
             compare.append({"scene": dyn.name, "term": label, "q": int(q),
                             "model_ms": float(model.time(q)), "measured_ms": float(np.median(ms)),
                             "measured_min": min(ms), "measured_max": max(ms)})  # fmt: skip
-    points = pd.DataFrame({"scene": dyn.name, "q": stats.q, "commands": stats.commands,
-                           "submits": stats.submits, "elements": stats.elements,
-                           "ms": times})  # fmt: skip
+    points = pd.DataFrame({"scene": dyn.name, "q": stats.q,
+                           **{k: getattr(stats, k) for k in SERIES}, "ms": times})  # fmt: skip
     fit_row = {
         "scene": dyn.name,
         **{f"fit_{k}": float(getattr(fit, k)) for k in ("n_0", "s_1", "e_0", "p", "e_1")},
