@@ -1,42 +1,23 @@
 """Seed 004, Figs. 3-5: frame time of per-object frustum culling, occlusion queries on all
-octree nodes (results read a few frames late) and the adaptive method, side by side over the
-three dynamic scenes' animations; the fitted query-count regression (formulas 8-10) against
-its measured points, and T(0), T(n_0), T(q*).
+octree nodes and the adaptive method, which "последовательно применяет три описанных способа
+рендеринга" (applies the three modes in turn as objects are added), over the three growing
+dynamic scenes (:mod:`soc.scenes.dynamic`, objects ×1/4, triangles ×1/20 of the paper's).
 
-Seed 004 (``004_bba2ab22d18288ab.txt``, section 5, Figs. 3-5) flies through three dynamic
-scenes whose object count grows and plots the frame time of (1) frustum culling, (2) hardware
-occlusion queries on all leaves of the octree, results read with a delay of a few frames, and
-(3) the adaptive method, which "последовательно применяет три описанных способа рендеринга"
-(applies the three modes in turn as objects are added). We run, per frame of each scene
-(:mod:`soc.scenes.dynamic`, objects ×1/4, triangles ×1/20 of the paper's):
-
-- ``frustum`` — ``adaptive`` forced to mode 1: per-object frustum test, one command buffer
-  rebuilt every frame (no octree to maintain);
-- ``queries`` — forced to mode 3 with ``queries="all"``: octree node buffers, node frustum
-  culling, a query on every non-empty node in the frustum, read ``LATENCY`` frames later;
-- ``adaptive`` — the method itself (modes chosen by conditions (5) and (6), q from (11)).
-
-The three are **interleaved per frame** in an order drawn afresh each frame, so load from other
-processes hits them alike; each applies the frame's events (its own octree) and then culls and
-draws shaded at the display resolution; a frame's time is events + cull + draw + decisions,
-finished (``ctx.finish()``). Absolute ms are llvmpipe's: compare ratios. The exact oracle (id
-render of the alive objects) runs every ``oracle_every`` frames, outside the timings: false
-culls are popping (queries read late).
-
-The issue's benchmark is checked per scene: adaptive's mean frame time against the better of
-the other two's, and the worst window of ``WINDOW`` frames (adaptive's mean over the better
-one's mean in that window). The regression: at each scene's last frame, a forced mode-3 method
-with the query count chosen by its planner (exploring counts, then re-fitting (8)-(10)) renders
-the last camera repeatedly; its statistics and fit are plotted, and the frame times at q = 0,
-q = n_0 and q = q* are put beside the model's T(0), T(n_0), T(q*).
-
-Stages: per scene :func:`animate` and :func:`sweep`, then :func:`summarize`; :func:`compute`
-returns them as DataFrames.
+``frustum`` and ``queries`` are the ``adaptive`` method forced to mode 1, and to mode 3 with a
+query on every node in the frustum read ``LATENCY`` frames late. The three are interleaved per
+frame in a random order, so load hits them alike; a frame's time is events + cull + draw +
+decisions, finished (llvmpipe's ms: compare ratios). The oracle (id render of the alive
+objects) runs every ``oracle_every`` frames outside the timings: false culls are popping.
+Judged per scene: adaptive's mean against the better other method's, and its worst window of
+``WINDOW`` frames. At each scene's last frame a mode-3 method whose planner explores query
+counts gives the regression (8)-(10), and the frames timed at q = 0, n_0 and q* stand beside
+the model's T(0), T(n_0), T(q*).
 """
 
 from __future__ import annotations
 
 import time
+from contextlib import ExitStack
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,7 +26,7 @@ import pandas as pd
 from experiments import harness
 from experiments.claims import DIFFERS, MEASURED, TREND, Each, Row, Rule, alter, holds_text
 from experiments.common import UsageError, res_str
-from soc.gl.context import uses_gl
+from soc.culling.oracle import Oracle
 
 METHODS = ("frustum", "queries", "adaptive")
 COLORS = {"frustum": "tab:blue", "queries": "tab:orange", "adaptive": "tab:green"}
@@ -58,8 +39,6 @@ MODE_NAMES = {
 LATENCY = 2  # frames between issuing a node query and reading it ("a few frames late")
 WINDOW = 20  # frames of the benchmark's windows
 RATIO = 1.1  # adaptive may be at most this much slower than the better method per window
-ADAPTIVE_TOLERANCE = 1.02  # adaptive's mean within this factor of the better one is "as good
-# as the best": frame times wander by a few % between identical runs on llvmpipe
 SWEEP_REPEATS = 5  # frames timed at each of q = 0, n_0, q*
 SPIKE_QUANTILE = 0.95  # adaptive's frames above this quantile of its frame time are spikes
 MISS = 0.10  # a fitted curve "misses" a point off by more than this fraction of the points'
@@ -69,6 +48,11 @@ METHOD_OPTIONS = {
     "queries": {"mode": 3, "queries": "all", "latency": LATENCY},
     "adaptive": {"latency": LATENCY},
 }
+STAGES = ("buf", "fc", "draw", "queries", "collect", "prepass", "estimate", "decide", "fit")
+COUNTS = ("triangles", "calls", "recorded", "recorded_nodes", "queries", "queries_effective",
+          "hidden_nodes", "estimate")  # fmt: skip
+SERIES = {"commands": "c(q) commands (8)", "submits": "s(q) buffers (9)",
+          "elements": "e(q) elements (10)"}  # fmt: skip
 # The document's words (seed 004, section 5, below Figs. 3-5).
 DOC_QUERIES_12 = (
     "«метод “Frustum culling” работает эффективнее, чем “Occlusion queries” (см. рис. 3, 4)» "
@@ -93,42 +77,17 @@ DOC_SPIKES = (
     "с перезаписыванием командных буферов узлов иерархии при появлении новых объектов» (its "
     "spikes come mainly from re-recording the node buffers when new objects appear)"
 )
-FRAMES = (
-    "frames",
-    "summary",
-    "criterion",
-    "switches",
-    "regression",
-    "fits",
-    "q_compare",
-    "scenes",
-    "repeats",
-)
+FRAMES = ("frames", "summary", "criterion", "switches", "regression", "fits", "q_compare",
+          "scenes", "repeats")  # fmt: skip
 
 
 @dataclass(frozen=True)
 class Params:
-    """One run.
-
-    Attributes
-    ----------
-    frames : int
-        Animation frames per scene (at least :data:`WINDOW`).
-    resolution : (width, height)
-        Display pixels (the scenes were sized for 1280x720).
-    scale : float
-        Object scale of the scenes (1 = ¼ of the paper's objects).
-    oracle_every : int
-        Frames between oracle checks (0 = never).
-    scenes : tuple of str
-        Dynamic scenes (:data:`soc.scenes.dynamic.PRESETS`).
-    seed : int
-    sweep_frames : int
-        Frames of the query-count regression per scene.
-    repeats : int
-        Plays of each animation (at least 3): the first gives the frames, the oracle's checks
-        and the pictures; all give the run-to-run spread of the benchmark's ratios.
-    """
+    """One run: ``frames`` per scene (at least :data:`WINDOW`) at ``resolution`` (the scenes
+    were sized for 1280x720); object ``scale`` (1 = ¼ of the paper's objects); the oracle every
+    ``oracle_every`` frames (0 = never); ``sweep_frames`` of the regression per scene;
+    ``repeats`` plays of each animation (at least 3): the first gives the frames, the oracle's
+    checks and the pictures, all give the run-to-run spread of the benchmark's ratios."""
 
     frames: int = 200
     resolution: tuple[int, int] = (1280, 720)
@@ -158,138 +117,73 @@ class Params:
             raise UsageError(f"--sweep-frames must be at least 8, got {self.sweep_frames}")
 
 
-# -- the oracle of a pool scene ----------------------------------------------------------------
+class AliveOracle(Oracle):
+    """:class:`soc.Oracle` drawing only the ``alive`` objects of a pool scene (its dead objects
+    must hide nothing); the id buffer is that of drawing every alive object."""
 
+    alive = np.zeros(0, bool)
 
-@uses_gl
-class AliveOracle:
-    """Exact visibility of the *alive* objects of a pool scene: :class:`soc.Oracle`'s id render
-    (full meshes, depth test, no back-face culling) restricted to ``ids``.
-
-    ``soc.Oracle`` draws every object of its scene; a dynamic scene's pool holds dead objects
-    too, and building a static scene per frame would upload it again every frame.
-    """
-
-    def __init__(self, geometry, resolution: tuple[int, int]):
-        self.geometry = geometry
-        self.glctx = geometry.glctx
-        ctx = self.glctx.ctx
-        self.resolution = tuple(resolution)
-        self.program = self.glctx.program("mesh.vert", "object_id.frag")
-        self._color = ctx.renderbuffer(self.resolution, components=1, dtype="u4")
-        self._depth = ctx.depth_renderbuffer(self.resolution)
-        self.fbo = ctx.framebuffer(color_attachments=[self._color], depth_attachment=self._depth)
-
-    def release(self) -> None:
-        self.glctx.release_framebuffer(self.fbo, self._color, self._depth)
-
-    def visible(self, camera, ids: np.ndarray) -> np.ndarray:
-        """(N,) bool: objects among ``ids`` with a pixel from ``camera``."""
-        import moderngl
-
-        from soc.culling.oracle import NO_OBJECT
-
-        self.fbo.use()
-        self.fbo.depth_mask = True
-        self.glctx.raw.clear_uint_color(NO_OBJECT)
-        self.glctx.raw.clear_depth(1.0)
-        self.glctx.ctx.enable_only(moderngl.DEPTH_TEST)
-        self.glctx.ctx.depth_func = "<"
-        self.program["view_proj"].write(camera.gl_bytes(camera.view_proj))
-        self.geometry.draw_objects(self.program, ids)
-        seen = np.frombuffer(self.fbo.read(components=1, dtype="u4"), np.uint32)
-        seen = seen[seen != NO_OBJECT]
-        return np.bincount(seen, minlength=len(self.geometry.scene)) > 0
+    def drawn_ids(self, camera) -> np.ndarray:
+        ids = super().drawn_ids(camera)
+        return ids[self.alive[ids]]
 
 
 # -- 1. the animation, three methods interleaved -----------------------------------------------
 
-STAGES = ("buf", "fc", "draw", "queries", "collect", "prepass", "estimate", "decide", "fit")
-
 
 def animate(dyn, params: Params, renderer, bar, repeat: int = 0) -> list[dict]:
-    """Play ``dyn``'s animation once, the three methods interleaved per frame (module
-    docstring), fresh methods each time; the oracle only in repeat 0 and the order of the
-    methods drawn per frame from a seed of the repeat. Returns one row per frame and method."""
+    """Play ``dyn``'s animation once with fresh methods, interleaved per frame in an order
+    drawn from the repeat's seed (the oracle in repeat 0 only); one row per frame and method."""
     import soc
 
     cams = dyn.cameras(*params.resolution)
     empty = np.zeros(len(dyn.scene), bool)
-    cullers = {
-        m: soc.Culler(dyn.scene, method="adaptive", resolution=params.resolution, alive=empty,
-                      **opts)
-        for m, opts in METHOD_OPTIONS.items()
-    }  # fmt: skip
     checks = params.oracle_every if repeat == 0 else 0
-    oracle = AliveOracle(renderer.geometry, params.resolution) if checks else None
     rng = np.random.default_rng([params.seed, 4] + ([repeat] if repeat else []))
     rows: list[dict] = []
-    try:
+    with ExitStack() as stack:
+        methods = {
+            m: stack.enter_context(soc.Culler(dyn.scene, method="adaptive", alive=empty,
+                                              resolution=params.resolution, **opts)).method
+            for m, opts in METHOD_OPTIONS.items()
+        }  # fmt: skip
+        oracle = stack.enter_context(AliveOracle(dyn.scene)) if checks else None
         for state, cam in zip(dyn, cams, strict=True):
             done = {}
             for k in rng.permutation(len(METHODS)).tolist():
-                method = cullers[METHODS[k]].method
-                ms_apply = method.apply(state)
-                done[METHODS[k]] = (ms_apply, method.render(cam, renderer))
+                method = methods[METHODS[k]]
+                done[METHODS[k]] = (method.apply(state), method.render(cam, renderer))
             truth = None
-            if oracle is not None and state.frame % checks == 0:
-                truth = oracle.visible(cam, np.flatnonzero(state.alive))
-            for name in METHODS:
-                rows.append(_row(dyn.name, name, state, *done[name], truth))
+            if checks and state.frame % checks == 0:
+                oracle.alive = state.alive
+                truth = oracle.visible(cam, params.resolution)
+            rows += [_row(dyn.name, name, state, *done[name], truth) for name in METHODS]
             bar.update(1)
-    finally:
-        for c in cullers.values():
-            c.close()
-        if oracle is not None:
-            oracle.release()
     return rows
 
 
 def _row(scene: str, name: str, state, ms_apply: float, fr, truth) -> dict:
-    t = fr.timings_ms
-    row = {
-        "scene": scene,
-        "frame": state.frame,
-        "method": name,
-        "mode": fr.mode,
-        "next_mode": fr.next_mode,
-        "ms": ms_apply + fr.ms,
-        "ms_apply": ms_apply,
-        **{f"ms_{k}": t.get(k, 0.0) for k in STAGES},
-        "alive": int(state.alive.sum()),
-        "added": len(state.added),
-        "removed": len(state.removed),
-        "moved": len(state.moved_from),
-        "drawn": fr.commands,
-        "triangles": fr.triangles,
-        "calls": fr.calls,
-        "recorded": fr.recorded,
-        "recorded_nodes": fr.recorded_nodes,
-        "queries": fr.queries,
-        "queries_effective": fr.queries_effective,
-        "hidden_nodes": fr.hidden_nodes,
-        "estimate": fr.estimate,
+    d = fr.costs.as_dict() if fr.costs is not None else {}
+    return {
+        "scene": scene, "frame": state.frame, "method": name, "mode": fr.mode,
+        "next_mode": fr.next_mode, "ms": ms_apply + fr.ms, "ms_apply": ms_apply,
+        **{f"ms_{k}": fr.timings_ms.get(k, 0.0) for k in STAGES},
+        "alive": int(state.alive.sum()), "added": len(state.added),
+        "removed": len(state.removed), "moved": len(state.moved_from), "drawn": fr.commands,
+        **{k: getattr(fr, k) for k in COUNTS},
         "false_culls": np.nan if truth is None else int((truth & ~fr.visible).sum()),
         "oracle_visible": np.nan if truth is None else int(truth.sum()),
-        **{f"pred_T{m}": np.nan for m in (1, 2, 3)},
-        "condition5": np.nan,
-        "condition6": np.nan,
-    }
-    if fr.costs is not None:
-        row.update({f"pred_T{m}": fr.costs.time(m) for m in (1, 2, 3)})
-        d = fr.costs.as_dict()
-        row["condition5"] = int(d["condition5"])
-        row["condition6"] = int(d["condition6"])
-    return row
+        **{f"pred_T{m}": d.get(f"T{m}", np.nan) for m in (1, 2, 3)},
+        **{k: int(d[k]) if d else np.nan for k in ("condition5", "condition6")},
+    }  # fmt: skip
 
 
 # -- 2. the query-count regression -------------------------------------------------------------
 
 
-def sweep(dyn, params: Params, renderer, bar) -> tuple[list[dict], dict, list[dict]]:
-    """At the last frame: a forced mode-3 method (same-frame queries, the planner choosing q)
-    renders the last camera ``sweep_frames`` times; then q = 0, n_0 and q* are timed.
-    Returns the regression's points, its fit row and the T(0)/T(n_0)/T(q*) rows."""
+def sweep(dyn, params: Params, renderer, bar) -> tuple[pd.DataFrame, dict, list[dict]]:
+    """The regression's points, fit row and T(0)/T(n_0)/T(q*) rows: at the last frame, a
+    mode-3 method (its planner choosing q) renders ``sweep_frames`` times, then times each q."""
     import soc
     from soc.models.adaptive import MAX_FIT_RMS
     from soc.models.query_model import best_query_count, fit_query_model
@@ -298,11 +192,11 @@ def sweep(dyn, params: Params, renderer, bar) -> tuple[list[dict], dict, list[di
     cam = dyn.cameras(*params.resolution)[last]
     c = soc.Culler(dyn.scene, method="adaptive", resolution=params.resolution,
                    alive=dyn.alive(last), mode=3, temporal=False, queries="auto")  # fmt: skip
-    m = c.method
-    times: list[float] = []
-    try:
+    with c:
+        m = c.method
         m.render(cam, renderer)  # warm-up: the first frame records every node buffer
         m.planner.reset()
+        times = []
         for _ in range(params.sweep_frames):
             times.append(m.render(cam, renderer).ms)
             bar.update(1)
@@ -310,42 +204,30 @@ def sweep(dyn, params: Params, renderer, bar) -> tuple[list[dict], dict, list[di
         stats = m.planner.statistics(m.planner.per_command, m.planner.per_query)
         own = m.octree.own_counts
         c_n = float(own[own > 0].mean())
-        trusted = m.planner.fit is not None
         fit = m.planner.fit or fit_query_model(stats, c_n)  # untrusted fits are plotted too
         d, b = m.costs.draw_for(3).coef, m.costs.buf.coef
         model = fit.model(c_n, b["commands"], d["calls"], d["triangles"])
         n0 = len(m.octree.visible_nodes(cam))
         choice = best_query_count(model, n0)
-        q_star = choice.candidates.get("q*", (choice.q,))[0]
-        compare = []
-        for label, q in (("T(0)", 0), ("T(n0)", n0), ("T(q*)", q_star)):
+        trusted, compare = m.planner.fit is not None, []
+        for label, q in (("T(0)", 0), ("T(n0)", n0),
+                         ("T(q*)", choice.candidates.get("q*", (choice.q,))[0])):  # fmt: skip
             m.queries = int(q)
             ms = [m.render(cam, renderer).ms for _ in range(SWEEP_REPEATS)]
             compare.append({"scene": dyn.name, "term": label, "q": int(q),
                             "model_ms": float(model.time(q)), "measured_ms": float(np.median(ms)),
                             "measured_min": min(ms), "measured_max": max(ms)})  # fmt: skip
-        points = [
-            {"scene": dyn.name, "q": q, "commands": cc, "submits": ss, "elements": e, "ms": t}
-            for q, cc, ss, e, t in zip(
-                stats.q, stats.commands, stats.submits, stats.elements, times, strict=True
-            )
-        ]
-    finally:
-        c.close()
+    points = pd.DataFrame({"scene": dyn.name, "q": stats.q,
+                           **{k: getattr(stats, k) for k in SERIES}, "ms": times})  # fmt: skip
     fit_row = {
         "scene": dyn.name,
         **{f"fit_{k}": float(getattr(fit, k)) for k in ("n_0", "s_1", "e_0", "p", "e_1")},
         "fit_alpha_n": float(fit.alpha_n),
         **{f"rms_{k}": float(v) for k, v in fit.rms.items()},
-        "max_rms": MAX_FIT_RMS,
-        "converged": bool(fit.converged),
-        "trusted": trusted,
+        "max_rms": MAX_FIT_RMS, "converged": bool(fit.converged), "trusted": trusted,
         **{f"model_{k}": float(getattr(model, k)) for k in model.__dataclass_fields__},
-        "c_n": c_n,
-        "n0_nodes": n0,
-        "q_star": float(choice.q_star),
-        "q_best": int(choice.q),
-    }
+        "c_n": c_n, "n0_nodes": n0, "q_star": float(choice.q_star), "q_best": int(choice.q),
+    }  # fmt: skip
     return points, fit_row, compare
 
 
@@ -359,12 +241,9 @@ def window_means(x: np.ndarray, window: int) -> np.ndarray:
 
 
 def criterion(times: dict[str, np.ndarray], window: int = WINDOW, ratio: float = RATIO) -> dict:
-    """The issue's benchmark on one scene: ``times[m]`` (F,) ms per frame of each method.
-
-    ``mean_ok``: adaptive's mean <= the better mean of the other two. ``worst_window_ratio``:
-    the largest ratio, over every window of ``window`` frames, of adaptive's window mean to the
-    better of the other two's window means; ``windows_ok`` when it is <= ``ratio``.
-    """
+    """The issue's benchmark on one scene's ms per frame of each method: adaptive's mean at most
+    the better other mean (``mean_ok``), and the largest ratio over the windows of adaptive's
+    window mean to the better other window mean at most ``ratio`` (``windows_ok``)."""
     a = np.asarray(times["adaptive"], np.float64)
     others = [m for m in METHODS if m != "adaptive"]
     means = {m: float(np.mean(times[m])) for m in others}
@@ -373,17 +252,12 @@ def criterion(times: dict[str, np.ndarray], window: int = WINDOW, ratio: float =
     r = window_means(a, w) / np.minimum(*[window_means(times[m], w) for m in others])
     worst = int(np.argmax(r))
     return {
-        "adaptive_mean": float(np.mean(a)),
-        "best_other": best,
-        "best_other_mean": means[best],
-        "mean_ratio": float(np.mean(a)) / means[best],
-        "mean_ok": bool(np.mean(a) <= means[best]),
-        "worst_window_ratio": float(r[worst]),
-        "worst_window_start": worst,
-        "windows_over": int((r > ratio).sum()),
-        "windows": len(r),
+        "adaptive_mean": float(np.mean(a)), "best_other": best, "best_other_mean": means[best],
+        "mean_ratio": float(np.mean(a)) / means[best], "mean_ok": bool(np.mean(a) <= means[best]),
+        "worst_window_ratio": float(r[worst]), "worst_window_start": worst,
+        "windows_over": int((r > ratio).sum()), "windows": len(r),
         "windows_ok": bool(r[worst] <= ratio),
-    }
+    }  # fmt: skip
 
 
 def summarize(f: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
@@ -395,25 +269,14 @@ def summarize(f: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame
             f"mode{k}": f["mode"] == k for k in (1, 2, 3)}
     ).groupby(["scene", "method"], sort=False)  # fmt: skip
     summary = g.agg(
-        frames=("ms", "size"),
-        mean_ms=("ms", "mean"),
-        median_ms=("ms", "median"),
-        p95_ms=("ms", lambda x: float(np.percentile(x, 95))),
-        max_ms=("ms", "max"),
-        frames_mode1=("mode1", "sum"),
-        frames_mode2=("mode2", "sum"),
-        frames_mode3=("mode3", "sum"),
-        oracle_frames=("checked", "sum"),
-        false_culls=("false_culls", "sum"),
-        frames_popping=("popping", "sum"),
-        mean_drawn=("drawn", "mean"),
-    ).reset_index()
-    crit = pd.DataFrame(
-        [
-            {"scene": s, **criterion({m: sel[sel.method == m].ms.to_numpy() for m in METHODS})}
-            for s, sel in f.groupby("scene", sort=False)
-        ]
-    )
+        frames=("ms", "size"), mean_ms=("ms", "mean"), median_ms=("ms", "median"),
+        p95_ms=("ms", lambda x: float(np.percentile(x, 95))), max_ms=("ms", "max"),
+        **{f"frames_mode{k}": (f"mode{k}", "sum") for k in (1, 2, 3)},
+        oracle_frames=("checked", "sum"), false_culls=("false_culls", "sum"),
+        frames_popping=("popping", "sum"), mean_drawn=("drawn", "mean"),
+    ).reset_index()  # fmt: skip
+    crit = pd.DataFrame([{"scene": s, **criterion(_times(sel))}
+                         for s, sel in f.groupby("scene", sort=False)])  # fmt: skip
     ad = f[f.method == "adaptive"].sort_values(["scene", "frame"])
     prev = ad.groupby("scene")["mode"].shift()
     sw = ad[prev.notna() & (ad["mode"] != prev)]
@@ -423,8 +286,14 @@ def summarize(f: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame
     return summary, crit, switches
 
 
+def _times(f: pd.DataFrame) -> dict[str, np.ndarray]:
+    """Each method's ms per frame, in frame order."""
+    return {m: f[f.method == m].sort_values("frame").ms.to_numpy() for m in METHODS}
+
+
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
-    """Figs. 3-5, the criterion and the regression (module docstring); frames :data:`FRAMES`."""
+    """Per scene :func:`animate` (``repeats`` times) and :func:`sweep`, then :func:`summarize`;
+    frames :data:`FRAMES`."""
     from tqdm.auto import tqdm
 
     from soc.gl.context import default_context
@@ -450,34 +319,27 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
                 p, fit, cmp = sweep(dyn, params, renderer, bar)
             finally:
                 renderer.release()
-            points += p
+            points.append(p)
             fits.append(fit)
             compare += cmp
-            counts = dyn.counts()
+            obj, tri = (dyn.counts()[k] for k in ("objects", "triangles"))
             scenes.append({"scene": name, "pool_objects": len(dyn.scene),
-                           "objects_first": int(counts["objects"][0]),
-                           "objects_last": int(counts["objects"][-1]),
-                           "triangles_last": int(counts["triangles"][-1]),
-                           "generate_s": gen})  # fmt: skip
+                           "objects_first": int(obj[0]), "objects_last": int(obj[-1]),
+                           "triangles_last": int(tri[-1]), "generate_s": gen})  # fmt: skip
     f = pd.DataFrame(rows)
     summary, crit, switches = summarize(f)
     return {
-        "frames": f,
-        "summary": summary,
-        "criterion": crit,
-        "switches": switches,
-        "regression": pd.DataFrame(points),
-        "fits": pd.DataFrame(fits),
-        "q_compare": pd.DataFrame(compare),
-        "scenes": pd.DataFrame(scenes),
+        "frames": f, "summary": summary, "criterion": crit, "switches": switches,
+        "regression": pd.concat(points, ignore_index=True), "fits": pd.DataFrame(fits),
+        "q_compare": pd.DataFrame(compare), "scenes": pd.DataFrame(scenes),
         "repeats": pd.DataFrame(repeats),
-    }
+    }  # fmt: skip
 
 
 def repeat_row(f: pd.DataFrame, repeat: int) -> dict:
-    """One play of one scene's animation: each method's mean ms, the benchmark's criterion
-    and the adaptive method's modes, in the order visited."""
-    times = {m: f[f.method == m].sort_values("frame").ms.to_numpy() for m in METHODS}
+    """One play of one scene: each method's mean ms, the criterion and adaptive's modes in the
+    order visited."""
+    times = _times(f)
     modes = f[f.method == "adaptive"].sort_values("frame")["mode"]
     return {"scene": f.scene.iloc[0], "repeat": repeat,
             **{f"mean_ms_{m}": float(np.mean(t)) for m, t in times.items()}, **criterion(times),
@@ -490,28 +352,23 @@ def repeat_row(f: pd.DataFrame, repeat: int) -> dict:
 def _mode_spans(ax, frames: np.ndarray, modes: np.ndarray, labels: bool = True) -> None:
     """Shade the time axis by the adaptive method's mode and mark its switches (labelled at
     alternating heights, so that close switches stay readable)."""
-    start, k = 0, 0
-    for i in range(1, len(modes) + 1):
-        if i == len(modes) or modes[i] != modes[start]:
-            ax.axvspan(frames[start] - 0.5, frames[i - 1] + 0.5, color=MODE_COLORS[modes[start]],
-                       lw=0, zorder=0)  # fmt: skip
-            if i < len(modes):
-                ax.axvline(frames[i] - 0.5, color="k", lw=0.8, ls=":", zorder=1)
-                if labels:
-                    ax.text(frames[i], 0.74 - 0.07 * (k % 3), f"{modes[i - 1]}→{modes[i]}",
-                            fontsize=7, va="top", transform=ax.get_xaxis_transform(),
-                            bbox={"fc": "white", "ec": "none", "alpha": 0.7, "pad": 1})  # fmt: skip
-                k += 1
-            start = i
+    cuts = np.flatnonzero(np.diff(modes)) + 1
+    for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(modes)], strict=True):
+        ax.axvspan(frames[a] - 0.5, frames[b - 1] + 0.5, color=MODE_COLORS[modes[a]], lw=0,
+                   zorder=0)  # fmt: skip
+    for k, i in enumerate(cuts):
+        ax.axvline(frames[i] - 0.5, color="k", lw=0.8, ls=":", zorder=1)
+        if labels:
+            ax.text(frames[i], 0.74 - 0.07 * (k % 3), f"{modes[i - 1]}→{modes[i]}", fontsize=7,
+                    va="top", transform=ax.get_xaxis_transform(),
+                    bbox={"fc": "white", "ec": "none", "alpha": 0.7, "pad": 1})  # fmt: skip
 
 
 def plot_frametimes(frames: dict[str, pd.DataFrame], params: Params):
     """Figs. 3-5, one column per scene. Top: frame time (ms: events + cull + draw, finished)
-    of each method over the animation, the three interleaved frame by frame. The background
-    shows the adaptive method's mode (legend below: blue 1, yellow 2, green 3); a dotted line
-    labelled "1→3" marks a switch where there is one — a scene with one colour throughout
-    stayed in that mode. Bottom: adaptive's predicted frame time of each mode at its decision
-    frames (markers), beside its measured time (thin green)."""
+    of each method over the animation, the three interleaved frame by frame, on the adaptive
+    method's mode (background; a dotted line labelled "1→3" marks a switch). Bottom:
+    adaptive's predicted frame time of each mode at its decisions, beside its measured time."""
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch
 
@@ -532,11 +389,9 @@ def plot_frametimes(frames: dict[str, pd.DataFrame], params: Params):
                      label=f"{m}: median {s.median_ms:.1f}, p95 {s.p95_ms:.1f} ms")  # fmt: skip
         c = crit[crit.scene == scene].iloc[0]
         visited = "→".join(str(k) for k in dict.fromkeys(modes.tolist()))
-        top.set_title(
-            f"{scene}: adaptive's modes {visited}\nadaptive/best mean {c.mean_ratio:.2f}, "
-            f"worst {WINDOW}-frame window {c.worst_window_ratio:.2f}",
-            fontsize=9,
-        )
+        top.set_title(f"{scene}: adaptive's modes {visited}\nadaptive/best mean "
+                      f"{c.mean_ratio:.2f}, worst {WINDOW}-frame window "
+                      f"{c.worst_window_ratio:.2f}", fontsize=9)  # fmt: skip
         top.set_ylabel("frame time, ms (events + cull + draw)")
         top.legend(fontsize=7, loc="upper left")
         pred = ad[ad.pred_T1.notna()]
@@ -562,30 +417,27 @@ def _g(x: float) -> str:
 
 
 def _q_title(fit: pd.Series) -> str:
-    """What q* is for one scene's fit, in words, two lines (formula (11) gives q* = −1 when
-    the fit leaves s_1 = e_1 = 0: T(q) then only grows with q)."""
+    """What q* is for one scene's fit, in two lines (formula (11) gives q* = −1 when the fit
+    leaves s_1 = e_1 = 0: T(q) then only grows with q)."""
+    coefs = f"fitted s_1 = {_g(fit.fit_s_1)}, e_1 = {_g(fit.fit_e_1)}"
     if not fit.trusted:
         head = "q* not used: fit not trusted"
         why = f"converged {fit.converged}, e(q) rms {fit.rms_elements:.2f} (limit {fit.max_rms:g})"
     elif not np.isfinite(fit.q_star):
         head, why = "no q*", "T(q) has no interior minimum"
     elif fit.q_star <= 0:
-        head = f"q* = {fit.q_star:.1f}: no query pays"
-        why = f"fitted s_1 = {_g(fit.fit_s_1)}, e_1 = {_g(fit.fit_e_1)}: T(q) only grows"
+        head, why = f"q* = {fit.q_star:.1f}: no query pays", f"{coefs}: T(q) only grows"
     else:
-        head = f"q* = {fit.q_star:.1f}"
-        why = f"fitted s_1 = {_g(fit.fit_s_1)}, e_1 = {_g(fit.fit_e_1)}"
+        head, why = f"q* = {fit.q_star:.1f}", coefs
     return f"{fit.scene}: {head}, best q = {int(fit.q_best)} of {int(fit.n0_nodes)}\n({why})"
 
 
 def plot_regression(frames: dict[str, pd.DataFrame], params: Params):
     """The query-count regression at each scene's last frame (one row per scene): measured
     points (dots) of c(q) commands (8), s(q) command buffers (9) and e(q) elements (10)
-    against q, the fitted formulas (lines), and the frame time with T(q) of (7) shifted to
-    the points' median, plus the frames timed at q = 0, n_0 and q* (squares). A panel whose
-    fit misses at least half the query counts tried (by more than 10 % of the points' spread)
-    says so; the last panel's title says whether the
-    fit was trusted and what q* is (negative: T(q) only grows with q)."""
+    against q and the fitted formulas (lines); the frame time with T(q) of (7) shifted to the
+    points' median and the frames timed at q = 0, n_0 and q* (squares). A panel says when the
+    fit misses at least half the query counts tried; the last one's title what q* is."""
     from matplotlib.figure import Figure
 
     from soc.models.query_model import QueryModel
@@ -599,15 +451,8 @@ def plot_regression(frames: dict[str, pd.DataFrame], params: Params):
         model = QueryModel(**{k[6:]: fit[k] for k in fit.index if k.startswith("model_")})
         q = sel.q.to_numpy(np.float64)
         grid = np.linspace(0, max(q.max(), 1), 200)
-        for j, (key, fn, label) in enumerate(
-            (
-                ("commands", model.commands, "c(q) commands (8)"),
-                ("submits", model.submits, "s(q) buffers (9)"),
-                ("elements", model.elements, "e(q) elements (10)"),
-            )
-        ):
-            ax = axes[i, j]
-            y = sel[key].to_numpy(np.float64)
+        for ax, (key, label) in zip(axes[i], SERIES.items(), strict=False):
+            fn, y = getattr(model, key), sel[key].to_numpy(np.float64)
             ax.plot(q, y, "o", ms=3, label="measured")
             ax.plot(grid, fn(grid), "-", label="fitted")
             mean = sel.groupby("q")[key].mean()  # one point per query count tried
@@ -615,14 +460,11 @@ def plot_regression(frames: dict[str, pd.DataFrame], params: Params):
             miss = off > MISS * max(float(np.ptp(y)), 1.0)
             if miss.mean() >= 0.5:
                 ax.text(0.5, 0.5, f"the fit misses {miss.sum()} of the {len(miss)} query counts"
-                        f"\n(by > {MISS:.0%} of the points' spread)",
-                        transform=ax.transAxes,
+                        f"\n(by > {MISS:.0%} of the points' spread)", transform=ax.transAxes,
                         ha="center", va="center", fontsize=8, color="C3",
                         bbox={"fc": "white", "ec": "C3", "alpha": 0.85})  # fmt: skip
             ax.set_title(f"{fit.scene}: {label}", fontsize=9)
             ax.set_xlabel("q (node queries)")
-            ax.legend(fontsize=7)
-            ax.grid(alpha=0.3)
         ax = axes[i, 3]
         ax.plot(q, sel.ms, "o", ms=3, label="measured frame ms")
         base = np.median(sel.ms) - np.median(model.time(q))
@@ -631,8 +473,9 @@ def plot_regression(frames: dict[str, pd.DataFrame], params: Params):
             ax.plot([v.q], [v.measured_ms], "s", label=f"{v.term} measured, q={v.q}")
         ax.set_title(_q_title(fit), fontsize=8)
         ax.set_xlabel("q")
-        ax.legend(fontsize=6)
-        ax.grid(alpha=0.3)
+        for j, ax in enumerate(axes[i]):
+            ax.legend(fontsize=7 if j < 3 else 6)
+            ax.grid(alpha=0.3)
     fig.tight_layout()
     return fig
 
@@ -641,11 +484,10 @@ def plot_regression(frames: dict[str, pd.DataFrame], params: Params):
 
 
 def document_modes(ad: pd.DataFrame) -> tuple[list[int], dict[str, int | None]]:
-    """The modes the paper's rule would pass through on the adaptive method's own decisions:
-    mode 1 while (5) T_buf(S) + T_fc(S) < T_buf(H) + T_fc(H) holds, mode 2 while (6)
-    T(S) < T(S_vis) + T_vis(H) holds, then mode 3 (no way back is stated). Our ``condition5``
-    and ``condition6`` columns record the switch conditions, the negations of (5) and (6).
-    Returns the modes in order and the frames where (5), then (6), first failed."""
+    """The modes the paper's rule passes through on the adaptive method's own decisions, and
+    the frames where (5), then (6), first failed: mode 1 while (5) holds, mode 2 while (6)
+    holds, then 3 (no way back is stated). Our ``condition5``/``condition6`` columns are the
+    switch conditions, the negations of (5) and (6)."""
     dec = ad[ad.pred_T1.notna()].sort_values("frame")
     mode, modes, at = 1, [1], {"5": None, "6": None}
     for r in dec.itertuples():
@@ -658,21 +500,24 @@ def document_modes(ad: pd.DataFrame) -> tuple[list[int], dict[str, int | None]]:
     return modes, at
 
 
-def _disagreements(ad: pd.DataFrame) -> tuple[int, int]:
-    """Decisions at which the adaptive method's next mode is not the paper's rule's (mode 1
-    left iff (5) fails, mode 2 iff (6) fails, from the mode it was in), and all decisions."""
-    dec = ad[ad.pred_T1.notna()]
+def _paper_next(dec: pd.DataFrame) -> np.ndarray:
+    """The paper's next mode at each decision: mode 1 left iff (5) fails, 2 iff (6) fails."""
     mode = dec["mode"].to_numpy()
-    want = np.where(mode == 1, np.where(dec.condition5 == 1, 2, 1),
+    return np.where(mode == 1, np.where(dec.condition5 == 1, 2, 1),
                     np.where(mode == 2, np.where(dec.condition6 == 1, 3, 2), mode))  # fmt: skip
-    return int((dec.next_mode.to_numpy() != want).sum()), len(dec)
+
+
+def _disagreements(ad: pd.DataFrame) -> tuple[int, int]:
+    """Decisions whose next mode is not the paper's rule's, and all decisions."""
+    dec = ad[ad.pred_T1.notna()]
+    return int((dec.next_mode.to_numpy() != _paper_next(dec)).sum()), len(dec)
 
 
 def _scenes(frames: dict[str, pd.DataFrame], params: Params):
     """One case per scene: frustum's and the queries' summaries (``fr``, ``qu``), the
-    criterion row ``c``, the plays (``reps``: one row per repeat, empty for a run before
-    repeats), the adaptive method's frames (``ad``), the modes it and the paper's rule pass
-    through, and the spikes of its frames with node buffers (modes 2-3)."""
+    criterion row ``c``, the plays (``reps``, empty for a run before repeats), adaptive's
+    frames (``ad``), the modes it and the paper's rule pass through, and the spikes of its
+    frames with node buffers (modes 2-3)."""
     f, crit = frames["frames"], frames["criterion"]
     by = frames["summary"].set_index(["scene", "method"])
     plays = frames.get("repeats", pd.DataFrame(columns=["scene"]))
@@ -703,22 +548,20 @@ def _scenes(frames: dict[str, pd.DataFrame], params: Params):
             cut = node.ms.quantile(SPIKE_QUANTILE)
             spikes, rest = node[node.ms > cut], node[node.ms <= cut]
             stages = [k for k in node.columns if k.startswith("ms_") and k != "ms_apply"]
-            case.update(
-                spikes=spikes,
-                rest=rest,
-                excess=spikes.ms.median() - rest.ms.median(),
-                stages=(spikes[stages].median() - rest[stages].median()).sort_values(),
-            )
-            case["buf"] = case["stages"].get("ms_buf", 0.0)
+            diff = (spikes[stages].median() - rest[stages].median()).sort_values()
+            case.update(spikes=spikes, rest=rest, excess=spikes.ms.median() - rest.ms.median(),
+                        stages=diff, buf=diff.get("ms_buf", 0.0))  # fmt: skip
         yield case
+
+
+def _spiky(q) -> bool:
+    return len(q.node) >= 10
 
 
 def _in_order(visited: list[int]) -> int:
     """Modes visited in the paper's order 1, 2, 3 from the start, less the modes visited
     beyond that order (3 only for exactly 1→2→3)."""
-    k = 0
-    while k < min(3, len(visited)) and visited[k] == k + 1:
-        k += 1
+    k = next((i for i, m in enumerate(visited[:3]) if m != i + 1), min(3, len(visited)))
     return k - (len(visited) - k)
 
 
@@ -775,8 +618,7 @@ _SHAPES = {"ln(1+q)": np.log1p, "√q": np.sqrt, "q (no saturation)": lambda q: 
 def _shapes(frames: dict[str, pd.DataFrame], params: Params):
     """Per scene, the RMS misfit of e(q) = e_0 + p·q − e_1·g(q) for each shape g, by least
     squares over the regression's points (elements)."""
-    pts = frames["regression"]
-    for sc, g in pts.groupby("scene", sort=False):
+    for sc, g in frames["regression"].groupby("scene", sort=False):
         q, e = g.q.to_numpy(float), g.elements.to_numpy(float)
         rms = {}
         for name, fn in _SHAPES.items():
@@ -789,30 +631,20 @@ def _shapes(frames: dict[str, pd.DataFrame], params: Params):
         yield {"sc": sc, "rms": rms, "n": len(g), "qs": len(set(q)), "curved": bent}
 
 
-def _spiky(q) -> bool:
-    return len(q.node) >= 10
-
-
 _ADAPTIVE = "method == 'adaptive'"
 
 
 def _faster(frames):
     """Every play's adaptive method twice as fast as the better method, every window too."""
-    out = dict(frames)
-    for name in ("criterion", "repeats"):
-        if name in frames:
-            out[name] = frames[name].assign(mean_ratio=0.5, worst_window_ratio=0.5)
-    return out
+    return {**frames, **{n: frames[n].assign(mean_ratio=0.5, worst_window_ratio=0.5)
+                         for n in ("criterion", "repeats") if n in frames}}  # fmt: skip
 
 
 def _follow_paper(frames):
     """The adaptive method's decisions replaced by the paper's rule on their own terms."""
     f = frames["frames"].copy()
     dec = (f.method == "adaptive") & f.pred_T1.notna()
-    mode = f.loc[dec, "mode"].to_numpy()
-    c5, c6 = f.loc[dec, "condition5"].to_numpy(), f.loc[dec, "condition6"].to_numpy()
-    later = np.where(mode == 2, np.where(c6 == 1, 3, 2), mode)
-    f.loc[dec, "next_mode"] = np.where(mode == 1, np.where(c5 == 1, 2, 1), later)
+    f.loc[dec, "next_mode"] = _paper_next(f[dec])
     return {**frames, "frames": f}
 
 
@@ -977,13 +809,7 @@ EXPERIMENT = harness.experiment(
     compute=compute,
     plots=[plot_frametimes, plot_regression],
     claims=CLAIMS,
-    quick={
-        "frames": 40,
-        "resolution": (320, 180),
-        "scale": 0.12,
-        "oracle_every": 1,
-        "sweep_frames": 24,
-    },
+    quick=dict(frames=40, resolution=(320, 180), scale=0.12, oracle_every=1, sweep_frames=24),
     minutes=5.0,
     extras=("fit",),
     notebook="seed004_adaptive",
