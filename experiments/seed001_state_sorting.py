@@ -3,19 +3,17 @@ lecture, "Der Sorting-Buffer", "Competitive Analysis", "Round-Robin-Strategie").
 
 The lecture puts a buffer of k draws between application and GPU and compares lazy online
 strategies (LRU, Bounded-Waste, Random-Choice, Round-Robin) with the offline optimum by their
-colour changes. It gives no measurements, only LRU's lower-bound input (k = m², m even; the
-offline strategy needs «2m Farbwechsel») and its conclusion: «Round-Robin ist sehr gut (obwohl
-sehr einfach)», «Worst-Case sagt sehr wenig über prakt. Perf.».
+colour changes. It gives LRU's lower-bound input (k = m², the offline strategy needs «2m
+Farbwechsel») and concludes «Round-Robin ist sehr gut (obwohl sehr einfach)», «Worst-Case sagt
+sehr wenig über prakt. Perf.».
 
 We count colour changes per buffer size k for every strategy (:mod:`soc.rendering.state_sorting`)
-on synthetic streams (``uniform``: 8 materials; ``zipf``: 64, ∝ 1/rank^1.2; ``bursty``: a
-working set of 6 of 48 sliding by one every 100 draws; ``adversarial``: LRU's worst case built
-for each k) and on the real draw stream: per frame of the seed-000 flight over the market, the
-objects culling keeps (``hiz-gpu``), each with its mesh family as material, the buffer flushed
-at the end of every frame. The optimum is out of reach, so ratios are taken to the fewest
-changes of any strategy at that k (an upper bound on the optimum: our ratios are lower bounds).
-How far the offline heuristic is from the optimum is measured exactly on small random streams,
-and LRU's lower-bound construction is checked exactly.
+on synthetic streams (uniform, Zipf, a sliding working set, LRU's worst case for each k) and on
+the market's draw stream (per frame of the seed-000 flight, the objects culling keeps, each with
+its mesh family as material, the buffer flushed every frame). Ratios are taken to the fewest
+changes any strategy found at that k (an upper bound on the optimum, so they are lower bounds);
+the offline heuristic is checked against the exact optimum on small streams, LRU's
+construction exactly.
 """
 
 from __future__ import annotations
@@ -107,7 +105,8 @@ class Params:
 
 
 def synthetic_streams(n: int, seed: int = 0) -> dict[str, np.ndarray]:
-    """``{name: (n,) int64 colours}`` for ``uniform``, ``zipf`` and ``bursty``."""
+    """``uniform`` (8 materials), ``zipf`` (64, ∝ 1/rank^1.2) and ``bursty`` (a working set of 6
+    of 48 materials sliding by one every 100 draws: coherent draw orders), (n,) int64 each."""
     rng = np.random.default_rng(seed)
     uniform = rng.integers(0, 8, n)
     p = 1.0 / np.arange(1, 65) ** 1.2
@@ -166,10 +165,8 @@ def _changes(stream: np.ndarray, k: int, strategy: str, seed: int) -> int:
 
 
 def sweep_cell(stream: str, frames: Sequence[np.ndarray], k: int, seed: int) -> pd.DataFrame:
-    """Every strategy on one stream (frames, each through its own buffer) at one buffer size.
-
-    Every strategy's output is one a buffer of k allows: the best of them (the reference)
-    bounds the optimum from above."""
+    """Every strategy on one stream (frames, each through its own buffer) at one buffer size;
+    every output is one a buffer of k allows, so the best (the reference) bounds the optimum."""
     cost = np.array([sum(_changes(f, k, s, seed) for f in frames) for s in STRATEGIES])
     reference = cost.min()
     return pd.DataFrame({

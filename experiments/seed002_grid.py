@@ -1,19 +1,18 @@
 """Seed 002 (trend): occlusion queries on uniform-grid cells (``grid``) against frustum
-culling alone, on an outdoor and an indoor camera segment (``vislod seed002``, ``grid``).
+culling alone, indoors and out (``vislod seed002``, ``grid``).
 
-Seed 002 (a thesis on hardware occlusion queries with grid traversal, pp. 35-40) shows frame
-rate and rendered nodes per frame with occlusion culling off and with query caps 4000, 3000
-and 2000, on three grid sizes, indoors and outdoors, and claims: caps 4000 and 3000 look
-alike, 3000 pops more, 2000 pops unacceptably; without occlusion culling the frame rate
-fluctuates and dips when many nodes are drawn; a sparser grid is better outdoors, a tighter
-one indoors, the one in between is the most even; culling sometimes makes a frame slower.
+The thesis (hardware occlusion queries with grid traversal, pp. 35-40) shows frame rate and
+rendered nodes per frame with occlusion culling off and with query caps 4000, 3000 and 2000 on
+three grid sizes, and claims: caps 4000 and 3000 look alike, 3000 pops more, 2000 pops
+unacceptably; without occlusion culling the frame rate fluctuates and dips when many nodes are
+drawn; a sparser grid is better outdoors, a tighter one indoors, the one in between is the most
+even; culling sometimes makes a frame slower.
 
-We measure per frame the frame time (cull + draw at the display resolution, ms), the objects
-drawn and popping (objects the oracle sees that the temporal ``grid`` method, reading its
-query results one frame late, did not draw). OUTDOOR is the middle half of the seed-000 market
-flight, INDOOR a walk through ``soc.scenes.rooms``. The document's caps never bind on our
-scenes (at most about 1,200 non-empty cells per frame), so caps of 1x, 0.75x and 0.5x the
-segment's mean uncapped queries per frame (4000 : 3000 : 2000) run too, on the middle grid size.
+We measure per frame the frame time (cull + draw, ms), the objects drawn and popping (seen by
+the oracle, not drawn: ``grid`` reads its query results one frame late) on the middle half of
+the seed-000 market flight (outdoor) and a walk through ``soc.scenes.rooms`` (indoor). The
+document's caps never bind here (at most about 1,200 non-empty cells per frame), so caps of 1x,
+0.75x and 0.5x the mean uncapped queries per frame also run, on the middle grid size.
 """
 
 from __future__ import annotations
@@ -26,17 +25,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from experiments import harness
+from experiments import common, harness
 from experiments.claims import TREND, By, Each, Row, Rule, alter, holds_text
-from experiments.common import (
-    DISPLAY,
-    QUICK_FRAMES,
-    QUICK_OCCLUDEES,
-    QUICK_SCALE,
-    UsageError,
-    res_str,
-    scaled,
-)
+from experiments.common import DISPLAY, UsageError
 
 FRAMES = ("frames", "summary")
 GRID_SIZES = (16, 32, 64)  # cells along the scene's longest axis: sparse, medium, tight
@@ -99,7 +90,7 @@ def segments(params: Params) -> list[Segment]:
 
     w, h = params.display
     n = params.frames
-    kw = {"occludees": QUICK_OCCLUDEES} if params.quick else {}
+    kw = {"occludees": common.QUICK_OCCLUDEES} if params.quick else {}
     market = soc.scenes.market(seed=params.seed, **kw)
     flight = soc.scenes.paths.flight(market, frames=2 * n, width=w, height=h)
     rooms = soc.scenes.rooms(params.seed, rooms=(6, 4))
@@ -129,10 +120,9 @@ class Run:
 def fly(
     segment: Segment, runs: Sequence[Run], resolution: tuple[int, int], bar, truths=None
 ) -> tuple[list[np.ndarray], dict[Run, list]]:
-    """Every run over the segment's cameras, culled and drawn, frames interleaved (the run
-    order rotating per frame, so load from other processes lands on all runs alike). Returns
-    the oracle's visible sets per frame (``truths``, computed when None) and per run the
-    stats of its frames."""
+    """Every run over the cameras, frames interleaved (the order rotating per frame, so load from
+    other processes lands on all runs alike): the oracle's visible sets per frame (``truths``,
+    computed when None) and per run the stats of its frames."""
     import soc
 
     stats: dict[Run, list] = {r: [] for r in runs}
@@ -159,11 +149,9 @@ def fly(
 
 
 def run_segment(segment: Segment, params: Params, *, bar) -> list[dict[str, Any]]:
-    """Both passes over one segment (frustum culling and the grid sizes uncapped, then the caps
-    on the middle size: the document's and those scaled to its mean queries): per-frame rows.
-
-    A grid run's frame is ``slower_than_frustum`` when its cull + draw exceeded frustum
-    culling's; its cap binds when the uncapped run had more queries (candidate cells)."""
+    """Per-frame rows of frustum culling and the grid sizes uncapped, then of the caps on the
+    middle size (the document's, those scaled to its mean queries). A cap binds on a frame
+    where the uncapped run had more queries (candidate cells)."""
     first = [Run("frustum")] + [Run("grid", s) for s in params.grid_sizes]
     truths, stats = fly(segment, first, params.display, bar)
     uncapped = {r.grid_size: [s.queries for s in stats[r]] for r in first[1:]}
@@ -194,9 +182,8 @@ def run_segment(segment: Segment, params: Params, *, bar) -> list[dict[str, Any]
 
 
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
-    """``frames``: one row per segment × run × frame; ``summary``: one row per segment × run
-    (frame-time statistics, means of the counts and cull ms, frames slower than frustum
-    culling alone, frames where the cap binds)."""
+    """``frames``: one row per segment × run × frame; ``summary``: per segment × run, frame-time
+    statistics, means of the counts, frames slower than frustum only and where the cap binds."""
     from tqdm.auto import tqdm
 
     segs = segments(params)
@@ -238,9 +225,8 @@ def _segments(df: pd.DataFrame) -> list[str]:
 
 def _panels(frames, params: Params, key: str, ylabel: str, title: str, *, frustum=True,
             oracle=False, mark_slower=False):  # fmt: skip
-    """Rows = segments; left: grid sizes without a cap; right: the middle grid size without a
-    cap and under the caps scaled to its mean queries (the document's caps never bind, so
-    they would lie on "no cap")."""
+    """Rows: segments; left: grid sizes without a cap; right: the middle size under the scaled
+    caps (the document's caps never bind: they would lie on "no cap")."""
     from matplotlib.figure import Figure
 
     df = frames["frames"]
@@ -288,7 +274,7 @@ def plot_frametime(frames, params: Params):
     per frame (4000 : 3000 : 2000; the document's caps never bind here and are not drawn).
     × marks a frame that culling made slower than frustum culling alone."""
     return _panels(frames, params, "ms_total", "frame ms (cull + draw)",
-                   f"Seed 002 — frame time per frame at {res_str(params.display)} "
+                   f"Seed 002 — frame time per frame at {common.res_str(params.display)} "
                    "(× = slower than frustum only)", mark_slower=True)  # fmt: skip
 
 
@@ -313,9 +299,8 @@ def plot_popping(frames, params: Params):
 
 
 def _segment_cases(frames, params: Params, need: int = 1, only: Sequence[str] = SEGMENTS):
-    """One case per segment present (with at least ``need`` grid sizes): its runs by grid size
-    (``g``, ``by`` for listings), frustum culling's run ``f``, the scaled caps' runs ``c1``,
-    ``c75``, ``c50``, and the frustum-only frames ``fr``."""
+    """One case per segment (with at least ``need`` grid sizes): its runs by grid size (``g``,
+    ``by``), frustum culling's ``f``, the scaled caps' ``c1``, ``c75``, ``c50``, and more."""
     sm, df = frames["summary"], frames["frames"]
     sizes = sorted(params.grid_sizes)
     for seg in _segments(df):
@@ -332,13 +317,13 @@ def _segment_cases(frames, params: Params, need: int = 1, only: Sequence[str] = 
         same = mid[mid.cap_rule.isin(["none", "document"]) & (mid.cap_binds_frames == 0)]
         spread = {c: float(same[c].std()) if len(same) >= 3 else None
                   for c in ("ms_mean", "ms_std", "popping_mean")}  # fmt: skip
+        fastest = min(g, key=lambda z: g[z].ms_mean)
         yield {
             "seg": seg, "sizes": sizes, "g": g, "gs": list(g.values()), "mid": params.cap_size,
             "by": By(g), "grid": By(g, "grid {}: "), "f": s[s.method == "frustum"].iloc[0],
             "c1": caps[0], "c75": caps[1], "c50": caps[2], "fr": fr, "n": len(fr),
             "r": float(np.corrcoef(fr.drawn, fr.ms_total)[0, 1]) if ok else float("nan"),
-            "fastest": min(g, key=lambda z: g[z].ms_mean),
-            "evenest": min(g, key=lambda z: g[z].ms_std),
+            "fastest": fastest, "best": g[fastest], "evenest": min(g, key=lambda z: g[z].ms_std),
             "doc_binds": int(s[s.cap_rule == "document"].cap_binds_frames.sum()),
             "runs": len(same), "sd_mean": spread["ms_mean"], "sd_std": spread["ms_std"],
             "sd_pop": spread["popping_mean"], "rows": df[df.segment == seg],
@@ -348,12 +333,10 @@ def _segment_cases(frames, params: Params, need: int = 1, only: Sequence[str] = 
 def _even_why(q) -> str:
     """What orders the frame-time stds: the cull's or the draw's std, measured per size."""
     parts = {}  # per grid size without a cap: std of cull ms, of draw ms, their correlation
-    for z in q.sizes:
-        r = q.rows[
-            (q.rows.method == "grid") & (q.rows.grid_size == z) & (q.rows.cap_rule == "none")
-        ]
+    uncapped = q.rows[(q.rows.method == "grid") & (q.rows.cap_rule == "none")]
+    for z, r in uncapped.groupby("grid_size"):
         rho = float(np.corrcoef(r.ms_cull, r.ms_draw)[0, 1]) if len(r) > 2 else float("nan")
-        parts[z] = (float(r.ms_cull.std(ddof=0)), float(r.ms_draw.std(ddof=0)), rho)
+        parts[int(z)] = (float(r.ms_cull.std(ddof=0)), float(r.ms_draw.std(ddof=0)), rho)
     order = sorted(q.sizes, key=lambda z: q.g[z].ms_std)
     follows = [name for name, i in (("the draw's", 1), ("the cull's", 0))
                if sorted(q.sizes, key=lambda z: parts[z][i]) == order]  # fmt: skip
@@ -409,8 +392,7 @@ def _fastest_row(seg: str, word: str, want: Callable[[Any], int]) -> Each:
         + holds_text(q.holds),
         why="cull ms {by.ms_cull_mean:.1f}; queries/frame {by.queries_mean:.0f}; drawn "
         "{by.drawn_mean:.0f}; draw ms {by.ms_draw_mean:.1f}: grid {fastest} has the least cull + "
-        "draw; a tighter grid's extra queries cost more than the drawing they save, a sparser "
-        "grid's cells hide less",
+        "draw",
     ),))
 
 
@@ -437,15 +419,15 @@ CLAIMS = (
             "paper is effective for both indoor and outdoor environments.",
             "mean frame ms frustum only {f.ms_mean:.1f}; grid {by.ms_mean:.1f}",
             TREND,
-            Rule(lambda q: q.f.ms_mean - q.g[q.fastest].ms_mean, ">", 0, "ms",
+            Rule(lambda q: q.f.ms_mean - q.best.ms_mean, ">", 0, "ms",
                  noise=lambda q: q.sd_mean, flips=(
                      alter("summary", "ms_mean", 0.1, "method == 'grid'"),
                      alter("summary", "ms_mean", 10.0, "method == 'grid'"))),
             basis=f"the best grid size's mean frame time is below frustum culling's ({_NOISE})",
-            why=lambda q: f"grid {q.fastest} spends {q.g[q.fastest].ms_cull_mean:.1f} ms per "
-            f"frame on culling (frustum {q.f.ms_cull_mean:.1f}) to save "
-            f"{q.f.ms_draw_mean - q.g[q.fastest].ms_draw_mean:.1f} ms of drawing "
-            f"({q.f.drawn_mean:.0f} → {q.g[q.fastest].drawn_mean:.0f} objects drawn)",
+            why=lambda q: f"grid {q.fastest} spends {q.best.ms_cull_mean:.1f} ms per frame on "
+            f"culling (frustum {q.f.ms_cull_mean:.1f}) to save "
+            f"{q.f.ms_draw_mean - q.best.ms_draw_mean:.1f} ms of drawing "
+            f"({q.f.drawn_mean:.0f} → {q.best.drawn_mean:.0f} objects drawn)",
         ),
         Row(
             "frame time fluctuates more without occlusion culling ({seg})",
@@ -458,12 +440,10 @@ CLAIMS = (
                      alter("summary", "ms_std", 0.1, "method == 'frustum'"),
                      alter("summary", "ms_std", 10.0, "method == 'frustum'"))),
             basis=f"frustum culling's frame-time std exceeds every grid size's ({_NOISE})",
-            why=lambda q: f"objects drawn ± std: frustum only {q.f.drawn_mean:.0f} ± "
-            f"{q.f.drawn_std:.0f}, grid "
-            + ", ".join(f"{int(g.grid_size)}: {g.drawn_mean:.0f} ± {g.drawn_std:.0f}" for g in q.gs)
-            + "; the grid's queries add cull time that varies with the cells in view (std "
-            + ", ".join(f"{g.ms_cull_std:.1f}" for g in q.gs)
-            + " ms), more than the objects it removes take off the variation",
+            why="objects drawn: frustum only {f.drawn_mean:.0f} ± {f.drawn_std:.0f}, grid "
+            "{by.drawn_mean:.0f} (std {by.drawn_std:.0f}); the grid's queries add cull time that "
+            "varies with the cells in view (std {by.ms_cull_std:.1f} ms), more than the objects "
+            "it removes take off the variation",
         ),
         Row(
             "without occlusion culling frame time rises with objects drawn ({seg})",
@@ -534,12 +514,10 @@ CLAIMS = (
                      alter("summary", "slower_frames", to=1, where="method == 'grid'"))),
             basis="some grid size is slower than frustum only in some frames but not in most "
             "(the document's «some portions»: under half)",
-            why=lambda q: "mean cull ms (queries) grid "
-            + ", ".join(f"{int(g.grid_size)}: {g.ms_cull_mean:.1f}" for g in q.gs)
-            + f" vs frustum {q.f.ms_cull_mean:.1f}; mean draw ms grid "
-            + ", ".join(f"{int(g.grid_size)}: {g.ms_draw_mean:.1f}" for g in q.gs)
-            + f" vs frustum {q.f.ms_draw_mean:.1f}: on llvmpipe the queries cost more than the "
-            "drawing they save in most frames",
+            why="mean cull ms (queries) grid {by.ms_cull_mean:.1f} vs frustum "
+            "{f.ms_cull_mean:.1f}; mean draw ms grid {by.ms_draw_mean:.1f} vs frustum "
+            "{f.ms_draw_mean:.1f}: on llvmpipe the queries cost more than the drawing they save "
+            "in most frames",
         ),
     )),
 )
@@ -554,7 +532,7 @@ EXPERIMENT = harness.experiment(
     compute=compute,
     plots=[plot_frametime, plot_drawn, plot_popping],
     claims=CLAIMS,
-    quick={"frames": QUICK_FRAMES, "display": scaled(DISPLAY, QUICK_SCALE)},
+    quick={"frames": common.QUICK_FRAMES, "display": common.scaled(DISPLAY, common.QUICK_SCALE)},
     minutes=8.0,
     aliases=("grid",),
     notebook="seed002_grid",
