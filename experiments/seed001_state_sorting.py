@@ -202,15 +202,12 @@ def exact_check(params: Params) -> pd.DataFrame:
         opt = optimal_changes(stream, k)
         for s, v in ratios.items():
             v.append(simulate(stream, k, s, seed=i).changes / opt)
-    return pd.DataFrame(
-        {
-            "strategy": list(ratios),
-            "streams": params.exact_streams,
-            "ratio_mean": [float(np.mean(v)) for v in ratios.values()],
-            "ratio_max": [float(np.max(v)) for v in ratios.values()],
-            "optimal_fraction": [float(np.mean(np.isclose(v, 1.0))) for v in ratios.values()],
-        }
-    )
+    return pd.DataFrame({
+        "strategy": list(ratios), "streams": params.exact_streams,
+        "ratio_mean": [float(np.mean(v)) for v in ratios.values()],
+        "ratio_max": [float(np.max(v)) for v in ratios.values()],
+        "optimal_fraction": [float(np.mean(np.isclose(v, 1.0))) for v in ratios.values()],
+    })  # fmt: skip
 
 
 def worst_case(params: Params) -> pd.DataFrame:
@@ -244,9 +241,8 @@ def timing(params: Params) -> pd.DataFrame:
         changes = simulate(stream, TIMING_K, s, seed=params.seed).changes
         sec = time.perf_counter() - t0
         rows.append((s, len(stream), TIMING_K, sec, 1e6 * sec / len(stream), changes))
-    return pd.DataFrame(
-        rows, columns=["strategy", "draws", "k", "seconds", "us_per_draw", "changes"]
-    )
+    columns = ["strategy", "draws", "k", "seconds", "us_per_draw", "changes"]
+    return pd.DataFrame(rows, columns=columns)
 
 
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
