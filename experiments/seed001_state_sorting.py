@@ -1,36 +1,19 @@
 """Seed 001: state sorting with a sorting buffer and its competitive analysis (Zachmann's VR
 lecture, "Der Sorting-Buffer", "Competitive Analysis", "Round-Robin-Strategie").
 
-The lecture puts a buffer of k draws between application and GPU («Schalte Buffer zwischen
-App. und Graphikkarte») and compares lazy online strategies (LRU, Bounded-Waste,
-Random-Choice, Round-Robin) with the offline optimum by their number of colour changes. It
-gives no measurements, only LRU's lower-bound input (k = m², m even; the offline strategy
-needs «2m Farbwechsel») and its conclusion: «Round-Robin ist sehr gut (obwohl sehr einfach)»,
-«Worst-Case sagt sehr wenig über prakt. Perf.».
+The lecture puts a buffer of k draws between application and GPU and compares lazy online
+strategies (LRU, Bounded-Waste, Random-Choice, Round-Robin) with the offline optimum by their
+colour changes. It gives LRU's lower-bound input (k = m², the offline strategy needs «2m
+Farbwechsel») and concludes «Round-Robin ist sehr gut (obwohl sehr einfach)», «Worst-Case sagt
+sehr wenig über prakt. Perf.».
 
-We count colour changes per buffer size k for every strategy
-(:mod:`soc.rendering.state_sorting`) and the empirical competitive ratio online / reference on
-
-- synthetic streams: ``uniform`` (8 materials, i.i.d.), ``zipf`` (64 materials, popularity
-  ∝ 1/rank^1.2), ``bursty`` (a working set of 6 of 48 materials that slides by one every 100
-  draws: spatially coherent draw orders), ``adversarial`` (LRU's worst case built for each k:
-  :func:`soc.rendering.state_sorting.lru_adversary`, m the largest even number with m² <= k);
-- the real draw stream: per frame of the seed-000 flight over the generated market, the
-  objects that culling keeps (``hiz-gpu`` by default) in the renderer's order, each drawn with
-  its material (the mesh family: ``stall_012/apple_031`` → ``apple``). A frame must be
-  complete before it is shown, so the buffer is flushed at the end of every frame.
-
-The optimum is out of reach on these streams, so ratios are taken to a *reference*: the fewest
-changes of any strategy at that k (in practice ``"offline"``: the best of two lookahead rules
-and, on streams of at most ``BEAM_MAX_COLOURS`` materials, a beam search). Every output
-counted is one a buffer of k allows, so the reference bounds the optimum from above and our
-ratios are lower bounds on the true ones. How far the offline heuristic is from the exact
-optimum is measured on small random streams (exact dynamic program), and LRU's lower-bound
-construction is checked exactly.
-
-Stages: :func:`draw_stream` → :func:`sweep` (every stream × k × strategy) →
-:func:`exact_check`, :func:`worst_case`, :func:`timing` → :func:`compute` returns them as
-DataFrames → :func:`plot_changes`, :func:`plot_ratio` → :func:`claims`.
+We count colour changes per buffer size k for every strategy (:mod:`soc.rendering.state_sorting`)
+on synthetic streams (uniform, Zipf, a sliding working set, LRU's worst case for each k) and on
+the market's draw stream (per frame of the seed-000 flight, the objects culling keeps, each with
+its mesh family as material, the buffer flushed every frame). Ratios are taken to the fewest
+changes any strategy found at that k (an upper bound on the optimum, so they are lower bounds);
+the offline heuristic is checked against the exact optimum on small streams, LRU's
+construction exactly.
 """
 
 from __future__ import annotations
@@ -48,6 +31,7 @@ from experiments import harness
 from experiments.claims import MEASURED, TREND, Each, Row, Rule, alter
 from experiments.common import DISPLAY, QUICK_SCALE, UsageError, res_str, scaled
 from soc.rendering.state_sorting import (
+    OFFLINE,
     ONLINE,
     colour_changes,
     lru_adversary,
@@ -57,15 +41,12 @@ from soc.rendering.state_sorting import (
 )
 
 FRAMES = ("sweep", "worst_case", "exact", "timing", "stream")
-K_FULL = tuple(range(1, 65))
-K_REAL_FULL = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)  # the flight is ~0.5 M draws
 K_QUICK = (1, 2, 4, 8, 16, 32, 64)
 BEAM_MAX_COLOURS = 12  # the beam search beats the rules only on streams with few colours
 EXACT_N, EXACT_COLOURS, EXACT_KS = 40, 4, (1, 2, 3, 4, 5, 6)  # small streams solved exactly
 WORST_DP_MAX_M = 6  # exact optimum by dynamic programming up to this m (~5 s at m = 6)
 TIMING_K = 16  # buffer size of the speed check
 STRATEGIES = ("fifo", *ONLINE, "offline")
-DOC_BUFFER = "«Schalte Buffer zwischen App. und Graphikkarte»"
 DOC_LRU = "«Kosten der Offline-Strategie: Ausgabe → 2m Farbwechsel» (k = m², «oBdA m gerade»)"
 DOC_RR = "«Round-Robin ist sehr gut (obwohl sehr einfach)»"
 DOC_WORST = "«Worst-Case sagt sehr wenig über prakt. Perf.»"
@@ -74,37 +55,15 @@ DOC_RANDOM = "«Problem: Generierung guter Zufallszahlen dauert rel. lange»"
 
 @dataclass(frozen=True)
 class Params:
-    """One state-sorting run.
-
-    Attributes
-    ----------
-    frames : int
-        Cameras on the seed-000 flight that produce the real draw stream.
-    display : (width, height)
-        Camera and depth-buffer resolution of the culling, pixels.
-    method : str
-        Culling method whose kept objects are drawn (``soc.method_names()``).
-    ks : tuple of int
-        Buffer sizes of the synthetic sweep, elements.
-    real_ks : tuple of int
-        Buffer sizes on the real draw stream.
-    synthetic_n : int
-        Draws per synthetic stream.
-    exact_streams : int
-        Small random streams solved exactly.
-    worst_ms : tuple of int
-        m of LRU's lower-bound construction (k = m²).
-    timing_n : int
-        Draws of the speed check.
-    seed : int
-        Scene, synthetic streams and Random-Choice.
-    """
+    """One state-sorting run: the flight (frames, display) and culling method of the real draw
+    stream; buffer sizes of the synthetic sweep (ks) and of the market (real_ks); the sizes of
+    the synthetic streams, the exact check, LRU's construction (k = m²) and the speed check."""
 
     frames: int = 100
     display: tuple[int, int] = DISPLAY
     method: str = "hiz-gpu"
-    ks: tuple[int, ...] = K_FULL
-    real_ks: tuple[int, ...] = K_REAL_FULL
+    ks: tuple[int, ...] = tuple(range(1, 65))
+    real_ks: tuple[int, ...] = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)  # ~0.5 M draws
     synthetic_n: int = 20_000
     exact_streams: int = 60
     worst_ms: tuple[int, ...] = (2, 4, 6, 8, 10)
@@ -146,19 +105,16 @@ class Params:
 
 
 def synthetic_streams(n: int, seed: int = 0) -> dict[str, np.ndarray]:
-    """``{name: (n,) int64 colours}`` for ``uniform``, ``zipf`` and ``bursty`` (module
-    docstring); the adversarial stream depends on k (:func:`adversarial_stream`)."""
+    """``uniform`` (8 materials), ``zipf`` (64, ∝ 1/rank^1.2) and ``bursty`` (a working set of 6
+    of 48 materials sliding by one every 100 draws: coherent draw orders), (n,) int64 each."""
     rng = np.random.default_rng(seed)
     uniform = rng.integers(0, 8, n)
     p = 1.0 / np.arange(1, 65) ** 1.2
     zipf = rng.choice(64, size=n, p=p / p.sum())
     window = (np.arange(n) // 100)[:, None] + np.arange(6)  # the sliding working set
     bursty = window[np.arange(n), rng.integers(0, 6, n)] % 48
-    return {
-        "uniform": uniform.astype(np.int64),
-        "zipf": zipf.astype(np.int64),
-        "bursty": bursty.astype(np.int64),
-    }
+    streams = {"uniform": uniform, "zipf": zipf, "bursty": bursty}
+    return {name: s.astype(np.int64) for name, s in streams.items()}
 
 
 def adversarial_stream(k: int) -> np.ndarray:
@@ -181,172 +137,112 @@ def material_ids(names: Sequence[str]) -> tuple[np.ndarray, list[str]]:
 
 def draw_stream(params: Params) -> tuple[list[np.ndarray], dict[str, Any]]:
     """Per frame of the seed-000 flight over the market: the materials of the objects
-    ``params.method`` keeps, in drawing order (object index). Returns the frames and facts
-    about the stream."""
+    ``params.method`` keeps, in drawing order (object index); and facts about the stream."""
     import soc
 
     scene = soc.scenes.market(seed=params.seed)
     mats, names = material_ids(scene.names)
     w, h = params.display
     cams = soc.scenes.paths.flight(scene, frames=params.frames, width=w, height=h)
-    frames = []
     with soc.Culler(scene, method=params.method, resolution=params.display) as culler:
-        for cam in cams:
-            frames.append(mats[np.flatnonzero(culler.cull(cam).visible)])
+        frames = [mats[np.flatnonzero(culler.cull(cam).visible)] for cam in cams]
     sizes = [len(f) for f in frames]
     info = {
-        "scene": repr(scene),
-        "objects": len(scene),
-        "materials": len(names),
-        "method": params.method,
-        "display": res_str(params.display),
-        "frames": params.frames,
-        "draws": int(sum(sizes)),
-        "draws_per_frame_mean": float(np.mean(sizes)),
+        "scene": repr(scene), "objects": len(scene), "materials": len(names),
+        "method": params.method, "display": res_str(params.display), "frames": params.frames,
+        "draws": int(sum(sizes)), "draws_per_frame_mean": float(np.mean(sizes)),
         "materials_per_frame_mean": float(np.mean([len(np.unique(f)) for f in frames])),
-    }
+    }  # fmt: skip
     return frames, info
 
 
-# -- the sweep ------------------------------------------------------------------------------
+# -- the measurements ------------------------------------------------------------------------
 
 
-def _changes(frames: Sequence[np.ndarray], k: int, strategy: str, seed: int) -> int:
-    """Changes summed over streams (frames), each through its own buffer."""
-    total = 0
-    for f in frames:
-        beam = 16 if len(np.unique(f)) <= BEAM_MAX_COLOURS else 0
-        total += simulate(f, k, strategy, seed=seed, beam_width=beam).changes
-    return total
+def _changes(stream: np.ndarray, k: int, strategy: str, seed: int) -> int:
+    beam = 16 if len(np.unique(stream)) <= BEAM_MAX_COLOURS else 0
+    return simulate(stream, k, strategy, seed=seed, beam_width=beam).changes
 
 
-def sweep_cell(stream: str, frames: Sequence[np.ndarray], k: int, seed: int) -> list[dict]:
-    """Every strategy on one stream (a list of frames) at one buffer size: one row each."""
-    draws = int(sum(len(f) for f in frames))
-    sorted_bound = int(sum(len(np.unique(f)) for f in frames))  # each material once per frame
-    cost = {s: _changes(frames, k, s, seed) for s in STRATEGIES}
-    # Every strategy's output is one a buffer of k allows: the best of them bounds the optimum.
-    reference = min(cost.values())
-    return [
-        {
-            "stream": stream,
-            "k": k,
-            "strategy": s,
-            "changes": cost[s],
-            "reference": reference,
-            "ratio": cost[s] / reference if reference else 1.0,
-            "offline": cost["offline"],
-            "fifo": cost["fifo"],
-            "sorted_bound": sorted_bound,
-            "draws": draws,
-        }
-        for s in STRATEGIES
-    ]
+def sweep_cell(stream: str, frames: Sequence[np.ndarray], k: int, seed: int) -> pd.DataFrame:
+    """Every strategy on one stream (frames, each through its own buffer) at one buffer size;
+    every output is one a buffer of k allows, so the best (the reference) bounds the optimum."""
+    cost = np.array([sum(_changes(f, k, s, seed) for f in frames) for s in STRATEGIES])
+    reference = cost.min()
+    return pd.DataFrame({
+        "stream": stream, "k": k, "strategy": STRATEGIES, "changes": cost,
+        "reference": reference, "ratio": cost / reference if reference else 1.0,
+        "offline": cost[-1], "fifo": cost[0],
+        "sorted_bound": sum(len(np.unique(f)) for f in frames),  # each material once
+        "draws": sum(len(f) for f in frames),
+    })  # fmt: skip
 
 
-def sweep(params: Params, real: Sequence[np.ndarray], *, bar=None) -> list[dict[str, Any]]:
-    """Rows (stream, k, strategy) over the synthetic streams, the adversarial one and the
-    real draw stream."""
+def sweep(params: Params, real: Sequence[np.ndarray], bar) -> pd.DataFrame:
+    """One :func:`sweep_cell` per synthetic stream, adversarial stream and market × k."""
     synth = synthetic_streams(params.synthetic_n, params.seed)
-    rows: list[dict[str, Any]] = []
-    for name, stream in synth.items():
-        for k in params.ks:
-            rows += sweep_cell(name, [stream], k, params.seed)
-            if bar is not None:
-                bar.update()
-    for k in params.ks:
-        rows += sweep_cell("adversarial", [adversarial_stream(k)], k, params.seed)
-        if bar is not None:
-            bar.update()
-    for k in params.real_ks:
-        rows += sweep_cell("market", real, k, params.seed)
-        if bar is not None:
-            bar.update()
-    return rows
+    cells = [(name, [s], k) for name, s in synth.items() for k in params.ks]
+    cells += [("adversarial", [adversarial_stream(k)], k) for k in params.ks]
+    cells += [("market", real, k) for k in params.real_ks]
+    out = []
+    for name, frames, k in cells:
+        out.append(sweep_cell(name, frames, k, params.seed))
+        bar.update()
+    return pd.concat(out, ignore_index=True)
 
 
-# -- exact checks and speed -------------------------------------------------------------------
-
-
-def exact_check(params: Params) -> list[dict[str, Any]]:
-    """Ratio to the exact optimum (dynamic program) per strategy on small random streams
-    (40 draws of 4 colours, k = 1 … 6), the offline heuristic included."""
+def exact_check(params: Params) -> pd.DataFrame:
+    """Ratio to the exact optimum (dynamic program) per strategy, the offline heuristic's
+    rules included, on small random streams."""
     rng = np.random.default_rng(params.seed + 1)
-    names = (*STRATEGIES, "offline-largest", "offline-furthest", "offline-beam")
-    ratios: dict[str, list[float]] = {s: [] for s in names}
+    ratios: dict[str, list[float]] = {s: [] for s in (*STRATEGIES, *OFFLINE)}
     for i in range(params.exact_streams):
         k = EXACT_KS[i % len(EXACT_KS)]
         stream = rng.integers(0, EXACT_COLOURS, EXACT_N)
         opt = optimal_changes(stream, k)
-        for s in names:
-            ratios[s].append(simulate(stream, k, s, seed=i).changes / opt)
-    return [
-        {
-            "strategy": s,
-            "streams": len(v),
-            "ratio_mean": float(np.mean(v)),
-            "ratio_max": float(np.max(v)),
-            "optimal_fraction": float(np.mean(np.isclose(v, 1.0))),
-        }
-        for s, v in ratios.items()
-    ]
+        for s, v in ratios.items():
+            v.append(simulate(stream, k, s, seed=i).changes / opt)
+    return pd.DataFrame({
+        "strategy": list(ratios), "streams": params.exact_streams,
+        "ratio_mean": [float(np.mean(v)) for v in ratios.values()],
+        "ratio_max": [float(np.max(v)) for v in ratios.values()],
+        "optimal_fraction": [float(np.mean(np.isclose(v, 1.0))) for v in ratios.values()],
+    })  # fmt: skip
 
 
-def worst_case(params: Params) -> list[dict[str, Any]]:
-    """LRU on its lower-bound input for each m: simulated changes against the construction's
-    m(m+1), the optimum (dynamic program up to ``WORST_DP_MAX_M``, else the offline
-    heuristic) against 2m, and the ratio against (sqrt(k) + 1) / 2."""
+def worst_case(params: Params) -> pd.DataFrame:
+    """LRU on its lower-bound input per m against the construction's m(m+1); the optimum
+    (dynamic program up to ``WORST_DP_MAX_M``, else the offline heuristic) against 2m."""
     rows = []
     for m in params.worst_ms:
         wc = lru_worst_case(m)
-        lru = simulate(wc.colours, wc.k, "lru").changes
-        exact = m <= WORST_DP_MAX_M
-        opt = optimal_changes(wc.colours, wc.k, max_states=2_000_000) if exact else None
-        off = simulate(wc.colours, wc.k, "offline").changes
-        best = opt if opt is not None else off
-        rows.append(
-            {
-                "m": m,
-                "k": wc.k,
-                "draws": len(wc.colours),
-                "lru_changes": lru,
-                "lru_expected": wc.online_changes,
-                "fifo_changes": colour_changes(wc.colours),
-                "bounded_waste_changes": simulate(wc.colours, wc.k, "bounded-waste").changes,
-                "round_robin_changes": simulate(wc.colours, wc.k, "round-robin").changes,
-                "optimal_changes": opt,
-                "offline_changes": off,
-                "optimal_expected": wc.optimal_changes,
-                "ratio": lru / best,
-                "ratio_expected": wc.ratio,
-                "sqrt_k": float(np.sqrt(wc.k)),
-            }
-        )
-    return rows
+        c, k = wc.colours, wc.k
+        lru = simulate(c, k, "lru").changes
+        opt = optimal_changes(c, k, max_states=2_000_000) if m <= WORST_DP_MAX_M else None
+        off = simulate(c, k, "offline").changes
+        rows.append({
+            "m": m, "k": k, "draws": len(c), "lru_changes": lru, "lru_expected": wc.online_changes,
+            "fifo_changes": colour_changes(c),
+            "bounded_waste_changes": simulate(c, k, "bounded-waste").changes,
+            "round_robin_changes": simulate(c, k, "round-robin").changes,
+            "optimal_changes": opt, "offline_changes": off, "optimal_expected": wc.optimal_changes,
+            "ratio": lru / (opt if opt is not None else off), "ratio_expected": wc.ratio,
+            "sqrt_k": float(np.sqrt(k)),
+        })  # fmt: skip
+    return pd.DataFrame(rows)
 
 
-def timing(params: Params) -> list[dict[str, Any]]:
+def timing(params: Params) -> pd.DataFrame:
     """Seconds per strategy for ``timing_n`` Zipf draws (64 materials) at k = 16."""
     stream = synthetic_streams(params.timing_n, params.seed)["zipf"]
     rows = []
-    for s in (*STRATEGIES[:-1], "offline-largest", "offline-furthest"):
+    for s in (*STRATEGIES[:-1], *OFFLINE[:2]):
         t0 = time.perf_counter()
         changes = simulate(stream, TIMING_K, s, seed=params.seed).changes
         sec = time.perf_counter() - t0
-        rows.append(
-            {
-                "strategy": s,
-                "draws": len(stream),
-                "k": TIMING_K,
-                "seconds": sec,
-                "us_per_draw": 1e6 * sec / len(stream),
-                "changes": changes,
-            }
-        )
-    return rows
-
-
-# -- the experiment -------------------------------------------------------------------------------
+        rows.append((s, len(stream), TIMING_K, sec, 1e6 * sec / len(stream), changes))
+    columns = ["strategy", "draws", "k", "seconds", "us_per_draw", "changes"]
+    return pd.DataFrame(rows, columns=columns)
 
 
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
@@ -358,24 +254,22 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     with tqdm(total=cells + 1, unit="cell", desc="seed 001 sorting", disable=not progress) as bar:
         real, info = draw_stream(params)
         bar.update()
-        rows = sweep(params, real, bar=bar)
+        sw = sweep(params, real, bar)
     return {
-        "sweep": pd.DataFrame(rows),
-        "worst_case": pd.DataFrame(worst_case(params)),
-        "exact": pd.DataFrame(exact_check(params)),
-        "timing": pd.DataFrame(timing(params)),
+        "sweep": sw,
+        "worst_case": worst_case(params),
+        "exact": exact_check(params),
+        "timing": timing(params),
         "stream": pd.DataFrame([info]),
     }
 
 
-STYLES = {
-    "fifo": dict(color="black", ls=":"),
-    "lru": dict(color="tab:red"),
-    "bounded-waste": dict(color="tab:blue"),
-    "random-choice": dict(color="tab:orange"),
-    "round-robin": dict(color="tab:green"),
-    "offline": dict(color="grey", ls="--", lw=2),
-}
+# -- plots -----------------------------------------------------------------------------------
+
+STYLES = {"fifo": dict(color="black", ls=":"), "lru": dict(color="tab:red"),
+          "bounded-waste": dict(color="tab:blue"), "random-choice": dict(color="tab:orange"),
+          "round-robin": dict(color="tab:green"),
+          "offline": dict(color="grey", ls="--", lw=2)}  # fmt: skip
 
 
 def _panels(frames: dict[str, pd.DataFrame], key: str, ylabel: str):
@@ -388,10 +282,9 @@ def _panels(frames: dict[str, pd.DataFrame], key: str, ylabel: str):
     for ax, st in zip(axes, streams, strict=True):
         one = sw[sw.stream == st].sort_values("k")
         for s in STRATEGIES:
-            if key == "ratio" and s in ("fifo", "offline"):
-                continue
-            r = one[one.strategy == s]
-            ax.plot(r.k, r[key], label=s, **STYLES[s])
+            if key == "changes" or s not in ("fifo", "offline"):
+                r = one[one.strategy == s]
+                ax.plot(r.k, r[key], label=s, **STYLES[s])
         if key == "ratio" and st == "adversarial":
             ks = np.array(sorted(set(one.k)))
             ks = ks[ks >= 4]  # the construction needs k >= m² = 4
@@ -432,9 +325,7 @@ def plot_ratio(frames: dict[str, pd.DataFrame], params: Params):
     return _panels(frames, "ratio", "changes / reference")
 
 
-def _mean_ratio(sw: pd.DataFrame) -> pd.DataFrame:
-    """Mean ratio over k per stream (rows) and strategy (columns)."""
-    return sw.pivot_table(index="stream", columns="strategy", values="ratio", aggfunc="mean")
+# -- claims ----------------------------------------------------------------------------------
 
 
 def _streams(frames: dict[str, pd.DataFrame], params: Params):
@@ -442,13 +333,13 @@ def _streams(frames: dict[str, pd.DataFrame], params: Params):
     largest k, the offline heuristic and the speeds."""
     sw, worst, exact, speed = (frames[n] for n in ("sweep", "worst_case", "exact", "timing"))
     practical = [s for s in dict.fromkeys(sw.stream) if s != "adversarial"]
-    mean = _mean_ratio(sw).loc[practical, list(ONLINE)].mean()
+    mean = sw.pivot_table(index="stream", columns="strategy", values="ratio", aggfunc="mean")
+    mean = mean.loc[practical, list(ONLINE)].mean()
     at = sw[(sw.k == sw[sw.stream == "adversarial"].k.max()) & sw.strategy.isin(ONLINE)]
     top = sw[sw.strategy == "lru"].groupby("stream").apply(
         lambda g: g.loc[g.k.idxmax()].ratio, include_groups=False)  # fmt: skip
-    dp = worst[worst.optimal_changes.notna()]
     yield {
-        "worst": worst, "dp": dp, "practical": ", ".join(practical), "mean": mean,
+        "worst": worst, "practical": ", ".join(practical), "mean": mean,
         "best": mean.idxmin(), "kmax": sw.k.max(), "prac": float(top[practical].max()),
         "adv": float(at[(at.stream == "adversarial") & (at.strategy == "lru")].ratio.iloc[0]),
         "heur": exact.set_index("strategy").loc["offline"], "us": speed.set_index("strategy"),
