@@ -1,14 +1,15 @@
 """A flight of culled frames as one tidy table: ``soc.fly(culler, cameras)`` → DataFrame.
 
-One row per frame, with every :class:`~soc.metrics.FrameStats` counter and one ``ms_<stage>``
-column per timed stage (and ``gpu_ms_<stage>`` where the GL's clock is meaningful), so a flight
-can be sliced, grouped and plotted with pandas instead of being printed. Stages a method did
-not run in some frame read 0 ms there.
+One row per frame (per frame and culler when several fly interleaved), with every
+:class:`~soc.metrics.FrameStats` counter and one ``ms_<stage>`` column per timed stage (and
+``gpu_ms_<stage>`` where the GL's clock is meaningful), so a flight can be sliced, grouped and
+plotted with pandas instead of being printed. Stages a method did not run in some frame read
+0 ms there.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -26,12 +27,17 @@ def fly(
     truth: TruthSource = None,
     draw: bool = False,
     progress: bool = True,
+    extra: Callable[[str, object, object], Mapping] | None = None,
 ) -> pd.DataFrame:
     """Cull every camera of a flight with ``culler`` and return one row per frame.
 
     Parameters
     ----------
-    culler : soc.Culler
+    culler : soc.Culler, or {label: soc.Culler}
+        Several cullers of one scene fly the cameras interleaved: in each frame every culler
+        culls the camera, in an order that rotates from frame to frame (so that no method
+        always runs right after the same other one, and the machine's drift hits them alike),
+        one row per frame and culler, ``method`` holding its label.
     cameras : sequence of soc.Camera
     truth : None, "oracle", sequence of (N,) bool, or callable camera -> (N,) bool
         What the method is judged against: nothing (no ``false_culls``/``false_keeps``
@@ -41,6 +47,9 @@ def fly(
         Also draw each frame's kept set (``ms_draw`` column); see :meth:`soc.Culler.cull`.
     progress : bool
         Show a progress bar (tqdm; a widget in Jupyter).
+    extra : callable (label, culler, result) -> mapping, optional
+        More columns of each row, read from the culler after its cull (e.g. a method's
+        ``last_cells``).
 
     Returns
     -------
@@ -63,22 +72,37 @@ def fly(
     import pandas as pd
     from tqdm.auto import tqdm
 
+    cullers = dict(culler) if isinstance(culler, Mapping) else {culler.method.name: culler}
+    if not cullers:
+        raise ValueError("fly needs at least one culler")
+    first = next(iter(cullers.values()))
+    if any(c.scene is not first.scene for c in cullers.values()):
+        raise ValueError("interleaved cullers must cull one scene (the same soc.Scene)")
     cameras = list(cameras)
-    truth_of = _truth_source(culler, cameras, truth)
+    truth_of = _truth_source(first, cameras, truth)
+    labels = list(cullers)
     rows = []
     oracle = getattr(truth_of, "oracle", None)
     try:
-        frames = tqdm(cameras, desc=f"fly {culler.method.name}", disable=not progress)
-        for i, cam in enumerate(frames):
-            known = truth_of(i, cam) if truth_of is not None else None
-            result = culler.cull(cam, truth=known, draw=draw)
-            row = {"frame": i, "method": culler.method.name}
-            row["width"], row["height"] = culler.resolution
-            row.update(result.stats.as_row())
-            if known is None:
-                row.pop("false_culls", None)
-                row.pop("false_keeps", None)
-            rows.append(row)
+        desc = f"fly {', '.join(labels) if len(labels) < 4 else f'{len(labels)} methods'}"
+        for i, cam in enumerate(tqdm(cameras, desc=desc, disable=not progress)):
+            known_at: dict = {}  # visible set per resolution, computed once per frame
+            k = i % len(labels)
+            for label in labels[k:] + labels[:k]:
+                c = cullers[label]
+                if truth_of is not None and c.resolution not in known_at:
+                    known_at[c.resolution] = truth_of(i, cam, c.resolution)
+                known = known_at.get(c.resolution)
+                result = c.cull(cam, truth=known, draw=draw)
+                row = {"frame": i, "method": label}
+                row["width"], row["height"] = c.resolution
+                row.update(result.stats.as_row())
+                if known is None:
+                    row.pop("false_culls", None)
+                    row.pop("false_keeps", None)
+                if extra is not None:
+                    row.update(extra(label, c, result))
+                rows.append(row)
     finally:
         if oracle is not None:
             oracle.close()
@@ -87,14 +111,14 @@ def fly(
     frame[ms] = frame[ms].fillna(0.0)
     # Which GL measured these frames (a flight's numbers mean little without it), and what
     # its clock is worth.
-    frame.attrs["gl_renderer"] = culler.glctx.renderer
-    frame.attrs["gl"] = culler.glctx.gl
-    frame.attrs["gpu_clock"] = culler.glctx.gpu_clock_note or "GL timer (GL_TIMESTAMP queries)"
+    frame.attrs["gl_renderer"] = first.glctx.renderer
+    frame.attrs["gl"] = first.glctx.gl
+    frame.attrs["gpu_clock"] = first.glctx.gpu_clock_note or "GL timer (GL_TIMESTAMP queries)"
     return frame
 
 
 def _truth_source(culler, cameras, truth):
-    """A function ``(frame index, camera) -> (N,) bool`` for ``truth``, or None."""
+    """A function ``(frame index, camera, resolution) -> (N,) bool`` for ``truth``, or None."""
     if truth is None:
         return None
     if isinstance(truth, str):
@@ -106,14 +130,14 @@ def _truth_source(culler, cameras, truth):
 
         oracle = Oracle(culler.scene, glctx=culler.glctx)
 
-        def from_oracle(_i, cam):
-            return oracle.visible(cam, culler.resolution)
+        def from_oracle(_i, cam, resolution):
+            return oracle.visible(cam, resolution)
 
         from_oracle.oracle = oracle  # closed by fly()
         return from_oracle
     if callable(truth):
-        return lambda _i, cam: truth(cam)
+        return lambda _i, cam, _res: truth(cam)
     sets = list(truth)
     if len(sets) != len(cameras):
         raise ValueError(f"truth has {len(sets)} visible sets for {len(cameras)} cameras")
-    return lambda i, _cam: np.asarray(sets[i], bool)
+    return lambda i, _cam, _res: np.asarray(sets[i], bool)

@@ -49,3 +49,45 @@ def test_without_truth_there_is_no_judgement_and_bad_truth_is_refused(scene):
             soc.fly(culler, cams, truth=[np.ones(len(scene), bool)] * 3, progress=False)
         with pytest.raises(ValueError, match="'exact'"):
             soc.fly(culler, cams, truth="exact", progress=False)
+
+
+def test_several_cullers_fly_interleaved_in_a_rotating_order(scene):
+    """One row per frame and culler, labelled; each judged at its own resolution against the
+    oracle; the order rotates frame by frame; a culler flown alone gives the same counts."""
+    cams = random_cameras(scene, 5, seed=7, width=160, height=96)
+    calls: list[tuple[int, str]] = []
+    with (
+        soc.Culler(scene, "frustum", (160, 96)) as fr,
+        soc.Culler(scene, "queries", (80, 48)) as lo,
+        soc.Culler(scene, "hiz-gpu", (160, 96)) as hz,
+    ):
+        cullers = {"frustum": fr, "queries low": lo, "hiz": hz}
+
+        def extra(label, culler, result):
+            calls.append(label)
+            return {"kept_again": int(result.visible.sum()), "res": culler.resolution[0]}
+
+        df = soc.fly(cullers, cams, truth="oracle", progress=False, extra=extra)
+        alone = soc.fly(lo, cams, truth="oracle", progress=False)
+    assert len(df) == 15 and list(df.groupby("frame").size()) == [3] * 5
+    assert calls[:3] == ["frustum", "queries low", "hiz"]
+    assert calls[3:6] == ["queries low", "hiz", "frustum"]  # rotated by one
+    assert calls[6:9] == ["hiz", "frustum", "queries low"]
+    assert (df.kept_again == df.models_visible).all()
+    assert set(df[df.method == "queries low"].width) == {80} and set(df.res) == {160, 80}
+    low = df[df.method == "queries low"].reset_index(drop=True)
+    assert list(low.models_visible) == list(alone.models_visible)
+    assert list(low.false_culls) == list(alone.false_culls) == [0] * 5
+    assert (
+        df[df.method == "frustum"].false_keeps >= df[df.method == "hiz"].false_keeps.to_numpy()
+    ).all()
+
+
+def test_interleaved_cullers_must_share_the_scene(scene):
+    other = soc.scenes.clutter(2)
+    cams = random_cameras(scene, 2, seed=1, width=160, height=96)
+    with soc.Culler(scene, "frustum", (160, 96)) as a, soc.Culler(other, "frustum", (160, 96)) as b:
+        with pytest.raises(ValueError, match="one scene"):
+            soc.fly({"a": a, "b": b}, cams, progress=False)
+        with pytest.raises(ValueError, match="at least one culler"):
+            soc.fly({}, cams, progress=False)
