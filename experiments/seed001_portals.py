@@ -52,45 +52,13 @@ class Params:
             raise UsageError(f"seed must be >= 0, got {self.seed}")
 
 
-def cell_visibility(graph, samples: int = PVS_SAMPLES) -> list[np.ndarray]:
-    """Per cell, the cells the portal traversal reaches from eyes on a ``samples``³ grid inside
-    it, looking along the six axes (90°): sampled, so it may miss a cell (false culls)."""
-    from soc.scenes.camera import Camera
-
-    dirs = np.vstack([np.eye(3), -np.eye(3)])
-    out = []
-    for lo, hi in graph.cells:
-        t = (np.arange(samples) + 0.5) / samples
-        eyes = lo + (hi - lo) * np.stack(np.meshgrid(t, t, t, indexing="ij"), -1).reshape(-1, 3)
-        seen: set[int] = set()
-        for eye in eyes:
-            for d in dirs:
-                up = (0.0, 0.0, 1.0) if abs(d[1]) > 0.5 else (0.0, 1.0, 0.0)
-                cam = Camera(tuple(eye), tuple(eye + d), up, 90.0, 64, 64, near=1e-3, far=1e3)
-                seen |= set((graph.traverse(cam) or {}).keys())
-        out.append(np.array(sorted(seen), np.int64))
-    return out
-
-
-def _by_cell_visibility(graph, pvs: list[np.ndarray], cam) -> np.ndarray:
-    """(N,) bool: in the frustum and in a cell visible from the camera's cells (all outside)."""
-    from soc.culling.frustum import aabbs_in_frustum
-
-    start = graph.start_cells(cam)
-    keep = np.zeros(len(graph.aabbs), bool)
-    cells = (np.unique(np.concatenate([pvs[c] for c in start])) if start is not None
-             else np.arange(len(graph.cells)))  # fmt: skip
-    ids = np.unique(np.concatenate([graph.members[c] for c in cells] or [np.zeros(0, np.int64)]))
-    keep[ids[aabbs_in_frustum(graph.aabbs[ids], cam.planes)]] = True
-    return keep
-
-
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     """Per frame and method (and the oracle): objects kept, culled, false culls, cull ms, cells
     reached; per room the camera stands in (walk order, ``"all"`` last) their means."""
     from tqdm.auto import tqdm
 
     import soc
+    from soc.culling.cell_visibility import cell_visibility, kept_by_cell_visibility
     from soc.culling.portals import cell_graph
 
     scene = soc.scenes.rooms(params.seed, rooms=tuple(params.rooms), floors=params.floors)
@@ -99,7 +67,7 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     cells = np.asarray(scene.meta["cells"], np.float64)
     n = len(scene)
     graph = cell_graph(scene)
-    pvs = cell_visibility(graph)
+    pvs = cell_visibility(graph, PVS_SAMPLES)
     oracle = soc.Oracle(scene)
     cullers = {m: soc.Culler(scene, m, tuple(params.display)) for m in METHODS}
     eyes = np.array([cam.eye for cam in cams], np.float64)[:, None]
@@ -112,7 +80,7 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
         for i, cam in enumerate(tqdm(cams, desc="seed 001 portals", disable=not progress)):
             room = int(rooms[i])
             truth = oracle.visible(cam)
-            for m, kept in (("oracle", truth), (CELLS, _by_cell_visibility(graph, pvs, cam))):
+            for m, kept in (("oracle", truth), (CELLS, kept_by_cell_visibility(graph, pvs, cam))):
                 rows.append((i, room, m, kept.sum(), (truth & ~kept).sum(), np.nan, np.nan))
             for k in np.roll(np.arange(len(METHODS)), -i):  # order rotates frame by frame
                 c = cullers[METHODS[k]]
