@@ -3,15 +3,11 @@
 
 The lecture observes «viele Räume innerhalb des Viewing-Frustums sind nicht sichtbar», splits
 space into cells, precomputes cell-to-cell visibility and notes «Von bestimmtem Viewpoint aus
-ist innerhalb der Zelle noch weniger sichtbar». It gives no numbers. We walk a camera through
-``soc.scenes.rooms`` and measure, per frame, the share of objects culled by ``portals``
-(frustum + cell/portal traversal with screen-space portal narrowing,
-:mod:`soc.culling.portals`) and by ``frustum`` alone, their cull time, and false culls against
-the oracle (an exact per-object id render at the display resolution): portal culling is
-conservative, so there must be none.
-
-Stages: :func:`compute` (scene, walk, both methods and the oracle per frame, methods in
-rotating order) → :func:`plot_rooms` → :func:`claims`.
+ist innerhalb der Zelle noch weniger sichtbar»; it gives no numbers. We walk a camera through
+``soc.scenes.rooms`` and count, per frame, the objects culled by ``frustum`` alone, by the
+precomputed cell visibility and by ``portals`` (:mod:`soc.culling.portals`, portals narrowed
+in screen space), their cull time, and false culls against the oracle (an exact per-object
+id render): portal culling is conservative, so there must be none.
 """
 
 from __future__ import annotations
@@ -29,27 +25,12 @@ METHODS = ("frustum", "portals")
 CELLS = "cell visibility"  # frustum + the precomputed cells seen from the camera's cell
 PVS_SAMPLES = 3  # eyes per cell and axis of the sampled cell-to-cell visibility
 FRAMES = ("frames", "rooms")
-DOC_ROOMS = "«Beobachtung: viele Räume innerhalb des Viewing-Frustums sind nicht sichtbar»"
-DOC_VIEWPOINT = "«Von bestimmtem Viewpoint aus ist innerhalb der Zelle noch weniger sichtbar»"
 
 
 @dataclass(frozen=True)
 class Params:
-    """One walk through a generated building.
-
-    Attributes
-    ----------
-    frames : int
-        Cameras on the walk (culling only, no drawing: cheap).
-    display : (width, height)
-        Pixels of the oracle's id render and the portals' screen-space narrowing.
-    rooms : (nx, nz)
-        Rooms per storey.
-    floors : int
-        Storeys.
-    seed : int
-        Building and walk.
-    """
+    """One walk: ``frames`` cameras (culling only), ``display`` pixels of the oracle and the
+    portals' narrowing, ``rooms`` (nx, nz) per storey, ``floors`` storeys, ``seed``."""
 
     frames: int = 200
     display: tuple[int, int] = DISPLAY
@@ -71,56 +52,13 @@ class Params:
             raise UsageError(f"seed must be >= 0, got {self.seed}")
 
 
-def camera_room(cells: np.ndarray, eye: np.ndarray) -> int:
-    """The cell (room) of ``cells`` ((C, 2, 3) boxes) holding ``eye`` (the first when it lies
-    on a shared wall), -1 if none."""
-    hit = np.flatnonzero(np.all((eye >= cells[:, 0]) & (eye <= cells[:, 1]), axis=1))
-    return int(hit[0]) if len(hit) else -1
-
-
-def cell_visibility(graph, samples: int = PVS_SAMPLES) -> list[np.ndarray]:
-    """Per cell, the cells seen from it — the precomputed cell-to-cell visibility the lecture
-    compares with: the union, over eyes on a ``samples``³ grid inside the cell and six
-    90-degree axis views from each, of the cells the portal traversal reaches. Sampled: it
-    misses a cell seen only from between the samples (the walk's rows count such frames)."""
-    from soc.scenes.camera import Camera
-
-    dirs = np.vstack([np.eye(3), -np.eye(3)])
-    out = []
-    for lo, hi in graph.cells:
-        t = (np.arange(samples) + 0.5) / samples
-        eyes = lo + (hi - lo) * np.stack(np.meshgrid(t, t, t, indexing="ij"), -1).reshape(-1, 3)
-        seen: set[int] = set()
-        for eye in eyes:
-            for d in dirs:
-                up = (0.0, 0.0, 1.0) if abs(d[1]) > 0.5 else (0.0, 1.0, 0.0)
-                cam = Camera(tuple(eye), tuple(eye + d), up, 90.0, 64, 64, near=1e-3, far=1e3)
-                seen |= set((graph.traverse(cam) or {}).keys())
-        out.append(np.array(sorted(seen), np.int64))
-    return out
-
-
-def _by_cell_visibility(graph, pvs: list[np.ndarray], cam) -> np.ndarray:
-    """(N,) bool objects kept by frustum culling plus the precomputed cell visibility of the
-    cells the camera stands in (everything in the frustum when it stands outside)."""
-    from soc.culling.frustum import aabbs_in_frustum
-
-    start = graph.start_cells(cam)
-    keep = np.zeros(len(graph.aabbs), bool)
-    cells = (np.unique(np.concatenate([pvs[c] for c in start])) if start is not None
-             else np.arange(len(graph.cells)))  # fmt: skip
-    ids = np.unique(np.concatenate([graph.members[c] for c in cells] or [np.zeros(0, np.int64)]))
-    keep[ids[aabbs_in_frustum(graph.aabbs[ids], cam.planes)]] = True
-    return keep
-
-
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
-    """Per frame and method (``frustum``, ``portals`` and the ``oracle``'s ideal): objects kept
-    and culled, % culled, false culls, cull ms, cells reached; and per room the camera stands
-    in (walk order, ``"all"`` last) the means."""
+    """Per frame and method (and the oracle): objects kept, culled, false culls, cull ms, cells
+    reached; per room the camera stands in (walk order, ``"all"`` last) their means."""
     from tqdm.auto import tqdm
 
     import soc
+    from soc.culling.cell_visibility import cell_visibility, kept_by_cell_visibility
     from soc.culling.portals import cell_graph
 
     scene = soc.scenes.rooms(params.seed, rooms=tuple(params.rooms), floors=params.floors)
@@ -128,38 +66,37 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     cams = soc.scenes.rooms_walk(scene, params.frames, seed=params.seed, width=w, height=h)
     cells = np.asarray(scene.meta["cells"], np.float64)
     n = len(scene)
-    rows = []
     graph = cell_graph(scene)
-    pvs = cell_visibility(graph)
+    pvs = cell_visibility(graph, PVS_SAMPLES)
     oracle = soc.Oracle(scene)
     cullers = {m: soc.Culler(scene, m, tuple(params.display)) for m in METHODS}
+    eyes = np.array([cam.eye for cam in cams], np.float64)[:, None]
+    inside = np.all((eyes >= cells[:, 0]) & (eyes <= cells[:, 1]), axis=2)
+    rooms = np.where(inside.any(axis=1), inside.argmax(axis=1), -1)  # the first, -1: outside
+    rows = []
     try:
         for c in cullers.values():
             c.cull(cams[0])  # warm-up, untimed
         for i, cam in enumerate(tqdm(cams, desc="seed 001 portals", disable=not progress)):
-            base = {"frame": i, "room": camera_room(cells, np.asarray(cam.eye, np.float64))}
+            room = int(rooms[i])
             truth = oracle.visible(cam)
-            hidden = int(n - truth.sum())
-            rows.append({**base, "method": "oracle", "kept": int(truth.sum()), "culled": hidden,
-                         "false_culls": 0, "ms_cull": np.nan, "cells_reached": np.nan})  # fmt: skip
-            kept = _by_cell_visibility(graph, pvs, cam)
-            rows.append({**base, "method": CELLS, "kept": int(kept.sum()),
-                         "culled": int(n - kept.sum()), "false_culls": int((truth & ~kept).sum()),
-                         "ms_cull": np.nan, "cells_reached": np.nan})  # fmt: skip
+            for m, kept in (("oracle", truth), (CELLS, kept_by_cell_visibility(graph, pvs, cam))):
+                rows.append((i, room, m, kept.sum(), (truth & ~kept).sum(), np.nan, np.nan))
             for k in np.roll(np.arange(len(METHODS)), -i):  # order rotates frame by frame
-                m = METHODS[k]
-                s = cullers[m].cull(cam, truth=truth).stats
-                cells_reached = getattr(cullers[m].method, "last_cells", None)
-                rows.append({**base, "method": m, "kept": s.models_visible,
-                             "culled": s.models_culled, "false_culls": s.false_culls,
-                             "ms_cull": s.cull_ms,
-                             "cells_reached": np.nan if cells_reached is None
-                             else cells_reached})  # fmt: skip
+                c = cullers[METHODS[k]]
+                s = c.cull(cam, truth=truth).stats
+                reached = getattr(c.method, "last_cells", None)
+                rows.append(
+                    (i, room, METHODS[k], s.models_visible, s.false_culls, s.cull_ms, reached)
+                )
     finally:
         for c in cullers.values():
             c.close()
         oracle.close()
-    df = pd.DataFrame(rows)
+    columns = ["frame", "room", "method", "kept", "false_culls", "ms_cull", "cells_reached"]
+    types = {"kept": int, "false_culls": int, "cells_reached": float}
+    df = pd.DataFrame(rows, columns=columns).astype(types)
+    df.insert(4, "culled", n - df.kept)
     df["culled_pct"] = 100.0 * df.culled / n
     df["objects"] = n
     df["cells"] = len(cells)
@@ -177,9 +114,7 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
 def plot_rooms(frames: dict[str, pd.DataFrame], params: Params):
     """Left: mean % of the building's objects culled per room the camera stands in (walk
     order; "all" = every frame) — grey frustum alone, blue portals, green the oracle's ideal
-    (every hidden object culled). Right: cull time per frame (ms, no drawing) of both methods.
-
-    A conservative method's bar never exceeds the oracle's; the title counts false culls."""
+    (every hidden object culled). Right: cull time per frame (ms, no drawing) of both methods."""
     from matplotlib.figure import Figure
 
     r, f = frames["rooms"], frames["frames"]
@@ -187,50 +122,43 @@ def plot_rooms(frames: dict[str, pd.DataFrame], params: Params):
     fig = Figure(figsize=(14, 4.8))
     ax, bx = fig.subplots(1, 2, gridspec_kw={"width_ratios": [3, 2]})
     x = np.arange(len(labels))
-    styles = (("frustum", "tab:grey", "frustum only"), ("portals", "tab:blue", "portals"),
-              ("oracle", "tab:green", "oracle (ideal: all hidden culled)"))  # fmt: skip
-    for k, (m, color, name) in enumerate(styles):
+    styles = {"frustum": ("tab:grey", "frustum only"), "portals": ("tab:blue", "portals"),
+              "oracle": ("tab:green", "oracle (ideal: all hidden culled)")}  # fmt: skip
+    for k, (m, (color, name)) in enumerate(styles.items()):
         v = r[r.method == m].set_index("room").culled_pct.reindex(labels)
         ax.bar(x + (k - 1) * 0.27, v.to_numpy(), 0.27, color=color, label=name)
+        if m in METHODS:
+            bx.plot(f[f.method == m].frame, f[f.method == m].ms_cull, color=color, lw=0.8, label=m)
     names = ["outside" if s == "-1" else s for s in labels]
     ax.set_xticks(x, names)
     ax.set(xlabel="room the camera stands in (walk order), and all frames",
            ylabel="objects culled (%), mean over frames", ylim=(0, 105))  # fmt: skip
     ax.legend(fontsize=8, ncol=3, loc="upper center", bbox_to_anchor=(0.5, -0.13))
     ax.grid(alpha=0.3, axis="y")
-    for m, color in (("frustum", "tab:grey"), ("portals", "tab:blue")):
-        s = f[f.method == m]
-        bx.plot(s.frame, s.ms_cull, color=color, lw=0.8, label=m)
     bx.set(xlabel="frame", ylabel="cull time (ms)", title="cull time per frame (no drawing)")
     bx.grid(alpha=0.3)
     bx.legend(fontsize=8)
     fc = int(f[f.method == "portals"].false_culls.sum())
-    fig.suptitle(
-        f"Seed 001 — portal culling, {params.rooms[0]}x{params.rooms[1]} rooms x "
-        f"{params.floors} floor(s) ({int(f.objects.iloc[0]):,} objects), {params.frames} "
-        f"frames at {res_str(params.display)}; portals' false culls: {fc}",
-        fontsize=11,
-    )
+    fig.suptitle(f"Seed 001 — portal culling, {params.rooms[0]}x{params.rooms[1]} rooms x "
+                 f"{params.floors} floor(s) ({int(f.objects.iloc[0]):,} objects), {params.frames} "
+                 f"frames at {res_str(params.display)}; portals' false culls: {fc}",
+                 fontsize=11)  # fmt: skip
     fig.tight_layout()
     return fig
 
 
 def _walk(frames: dict[str, pd.DataFrame], params: Params):
-    """The walk's one case: per method its frames by frame number (``fr``, ``po``, ``orc``)
-    and what the rows compare."""
+    """The walk's one case: each method's rows by frame, and what the rows compare."""
     f = frames["frames"]
-    by = {m: f[f.method == m].set_index("frame") for m in (*METHODS, "oracle")}
-    fr, po, orc = by["frustum"], by["portals"], by["oracle"]
-    in_view = fr.kept.mean()
+    by = {m: f[f.method == m].set_index("frame") for m in (*METHODS, "oracle", CELLS)}
+    po, orc, in_view = by["portals"], by["oracle"], by["frustum"].kept.mean()
+    ms = {k: by[k].ms_cull.median() for k in METHODS}
     yield {
-        "fr": fr, "po": po, "orc": orc, "in_view": in_view, "cells": int(f.cells.iloc[0]),
+        "po": po, "pvs": by[CELLS] if len(by[CELLS]) else None, "n": len(po), "in_view": in_view,
         "hidden": 100.0 * (1 - orc.kept.mean() / in_view) if in_view else float("nan"),
-        "at_most": int((po.kept <= fr.kept).sum()), "fewer": (po.kept < fr.kept).mean(),
-        "reached": po.cells_reached.mean(), "gap": (po.culled_pct - orc.culled_pct).mean(),
-        "ratio": po.ms_cull.median() / fr.ms_cull.median(), "display": res_str(params.display),
-        "pct": {k: v.culled_pct.mean() for k, v in by.items()}, "n": len(po),
-        "ms": {k: by[k].ms_cull.median() for k in METHODS}, "fc": int(po.false_culls.sum()),
-        "pvs": f[f.method == CELLS].set_index("frame") if (f.method == CELLS).any() else None,
+        "gap": (po.culled_pct - orc.culled_pct).mean(), "fc": int(po.false_culls.sum()),
+        "pct": {k: v.culled_pct.mean() for k, v in by.items()}, "ms": ms,
+        "ratio": ms["portals"] / ms["frustum"], "display": res_str(params.display),
     }  # fmt: skip
 
 
@@ -238,47 +166,43 @@ def _walk(frames: dict[str, pd.DataFrame], params: Params):
 # fmt: off
 CLAIMS = (Each(_walk, (
     Row(
-        "portal culling: rooms in the frustum that are not visible", DOC_ROOMS,
+        "portal culling: rooms in the frustum that are not visible",
+        "«Beobachtung: viele Räume innerhalb des Viewing-Frustums sind nicht sichtbar»",
         "of the objects the frustum keeps (mean {in_view:.0f}), {hidden:.0f} % are hidden; "
-        "portals cull {pct[portals]:.1f} % of all objects vs the frustum's "
-        "{pct[frustum]:.1f} %",
+        "portals cull {pct[portals]:.1f} % of all objects vs the frustum's {pct[frustum]:.1f} %",
         TREND,
         Rule(lambda q: q.pct["portals"] - q.pct["frustum"], ">", 0, "pp", noise=lambda q: 0.0,
-             flips=(
-            alter("frames", "culled_pct", 0.0, "method == 'portals'"),)),
-        basis="portals cull a larger mean share of objects than the frustum alone (counts: "
-        "deterministic)",
+             flips=(alter("frames", "culled_pct", 0.0, "method == 'portals'"),)),
+        basis="portals cull a larger mean share than the frustum alone (counts: deterministic)",
         why="the walk's views see through every door",
     ),
     Row(
-        "portal culling from a viewpoint (portal narrowing)", DOC_VIEWPOINT,
+        "portal culling from a viewpoint (portal narrowing)",
+        "«Von bestimmtem Viewpoint aus ist innerhalb der Zelle noch weniger sichtbar»",
         lambda q: f"objects kept per frame (mean): precomputed cell visibility "
         f"{q.pvs.kept.mean():.0f}, portals from the viewpoint {q.po.kept.mean():.0f}; the "
         f"viewpoint keeps more on {int((q.po.kept > q.pvs.kept).sum())} of {q.n} frames; the "
         f"sampled cell visibility culls {int(q.pvs.false_culls.sum())} visible objects in all",
         TREND,
         Rule(lambda q: q.pvs.kept.mean() - q.po.kept.mean(), ">", 0, "objects",
-             noise=lambda q: 0.0, flips=(
-                 alter("frames", "kept", plus=1e4, where="method == 'portals'"),)),
-        basis="from the viewpoint, portals (narrowed at every portal) keep fewer objects than "
-        "the cells visible from the camera's cell (precomputed: sampled from a 3×3×3 grid of "
-        "eyes per cell, six views each), both after frustum culling (counts: deterministic)",
+             noise=lambda q: 0.0, flips=(alter("frames", "kept", plus=1e4,
+                                               where="method == 'portals'"),)),
+        basis="portals narrowed from the viewpoint keep fewer objects than the precomputed cell "
+        "visibility (3×3×3 eyes per cell, six views each), both after the frustum (counts: "
+        "deterministic)",
         why="the walk's views look through the same doors the cell's other viewpoints do",
         when=lambda q: q.pvs is not None,
     ),
     Row(
         "portal culling is conservative", "– (no numbers)",
-        "{fc} false culls in {n} frames against the oracle at "
-        "{display}",
-        MEASURED, basis="goes beyond the document: exact per-object id render as the oracle",
+        "{fc} false culls in {n} frames against the oracle at {display}", MEASURED,
+        basis="goes beyond the document: exact per-object id render as the oracle",
     ),
     Row(
         "portal culling against the ideal", "– (no numbers)",
         "portals cull {pct[portals]:.1f} %, the oracle hides {pct[oracle]:.1f} % "
-        "(gap {gap:+.1f} points per frame)",
-        MEASURED,
-        basis="goes beyond the document: the gap is what a per-object visibility test inside "
-        "the reached cells could still cull",
+        "(gap {gap:+.1f} points per frame)", MEASURED,
+        basis="goes beyond the document: what a per-object test in the reached cells could cull",
     ),
     Row(
         "portal culling: cost per frame", "– (no numbers; cell-to-cell visibility precomputed)",
