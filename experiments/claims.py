@@ -111,26 +111,12 @@ _OPS = {">": "exceeds", ">=": "reaches", "<": "stays below", "<=": "stays at mos
 
 @dataclass(frozen=True)
 class Rule:
-    """``value(q) op bound``: one assertion of a ``numbers`` or ``trend`` row.
+    """``value(q) op bound``: one assertion of a ``numbers`` or ``trend`` row, in ``unit``.
 
-    Attributes
-    ----------
-    value : callable q -> float
-        Our quantity, in ``unit``.
-    op : {">", ">=", "<", "<=", "=="}
-    bound : float or callable q -> float
-        The edge; its origin belongs in the row's basis (the document's number, a measured
-        spread, or 0 for a plain comparison).
-    unit : str
-        The rule's unit (margins are given in it).
-    noise : callable q -> float or None, optional
-        The measured run-to-run spread of ``value`` (same unit); ``None``: not measured.
-        Return 0 for a deterministic value (counts from a seeded run: never borderline).
-    flips : tuple of alterations
-        Frames → frames changes (:func:`alter`) of which at least one must change the
-        row's verdict; a test applies them.
-    name : str
-        Label of this rule's margin when a row has several.
+    The bound's origin (the document's number, a measured spread, 0) belongs in the row's
+    basis. ``noise(q)``: the measured run-to-run spread of the value (None: not measured, 0:
+    deterministic). ``flips``: alterations of the frames (:func:`alter`) of which one must
+    change the verdict (a test applies them). ``name`` labels the margin when a row has several.
     """
 
     value: Callable[[Any], float]
@@ -157,14 +143,11 @@ class Rule:
 
 @dataclass(frozen=True)
 class Row:
-    """One row of an experiment's claims table (see the module docstring).
-
-    ``verdict`` is the row's verdict when its rules hold (``numbers``/``trend``), or its fixed
-    verdict (``measured``, ``image``, ``differs`` — then ``why`` is the measured cause). A
-    ``trend`` row's plain-text basis gets ": holds" or ": does not hold", a ``numbers`` row's
-    ": does not hold" when it fails. ``why`` is shown when
-    a rule fails (or for a fixed ``differs``), ``note`` always. ``when(q)`` false leaves the row
-    out.
+    """One row of a claims table. ``verdict``: the row's when its rules hold (``numbers``,
+    ``trend``), else ``differs``; or fixed (``measured``, ``image``, ``differs``). A plain-text
+    basis of a ``trend`` row gets ": holds" or ": does not hold", of a failing ``numbers`` row
+    ": does not hold". ``why`` shows when a rule fails (or for a fixed ``differs``), ``note``
+    always; ``when(q)`` false leaves the row out.
     """
 
     item: Text

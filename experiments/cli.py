@@ -1,40 +1,11 @@
-"""The ``vislod`` command line.
-
-    vislod demo [--full] [--scene market|castle|clutter] [--frames 100]
-                [--resolutions 320x192,...] [--methods A,B|all] [--quick] [--out results]
-                (short: 24 frames, three depth resolutions, into results/demo/;
-                 --full = vislod seed000)
-    vislod cull --method NAME [--scene market|castle|clutter] [--resolution 1920x1080]
-                [--frames N] [--oracle]
-    vislod seed002 [--frames 100] [--grid-sizes 16,32,64] [--display WxH] [--quick] [--out DIR]
-                                                     (= vislod grid)
-    vislod portals [--frames 200] [--rooms 6x4] [--floors 1] [--display WxH] [--quick]
-                   [--out results]                   (= vislod seed001-portals)
-    vislod lod [--frames 150] [--budget-ms MS] [--recalibrate yes] [--quick] [--out results]
-                                                     (= vislod seed001-lod)
-    vislod lod-quality [--data DIR] [--boxes 300] [--quick] [--out results]
-                                                     (= vislod seed001-lod-quality)
-    vislod image-based [--display 800x600] [--views 8] [--quick] [--out results]
-                                                     (= vislod seed001-image-based)
-    vislod state-sorting [--frames 100] [--method hiz-gpu] [--ks 1,2,...] [--quick] [--out DIR]
-                                                     (= vislod seed001-state-sorting)
-    vislod seed003 [--quick] [--light-counts 0,1,...] [--vp-sides ...] [--out DIR]
-    vislod seed004-model [--quick] [--out DIR]
-    vislod seed004-octree [--quick] [--frames N] [--objects 70000] [--out DIR]
-    vislod seed004-adaptive [--quick] [--frames N] [--scale S] [--scenes A,B] [--out DIR]
-    vislod figures [--only NAME ...] [--force] [--quick] [--out results] [--claims-only]
-    vislod sweep [--scenes SPEC ...] [--seeds N ...] [--methods ...] [--displays WxH ...]
-                 [--resolutions WxH ...] [--frames N] [--chunk N] [--oracle] [--draw]
-                 [--scheduler tcp://H:P] [--workers N] [--gl-threads N] [--force] [--quick]
-                 [--out DIR]
+"""The ``vislod`` command line: ``demo``, ``cull``, ``figures``, ``sweep`` and one command per
+experiment (``vislod --help`` lists them; ``vislod COMMAND --help`` their options).
 
 Mistakes print one line on stderr and exit with status 2 before any work: an unknown scene or
-method, a method that cannot cull the scene, a bad resolution, a data path that was given
-(``--data`` or ``VISLOD_DATA``) and holds no castle, an output folder that cannot be written
-(created and probed up front), and a command whose dependencies are an extra that is not
-installed (:data:`COMMAND_EXTRAS`, :data:`METHOD_EXTRAS`: "vislod seed004-model needs the
-'fit' extra: pip install 'vislod[fit]'"). ``VISLOD_QUICK=1`` in the environment has the effect
-of ``--quick``; ``VISLOD_DATA`` is where the castle is looked for.
+method, a method that cannot cull the scene, a bad resolution, a data path that holds no
+castle, an output folder that cannot be written, a missing extra ("vislod seed004-model needs
+the 'fit' extra: pip install 'vislod[fit]'"). ``VISLOD_QUICK=1`` acts as ``--quick``;
+``VISLOD_DATA`` is where the castle is looked for.
 """
 
 from __future__ import annotations
@@ -131,8 +102,7 @@ def _named_methods(args: argparse.Namespace) -> list[str]:
 
 def required_extras(args: argparse.Namespace) -> dict[str, str]:
     """Extras the parsed command needs → why ("" for the command itself, else the method or
-    figure that needs it), from :data:`COMMAND_EXTRAS`, :data:`METHOD_EXTRAS` and the figures'
-    ``extras``."""
+    figure that needs it)."""
     extras = (
         HARNESS[args.command].extras if args.command in HARNESS else COMMAND_EXTRAS[args.command]
     )
@@ -153,9 +123,8 @@ def required_extras(args: argparse.Namespace) -> dict[str, str]:
 
 
 def check_extras(args: argparse.Namespace) -> None:
-    """:class:`MissingExtraError` naming the extras the command needs and lacks, with the
-    ``pip install`` line: "vislod seed004-model needs the 'fit' extra: pip install
-    'vislod[fit]'"."""
+    """:class:`MissingExtraError` naming the extras the command lacks, with the ``pip install``
+    line."""
     need = required_extras(args)
     missing = [e for e in need if not _installed(e)]
     if not missing:
@@ -285,10 +254,8 @@ def output_folder(args: argparse.Namespace) -> Path | None:
 
 
 def check_inputs(args: argparse.Namespace) -> None:
-    """Everything that can be checked before the work, each a one-line :class:`UsageError`:
-    the output folder is created and a probe file written and deleted in it; a scene, its
-    data path and the methods named are valid (a ``--data``/``VISLOD_DATA`` given for the
-    castle must hold it)."""
+    """Before the work, each a one-line :class:`UsageError`: the output folder is created and
+    probed, the scene, its data path and the methods named are valid."""
     out = output_folder(args)
     if out is not None:
         check_writable(out)

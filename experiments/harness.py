@@ -1,24 +1,13 @@
 """One harness for every experiment: an experiment is data, pictures and claims.
 
-An experiment module defines three functions and registers them with :func:`experiment`:
-
-- ``compute(params, progress) -> dict[str, DataFrame]`` — runs the work and returns tidy
-  pandas DataFrames (one row per frame × method, per scene × parameter, …), named;
-- plotting functions ``plot_x(frames, params) -> matplotlib.figure.Figure`` — each draws one
-  picture from those frames only; the first paragraph of its docstring is the picture's
-  caption (what is plotted);
-- its claims: a table of declarative rows (:mod:`experiments.claims`) that the harness
-  evaluates on the frames — the document's words, our quantity, the rule with its bound and
-  margin — each with a verdict a reviewer would sign (:data:`VERDICTS`); a function
-  ``claims(frames, params) -> DataFrame`` of :func:`claim` rows still works.
-
-Its parameters are a frozen dataclass whose defaults are the full run, with a ``quick``
-variant (:attr:`Experiment.quick`) for notebooks and CI. The harness gives every experiment
-the rest: its ``vislod`` command with ``--quick``, ``--out``, ``--data`` and one option per
-parameter (:mod:`experiments.cli`), the output folder checked before any work, a progress bar,
-CSV and PNG files written atomically, resuming keyed on every input (:func:`inputs_key`), its
-section of ``REPORT.md`` (:mod:`experiments.report`) and its notebook cells
-(:mod:`experiments.notebooks`).
+A module registers (:func:`experiment`) ``compute(params, progress) -> dict[str, DataFrame]``
+(tidy frames), plotting functions ``plot_x(frames, params) -> Figure`` (each draws from the
+frames only; its docstring's first paragraph is the caption) and a claims table
+(:mod:`experiments.claims`) evaluated on the frames. Its parameters are a frozen dataclass
+whose defaults are the full run, with quick overrides. The harness gives it the rest: a
+``vislod`` command with one option per parameter, the output folder checked before any work,
+files written atomically, resuming keyed on every input (:func:`inputs_key`), its section of
+``REPORT.md`` and its notebook cells.
 
     from experiments import harness
     res = harness.run("seed002", quick=True)    # Results: frames, figures, claims, folder
@@ -84,38 +73,12 @@ Frames = dict[str, pd.DataFrame]
 
 @dataclass(frozen=True)
 class Experiment:
-    """An experiment as the harness runs it (made by :func:`experiment`).
-
-    Attributes
-    ----------
-    key : str
-        Its ``vislod`` command and ``--only`` name, e.g. ``"seed002"``.
-    seed : str
-        Source document ("000" … "004").
-    title : str
-        What it reproduces, one line (the report's section heading).
-    params : type
-        Frozen dataclass of parameters; defaults are the full run.
-    quick : Mapping
-        Overrides of ``params`` for quick mode (seconds to a minute, small scenes).
-    compute, plots, claims :
-        The three parts (see the module docstring); ``plots`` in display order; ``claims``
-        the function that gives the claims table (for a declarative table: its evaluation).
-    table : tuple
-        The declarative claims table (:class:`experiments.claims.Row` and ``Each``), empty
-        when the claims are a function.
-    minutes : float
-        Rough full-run time on this machine, for ``vislod figures``' progress bar.
-    extras : tuple of str
-        Optional dependencies (pyproject extras) it needs.
-    uses_data : bool
-        Reads the data folder (``--data`` / ``VISLOD_DATA``); its resolved path is an input.
-    aliases : tuple of str
-        Older command names that keep working.
-    notebook : str
-        The notebook (``notebooks/<name>.ipynb``) that shows it.
-    intro : str
-        Markdown for the report and notebook: the document's claim and our setup.
+    """An experiment as the harness runs it (made by :func:`experiment`): its command
+    (``key``, old names in ``aliases``), source document (``seed``), one-line ``title``, the
+    ``params`` dataclass and its ``quick`` overrides, the three parts (``claims`` evaluates the
+    declarative ``table``, empty when the claims are a function), rough full-run ``minutes``,
+    the pyproject ``extras`` it needs, whether it reads the data folder (``uses_data``), its
+    ``notebook`` and the ``intro`` (markdown) of its report section and notebook.
     """
 
     key: str

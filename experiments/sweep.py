@@ -1,28 +1,15 @@
 """``vislod sweep``: scenes × methods × resolutions × flight chunks on Dask, into one table.
 
-Issue 6, part 5 (sweeps that outgrow one machine). The stages, top-down:
+:func:`make_sweep` checks the grid before any cluster starts and cuts it into keyed tasks
+(:mod:`experiments.sweep_tasks`); :func:`run_sweep` runs those not stored yet on Dask (a local
+cluster of single-threaded worker processes, each with its own EGL context, or a scheduler's)
+and stores each task's rows as they arrive; :meth:`SweepStore.merge` joins them into
+``sweep.csv``.
 
-1. :func:`make_sweep` checks the grid (unknown scene, parameter or method → :class:`UsageError`
-   before any cluster starts) and :meth:`SweepSetup.tasks` cuts it into keyed tasks
-   (:class:`experiments.sweep_tasks.SweepTask`: one chunk of the seed-000 flight each);
-2. :func:`run_sweep` skips the tasks whose result is stored (unless ``force``), runs the rest on
-   Dask ``distributed`` — a ``LocalCluster`` of ``workers`` single-threaded worker processes by
-   default, each with its own EGL context, or the cluster behind a scheduler address — and
-   stores each task's rows as soon as they arrive (:class:`SweepStore`);
-3. :meth:`SweepStore.merge` joins every stored task into the one table, a DataFrame (one row
-   per task × frame) written as ``sweep.csv``; the printed summary is drawn from it
-   (:func:`summary_frame`).
-
-Why it is safe to kill things: the driver, not the workers, writes results, one file per task
-key (``parts/<key>.csv``), atomically and once, after the whole task has returned. A worker
-that dies mid-task returns nothing; Dask runs the task again elsewhere (and the driver resubmits
-it if Dask gives up with ``KilledWorker``), and a second copy of a task can only overwrite its
-own file. So the table holds exactly one set of rows per key, whatever died; a killed driver
-loses only the tasks in flight, and the next run skips what was stored. Workers need no shared
-file system (only the castle's data, when swept, must exist on them).
-
-Timings in the rows are per frame on whatever worker ran the task, with other tasks running
-beside it: compare them within one sweep, as ratios.
+Killing anything is safe: the driver, not the workers, writes one file per task key, atomically
+and after the whole task returned. A task whose worker died runs again and can only overwrite
+its own file; a killed driver loses only the tasks in flight. Timings are per frame on a worker
+shared with other tasks: compare them within one sweep, as ratios.
 """
 
 from __future__ import annotations
@@ -72,23 +59,9 @@ PARTS = "parts"
 
 @dataclass(frozen=True)
 class SweepSetup:
-    """The grid of one sweep.
-
-    Attributes
-    ----------
-    scenes : tuple of SceneSpec
-        One per scene × seed.
-    methods : tuple of str
-    displays : tuple of (width, height)
-        Camera resolutions, pixels.
-    resolutions : tuple of (width, height), or None
-        Depth-buffer resolutions, pixels, crossed with every display; None: each display's own.
-    frames : int
-        Cameras on the flight.
-    chunk : int
-        Frames per task.
-    oracle, draw : bool
-        See :class:`~experiments.sweep_tasks.SweepTask`.
+    """The grid of one sweep: scene specs (one per scene × seed), methods, camera resolutions,
+    depth resolutions (None: each display's own) crossed with every display, flight length,
+    frames per task, and :class:`~experiments.sweep_tasks.SweepTask`'s ``oracle`` and ``draw``.
     """
 
     scenes: tuple[SceneSpec, ...]
@@ -141,25 +114,9 @@ def make_sweep(
     draw: bool = False,
     quick: bool = False,
 ) -> SweepSetup:
-    """A checked :class:`SweepSetup`; :class:`UsageError` on any bad name or number.
-
-    Parameters
-    ----------
-    scenes : list of str
-        Scene specs, ``NAME[:KEY=VALUE,...]`` (``"market"``, ``"clutter:objects=80"``).
-    methods : list of str, optional
-        See :func:`check_sweep_methods`.
-    seeds : list of int
-        Generator seeds, crossed with every scene.
-    displays : list of (width, height), optional
-        Default 1920x1080 (quick: 480x270).
-    resolutions : list of (width, height), optional
-        Depth-buffer resolutions; default: the display's.
-    frames, chunk : int, optional
-        Flight length (default 100, quick 6) and frames per task (default 25, quick 3).
-    quick : bool
-        Small market, quarter resolution, few frames.
-    """
+    """A checked :class:`SweepSetup` (:class:`UsageError` on any bad name or number): scenes
+    as ``NAME[:KEY=VALUE,...]`` crossed with ``seeds``; defaults 1920x1080, 100 frames in tasks
+    of 25 (quick: small market, 480x270, 6 frames in tasks of 3)."""
     specs = tuple(SceneSpec.parse(s, seed, quick=quick) for s in scenes for seed in seeds)
     if not specs:
         raise UsageError("need at least one scene and one seed")
@@ -189,12 +146,8 @@ def make_sweep(
 
 
 class SweepStore:
-    """Results of sweeps under one folder: ``parts/<key>.csv`` per task, merged into
-    ``sweep.csv``.
-
-    A part file is written atomically (complete or absent), so its presence means the task is
-    done, and writing a key again replaces its rows.
-    """
+    """Results of sweeps under one folder: ``parts/<key>.csv`` per task (written atomically:
+    present means done), merged into ``sweep.csv``."""
 
     def __init__(self, out: str | os.PathLike):
         self.out = Path(out)
@@ -250,30 +203,9 @@ class SweepStore:
 
 @dataclass(frozen=True)
 class SweepSummary:
-    """What one :func:`run_sweep` did.
-
-    Attributes
-    ----------
-    tasks : int
-        Tasks in the grid.
-    done, skipped : int
-        Run now, and found stored (skipped).
-    retried : int
-        Tasks run more than once because a worker died under them (counted by Dask, plus the
-        driver's resubmissions).
-    failed : tuple of (key, label, error)
-        Tasks that raised; their rows are absent.
-    wall_s : float
-        Driver wall time, seconds, cluster start included.
-    startup_s : float
-        Of which starting (or connecting to) the cluster, seconds.
-    workers : int
-        Workers that served the sweep (0 when nothing had to run).
-    rows : int
-        Rows in the merged table (every sweep stored in ``out``).
-    table : Path
-        ``sweep.csv``; :meth:`frame` reads it.
-    """
+    """What one :func:`run_sweep` did: tasks in the grid, run now and skipped (stored), retried
+    after a worker died, failed (key, label, error: their rows are absent), wall and cluster
+    start seconds, workers that served it, rows of the merged table (``table``)."""
 
     tasks: int
     done: int
@@ -297,13 +229,9 @@ class SweepSummary:
 def dask_client(
     scheduler: str | None, workers: int, gl_threads: int | None
 ) -> Iterator[tuple[Any, int | None]]:
-    """A ``distributed.Client`` and the llvmpipe threads each worker should use.
-
-    ``scheduler`` None: a ``LocalCluster`` of ``workers`` processes with one thread each (a
-    GL context is not thread-safe), whose llvmpipe threads default to the cores shared out.
-    Otherwise connect to ``scheduler`` and wait for ``workers`` workers (Mesa's default
-    threads, unless given).
-    """
+    """A ``distributed.Client`` and llvmpipe's threads per worker: a local cluster of
+    ``workers`` single-threaded processes (a GL context is not thread-safe) sharing the cores
+    out, or ``scheduler``'s cluster once ``workers`` workers joined it."""
     from distributed import Client, LocalCluster
 
     if scheduler is None:
@@ -350,30 +278,11 @@ def run_sweep(
     gl_threads: int | None = None,
     crash_marker: str | os.PathLike | None = None,
 ) -> SweepSummary:
-    """Run the tasks not stored in ``out`` yet on Dask; store each; merge the table.
-
-    Parameters
-    ----------
-    tasks : list of SweepTask
-    out : folder
-        Holds ``parts/``, ``sweep.csv`` (the table) and ``sweep.json`` (this run's summary).
-    scheduler : str, optional
-        ``tcp://host:port`` of a running Dask scheduler; default: a local cluster.
-    workers : int
-        Local worker processes, or workers to wait for on the scheduler.
-    force : bool
-        Run stored tasks again (their rows are replaced).
-    data : str, optional
-        Castle folder on the workers (default their ``VISLOD_DATA``).
-    gl_threads : int, optional
-        llvmpipe threads per worker (default locally: cores / workers).
-    crash_marker : path, optional
-        Tests only: one worker kills itself mid-task, once (the marker file records it).
-
-    Returns
-    -------
-    SweepSummary
-        Failed tasks are reported there (and in ``sweep.json``), not raised.
+    """Run the tasks not stored in ``out`` yet (all with ``force``) on Dask; store each; merge
+    the table; write ``sweep.json``. ``scheduler``: ``tcp://host:port`` (default a local
+    cluster of ``workers``); ``data``: the castle's folder on the workers; ``gl_threads``:
+    llvmpipe threads per worker; ``crash_marker``: tests only, one worker dies mid-task, once.
+    Failed tasks are reported in the summary, not raised.
     """
     if workers < 1:
         raise UsageError(f"--workers must be at least 1, got {workers}")

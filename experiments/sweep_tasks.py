@@ -1,16 +1,10 @@
-"""One task of a ``vislod sweep``: what it is (:class:`SceneSpec`, :class:`SweepTask`), the key
-that names its result, and how a worker process runs it (:func:`run_task`).
+"""One task of a ``vislod sweep`` (:class:`SweepTask`: one chunk of the seed-000 flight over
+one scene, method, depth and display resolution), its key, and how a worker runs it
+(:func:`run_task`: one row per frame).
 
-Issue 6, part 5. A task culls one chunk of the seed-000 flight (``soc.scenes.paths.flight``)
-over one scene with one method at one depth resolution and one display resolution, and returns
-a DataFrame of one row per frame (:meth:`soc.FrameStats.as_row` plus the task's parameters).
-Its key is a hash of those parameters and the code version, so the same task always has the
-same key, in every process and on every machine, and a result stored under the key can be
-reused.
-
-A worker process keeps one EGL context (``soc.gl.context.default_context``) and its last few
-scenes (and their oracles) in a module-level cache, so a scene is generated and uploaded once
-per worker, not once per task. Nothing in the cache changes what a task computes.
+The key hashes the task's parameters and the code version: the same task has the same key in
+every process and on every machine, so a stored result can be reused. A worker keeps one EGL
+context and its last few scenes (with their oracles) in a cache that changes no result.
 """
 
 from __future__ import annotations
@@ -63,16 +57,8 @@ def _loader(name: str):
 
 @dataclass(frozen=True)
 class SceneSpec:
-    """A scene by name, generator seed and loader keyword arguments.
-
-    Attributes
-    ----------
-    name : {"market", "castle", "clutter"}
-    seed : int
-    params : tuple of (str, value)
-        Keyword arguments of the loader (``soc.scenes.<name>``), sorted by name, e.g.
-        ``(("occludees", 2000),)`` for the small market.
-    """
+    """A scene: ``name`` (market, castle, clutter), generator ``seed`` and the keyword
+    arguments of ``soc.scenes.<name>``, sorted (``(("occludees", 2000),)``)."""
 
     name: str
     seed: int = 0
@@ -80,11 +66,8 @@ class SceneSpec:
 
     @classmethod
     def parse(cls, text: str, seed: int = 0, *, quick: bool = False) -> SceneSpec:
-        """``"market"``, ``"clutter:objects=80,walls=6"`` → a checked spec.
-
-        ``quick`` gives the market :data:`~experiments.common.QUICK_OCCLUDEES` objects unless
-        ``occludees`` is given. Raises :class:`UsageError` for an unknown scene or parameter.
-        """
+        """``"market"``, ``"clutter:objects=80,walls=6"`` → a checked spec (:class:`UsageError`
+        for an unknown scene or parameter); ``quick`` gives the market fewer objects."""
         name, _, rest = str(text).partition(":")
         name = name.strip()
         if name not in SCENES:
@@ -128,26 +111,9 @@ class SceneSpec:
 
 @dataclass(frozen=True)
 class SweepTask:
-    """One unit of a sweep: frames ``start``..``stop - 1`` of a ``frames``-camera flight.
-
-    Attributes
-    ----------
-    scene : SceneSpec
-    method : str
-        A :func:`soc.method_names` entry.
-    resolution : (width, height)
-        The method's depth-buffer resolution, pixels.
-    display : (width, height)
-        Camera resolution, pixels: the oracle and drawing run at it.
-    frames : int
-        Cameras on the whole flight (the cameras depend on it), >= 2.
-    start, stop : int
-        The chunk, ``0 <= start < stop <= frames``.
-    oracle : bool
-        Also count false culls / keeps against :class:`soc.Oracle` at the display resolution.
-    draw : bool
-        Also draw the kept set and time it (``ms_draw``).
-    """
+    """Frames ``start``..``stop - 1`` of a ``frames``-camera flight (the cameras depend on
+    ``frames``), culled by ``method`` at depth ``resolution`` with cameras of ``display``
+    pixels; ``oracle`` counts false culls, ``draw`` draws the kept set and times it."""
 
     scene: SceneSpec
     method: str
@@ -178,8 +144,7 @@ class SweepTask:
 
     @property
     def key(self) -> str:
-        """20 hex digits of SHA-256 over :meth:`params` as canonical JSON: stable across
-        processes, runs and machines; different for any difference in parameters or version."""
+        """20 hex digits of SHA-256 over :meth:`params` as canonical JSON."""
         return _hash(self.params())
 
     @property
@@ -232,8 +197,7 @@ def frame_chunks(frames: int, chunk: int) -> list[tuple[int, int]]:
 
 @dataclass(frozen=True)
 class TaskResult:
-    """What a worker sends back: the task's key, its rows (one per frame), where and how long
-    it ran (seconds)."""
+    """What a worker sends back: the key, the rows, where and how long (s) it ran."""
 
     key: str
     frame: pd.DataFrame
@@ -265,8 +229,7 @@ def _scene(spec: SceneSpec, data: str | None) -> _Loaded:
 
 
 def _crash_once(marker: str | os.PathLike) -> None:
-    """Kill this process (SIGKILL, no clean-up) unless ``marker`` exists; create it first, so
-    that it happens exactly once across all workers sharing the file system. For tests."""
+    """Tests: SIGKILL this process unless ``marker`` exists (created first: once in all)."""
     try:
         fd = os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
     except FileExistsError:
@@ -282,32 +245,12 @@ def run_task(
     gl_threads: int | None = None,
     crash_marker: str | None = None,
 ) -> TaskResult:
-    """Cull (and optionally draw and check) the task's frames; one row per frame.
+    """Cull (and optionally draw and check) the task's frames: one row per frame, the task's
+    columns beside :meth:`soc.FrameStats.as_row`. ``data``: the castle's folder;
+    ``gl_threads``: llvmpipe's and numba's threads; ``crash_marker``: see :func:`_crash_once`.
 
-    Parameters
-    ----------
-    task : SweepTask
-    data : str, optional
-        Folder holding ``intel_castle/`` (castle only; default ``VISLOD_DATA``).
-    gl_threads : int, optional
-        llvmpipe threads of this process's GL context (fixed by the first task it runs), and
-        numba's threads of the CPU rasterizers.
-    crash_marker : str, optional
-        Tests only: the worker kills itself halfway through the chunk, once (see
-        :func:`_crash_once`).
-
-    Returns
-    -------
-    TaskResult
-        ``frame``: one row per frame, :meth:`SweepTask.columns`, ``frame``, ``gl_threads``,
-        ``worker`` and :meth:`soc.FrameStats.as_row` (counts; ``false_culls`` /
-        ``false_keeps`` empty without the oracle; ``ms_<stage>``, ``ms_cull``, ``ms_total``).
-
-    Notes
-    -----
-    The culler warms up (untimed) on the frame before the chunk (frame 0 for the first chunk,
-    as a whole-flight run does), so temporal methods (``chc``, ``grid``, ``adaptive``) start
-    each chunk from one frame of history rather than from the whole flight before it.
+    The culler warms up, untimed, on the frame before the chunk, so temporal methods (``chc``,
+    ``grid``, ``adaptive``) start each chunk from one frame of history.
     """
     import soc
     from soc.gl.context import default_context

@@ -110,29 +110,12 @@ def table(
     floatfmt: str = ",.2f",
     index: bool = False,
 ) -> str:
-    """``df`` as text no wider than ``columns_width`` (default :func:`width`).
-
-    Parameters
-    ----------
-    df : DataFrame
-    columns : sequence of str, optional
-        The columns shown, in order (default: all).
-    columns_width : int, optional
-        The width to fit, in characters.
-    max_lines : int or {column: int}
-        Lines a cell may wrap onto (per column, others 2); the last is cut with "…".
-    weights : {column: float}, optional
-        How the columns that must shrink share the width (others 1).
-    floatfmt : str
-        ``format`` spec of float cells (NaN is empty); ints get thousands separators.
-    index : bool
-        Show the index as the first column.
-
-    Returns
-    -------
-    str
-        Header (wrapped at ``_`` and spaces when narrow), a rule, one or more lines per row.
-        Numeric columns are right-aligned.
+    """``df`` (its ``columns``, the ``index`` first when asked) as text no wider than
+    ``columns_width`` (default :func:`width`): a header wrapped at ``_`` and spaces, a rule,
+    one or more lines per row. A cell wraps onto ``max_lines`` lines (per column: a mapping),
+    the last cut with "…"; ``weights`` say how the columns that must shrink share the width.
+    Numeric columns are right-aligned and never cut; floats use ``floatfmt`` (NaN empty), ints
+    get thousands separators.
     """
     total = columns_width or width()
     if index:
@@ -195,7 +178,3 @@ def _rows(row: list[list[str]], widths: list[int], right: list[bool]) -> list[st
         )
     return out
 
-
-def print_table(df: pd.DataFrame, columns: Sequence[str] | None = None, **kw) -> None:
-    """Print :func:`table` of ``df``."""
-    print(table(df, columns, **kw))
