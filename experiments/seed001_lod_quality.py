@@ -10,7 +10,8 @@ the LOD half; it gives no numbers for either).
 2. *Screen size*: the lecture's «Naive Methode» (2D box of the 8 projected corners) and its
    «Genauere Methode» (the box's silhouette), :func:`lod.projected_area`, against the box's
    pixels rasterized by OpenGL (the oracle's id render), on random boxes and cameras by
-   category: on screen, cut by the viewport, crossing the near plane, eye inside.
+   category (:mod:`lod.testing`): on screen, cut by the viewport, crossing the near plane,
+   eye inside.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from experiments import harness
 from experiments.claims import MEASURED, TREND, Each, Row, Rule, alter, chain
 from experiments.common import UsageError
 from experiments.seed000_pictures import decode, encode
+from lod.testing import CATEGORIES, box_category, screen_size_cases
 
 FRAMES = ("simplifiers", "picture", "screen_size", "screen_summary")
 # Generated meshes: a sphere with 0.5 % radial noise (small bumps to remove) and a torus
@@ -39,7 +41,6 @@ PICTURE_SIZE = (330, 250)  # pixels per panel
 # Relative errors only over boxes of at least this many pixels: below it the boundary pixels
 # (pixel-centre sampling) dominate any estimate.
 MIN_PIXELS = 100
-CATEGORIES = ("on screen", "cut by viewport", "crossing near plane", "eye inside")
 ESTIMATES = ("naive", "exact")
 DOC_COST = "Ein einfaches Kostenmaß für einen Edge-Collapse von U auf V: cost(U,V) = ‖U−V‖·curv(U)"
 DOC_ORDER = "Führe zunächst Edge Collapses mit kleinster Auswirkung aus"
@@ -201,57 +202,6 @@ def render_picture(
 # -- part 2: screen size ---------------------------------------------------------------------
 
 
-def screen_size_cases(
-    boxes: int, cams_per_box: int, resolution: tuple[int, int], seed: int = 0
-) -> list[tuple[np.ndarray, list]]:
-    """``[(aabb (2, 3), cameras)]``: random boxes (corners in [-3, 3]³, sides 0.05 … 4), each
-    seen by cameras cycling through: outside (2 … 15 units away, looking near the box), close
-    to it, inside it; field of view 40 … 90°, near plane 0.05, 0.3 or 1."""
-    import soc
-
-    rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(boxes):
-        lo = rng.uniform(-3, 3, 3)
-        hi = lo + rng.uniform(0.05, 4, 3)
-        cams = []
-        for c in range(cams_per_box):
-            if c % 3 == 0:
-                d, centre = rng.normal(size=3), (lo + hi) / 2
-                eye = centre + d / np.linalg.norm(d) * rng.uniform(2, 15)
-                target = centre + rng.normal(size=3) * 1.5
-            else:  # close to the box, or inside it
-                eye = rng.uniform(lo - 0.5, hi + 0.5) if c % 3 == 1 else rng.uniform(lo, hi)
-                target = eye + rng.normal(size=3)
-            if np.linalg.norm(np.cross(target - eye, (0, 1, 0))) < 1e-6:
-                target = eye + np.array([1.0, 0.0, 0.3])
-            fov, near = float(rng.uniform(40, 90)), float(rng.choice([0.05, 0.3, 1.0]))
-            w, h = resolution
-            cam = soc.Camera.look_at(eye, target, fov_y=fov, width=w, height=h, near=near, far=1e3)
-            cams.append(cam)
-        out.append((np.stack([lo, hi]), cams))
-    return out
-
-
-def box_category(aabb: np.ndarray, camera) -> str:
-    """Where box ``aabb`` (2, 3) lies for ``camera``: one of :data:`CATEGORIES`, or
-    ``"behind"`` (entirely nearer than the near plane: nothing to draw)."""
-    lo, hi = np.asarray(aabb, np.float64)
-    eye = np.asarray(camera.eye)
-    if np.all((lo <= eye) & (eye <= hi)):
-        return "eye inside"
-    bits = (np.arange(8)[:, None] >> np.arange(3)) & 1
-    corners = np.c_[np.where(bits == 1, hi, lo), np.ones(8)]
-    depth = -(corners @ camera.view.T)[:, 2]
-    if depth.max() <= camera.near:
-        return "behind"
-    if depth.min() < camera.near:
-        return "crossing near plane"
-    clip = corners @ camera.view_proj.T
-    ndc = clip[:, :2] / clip[:, 3:]
-    return "on screen" if np.all(np.abs(ndc) <= 1.0) else "cut by viewport"
-
-
 def measure_screen_size(cases, *, bar=None) -> list[dict[str, Any]]:
     """Per (box, camera): category, ``pixels`` of the box in the oracle's id render (depth
     test on, no culling), the ``naive`` and ``exact`` estimates and their relative errors
@@ -280,14 +230,13 @@ def measure_screen_size(cases, *, bar=None) -> list[dict[str, Any]]:
 def summarize_screen_size(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     """Per category (and ``all``) and estimate: cases, cases measured, median signed relative
     error, median / 95th percentile / max of the absolute relative error."""
-    df = pd.DataFrame(rows)
-    out = []
+    df, out = pd.DataFrame(rows), []
+    stat = lambda f, x: float(f(x)) if len(x) else None  # noqa: E731
     for cat in (*CATEGORIES, "all"):
         sel = df if cat == "all" else df[df.category == cat]
         for est in ESTIMATES:
             e = sel[f"{est}_rel_error"].dropna().to_numpy(np.float64)
             a = np.abs(e)
-            stat = lambda f, x: float(f(x)) if len(x) else None  # noqa: E731
             out.append({"category": cat, "estimate": est, "cases": len(sel), "measured": len(e),
                         "median_rel_error": stat(np.median, e),
                         "median_abs_rel_error": stat(np.median, a),
