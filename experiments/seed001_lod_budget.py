@@ -2,21 +2,15 @@
 taught in Zachmann's VR lecture).
 
 The lecture shows «No detail elision, 19,821 polygons» beside «Optimization, 1,389 polys, 0.1
-sec/frame target frame time» and a picture where «darker gray means more detail»; it contrasts
-reactive selection (frame-time history → coarser/finer; «Reaktive LOD-Selektion hat
-Ausreißer») with predictive selection (maximize Σ benefit subject to «Tr = Σ cost(O,L,R) ≤ Tb»,
-greedy on benefit/cost). We measure both on :mod:`lod.lod_scene` (prototype meshes with LOD
-chains instanced over a field) drawn by llvmpipe with ``Renderer.draw`` (one multi-draw call
-per frame, ``ctx.finish()`` timing), the cost model calibrated on this GL
-(:mod:`lod.calibration`) and corrected once on whole random frames of the scene.
-
-Stages: :func:`compute` — scene and calibration (:func:`prepare`), the picture pair at one
-viewpoint (:func:`picture_pair`: no LOD vs the greedy at the budget, the chosen levels in
-grey, and the greedy at other budgets), a flight drawn and timed frame by frame for five
-strategies (:func:`fly`: none, static bands, reactive, predictive, incremental; order rotated
-per frame) → :func:`plot_pictures`, :func:`plot_flight`, :func:`plot_calibration` →
-:func:`claims`. Frame times are of this machine (llvmpipe on a shared CPU): only ratios
-within one run are compared with the lecture's.
+sec/frame target frame time» (levels in grey, «darker gray means more detail») and contrasts
+reactive selection (frame-time history; «Reaktive LOD-Selektion hat Ausreißer») with predictive
+selection (greedy on benefit/cost under «Tr = Σ cost(O,L,R) ≤ Tb»). We draw :mod:`lod.lod_scene`
+with llvmpipe (one multi-draw per frame, ``ctx.finish()`` timing), the cost model calibrated on
+this GL (:mod:`lod.calibration`) and corrected once on whole random frames. Measured: the
+picture pair at one viewpoint (no LOD vs the greedy at the budget, and the greedy over a sweep
+of budgets) and a flight timed frame by frame for five strategies (none, static bands,
+reactive, predictive, incremental; order rotated per frame). Frame times are of this machine
+(llvmpipe on a shared CPU): only ratios within one run are compared with the lecture's.
 """
 
 from __future__ import annotations
@@ -34,23 +28,15 @@ from experiments import harness
 from experiments.claims import IMAGE, MEASURED, TREND, Each, Row, Rule, alter
 from experiments.common import DISPLAY, QUICK_SCALE, UsageError, res_str, scaled
 from experiments.seed000_pictures import decode, encode
+from lod.budget import STRATEGIES, Strategies, predicted_ms, problem, tune_static_scale
 
 FRAMES = ("pictures", "budgets", "flight", "summary", "calibration", "model")
-STRATEGIES = ("none", "static", "reactive", "predictive", "incremental")
-# Static distance bands: level k+1 from the distance at which the median instance's level-k+1
-# error projects to one pixel, all bands scaled by one factor tuned once so that the picture
-# viewpoint meets the budget — a designer's tuning, kept fixed over the flight.
-STATIC_PIXEL_ERROR = 1.0
-# Whole-frame correction of the calibrated model: random cameras with random levels, each
-# frame drawn once (caches holding other objects, as in a flight).
+# Random whole frames (cameras, levels; each drawn once) that correct the calibrated model.
 CORRECTION_FRAMES, QUICK_CORRECTION_FRAMES = 24, 16
 PICTURE_REPEATS = 3  # draws per picture frame time (median)
-# Budgets (× the no-LOD frame time at the viewpoint) at which the greedy is also drawn: where
-# the polygon ratio of the picture pair comes from.
+# Budgets (× the no-LOD frame time at the viewpoint) at which the greedy is also drawn.
 BUDGET_SWEEP = (0.1, 0.15, 0.2, 0.25, 0.35, 0.5, 0.7, 1.0)
-# Timing noise allowed when a measured frame time is compared with its target (shared CPU).
-# Instances coloured by prototype; levels in grey (finest darkest, as in the lecture), shown
-# unlit (divided by a white render's shading) so that the key matches the picture.
+# Instances coloured by prototype; levels in grey (finest darkest), shown unlit.
 PROTOTYPE_COLORS = ((0.72, 0.55, 0.42), (0.45, 0.62, 0.78), (0.55, 0.70, 0.45),
                     (0.78, 0.70, 0.45), (0.65, 0.50, 0.70), (0.50, 0.70, 0.68))  # fmt: skip
 GREY_FINEST, GREY_COARSEST = 0.3, 0.95
@@ -67,26 +53,10 @@ DOC_RATIO = 19821 / 1389
 
 @dataclass(frozen=True)
 class Params:
-    """One run.
-
-    Attributes
-    ----------
-    frames : int
-        Cameras on the flight (each drawn once per strategy).
-    display : (width, height)
-        Framebuffer, pixels (also the calibration's).
-    budget_ms : float or None
-        Target frame time, ms; None: ``budget_fraction`` × the no-LOD frame time at the
-        picture viewpoint (the lecture's 0.1 s belongs to its 1993 machine; 100 uses it as is).
-    budget_fraction : float
-        See ``budget_ms``.
-    meshes : str or None
-        Folder of prototype meshes (or a data folder holding ``meshes/``); None: generated.
-    recalibrate : bool
-        Measure the cost model again instead of reading the cache.
-    quick : bool
-        The small LOD scene and the quick calibration.
-    """
+    """One run: cameras on the flight, framebuffer (also the calibration's); the target frame
+    time in ms, or None for ``budget_fraction`` × the no-LOD frame time at the viewpoint (the
+    lecture's 0.1 s belongs to its 1993 machine); prototype mesh folder (None: generated);
+    measure the cost model again instead of reading the cache; the small scene."""
 
     frames: int = 150
     display: tuple[int, int] = DISPLAY
@@ -134,8 +104,7 @@ class Prepared:
 
 
 def prepare(params: Params, progress: bool = True) -> Prepared:
-    """Build the LOD scene, upload it, calibrate the cost model (or read it from the cache)
-    and correct it on whole frames (:func:`frame_correction`)."""
+    """Build and upload the LOD scene, calibrate (or read the cache) and correct the model."""
     from lod import calibration, lod_scene
     from soc.gl.context import default_context
     from soc.rendering.renderer import Renderer
@@ -155,9 +124,8 @@ def prepare(params: Params, progress: bool = True) -> Prepared:
 
 
 def frame_correction(prep: Prepared, params: Params) -> tuple[float, int]:
-    """(factor, frames): measured / predicted time of whole random frames of the LOD scene
-    (random cameras, random levels in view, each drawn once) by
-    :func:`lod.calibration.frame_factor`, the empty frame excluded."""
+    """(factor, frames): :func:`lod.calibration.frame_factor` of random whole frames (random
+    cameras, random levels in view, each drawn once; empty frames left out)."""
     from lod.calibration import frame_factor
 
     ls, r, cal = prep.lscene, prep.renderer, prep.calibration
@@ -175,126 +143,11 @@ def frame_correction(prep: Prepared, params: Params) -> tuple[float, int]:
     return (frame_factor(predicted, measured), len(predicted)) if predicted else (1.0, 0)
 
 
-# -- one frame's selection problem ----------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Problem:
-    """Benefit and cost of every (instance, level) from one camera: size (N,) pixels (exact
-    projected AABB area), distance (N,) world units, benefit (N, L), cost (N, L) ms, budget ms
-    for the drawn objects (frame budget minus the empty frame)."""
-
-    size: np.ndarray
-    distance: np.ndarray
-    benefit: np.ndarray
-    cost: np.ndarray
-    budget: float
-
-    @property
-    def in_view(self) -> np.ndarray:
-        return self.size > 0
-
-
-def problem(ls, camera, model, budget_ms: float, per_frame_ms: float, previous=None) -> Problem:
-    """The Funkhouser–Séquin instance: benefit = Size · Accuracy · Importance (1) · OffCenter
-    (acuity against eccentricity) · Vel (1) · Hysteresis (against ``previous``, when given);
-    cost from ``model``."""
-    from lod.benefit import acuity_factor, eccentricity, error_accuracy, hysteresis
-    from lod.benefit import funkhouser_sequin_benefit as fs_benefit
-    from lod.screen_size import projected_area
-
-    size = projected_area(ls.aabbs, camera, exact=True)
-    centres = ls.aabbs.mean(axis=1).astype(np.float64)
-    benefit = fs_benefit(
-        size,
-        error_accuracy(ls.projected_errors(camera)),
-        off_center=acuity_factor(eccentricity(centres, camera)),
-        hysteresis=1.0 if previous is None else hysteresis(ls.levels, previous),
-    )
-    cost = model.cost(ls.triangles, ls.vertices, size)
-    return Problem(size, ls.distances(camera), benefit, cost, max(budget_ms - per_frame_ms, 0.0))
-
-
-def predicted_ms(levels: np.ndarray, pb: Problem, per_frame_ms: float) -> float:
-    """The cost model's frame time for ``levels``: empty frame + the drawn objects' costs."""
-    from lod.selection import total_cost
-
-    return per_frame_ms + total_cost(levels, pb.cost)
-
-
-def static_bands(ls, camera) -> np.ndarray:
-    """(L-1,) increasing distances: level k+1 beyond ``bands[k]``, where the median instance's
-    level-(k+1) error projects to :data:`STATIC_PIXEL_ERROR` pixels."""
-    f = 0.5 * camera.height / math.tan(math.radians(camera.fov_y) / 2.0)
-    bands = np.median(ls.errors[:, 1:], axis=0) * f / STATIC_PIXEL_ERROR
-    return np.maximum.accumulate(np.maximum(bands, 1e-9))
-
-
-def _static(pb: Problem, bands: np.ndarray) -> np.ndarray:
-    import lod
-
-    lv = lod.select(pb.benefit, pb.cost, math.inf, method="static", distance=pb.distance,
-                    bands=bands)  # fmt: skip
-    return np.where(pb.in_view, lv, -1)
-
-
-def tune_static_scale(ls, camera, pb: Problem) -> float:
-    """The factor on :func:`static_bands` (bisection on its logarithm) with which the static
-    levels of ``camera`` cost the most within ``pb.budget`` under the cost model."""
-    from lod.selection import total_cost
-
-    bands = static_bands(ls, camera)
-    lo, hi = -12.0, 12.0  # log scale: coarser everywhere … finer everywhere
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        fits = total_cost(_static(pb, math.exp(mid) * bands), pb.cost) <= pb.budget
-        lo, hi = (mid, hi) if fits else (lo, mid)
-    return math.exp(lo)
-
-
-class Strategies:
-    """The five strategies' per-frame state (last levels, the reactive selector)."""
-
-    def __init__(self, ls, static_scale: float = 1.0):
-        from lod.selection import ReactiveSelector
-
-        self.ls, self.static_scale = ls, float(static_scale)
-        self.previous: dict[str, np.ndarray | None] = dict.fromkeys(STRATEGIES)
-        self.reactive = ReactiveSelector()
-
-    def levels(self, name: str, camera, model, budget_ms: float, per_frame_ms: float):
-        """(levels (N,) int64, problem) of strategy ``name`` for ``camera``."""
-        import lod
-
-        prev = self.previous[name]
-        hyst = prev if name in ("predictive", "incremental") else None
-        pb = problem(self.ls, camera, model, budget_ms, per_frame_ms, hyst)
-        if name == "none":
-            levels = np.where(pb.in_view, 0, -1)
-        elif name == "static":  # distance bands only, no trimming
-            levels = _static(pb, self.static_scale * static_bands(self.ls, camera))
-        elif name == "reactive":  # finest in view shifted by the bias from measured times
-            base = np.where(pb.in_view, 0, -1)
-            levels = self.reactive.propose(pb.benefit, pb.cost, pb.budget, base=base)
-        elif name == "predictive":
-            levels = lod.select(pb.benefit, pb.cost, pb.budget, method="funkhouser-sequin")
-        else:
-            levels = lod.select(pb.benefit, pb.cost, pb.budget, previous=prev, method="incremental")
-        levels = np.asarray(levels, np.int64)
-        self.previous[name] = levels
-        return levels, pb
-
-    def record(self, name: str, ms: float) -> None:
-        if name == "reactive":
-            self.reactive.record(ms)
-
-
 # -- the picture pair -----------------------------------------------------------------------
 
 
 def _colors(ls, greys: bool) -> np.ndarray:
-    """(objects, 3): every level of an instance in its prototype's colour (varied), or each
-    level in its grey (finest darkest)."""
+    """(objects, 3): each instance in its prototype's colour (varied), or each level's grey."""
     out = np.zeros((len(ls.scene), 3), np.float32)
     if greys:
         out[ls.object_ids] = np.linspace(GREY_FINEST, GREY_COARSEST, ls.levels)[None, :, None]
@@ -313,13 +166,10 @@ def _timed_draw(renderer, camera, ids) -> tuple[float, float]:
 
 
 def picture_pair(prep: Prepared, params: Params) -> tuple[pd.DataFrame, pd.DataFrame, float, float]:
-    """The viewpoint without detail elision, with the greedy at the budget and its levels in
-    grey; and the greedy at each of :data:`BUDGET_SWEEP`.
-
-    Returns (pictures: one row per panel with polygons, objects, measured and predicted ms,
-    objects per level and the image as PNG text; budgets: one row per budget fraction;
-    budget ms; the static bands' scale tuned to the budget here)."""
-    import lod
+    """The viewpoint without detail elision, with the greedy at the budget, and its levels in
+    grey; the greedy at each of :data:`BUDGET_SWEEP`. Returns (pictures, budgets, budget ms,
+    the static bands' scale tuned to the budget here)."""
+    from lod.selection import select
 
     ls, r, cal = prep.lscene, prep.renderer, prep.calibration
     cam = ls.viewpoint(*params.display)
@@ -332,10 +182,10 @@ def picture_pair(prep: Prepared, params: Params) -> tuple[pd.DataFrame, pd.DataF
 
     def greedy(b):
         pb = problem(ls, cam, prep.model, b, cal.per_frame_ms)
-        return np.asarray(lod.select(pb.benefit, pb.cost, pb.budget), np.int64), pb
+        return np.asarray(select(pb.benefit, pb.cost, pb.budget), np.int64), pb
 
     levels, pb = greedy(budget)
-    ms_opt, spread_opt = _timed_draw(r, cam, ls.ids(levels))
+    timed_opt = _timed_draw(r, cam, ls.ids(levels))
     img_opt = r.image()
     r.geometry.write_colors(_colors(ls, greys=True))
     r.draw(cam, ls.ids(levels))
@@ -348,18 +198,16 @@ def picture_pair(prep: Prepared, params: Params) -> tuple[pd.DataFrame, pd.DataF
     img_levels = np.where(obj[..., None], 255 * unlit * (0.8 + 0.2 * shade / 255), grey)
     img_levels = np.clip(img_levels, 0, 255).astype(np.uint8)
     r.geometry.write_colors(_colors(ls, greys=False))
-    rows = []
     panels = (("no elision", full, (ms_full, spread_full), img_full),
-              ("optimized", levels, (ms_opt, spread_opt), img_opt),
-              ("levels", levels, (ms_opt, spread_opt), img_levels))  # fmt: skip
-    for panel, lv, (ms, spread), img in panels:
-        rows.append({"panel": panel, "budget_ms": budget, "polygons": ls.polygons(lv),
-                     "objects": int((lv >= 0).sum()), "ms": ms, "ms_spread": spread,
-                     "predicted_ms": predicted_ms(lv, pb, cal.per_frame_ms),
-                     **{f"level{k}": int((lv == k).sum()) for k in range(ls.levels)},
-                     **{f"level{k}_triangles": int(np.median(ls.triangles[:, k]))
-                        for k in range(ls.levels)},
-                     "png": encode(img)})  # fmt: skip
+              ("optimized", levels, timed_opt, img_opt),
+              ("levels", levels, timed_opt, img_levels))  # fmt: skip
+    rows = [{"panel": panel, "budget_ms": budget, "polygons": ls.polygons(lv),
+             "objects": int((lv >= 0).sum()), "ms": ms, "ms_spread": spread,
+             "predicted_ms": predicted_ms(lv, pb, cal.per_frame_ms),
+             **{f"level{k}": int((lv == k).sum()) for k in range(ls.levels)},
+             **{f"level{k}_triangles": int(np.median(ls.triangles[:, k]))
+                for k in range(ls.levels)},
+             "png": encode(img)} for panel, lv, (ms, spread), img in panels]  # fmt: skip
     budgets = []
     for frac in BUDGET_SWEEP:
         lv, pbf = greedy(frac * ms_full)
@@ -376,9 +224,7 @@ def picture_pair(prep: Prepared, params: Params) -> tuple[pd.DataFrame, pd.DataF
 
 def fly(prep: Prepared, params: Params, budget_ms: float, static_scale: float,
         progress: bool = True) -> pd.DataFrame:  # fmt: skip
-    """Every frame of the flight, every strategy: select, draw, time. One row per (frame,
-    strategy): measured and predicted ms, selection ms, polygons, objects drawn and in view,
-    the reactive selector's bias. Strategies take turns in a rotating order."""
+    """Every frame, every strategy in a rotating order: select, draw, time (one row each)."""
     from tqdm.auto import tqdm
 
     ls, r, cal = prep.lscene, prep.renderer, prep.calibration
@@ -407,10 +253,8 @@ def fly(prep: Prepared, params: Params, budget_ms: float, static_scale: float,
 
 
 def summarize(flight: pd.DataFrame) -> pd.DataFrame:
-    """Per strategy: mean / median / p95 / max ms; p95 and max over the budget; share of
-    frames over the budget (and over 1.25 × budget), measured and by the cost model; mean
-    polygons and their jitter (mean |change from the last frame| / mean); median measured ÷
-    predicted ms; mean selection ms."""
+    """Per strategy: frame times, against the budget (measured and by the model), polygons and
+    their jitter (mean |change| / mean), measured ÷ predicted, selection time."""
     out = []
     for name, g in flight.groupby("strategy", sort=False):
         ms, pred, b = g.ms.to_numpy(), g.predicted_ms.to_numpy(), float(g.budget_ms.iloc[0])
@@ -432,8 +276,8 @@ def summarize(flight: pd.DataFrame) -> pd.DataFrame:
 
 
 def _calibration_frames(prep: Prepared, params: Params) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Samples (one row per timed draw: measured ms, pixels, held out or fitted, the lecture's
-    and the chosen model's prediction) and the models (one row per variant)."""
+    """Samples (per timed draw, with the lecture's and the chosen model's prediction) and the
+    models (per variant)."""
     from lod.benefit import CostModel
     from lod.calibration import holdout_mask, predict
 
@@ -443,22 +287,19 @@ def _calibration_frames(prep: Prepared, params: Params) -> tuple[pd.DataFrame, p
     samples["held_out"] = holdout_mask(len(s))
     for name in dict.fromkeys(("lecture", cal.variant)):
         samples[f"predicted_{name}"] = predict(CostModel(**cal.alternatives[name]["model"]), s)
-    models = []
-    for name, alt in cal.alternatives.items():
-        models.append({"variant": name, "chosen": name == cal.variant, **alt["model"],
-                       "train_rms": alt["train"]["rms"], "held_out_rms": alt["held_out"]["rms"],
-                       "held_out_max": alt["held_out"]["max"], "per_frame_ms": cal.per_frame_ms,
-                       "device": cal.device, "resolution": res_str(cal.resolution),
-                       "frame_correction": prep.correction,
-                       "correction_frames": prep.correction_frames, "cached": cal.cached,
-                       "instances": prep.lscene.instances, "levels": prep.lscene.levels,
-                       "display": res_str(params.display)})  # fmt: skip
+    models = [{"variant": name, "chosen": name == cal.variant, **alt["model"],
+               "train_rms": alt["train"]["rms"], "held_out_rms": alt["held_out"]["rms"],
+               "held_out_max": alt["held_out"]["max"], "per_frame_ms": cal.per_frame_ms,
+               "device": cal.device, "resolution": res_str(cal.resolution),
+               "frame_correction": prep.correction, "correction_frames": prep.correction_frames,
+               "cached": cal.cached, "instances": prep.lscene.instances,
+               "levels": prep.lscene.levels, "display": res_str(params.display)}
+              for name, alt in cal.alternatives.items()]  # fmt: skip
     return samples, pd.DataFrame(models)
 
 
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
-    """Scene and calibration, the picture pair and the budget sweep at the viewpoint, the
-    flight; frames named in :data:`FRAMES`."""
+    """Scene and calibration, the picture pair and the budget sweep, the flight."""
     prep = prepare(params, progress)
     try:
         pictures, budgets, budget_ms, static_scale = picture_pair(prep, params)

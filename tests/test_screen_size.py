@@ -212,7 +212,7 @@ def test_exact_area_matches_rasterized_pixels():
     exact area on screen: within 2 % plus half a pixel per boundary pixel (pixel-centre
     sampling misses at most half a pixel across each edge) plus 4, on 180 box/camera pairs
     with boxes off screen, crossing the near plane and around the eye."""
-    from experiments.seed001_lod_quality import screen_size_cases
+    from lod.testing import screen_size_cases
 
     rows = []
     for (lo, hi), cams in screen_size_cases(30, 6, (256, 192), seed=2024):
