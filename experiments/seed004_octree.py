@@ -37,7 +37,6 @@ DOC_CLAIM = (
     "количества невидимых объектов» (the method gives a conservative estimate of the number "
     "of invisible objects in bounded time)"
 )
-
 DOC_MODE2 = (
     "«Для сцен с малым количеством подвижных объектов и существенным временем записи "
     "(T_buf(S) ≫ T_buf(H)) условие (5) перестает выполняться и происходит переход ко второму "
@@ -326,8 +325,7 @@ def table2(params: Params, glctx, bar) -> tuple[list[dict], dict, np.ndarray]:
 
 
 def picture(glctx, dyn, scene, octree, e, params: Params) -> np.ndarray:
-    """Camera 0 at :data:`PICTURE` pixels, the expensive nodes outlined (see
-    :func:`plot_expensive_nodes`)."""
+    """Camera 0 with the expensive nodes outlined (:func:`plot_expensive_nodes`)."""
     from soc.culling.octree import outline_boxes
     from soc.rendering.renderer import Renderer
 
