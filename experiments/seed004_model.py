@@ -1,34 +1,23 @@
 """Seed 004, Table 1: Gonakhchyan's performance model on our GL context — frame time of
-random-box scenes measured beside formula (2), memory formula (1) against the GL buffers
-actually allocated, and the re-fit time of the query-count regression (formulas 8-10).
+random-box scenes (10 … 300,000 boxes) measured beside formula (2), memory formula (1) against
+the GL buffers actually allocated, and the re-fit time of the query-count regression (8-10).
 
-Seed 004 (``004_bba2ab22d18288ab.txt``, Table 1) renders scenes of 10 … 300,000 random boxes,
-measures the frame time and predicts it with formula (2) from per-material constants measured
-on calibration draws; its model errs by 1.1-9.5 %. We do the same on llvmpipe: the constants of
-:mod:`soc.models.perf_model` are measured on calibration geometry only (full-screen triangles,
-patches of equal triangles, tiny triangles, node queries), never on a Table 1 scene, so every
-row is a held-back prediction. Calibration batches and Table 1 frames are interleaved round by
-round (:func:`soc.models.perf_model.run_interleaved`), so load from other processes falls on
-all alike; a frame is "draw everything with one multi-draw indirect", clear and ``finish``
-included, its minimum over the rounds (``statistic="median"`` for medians).
-
-Our prediction is formula (2) with the llvmpipe reading of its stages (``overlap="sum"``: the
-CPU rasterizer does not pipeline them) and T_vert + T_frag summed per triangle from the
-measured cost curve t(E) of a triangle's footprint; the paper's form (``max``; T_vert = N_Δ·T_Δ,
-T_frag = f·T_frag from the full-screen triangle) is computed beside it. Dense scenes (boxes as
-large as their spacing, most fragments rejected by the depth test) are run as a stated
-limitation: the model prices every fragment as shaded. **The paper's absolute times (Vulkan on
-a GTX 1070) cannot be compared with llvmpipe's on two CPU cores; its model error can.**
-
-Stages: :func:`prepare` (scenes, uploads, workloads, fragment counts) → :func:`measure`
-(calibration + frames, interleaved) → :func:`table_rows`, :func:`memory_rows` →
-:func:`refit_timing` → :func:`compute` returns them as DataFrames.
+The constants of :mod:`soc.models.perf_model` are measured on calibration geometry only, never
+on a Table 1 scene, so every row is a held-back prediction; calibration batches and frames are
+interleaved round by round so that load from other processes falls on all alike. A frame is
+one multi-draw indirect of everything, clear and ``finish`` included, its minimum (or median)
+over the rounds. We predict with our llvmpipe reading of (2) (stages summed, T_vert + T_frag
+from the measured cost curve t(E) of a triangle's footprint) and judge the paper's form (the
+largest stage; T_frag from the full-screen triangle) by the paper's own largest model error,
+9.54 %. Dense scenes, whose fragments mostly fail the depth test, are a stated limitation. The
+paper's absolute times (Vulkan on a GTX 1070) are not compared with llvmpipe's; its error is.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from contextlib import ExitStack, closing
 from dataclasses import dataclass
 from typing import Any
 
@@ -62,24 +51,9 @@ FRAMES = ("table1", "rounds", "memory", "constants", "refit")
 
 @dataclass(frozen=True)
 class Params:
-    """One run of Table 1.
-
-    Attributes
-    ----------
-    sizes : tuple of int
-        Objects of the Table 1 scenes (random boxes, sparse).
-    dense_sizes : tuple of int
-        Objects of the dense limitation scenes (``()`` for none).
-    resolution : (width, height)
-        Pixels of every frame, calibration included.
-    repeats : int
-        Interleaved rounds (at least 3).
-    seed : int
-        Scene and calibration seed.
-    statistic : {"min", "median"}
-        What stands for repeated timings, calibration and frames alike
-        (:func:`soc.models.perf_model.typical_ms`).
-    """
+    """One run: random-box scenes of ``sizes`` objects (and dense ones of ``dense_sizes``) at
+    ``resolution``, ``repeats`` interleaved rounds reduced by ``statistic`` (calibration and
+    frames alike, :func:`soc.models.perf_model.typical_ms`)."""
 
     sizes: tuple[int, ...] = DOC_OBJECTS
     dense_sizes: tuple[int, ...] = (1000, 10000)
@@ -89,7 +63,6 @@ class Params:
     statistic: str = "min"
 
     def check(self) -> None:
-        """:class:`UsageError` for values the run cannot use."""
         if not self.sizes or min(self.sizes) < 1 or len(set(self.sizes)) != len(self.sizes):
             raise UsageError(f"sizes must be distinct positive integers, got {list(self.sizes)}")
         if any(s < 1 for s in self.dense_sizes):
@@ -117,8 +90,8 @@ class Case:
     camera: Any
     geometry: Any
     renderer: Any
-    work: Any = None
-    fragments: Any = None
+    work: Any
+    fragments: Any
 
     @property
     def name(self) -> str:
@@ -127,15 +100,10 @@ class Case:
     def draw(self) -> float:
         return self.renderer.draw(self.camera, np.arange(self.objects))
 
-    def release(self) -> None:
-        self.renderer.release()
-        self.geometry.release()
 
-
-def prepare(params: Params, cases: list[Case], bar) -> None:
-    """Build, upload and count every scene (random boxes of each size, then dense ones) into
-    ``cases``. Geometry is uploaded with :class:`SceneGeometry` directly and released by the
-    caller (:meth:`Case.release`): the context's geometry cache would keep the scenes alive."""
+def prepare(params: Params, stack: ExitStack, bar) -> list[Case]:
+    """Build, upload and count every scene (random boxes of each size, then dense ones). The
+    geometry is released on leaving ``stack``: the context's cache would keep it alive."""
     from soc.gl.context import default_context
     from soc.gl.geometry import SceneGeometry
     from soc.models.perf_model import count_fragments, scene_workload
@@ -145,37 +113,25 @@ def prepare(params: Params, cases: list[Case], bar) -> None:
     glctx = default_context()
     plan = [("random", n, {}) for n in sorted(params.sizes)]
     plan += [("dense", n, {"size_range": DENSE_SIZE_RANGE}) for n in sorted(params.dense_sizes)]
+    cases = []
     for kind, n, extra in plan:
         bar.set_postfix_str(f"scene {kind} {n:,}")
         scene = random_boxes(n, params.seed, **extra)
         camera = overview_camera(scene, *params.resolution)
         geometry = SceneGeometry(glctx, scene)
-        case = Case(kind, n, scene, camera, geometry, Renderer(geometry, params.resolution))
-        cases.append(case)
-        case.work = scene_workload(scene, camera)
-        case.fragments = count_fragments(case.renderer, camera, np.arange(n))
+        stack.callback(geometry.release)
+        renderer = Renderer(geometry, params.resolution)
+        stack.callback(renderer.release)
+        work = scene_workload(scene, camera)
+        fragments = count_fragments(renderer, camera, np.arange(n))
+        cases.append(Case(kind, n, scene, camera, geometry, renderer, work, fragments))
         bar.update(1)
-
-
-def measure(params: Params, cases: Sequence[Case], calibration, bar):
-    """Time the calibration batches and every case's frame, interleaved; returns the constants
-    and the per-case frame times (ms, every round)."""
-    from soc.models.perf_model import run_interleaved
-
-    tasks = dict(calibration.tasks)
-    tasks.update({c.name: c.draw for c in cases})
-    samples = run_interleaved(tasks, params.repeats, seed=params.seed, bar=bar)
-    return calibration.constants(samples), {c.name: samples[c.name] for c in cases}
-
-
-def _err(pred: float, meas: float) -> float:
-    return 100.0 * (pred - meas) / meas
+    return cases
 
 
 def table_rows(cases: Sequence[Case], frames: dict, constants, statistic: str) -> list[dict]:
-    """One row per scene: measured frame time (``statistic`` over the rounds, and quartiles),
-    our prediction and its error, the paper's form and its error, the terms of (2), counts,
-    and the document's row when the size is one of Table 1's."""
+    """Per scene: measured frame time, ours and the paper's form of (2) with their errors, the
+    terms of (2), counts, and the document's row for Table 1's sizes."""
     from soc.models.perf_model import frame_time, typical_ms
 
     paper_constants = constants.paper_only()
@@ -199,9 +155,9 @@ def table_rows(cases: Sequence[Case], frames: dict, constants, statistic: str) -
                 "ms_p25": float(np.percentile(t, 25)),
                 "ms_p75": float(np.percentile(t, 75)),
                 "ms_predicted": ours.total_ms,
-                "error_pct": _err(ours.total_ms, meas),
+                "error_pct": 100.0 * (ours.total_ms - meas) / meas,
                 "ms_paper_form": paper.total_ms,
-                "error_paper_form_pct": _err(paper.total_ms, meas),
+                "error_paper_form_pct": 100.0 * (paper.total_ms - meas) / meas,
                 **{f"ms_{k}": v for k, v in ours.terms_ms.items() if not k.endswith("(H)")},
                 "doc_ms_measured": DOC_MEASURED_MS[i] if i is not None else np.nan,
                 "doc_ms_model": DOC_MODEL_MS[i] if i is not None else np.nan,
@@ -212,8 +168,7 @@ def table_rows(cases: Sequence[Case], frames: dict, constants, statistic: str) -
 
 
 def memory_rows(cases: Sequence[Case]) -> list[dict]:
-    """Formula (1) from the scene's counts beside the bytes of the GL buffers and render
-    targets actually allocated, per scene."""
+    """Per scene: formula (1) beside the bytes of the GL buffers and targets allocated."""
     from soc.models.perf_model import allocated_memory, geometry_memory
 
     rows = []
@@ -250,23 +205,16 @@ def constants_rows(constants) -> list[dict]:
 
 
 def refit_timing(constants, seed: int) -> list[dict]:
-    """Compile once, then time :data:`REFIT_REPEATS` re-fits of formulas (8)-(10) on
-    :data:`REFIT_FRAMES` frames of synthetic statistics (a model with this context's unit
-    times). One row per fit: ms, whether it compiled, converged, the recovered coefficients
-    and the best q of the fitted model beside the true one."""
-    from soc.models.query_model import (
-        QueryModel,
-        best_query_count,
-        fit_query_model,
-        synthetic_statistics,
-    )
+    """Time a compiling fit and :data:`REFIT_REPEATS` re-fits of (8)-(10) on synthetic
+    statistics of a model with this context's unit times: per fit ms, coefficients, best q."""
+    from soc.models import query_model as qm
 
-    truth = QueryModel(
+    truth = qm.QueryModel(
         alpha_n=0.2, c_n=8.0, n_0=4000.0, s_1=350.0, e_0=2.0e6, p=150.0, e_1=1.6e5,
         t_c=constants.t_buf_ns * 1e-6, t_s=constants.t_state_ns * 1e-6,
         t_e=constants.t_tri_ns * 1e-6,  # elements counted as triangles
     )  # fmt: skip
-    exact = best_query_count(truth, int(truth.n_0)).q
+    exact = qm.best_query_count(truth, int(truth.n_0)).q
     rng = np.random.default_rng(seed)
     coefs = ("alpha_n", "n_0", "s_1", "e_0", "p", "e_1")
     rows = []
@@ -274,9 +222,9 @@ def refit_timing(constants, seed: int) -> list[dict]:
         # q spread in ln(1 + q), as a renderer exploring q would: with q uniform, ln(1 + q)
         # hardly varies and e_0 trades off against e_1.
         q = np.round(np.expm1(rng.uniform(0.0, np.log1p(truth.n_0), REFIT_FRAMES)))
-        stats = synthetic_statistics(truth, q, noise=0.02, seed=seed + k)
+        stats = qm.synthetic_statistics(truth, q, noise=0.02, seed=seed + k)
         t0 = time.perf_counter()
-        fit = fit_query_model(stats, truth.c_n)
+        fit = qm.fit_query_model(stats, truth.c_n)
         ms = 1e3 * (time.perf_counter() - t0)
         model = fit.model(truth.c_n, truth.t_c, truth.t_s, truth.t_e)
         rows.append(
@@ -286,7 +234,7 @@ def refit_timing(constants, seed: int) -> list[dict]:
                 "ms": ms,
                 "frames": REFIT_FRAMES,
                 "converged": bool(fit.converged),
-                "q_best": best_query_count(model, int(truth.n_0)).q,
+                "q_best": qm.best_query_count(model, int(truth.n_0)).q,
                 "q_best_truth": exact,
                 **{c: getattr(fit, c) for c in coefs},
                 **{f"{c}_truth": getattr(truth, c) for c in coefs},
@@ -296,31 +244,28 @@ def refit_timing(constants, seed: int) -> list[dict]:
 
 
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
-    """Measure and predict Table 1 (module docstring); frames :data:`FRAMES`."""
+    """Measure and predict Table 1 (module docstring) as :data:`FRAMES`."""
     from tqdm.auto import tqdm
 
-    from soc.models.perf_model import Calibration, CalibrationSetup
+    from soc.models.perf_model import Calibration, CalibrationSetup, run_interleaved
 
     cal_setup = CalibrationSetup(
         params.resolution, params.repeats, CALIBRATION_SCALE, params.seed, params.statistic
     )
-    cases: list[Case] = []
-    calibration = None
     total = len(params.sizes) + len(params.dense_sizes)
-    with tqdm(total=total, desc="seed004 model", unit="step", disable=not progress) as bar:
-        try:
-            prepare(params, cases, bar)
-            calibration = Calibration(cal_setup)
-            bar.total += (len(calibration.tasks) + len(cases)) * (params.repeats + 1)
-            bar.refresh()
-            constants, times = measure(params, cases, calibration, bar)
-            rows = table_rows(cases, times, constants, params.statistic)
-            memory = memory_rows(cases)
-        finally:
-            if calibration is not None:
-                calibration.close()
-            for c in cases:
-                c.release()
+    with ExitStack() as stack:
+        bar = stack.enter_context(
+            tqdm(total=total, desc="seed004 model", unit="step", disable=not progress)
+        )
+        cases = prepare(params, stack, bar)
+        calibration = stack.enter_context(closing(Calibration(cal_setup)))
+        bar.total += (len(calibration.tasks) + len(cases)) * (params.repeats + 1)
+        bar.refresh()
+        tasks = {**calibration.tasks, **{c.name: c.draw for c in cases}}
+        times = run_interleaved(tasks, params.repeats, seed=params.seed, bar=bar)
+        constants = calibration.constants(times)
+        rows = table_rows(cases, times, constants, params.statistic)
+        memory = memory_rows(cases)
     rounds = [
         {"kind": c.kind, "objects": c.objects, "round": i, "ms": ms}
         for c in cases
@@ -339,14 +284,10 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
 
 
 def plot_table1(frames: dict[str, pd.DataFrame], params: Params):
-    """Left: frame time (ms, log-log) against the number of random boxes — ours measured
-    (dots: the run's statistic over the interleaved rounds, bars: quartiles), our formula (2)
-    (solid), the paper's form of (2) on our constants (dotted), dense boxes (red squares and
-    crosses, a stated limitation) and the paper's own rows (grey; a GTX 1070, one to two
-    orders of magnitude below llvmpipe: the levels are not comparable). Right: each row's
-    model error, % of the measured time, ours beside the paper's (the comparable quantity),
-    the ±10 % band shaded.
-    """
+    """Left: frame time against random boxes: ours measured (bars: quartiles), our formula
+    (2), the paper's form on our constants, dense boxes (a limitation) and the paper's rows
+    (grey; a GTX 1070: levels not comparable). Right: each row's model error, ours beside the
+    paper's (the comparable quantity), the tolerance shaded."""
     from matplotlib.figure import Figure
 
     t = frames["table1"]
@@ -379,7 +320,7 @@ def plot_table1(frames: dict[str, pd.DataFrame], params: Params):
     ax_err.plot(rnd.objects, rnd.error_pct, "o-", color="C0", label="ours formula (2)")
     ax_err.plot(rnd.objects, rnd.error_paper_form_pct, "s:", color="C1",
                 label="ours, paper's form")  # fmt: skip
-    signed = [_err(mo, me) for mo, me in zip(DOC_MODEL_MS, DOC_MEASURED_MS, strict=True)]
+    signed = 100 * (np.divide(DOC_MODEL_MS, DOC_MEASURED_MS) - 1)
     ax_err.plot(DOC_OBJECTS, signed, "o--", color="grey", mfc="none",
                 label="paper (its model vs its measurement)")  # fmt: skip
     ax_err.axhline(0.0, color="black", lw=0.8)
@@ -400,9 +341,8 @@ def _slope(objects, ms) -> float:
 
 
 def _table1(frames: dict[str, pd.DataFrame], params: Params):
-    """The one case: Table 1's random rows (``rnd``) with the paper's form's and our reading's
-    errors, the growth slopes (ours, per round, and the document's over the same sizes) and
-    the measured per-frame constant."""
+    """The one case: Table 1's random rows (``rnd``), their errors, the growth slopes (ours, per
+    round, and the document's over the same sizes) and the measured per-frame constant."""
     t, rounds = frames["table1"], frames["rounds"]
     rnd = t[t.kind == "random"]
     big = rnd[rnd.objects >= 1000]
@@ -433,8 +373,7 @@ def _rows(frames: dict[str, pd.DataFrame], params: Params):
 
 
 def _reading(q) -> str:
-    """Our reading of (2) on llvmpipe (stages summed, t(E) per triangle) for one size, with
-    what the measurements say about its error."""
+    """Our reading's error for one size, with what the measurements say of its cause."""
     r = q.r
     text = f"our reading (stages summed, t(E) per triangle): error {r.error_pct:+.1f} %"
     if abs(r.error_pct) <= ERROR_TOLERANCE_PCT:
@@ -449,10 +388,6 @@ def _reading(q) -> str:
                        f"priced as shaded: at most {share:+.1f} % of the error; the rest, cause "
                        "not measured")  # fmt: skip
     return text + "; cause not measured"
-
-
-_PAPER_WHY = ("the paper's form prices a frame by its largest stage; llvmpipe runs the stages one "
-              "after another (the same constants summed are our reading)")  # fmt: skip
 
 
 _ALL = "kind == 'random'"
@@ -478,7 +413,8 @@ CLAIMS = (
         "range" + (f"; absolute ms not compared: llvmpipe on CPU cores vs the paper's GTX 1070, "
                    f"ours {q.r.ms_measured / q.r.doc_ms_measured:.0f}× theirs"
                    if np.isfinite(q.r.doc_ms_measured) else ""),
-        why=_PAPER_WHY,
+        why="the paper's form prices a frame by its largest stage; llvmpipe runs the stages one "
+        "after another (the same constants summed are our reading)",
         note=_reading,
     ),)),
     Each(_table1, (
@@ -507,11 +443,9 @@ CLAIMS = (
                      alter("table1", "ms_measured", expr="0.01 * objects ** 0.97", where=_ALL))),
             basis=lambda q: "the slopes agree within our slope's run-to-run spread (std of the "
             f"per-round slopes over {q.rounds} rounds; with fewer than 3: to the printed two "
-            "decimals); the slope compares, the levels "
-            "(llvmpipe vs a GPU) do not",
+            "decimals); the slope compares, the levels (llvmpipe vs a GPU) do not",
             why=lambda q: f"llvmpipe's measured fixed cost per frame (T_frame {q.t_frame:.2f} ms: "
-            "clear, finish) flattens the small sizes: without it the slope is "
-            f"{q.net_s:.2f}",
+            f"clear, finish) flattens the small sizes: without it the slope is {q.net_s:.2f}",
             when=lambda q: len(q.big) >= 2,
         ),
     )),
