@@ -27,7 +27,7 @@ import pandas as pd
 
 from experiments import common, harness
 from experiments.claims import TREND, By, Each, Row, Rule, alter, holds_text
-from experiments.common import DISPLAY, UsageError
+from experiments.common import DISPLAY, require
 
 FRAMES = ("frames", "summary")
 GRID_SIZES = (16, 32, 64)  # cells along the scene's longest axis: sparse, medium, tight
@@ -56,15 +56,7 @@ class Params:
 
     def check(self) -> None:
         """:class:`UsageError` for values the run cannot use."""
-        if self.frames < 2:
-            raise UsageError(f"frames must be at least 2, got {self.frames}")
-        if len(self.display) != 2 or min(self.display) < 16:
-            raise UsageError(f"display must be at least 16x16 pixels, got {self.display}")
-        s = list(self.grid_sizes)
-        if not s or min(s) < 1 or len(set(s)) != len(s):
-            raise UsageError(f"grid sizes must be distinct positive integers, got {s}")
-        if self.seed < 0:
-            raise UsageError(f"seed must be >= 0, got {self.seed}")
+        require(self, distinct=["grid_sizes"], frames=2, display=16, grid_sizes=1, seed=0)
 
     @property
     def cap_size(self) -> int:
@@ -117,65 +109,51 @@ class Run:
         return f"grid {self.grid_size} {cap}"
 
 
-def fly(
-    segment: Segment, runs: Sequence[Run], resolution: tuple[int, int], bar, truths=None
-) -> tuple[list[np.ndarray], dict[Run, list]]:
-    """Every run over the cameras, frames interleaved (the order rotating per frame, so load from
-    other processes lands on all runs alike): the oracle's visible sets per frame (``truths``,
-    computed when None) and per run the stats of its frames."""
+def fly(segment: Segment, runs: Sequence[Run], params: Params, truths, progress: bool):
+    """Every run over the cameras, drawing, by :func:`soc.fly` (frames interleaved, the order
+    rotating per frame, so load from other processes lands on all runs alike)."""
     import soc
 
-    stats: dict[Run, list] = {r: [] for r in runs}
     with ExitStack() as stack:
-        oracle = stack.enter_context(soc.Oracle(segment.scene)) if truths is None else None
-        truths = [] if truths is None else truths
-        cullers = []
+        cullers = {}
         for r in runs:
             grid = r.method == "grid"
             opts = {"grid_size": r.grid_size, "query_cap": r.query_cap} if grid else {}
-            culler = stack.enter_context(soc.Culler(segment.scene, r.method, resolution, **opts))
-            culler.cull(segment.cameras[0], draw=True)
-            culler.reset()  # the measured frames start without temporal state
-            cullers.append(culler)
-        for i, cam in enumerate(segment.cameras):
-            bar.set_postfix_str(f"{segment.name} frame {i}")
-            if oracle is not None:
-                truths.append(oracle.visible(cam))
-                bar.update(1)
-            for k in np.roll(np.arange(len(runs)), -i).tolist():
-                stats[runs[k]].append(cullers[k].cull(cam, truth=truths[i], draw=True).stats)
-                bar.update(1)
-    return truths, stats
+            c = soc.Culler(segment.scene, r.method, params.display, **opts)
+            cullers[r.label] = stack.enter_context(c)
+            c.cull(segment.cameras[0], draw=True)
+            c.reset()  # the measured frames start without temporal state
+        return soc.fly(cullers, segment.cameras, truth=truths, draw=True, progress=progress)
 
 
-def run_segment(segment: Segment, params: Params, *, bar) -> list[dict[str, Any]]:
+def run_segment(segment: Segment, params: Params, progress: bool) -> pd.DataFrame:
     """Per-frame rows of frustum culling and the grid sizes uncapped, then of the caps on the
     middle size (the document's, those scaled to its mean queries). A cap binds on a frame
     where the uncapped run had more queries (candidate cells)."""
+    import soc
+
+    with soc.Oracle(segment.scene) as oracle:
+        truths = [oracle.visible(cam) for cam in segment.cameras]
     first = [Run("frustum")] + [Run("grid", s) for s in params.grid_sizes]
-    truths, stats = fly(segment, first, params.display, bar)
-    uncapped = {r.grid_size: [s.queries for s in stats[r]] for r in first[1:]}
-    mean = float(np.mean(uncapped[params.cap_size]))
+    flown = fly(segment, first, params, truths, progress)
+    uncapped = flown[flown.method == Run("grid", params.cap_size).label].set_index("frame").queries
     caps = [(c, "document") for c in DOC_CAPS]
-    caps += [(max(1, round(s * mean)), f"{s:g}x mean") for s in CAP_SCALES]
+    caps += [(max(1, round(s * uncapped.mean())), f"{s:g}x mean") for s in CAP_SCALES]
     second = [Run("grid", params.cap_size, c, rule) for c, rule in caps]
-    stats.update(fly(segment, second, params.display, bar, truths)[1])
-    out = []
-    for run, frames in stats.items():
-        for i, s in enumerate(frames):
-            row = {
-                "segment": segment.name, "run": run.label, **asdict(run), "frame": i,
-                "drawn": s.models_visible, "popping": s.false_culls, "false_keeps": s.false_keeps,
-                "queries": s.queries, "ms_cull": s.cull_ms,
-                "ms_draw": s.timings_ms.get("draw", float("nan")), "ms_total": s.total_ms,
-                "oracle_visible": int(truths[i].sum()),
-            }  # fmt: skip
-            if run.method == "grid":
-                row["slower_than_frustum"] = bool(s.total_ms > stats[first[0]][i].total_ms)
-                cap = run.query_cap
-                row["cap_binds"] = bool(cap is not None and uncapped[run.grid_size][i] > cap)
-            out.append(row)
-    return out
+    flown = pd.concat([flown, fly(segment, second, params, truths, progress)])
+    runs = pd.DataFrame([{"segment": segment.name, "run": r.label, **asdict(r)}
+                         for r in first + second])  # fmt: skip
+    names = {"method": "run", "models_visible": "drawn", "false_culls": "popping"}
+    cols = ["drawn", "popping", "false_keeps", "queries", "ms_cull", "ms_draw", "ms_total"]
+    df = runs.merge(flown.rename(columns=names)[["run", "frame", *cols]], on="run", how="left")
+    grid = df.method == "grid"
+    frustum = df[~grid].set_index("frame").ms_total
+    binds = df.query_cap.notna() & (df.frame.map(uncapped) > df.query_cap)
+    return df.assign(
+        oracle_visible=np.array([t.sum() for t in truths])[df.frame],
+        slower_than_frustum=(df.ms_total > df.frame.map(frustum)).where(grid),
+        cap_binds=binds.where(grid),
+    )
 
 
 # -- the experiment ---------------------------------------------------------------------------
@@ -184,13 +162,8 @@ def run_segment(segment: Segment, params: Params, *, bar) -> list[dict[str, Any]
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     """``frames``: one row per segment × run × frame; ``summary``: per segment × run, frame-time
     statistics, means of the counts, frames slower than frustum only and where the cap binds."""
-    from tqdm.auto import tqdm
-
     segs = segments(params)
-    per_frame = 2 + len(params.grid_sizes) + len(DOC_CAPS) + len(CAP_SCALES)  # oracle, runs
-    total = params.frames * per_frame * len(segs)
-    with tqdm(total=total, unit="frame", desc="seed 002", disable=not progress) as bar:
-        df = pd.DataFrame([row for seg in segs for row in run_segment(seg, params, bar=bar)])
+    df = pd.concat([run_segment(seg, params, progress) for seg in segs], ignore_index=True)
     df["objects"] = df.segment.map({s.name: len(s.scene) for s in segs})
     # fmt: off
     summary = df.groupby(["segment", "run"], sort=False).agg(
