@@ -25,7 +25,7 @@ import pandas as pd
 
 from experiments import harness
 from experiments.claims import IMAGE, NUMBERS, TREND, Each, Row, Rule, alter, holds_text
-from experiments.common import QUICK_OCCLUDEES, UsageError, res_str
+from experiments.common import QUICK_OCCLUDEES, UsageError, require, res_str
 from experiments.seed000_pictures import decode, encode
 
 FRAMES = ("stereo", "warp", "timing", "composite", "scene", "pictures")
@@ -59,21 +59,14 @@ class Params:
 
     def check(self) -> None:
         """:class:`UsageError` for values the run cannot use."""
-        if len(self.display) != 2 or min(self.display) < 8:
-            raise UsageError(f"display must be at least 8x8 pixels, got {self.display}")
-        if self.views < 1 or self.repeats < 1:
-            raise UsageError(f"views and repeats must be >= 1, got {self.views}, {self.repeats}")
-        if not self.separations or min(self.separations) < 0:
-            raise UsageError(f"separations must be >= 0, got {list(self.separations)}")
-        if not self.ages or min(self.ages) < 0 or max(self.ages) >= self.flight_frames // 2:
+        require(self, display=8, views=1, repeats=1, separations=0, ages=0, seed=0)
+        if max(self.ages) >= self.flight_frames // 2:
             raise UsageError(
-                f"ages must be >= 0 and below half the flight ({self.flight_frames} frames), "
+                f"ages must be below half the flight ({self.flight_frames} frames), "
                 f"got {list(self.ages)}"
             )
         if not self.splat_sizes or min(self.splat_sizes) <= 0:
             raise UsageError(f"splat_sizes must be positive, got {list(self.splat_sizes)}")
-        if self.seed < 0:
-            raise UsageError(f"seed must be >= 0, got {self.seed}")
 
 
 @dataclass

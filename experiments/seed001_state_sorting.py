@@ -29,7 +29,7 @@ import pandas as pd
 
 from experiments import harness
 from experiments.claims import MEASURED, TREND, Each, Row, Rule, alter
-from experiments.common import DISPLAY, QUICK_SCALE, UsageError, res_str, scaled
+from experiments.common import DISPLAY, QUICK_SCALE, UsageError, require, res_str, scaled
 from soc.rendering.state_sorting import (
     OFFLINE,
     ONLINE,
@@ -75,10 +75,8 @@ class Params:
         before any work (known, and able to cull the market)."""
         import soc
 
-        if self.frames < 2:
-            raise UsageError(f"frames must be at least 2, got {self.frames}")
-        if len(self.display) != 2 or min(self.display) < 16:
-            raise UsageError(f"display must be at least 16x16 pixels, got {self.display}")
+        require(self, frames=2, display=16, ks=1, real_ks=1, worst_ms=2, synthetic_n=1,
+                exact_streams=1, timing_n=1, seed=0)  # fmt: skip
         if self.method not in soc.method_names():
             raise UsageError(
                 f"unknown method {self.method!r}; available: {', '.join(soc.method_names())}"
@@ -88,17 +86,8 @@ class Params:
                 f"method {self.method!r} cannot cull scene 'market': it needs a scene of cells "
                 "and portals (rooms: soc.scenes.rooms, or `vislod portals`)"
             )
-        for name in ("ks", "real_ks"):
-            ks = getattr(self, name)
-            if not ks or min(ks) < 1:
-                raise UsageError(f"{name} must be positive buffer sizes, got {list(ks)}")
-        if any(m < 2 or m % 2 for m in self.worst_ms):
+        if any(m % 2 for m in self.worst_ms):
             raise UsageError(f"worst_ms must be even numbers >= 2, got {list(self.worst_ms)}")
-        if min(self.synthetic_n, self.exact_streams, self.timing_n) < 1 or self.seed < 0:
-            raise UsageError(
-                "synthetic_n, exact_streams and timing_n must be positive and seed >= 0, got "
-                f"{self.synthetic_n}, {self.exact_streams}, {self.timing_n}, {self.seed}"
-            )
 
 
 # -- streams ---------------------------------------------------------------------------------

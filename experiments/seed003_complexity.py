@@ -78,19 +78,14 @@ class Params:
 
     def check(self) -> None:
         """:class:`UsageError` for sweeps that cannot be fitted."""
-        from experiments.common import UsageError
+        from experiments.common import UsageError, require
 
-        for name in ("subdivisions", "v_sides", "vp_sides", "light_counts", "l_sides"):
-            v = list(getattr(self, name))
-            if len(v) < 2 or min(v) < 0 or len(set(v)) != len(v):
-                raise UsageError(f"{name} needs at least two distinct values >= 0, got {v}")
-        if min(self.vp_sides) < 1 or min(self.v_sides) < 1 or min(self.l_sides) < 1:
-            raise UsageError(f"viewport sides must be >= 1, got {self.vp_sides}")
-        if self.repeats < 1 or self.grid < 1 or self.layers < 1:
-            raise UsageError(
-                f"repeats, grid, layers must be >= 1, got {self.repeats}, {self.grid}, "
-                f"{self.layers}"
-            )
+        sweeps = ("subdivisions", "v_sides", "vp_sides", "light_counts", "l_sides")
+        for name in sweeps:
+            if len(getattr(self, name)) < 2:
+                raise UsageError(f"{name} needs at least two values, got {getattr(self, name)}")
+        require(self, distinct=sweeps, subdivisions=0, light_counts=0, v_sides=1, vp_sides=1,
+                l_sides=1, repeats=1, grid=1, layers=1)  # fmt: skip
 
 
 def draw_order(scene, cam, order: str) -> np.ndarray:

@@ -25,7 +25,7 @@ import pandas as pd
 
 from experiments import harness
 from experiments.claims import DIFFERS, MEASURED, TREND, Each, Row, Rule, alter, holds_text
-from experiments.common import UsageError, res_str
+from experiments.common import UsageError, require, res_str
 from soc.culling.oracle import Oracle
 
 METHODS = ("frustum", "queries", "adaptive")
@@ -102,19 +102,12 @@ class Params:
         """:class:`UsageError` for values the run cannot use."""
         from soc.scenes.dynamic import PRESETS
 
-        if self.frames < WINDOW:
-            raise UsageError(f"--frames must be at least {WINDOW}, got {self.frames}")
+        require(self, frames=WINDOW, oracle_every=0, repeats=3, sweep_frames=8)
         bad = [s for s in self.scenes if s not in PRESETS]
         if bad:
             raise UsageError(f"unknown scene {bad[0]!r}; available: {', '.join(PRESETS)}")
         if not self.scale > 0:
             raise UsageError(f"--scale must be > 0, got {self.scale}")
-        if self.oracle_every < 0:
-            raise UsageError(f"--oracle-every must be >= 0 (0 = never), got {self.oracle_every}")
-        if self.repeats < 3:
-            raise UsageError(f"--repeats must be at least 3 (for a spread), got {self.repeats}")
-        if self.sweep_frames < 8:
-            raise UsageError(f"--sweep-frames must be at least 8, got {self.sweep_frames}")
 
 
 class AliveOracle(Oracle):
