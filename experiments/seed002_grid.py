@@ -1,18 +1,13 @@
-"""Seed 002 (trend): occlusion queries on uniform-grid cells (``grid``) against frustum
-culling alone, indoors and out (``vislod seed002``, ``grid``).
-
-The thesis (hardware occlusion queries with grid traversal, pp. 35-40) shows frame rate and
-rendered nodes per frame with occlusion culling off and with query caps 4000, 3000 and 2000 on
-three grid sizes, and claims: caps 4000 and 3000 look alike, 3000 pops more, 2000 pops
-unacceptably; without occlusion culling the frame rate fluctuates and dips when many nodes are
-drawn; a sparser grid is better outdoors, a tighter one indoors, the one in between is the most
-even; culling sometimes makes a frame slower.
-
-We measure per frame the frame time (cull + draw, ms), the objects drawn and popping (seen by
-the oracle, not drawn: ``grid`` reads its query results one frame late) on the middle half of
-the seed-000 market flight (outdoor) and a walk through ``soc.scenes.rooms`` (indoor). The
-document's caps never bind here (at most about 1,200 non-empty cells per frame), so caps of 1x,
-0.75x and 0.5x the mean uncapped queries per frame also run, on the middle grid size.
+"""Seed 002: occlusion queries on uniform-grid cells (``grid``) against frustum culling alone,
+indoors and out. The thesis (pp. 35-40) claims, from frame rate and rendered nodes per frame on
+three grid sizes and query caps 4000, 3000, 2000: caps 4000 and 3000 look alike, 3000 pops more,
+2000 unacceptably; without culling the frame rate fluctuates and dips when many nodes are drawn;
+a sparser grid is better outdoors, a tighter one indoors, the middle one the most even; culling
+sometimes makes a frame slower. We measure per frame the frame time (cull + draw), objects
+drawn and popping (seen by the oracle, not drawn: ``grid`` reads its queries a frame late) on
+the middle half of the seed-000 market flight (outdoor) and a walk through
+``soc.scenes.rooms`` (indoor). The document's caps never bind here, so caps of 1x, 0.75x and
+0.5x the mean uncapped queries also run, on the middle grid size.
 """
 
 from __future__ import annotations
@@ -192,18 +187,14 @@ _CAP_COLOURS = {"none": "tab:blue", "1x mean": "tab:orange", "0.75x mean": "tab:
                 "0.5x mean": "tab:brown"}  # fmt: skip
 
 
-def _segments(df: pd.DataFrame) -> list[str]:
-    return [s for s in SEGMENTS if s in set(df.segment)]
-
-
 def _panels(frames, params: Params, key: str, ylabel: str, title: str, *, frustum=True,
             oracle=False, mark_slower=False):  # fmt: skip
     """Rows: segments; left: grid sizes without a cap; right: the middle size under the scaled
-    caps (the document's caps never bind: they would lie on "no cap")."""
+    caps (the document's never bind)."""
     from matplotlib.figure import Figure
 
     df = frames["frames"]
-    segs = _segments(df)
+    segs = [s for s in SEGMENTS if s in set(df.segment)]
     fig = Figure(figsize=(14, 3.9 * len(segs) + 0.9))
     axes = fig.subplots(len(segs), 2, squeeze=False)
     mid = params.cap_size
@@ -241,29 +232,24 @@ def _panels(frames, params: Params, key: str, ylabel: str, title: str, *, frustu
 
 
 def plot_frametime(frames, params: Params):
-    """Frame time (cull + draw, ms) per frame, outdoor (top) and indoor (bottom). Left: frustum
-    culling only (black) and grid occlusion queries at each grid size without a cap; right:
-    the middle grid size without a cap and with caps of 1x, 0.75x and 0.5x its mean queries
-    per frame (4000 : 3000 : 2000; the document's caps never bind here and are not drawn).
-    × marks a frame that culling made slower than frustum culling alone."""
+    """Frame time (cull + draw, ms) per frame, outdoor (top) and indoor (bottom): frustum only
+    (black), each grid size uncapped (left), the middle size under caps of 1x, 0.75x, 0.5x its
+    mean queries (right); × marks a frame culling made slower than frustum culling alone."""
     return _panels(frames, params, "ms_total", "frame ms (cull + draw)",
                    f"Seed 002 — frame time per frame at {common.res_str(params.display)} "
                    "(× = slower than frustum only)", mark_slower=True)  # fmt: skip
 
 
 def plot_drawn(frames, params: Params):
-    """Objects drawn per frame, outdoor (top) and indoor (bottom): frustum culling only
-    (black), the oracle's exactly visible objects (grey dashes), grid occlusion queries at
-    each grid size (left) and under caps scaled to the mean queries of the middle grid size
-    (right)."""
+    """Objects drawn per frame, as the frame time: frustum only (black), the oracle's exactly
+    visible objects (grey dashes), grid sizes (left) and scaled caps (right)."""
     return _panels(frames, params, "drawn", "objects drawn",
                    "Seed 002 — drawn objects per frame", oracle=True)  # fmt: skip
 
 
 def plot_popping(frames, params: Params):
-    """Popping per frame: objects the oracle sees at the display resolution that the temporal
-    grid method did not draw (it reads its query results one frame late), outdoor (top) and
-    indoor (bottom), per grid size (left) and per scaled query cap (right)."""
+    """Popping per frame (objects the oracle sees that the grid, reading its queries a frame
+    late, did not draw), per grid size (left) and scaled cap (right)."""
     return _panels(frames, params, "popping", "popping (visible, not drawn)",
                    "Seed 002 — popping per frame", frustum=False)  # fmt: skip
 
@@ -276,7 +262,7 @@ def _segment_cases(frames, params: Params, need: int = 1, only: Sequence[str] = 
     ``by``), frustum culling's ``f``, the scaled caps' ``c1``, ``c75``, ``c50``, and more."""
     sm, df = frames["summary"], frames["frames"]
     sizes = sorted(params.grid_sizes)
-    for seg in _segments(df):
+    for seg in [s for s in SEGMENTS if s in set(df.segment)]:
         if seg not in only or len(sizes) < need:
             continue
         s = sm[sm.segment == seg]
@@ -305,20 +291,19 @@ def _segment_cases(frames, params: Params, need: int = 1, only: Sequence[str] = 
 
 def _even_why(q) -> str:
     """What orders the frame-time stds: the cull's or the draw's std, measured per size."""
-    parts = {}  # per grid size without a cap: std of cull ms, of draw ms, their correlation
     uncapped = q.rows[(q.rows.method == "grid") & (q.rows.cap_rule == "none")]
-    for z, r in uncapped.groupby("grid_size"):
-        rho = float(np.corrcoef(r.ms_cull, r.ms_draw)[0, 1]) if len(r) > 2 else float("nan")
-        parts[int(z)] = (float(r.ms_cull.std(ddof=0)), float(r.ms_draw.std(ddof=0)), rho)
+    parts = {  # per grid size: std of cull ms, of draw ms, their correlation
+        int(z): (float(r.ms_cull.std(ddof=0)), float(r.ms_draw.std(ddof=0)),
+                 float(np.corrcoef(r.ms_cull, r.ms_draw)[0, 1]) if len(r) > 2 else float("nan"))
+        for z, r in uncapped.groupby("grid_size")
+    }  # fmt: skip
     order = sorted(q.sizes, key=lambda z: q.g[z].ms_std)
     follows = [name for name, i in (("the draw's", 1), ("the cull's", 0))
                if sorted(q.sizes, key=lambda z: parts[z][i]) == order]  # fmt: skip
+    listed = ", ".join(f"{z}: cull {c:.1f}, draw {d:.1f}, ρ {r:+.2f}"
+                       for z, (c, d, r) in parts.items())  # fmt: skip
     return (
-        "std = √(cull² + draw² + 2·ρ·cull·draw) per size: "
-        + ", ".join(
-            f"{z}: cull {c:.1f}, draw {d:.1f}, ρ {r:+.2f}" for z, (c, d, r) in parts.items()
-        )
-        + "; the totals' order follows "
+        f"std = √(cull² + draw² + 2·ρ·cull·draw) per size: {listed}; the totals' order follows "
         + (" and ".join(follows) + " std" if follows else "neither part's std alone")
     )
 
