@@ -194,9 +194,8 @@ def age_sweep(world: World, params: Params, gl, pics: dict, bar) -> list[dict]:
 
 
 def timing(world: World, params: Params, gl, bar) -> list[dict]:
-    """Per view: the full render of the application frame (every object, colour + depth +
-    ids) against one warp by each engine (splat 1, to the next flight frame), repeated and
-    interleaved; medians in ms, their ratios, and how often the two engines agree."""
+    """Per view: a full render against one warp by each engine (splat 1, to the next flight
+    frame), repeated and interleaved; medians in ms, their ratios, the engines' agreement."""
     rows = []
     for i in view_frames(params):
         j = min(i + 1, params.flight_frames - 1)
@@ -249,8 +248,7 @@ def composite_check(world: World, params: Params, gl, pics: dict) -> dict[str, A
 
 
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
-    """Stereo sweep (view × separation), age sweep (target × age × splat × motion), timing
-    (per view), the composite check, the scene's facts and the example pictures (PNG text)."""
+    """The frames of :data:`FRAMES`; the example pictures as PNG text."""
     from tqdm.auto import tqdm
 
     from soc.rendering.warping import FrameRenderer, Warper
@@ -414,8 +412,7 @@ def plot_composite(frames: dict[str, pd.DataFrame], params: Params):
 
 def _sweeps(frames: dict[str, pd.DataFrame], params: Params):
     """The one case: stereo means by separation (``st``), warp means by age at splat 1 px with
-    (``one``) and without (``ign``) object transforms, by splat size at the oldest age
-    (``by``), the timing medians and the composite."""
+    (``one``) and without (``ign``) object transforms, by splat size at the oldest age (``by``)."""
     st = frames["stereo"].groupby("separation").mean(numeric_only=True)
     ag = _age_means(frames)
     moving = ag[ag.object_motion != "ignored"]
@@ -439,8 +436,7 @@ _DET = lambda q: 0.0  # noqa: E731  (pixel counts of seeded renders: determinist
 
 
 def _grows(frame: str, by: str, means: str) -> tuple[Rule, ...]:
-    """Holes (``q.<means>.hole_pct``): none at the first point, never falling, some at the last
-    (pp of the pixels)."""
+    """Holes (``q.<means>.hole_pct``, pp): none at the first point, never falling, some last."""
 
     def value(q) -> np.ndarray:
         return getattr(q, means).hole_pct.to_numpy()
