@@ -25,7 +25,7 @@ import pandas as pd
 
 from experiments import harness
 from experiments.claims import IMAGE, NUMBERS, TREND, Each, Row, Rule, alter, holds_text
-from experiments.common import QUICK_OCCLUDEES, UsageError, res_str
+from experiments.common import QUICK_OCCLUDEES, UsageError, require, res_str
 from experiments.seed000_pictures import decode, encode
 
 FRAMES = ("stereo", "warp", "timing", "composite", "scene", "pictures")
@@ -59,21 +59,14 @@ class Params:
 
     def check(self) -> None:
         """:class:`UsageError` for values the run cannot use."""
-        if len(self.display) != 2 or min(self.display) < 8:
-            raise UsageError(f"display must be at least 8x8 pixels, got {self.display}")
-        if self.views < 1 or self.repeats < 1:
-            raise UsageError(f"views and repeats must be >= 1, got {self.views}, {self.repeats}")
-        if not self.separations or min(self.separations) < 0:
-            raise UsageError(f"separations must be >= 0, got {list(self.separations)}")
-        if not self.ages or min(self.ages) < 0 or max(self.ages) >= self.flight_frames // 2:
+        require(self, display=8, views=1, repeats=1, separations=0, ages=0, seed=0)
+        if max(self.ages) >= self.flight_frames // 2:
             raise UsageError(
-                f"ages must be >= 0 and below half the flight ({self.flight_frames} frames), "
+                f"ages must be below half the flight ({self.flight_frames} frames), "
                 f"got {list(self.ages)}"
             )
         if not self.splat_sizes or min(self.splat_sizes) <= 0:
             raise UsageError(f"splat_sizes must be positive, got {list(self.splat_sizes)}")
-        if self.seed < 0:
-            raise UsageError(f"seed must be >= 0, got {self.seed}")
 
 
 @dataclass
@@ -201,9 +194,8 @@ def age_sweep(world: World, params: Params, gl, pics: dict, bar) -> list[dict]:
 
 
 def timing(world: World, params: Params, gl, bar) -> list[dict]:
-    """Per view: the full render of the application frame (every object, colour + depth +
-    ids) against one warp by each engine (splat 1, to the next flight frame), repeated and
-    interleaved; medians in ms, their ratios, and how often the two engines agree."""
+    """Per view: a full render against one warp by each engine (splat 1, to the next flight
+    frame), repeated and interleaved; medians in ms, their ratios, the engines' agreement."""
     rows = []
     for i in view_frames(params):
         j = min(i + 1, params.flight_frames - 1)
@@ -256,8 +248,7 @@ def composite_check(world: World, params: Params, gl, pics: dict) -> dict[str, A
 
 
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
-    """Stereo sweep (view × separation), age sweep (target × age × splat × motion), timing
-    (per view), the composite check, the scene's facts and the example pictures (PNG text)."""
+    """The frames of :data:`FRAMES`; the example pictures as PNG text."""
     from tqdm.auto import tqdm
 
     from soc.rendering.warping import FrameRenderer, Warper
@@ -421,8 +412,7 @@ def plot_composite(frames: dict[str, pd.DataFrame], params: Params):
 
 def _sweeps(frames: dict[str, pd.DataFrame], params: Params):
     """The one case: stereo means by separation (``st``), warp means by age at splat 1 px with
-    (``one``) and without (``ign``) object transforms, by splat size at the oldest age
-    (``by``), the timing medians and the composite."""
+    (``one``) and without (``ign``) object transforms, by splat size at the oldest age (``by``)."""
     st = frames["stereo"].groupby("separation").mean(numeric_only=True)
     ag = _age_means(frames)
     moving = ag[ag.object_motion != "ignored"]
@@ -446,8 +436,7 @@ _DET = lambda q: 0.0  # noqa: E731  (pixel counts of seeded renders: determinist
 
 
 def _grows(frame: str, by: str, means: str) -> tuple[Rule, ...]:
-    """Holes (``q.<means>.hole_pct``): none at the first point, never falling, some at the last
-    (pp of the pixels)."""
+    """Holes (``q.<means>.hole_pct``, pp): none at the first point, never falling, some last."""
 
     def value(q) -> np.ndarray:
         return getattr(q, means).hole_pct.to_numpy()

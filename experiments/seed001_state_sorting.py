@@ -1,19 +1,15 @@
 """Seed 001: state sorting with a sorting buffer and its competitive analysis (Zachmann's VR
 lecture, "Der Sorting-Buffer", "Competitive Analysis", "Round-Robin-Strategie").
 
-The lecture puts a buffer of k draws between application and GPU and compares lazy online
-strategies (LRU, Bounded-Waste, Random-Choice, Round-Robin) with the offline optimum by their
-colour changes. It gives LRU's lower-bound input (k = m², the offline strategy needs «2m
-Farbwechsel») and concludes «Round-Robin ist sehr gut (obwohl sehr einfach)», «Worst-Case sagt
-sehr wenig über prakt. Perf.».
-
-We count colour changes per buffer size k for every strategy (:mod:`soc.rendering.state_sorting`)
-on synthetic streams (uniform, Zipf, a sliding working set, LRU's worst case for each k) and on
-the market's draw stream (per frame of the seed-000 flight, the objects culling keeps, each with
-its mesh family as material, the buffer flushed every frame). Ratios are taken to the fewest
-changes any strategy found at that k (an upper bound on the optimum, so they are lower bounds);
-the offline heuristic is checked against the exact optimum on small streams, LRU's
-construction exactly.
+The lecture compares lazy online strategies for a buffer of k draws (LRU, Bounded-Waste,
+Random-Choice, Round-Robin) with the offline optimum by their colour changes, gives LRU's
+lower-bound input (k = m², the offline strategy needs «2m Farbwechsel») and concludes
+«Round-Robin ist sehr gut (obwohl sehr einfach)», «Worst-Case sagt sehr wenig über prakt.
+Perf.». We count colour changes per k for every strategy (:mod:`soc.rendering.state_sorting`)
+on synthetic streams (uniform, Zipf, a sliding working set, LRU's worst case) and the market's
+draw stream (per flight frame, the kept objects' mesh families). Ratios are to the fewest
+changes any strategy found at that k (lower bounds); the offline heuristic is checked against
+the exact optimum on small streams, LRU's construction exactly.
 """
 
 from __future__ import annotations
@@ -29,7 +25,7 @@ import pandas as pd
 
 from experiments import harness
 from experiments.claims import MEASURED, TREND, Each, Row, Rule, alter
-from experiments.common import DISPLAY, QUICK_SCALE, UsageError, res_str, scaled
+from experiments.common import DISPLAY, QUICK_SCALE, UsageError, require, res_str, scaled
 from soc.rendering.state_sorting import (
     OFFLINE,
     ONLINE,
@@ -55,9 +51,8 @@ DOC_RANDOM = "«Problem: Generierung guter Zufallszahlen dauert rel. lange»"
 
 @dataclass(frozen=True)
 class Params:
-    """One state-sorting run: the flight (frames, display) and culling method of the real draw
-    stream; buffer sizes of the synthetic sweep (ks) and of the market (real_ks); the sizes of
-    the synthetic streams, the exact check, LRU's construction (k = m²) and the speed check."""
+    """The market's draw stream (flight, culling method); buffer sizes of the synthetic sweep
+    and the market; sizes of the synthetic streams and of the exact, worst-case, speed checks."""
 
     frames: int = 100
     display: tuple[int, int] = DISPLAY
@@ -75,10 +70,8 @@ class Params:
         before any work (known, and able to cull the market)."""
         import soc
 
-        if self.frames < 2:
-            raise UsageError(f"frames must be at least 2, got {self.frames}")
-        if len(self.display) != 2 or min(self.display) < 16:
-            raise UsageError(f"display must be at least 16x16 pixels, got {self.display}")
+        require(self, frames=2, display=16, ks=1, real_ks=1, worst_ms=2, synthetic_n=1,
+                exact_streams=1, timing_n=1, seed=0)  # fmt: skip
         if self.method not in soc.method_names():
             raise UsageError(
                 f"unknown method {self.method!r}; available: {', '.join(soc.method_names())}"
@@ -88,17 +81,8 @@ class Params:
                 f"method {self.method!r} cannot cull scene 'market': it needs a scene of cells "
                 "and portals (rooms: soc.scenes.rooms, or `vislod portals`)"
             )
-        for name in ("ks", "real_ks"):
-            ks = getattr(self, name)
-            if not ks or min(ks) < 1:
-                raise UsageError(f"{name} must be positive buffer sizes, got {list(ks)}")
-        if any(m < 2 or m % 2 for m in self.worst_ms):
+        if any(m % 2 for m in self.worst_ms):
             raise UsageError(f"worst_ms must be even numbers >= 2, got {list(self.worst_ms)}")
-        if min(self.synthetic_n, self.exact_streams, self.timing_n) < 1 or self.seed < 0:
-            raise UsageError(
-                "synthetic_n, exact_streams and timing_n must be positive and seed >= 0, got "
-                f"{self.synthetic_n}, {self.exact_streams}, {self.timing_n}, {self.seed}"
-            )
 
 
 # -- streams ---------------------------------------------------------------------------------
@@ -106,7 +90,7 @@ class Params:
 
 def synthetic_streams(n: int, seed: int = 0) -> dict[str, np.ndarray]:
     """``uniform`` (8 materials), ``zipf`` (64, ∝ 1/rank^1.2) and ``bursty`` (a working set of 6
-    of 48 materials sliding by one every 100 draws: coherent draw orders), (n,) int64 each."""
+    of 48 materials sliding by one every 100 draws), (n,) int64 each."""
     rng = np.random.default_rng(seed)
     uniform = rng.integers(0, 8, n)
     p = 1.0 / np.arange(1, 65) ** 1.2
@@ -118,8 +102,7 @@ def synthetic_streams(n: int, seed: int = 0) -> dict[str, np.ndarray]:
 
 
 def adversarial_stream(k: int) -> np.ndarray:
-    """LRU's lower-bound input for a buffer of ``k``: m the largest even number with m² <= k
-    (at least 2), blocks of ``max(k, m)`` draws."""
+    """LRU's lower-bound input for a buffer of ``k``: m the largest even m² <= k (at least 2)."""
     m = max(2, 2 * int(np.sqrt(k) // 2))
     return lru_adversary(m, max(k, m))
 
@@ -128,16 +111,16 @@ _INSTANCE = re.compile(r"(_\d+)+$")
 
 
 def material_ids(names: Sequence[str]) -> tuple[np.ndarray, list[str]]:
-    """(N,) int64 material per object and the material names: the mesh family, i.e. the
-    name's last ``/`` part without its instance number (``stall_012/apple_031`` → ``apple``)."""
+    """(N,) int64 material per object and the material names: the mesh family
+    (``stall_012/apple_031`` → ``apple``)."""
     fam = [_INSTANCE.sub("", str(n).rsplit("/", 1)[-1]) for n in names]
     materials, ids = np.unique(np.asarray(fam), return_inverse=True)
     return ids.reshape(-1).astype(np.int64), materials.tolist()
 
 
 def draw_stream(params: Params) -> tuple[list[np.ndarray], dict[str, Any]]:
-    """Per frame of the seed-000 flight over the market: the materials of the objects
-    ``params.method`` keeps, in drawing order (object index); and facts about the stream."""
+    """Per flight frame the materials of the objects ``params.method`` keeps (in object
+    order), and facts about the stream."""
     import soc
 
     scene = soc.scenes.market(seed=params.seed)
@@ -178,17 +161,16 @@ def sweep_cell(stream: str, frames: Sequence[np.ndarray], k: int, seed: int) -> 
     })  # fmt: skip
 
 
-def sweep(params: Params, real: Sequence[np.ndarray], bar) -> pd.DataFrame:
+def sweep(params: Params, real: Sequence[np.ndarray], progress: bool) -> pd.DataFrame:
     """One :func:`sweep_cell` per synthetic stream, adversarial stream and market × k."""
     synth = synthetic_streams(params.synthetic_n, params.seed)
     cells = [(name, [s], k) for name, s in synth.items() for k in params.ks]
     cells += [("adversarial", [adversarial_stream(k)], k) for k in params.ks]
     cells += [("market", real, k) for k in params.real_ks]
-    out = []
-    for name, frames, k in cells:
-        out.append(sweep_cell(name, frames, k, params.seed))
-        bar.update()
-    return pd.concat(out, ignore_index=True)
+    from tqdm.auto import tqdm
+
+    cells = tqdm(cells, unit="cell", desc="seed 001 sorting", disable=not progress)
+    return pd.concat([sweep_cell(*c, params.seed) for c in cells], ignore_index=True)
 
 
 def exact_check(params: Params) -> pd.DataFrame:
@@ -248,15 +230,9 @@ def timing(params: Params) -> pd.DataFrame:
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     """The draw stream, the sweep (one row per stream × k × strategy), LRU's lower-bound
     construction per m, the ratio to the exact optimum per strategy, and the speed check."""
-    from tqdm.auto import tqdm
-
-    cells = 4 * len(params.ks) + len(params.real_ks)
-    with tqdm(total=cells + 1, unit="cell", desc="seed 001 sorting", disable=not progress) as bar:
-        real, info = draw_stream(params)
-        bar.update()
-        sw = sweep(params, real, bar)
+    real, info = draw_stream(params)
     return {
-        "sweep": sw,
+        "sweep": sweep(params, real, progress),
         "worst_case": worst_case(params),
         "exact": exact_check(params),
         "timing": timing(params),

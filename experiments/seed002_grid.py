@@ -1,18 +1,13 @@
-"""Seed 002 (trend): occlusion queries on uniform-grid cells (``grid``) against frustum
-culling alone, indoors and out (``vislod seed002``, ``grid``).
-
-The thesis (hardware occlusion queries with grid traversal, pp. 35-40) shows frame rate and
-rendered nodes per frame with occlusion culling off and with query caps 4000, 3000 and 2000 on
-three grid sizes, and claims: caps 4000 and 3000 look alike, 3000 pops more, 2000 pops
-unacceptably; without occlusion culling the frame rate fluctuates and dips when many nodes are
-drawn; a sparser grid is better outdoors, a tighter one indoors, the one in between is the most
-even; culling sometimes makes a frame slower.
-
-We measure per frame the frame time (cull + draw, ms), the objects drawn and popping (seen by
-the oracle, not drawn: ``grid`` reads its query results one frame late) on the middle half of
-the seed-000 market flight (outdoor) and a walk through ``soc.scenes.rooms`` (indoor). The
-document's caps never bind here (at most about 1,200 non-empty cells per frame), so caps of 1x,
-0.75x and 0.5x the mean uncapped queries per frame also run, on the middle grid size.
+"""Seed 002: occlusion queries on uniform-grid cells (``grid``) against frustum culling alone,
+indoors and out. The thesis (pp. 35-40) claims, from frame rate and rendered nodes per frame on
+three grid sizes and query caps 4000, 3000, 2000: caps 4000 and 3000 look alike, 3000 pops more,
+2000 unacceptably; without culling the frame rate fluctuates and dips when many nodes are drawn;
+a sparser grid is better outdoors, a tighter one indoors, the middle one the most even; culling
+sometimes makes a frame slower. We measure per frame the frame time (cull + draw), objects
+drawn and popping (seen by the oracle, not drawn: ``grid`` reads its queries a frame late) on
+the middle half of the seed-000 market flight (outdoor) and a walk through
+``soc.scenes.rooms`` (indoor). The document's caps never bind here, so caps of 1x, 0.75x and
+0.5x the mean uncapped queries also run, on the middle grid size.
 """
 
 from __future__ import annotations
@@ -27,7 +22,7 @@ import pandas as pd
 
 from experiments import common, harness
 from experiments.claims import TREND, By, Each, Row, Rule, alter, holds_text
-from experiments.common import DISPLAY, UsageError
+from experiments.common import DISPLAY, require
 
 FRAMES = ("frames", "summary")
 GRID_SIZES = (16, 32, 64)  # cells along the scene's longest axis: sparse, medium, tight
@@ -56,15 +51,7 @@ class Params:
 
     def check(self) -> None:
         """:class:`UsageError` for values the run cannot use."""
-        if self.frames < 2:
-            raise UsageError(f"frames must be at least 2, got {self.frames}")
-        if len(self.display) != 2 or min(self.display) < 16:
-            raise UsageError(f"display must be at least 16x16 pixels, got {self.display}")
-        s = list(self.grid_sizes)
-        if not s or min(s) < 1 or len(set(s)) != len(s):
-            raise UsageError(f"grid sizes must be distinct positive integers, got {s}")
-        if self.seed < 0:
-            raise UsageError(f"seed must be >= 0, got {self.seed}")
+        require(self, distinct=["grid_sizes"], frames=2, display=16, grid_sizes=1, seed=0)
 
     @property
     def cap_size(self) -> int:
@@ -117,65 +104,51 @@ class Run:
         return f"grid {self.grid_size} {cap}"
 
 
-def fly(
-    segment: Segment, runs: Sequence[Run], resolution: tuple[int, int], bar, truths=None
-) -> tuple[list[np.ndarray], dict[Run, list]]:
-    """Every run over the cameras, frames interleaved (the order rotating per frame, so load from
-    other processes lands on all runs alike): the oracle's visible sets per frame (``truths``,
-    computed when None) and per run the stats of its frames."""
+def fly(segment: Segment, runs: Sequence[Run], params: Params, truths, progress: bool):
+    """Every run over the cameras, drawing, by :func:`soc.fly` (frames interleaved, the order
+    rotating per frame, so load from other processes lands on all runs alike)."""
     import soc
 
-    stats: dict[Run, list] = {r: [] for r in runs}
     with ExitStack() as stack:
-        oracle = stack.enter_context(soc.Oracle(segment.scene)) if truths is None else None
-        truths = [] if truths is None else truths
-        cullers = []
+        cullers = {}
         for r in runs:
             grid = r.method == "grid"
             opts = {"grid_size": r.grid_size, "query_cap": r.query_cap} if grid else {}
-            culler = stack.enter_context(soc.Culler(segment.scene, r.method, resolution, **opts))
-            culler.cull(segment.cameras[0], draw=True)
-            culler.reset()  # the measured frames start without temporal state
-            cullers.append(culler)
-        for i, cam in enumerate(segment.cameras):
-            bar.set_postfix_str(f"{segment.name} frame {i}")
-            if oracle is not None:
-                truths.append(oracle.visible(cam))
-                bar.update(1)
-            for k in np.roll(np.arange(len(runs)), -i).tolist():
-                stats[runs[k]].append(cullers[k].cull(cam, truth=truths[i], draw=True).stats)
-                bar.update(1)
-    return truths, stats
+            c = soc.Culler(segment.scene, r.method, params.display, **opts)
+            cullers[r.label] = stack.enter_context(c)
+            c.cull(segment.cameras[0], draw=True)
+            c.reset()  # the measured frames start without temporal state
+        return soc.fly(cullers, segment.cameras, truth=truths, draw=True, progress=progress)
 
 
-def run_segment(segment: Segment, params: Params, *, bar) -> list[dict[str, Any]]:
+def run_segment(segment: Segment, params: Params, progress: bool) -> pd.DataFrame:
     """Per-frame rows of frustum culling and the grid sizes uncapped, then of the caps on the
     middle size (the document's, those scaled to its mean queries). A cap binds on a frame
     where the uncapped run had more queries (candidate cells)."""
+    import soc
+
+    with soc.Oracle(segment.scene) as oracle:
+        truths = [oracle.visible(cam) for cam in segment.cameras]
     first = [Run("frustum")] + [Run("grid", s) for s in params.grid_sizes]
-    truths, stats = fly(segment, first, params.display, bar)
-    uncapped = {r.grid_size: [s.queries for s in stats[r]] for r in first[1:]}
-    mean = float(np.mean(uncapped[params.cap_size]))
+    flown = fly(segment, first, params, truths, progress)
+    uncapped = flown[flown.method == Run("grid", params.cap_size).label].set_index("frame").queries
     caps = [(c, "document") for c in DOC_CAPS]
-    caps += [(max(1, round(s * mean)), f"{s:g}x mean") for s in CAP_SCALES]
+    caps += [(max(1, round(s * uncapped.mean())), f"{s:g}x mean") for s in CAP_SCALES]
     second = [Run("grid", params.cap_size, c, rule) for c, rule in caps]
-    stats.update(fly(segment, second, params.display, bar, truths)[1])
-    out = []
-    for run, frames in stats.items():
-        for i, s in enumerate(frames):
-            row = {
-                "segment": segment.name, "run": run.label, **asdict(run), "frame": i,
-                "drawn": s.models_visible, "popping": s.false_culls, "false_keeps": s.false_keeps,
-                "queries": s.queries, "ms_cull": s.cull_ms,
-                "ms_draw": s.timings_ms.get("draw", float("nan")), "ms_total": s.total_ms,
-                "oracle_visible": int(truths[i].sum()),
-            }  # fmt: skip
-            if run.method == "grid":
-                row["slower_than_frustum"] = bool(s.total_ms > stats[first[0]][i].total_ms)
-                cap = run.query_cap
-                row["cap_binds"] = bool(cap is not None and uncapped[run.grid_size][i] > cap)
-            out.append(row)
-    return out
+    flown = pd.concat([flown, fly(segment, second, params, truths, progress)])
+    runs = pd.DataFrame([{"segment": segment.name, "run": r.label, **asdict(r)}
+                         for r in first + second])  # fmt: skip
+    names = {"method": "run", "models_visible": "drawn", "false_culls": "popping"}
+    cols = ["drawn", "popping", "false_keeps", "queries", "ms_cull", "ms_draw", "ms_total"]
+    df = runs.merge(flown.rename(columns=names)[["run", "frame", *cols]], on="run", how="left")
+    grid = df.method == "grid"
+    frustum = df[~grid].set_index("frame").ms_total
+    binds = df.query_cap.notna() & (df.frame.map(uncapped) > df.query_cap)
+    return df.assign(
+        oracle_visible=np.array([t.sum() for t in truths])[df.frame],
+        slower_than_frustum=(df.ms_total > df.frame.map(frustum)).where(grid),
+        cap_binds=binds.where(grid),
+    )
 
 
 # -- the experiment ---------------------------------------------------------------------------
@@ -184,13 +157,8 @@ def run_segment(segment: Segment, params: Params, *, bar) -> list[dict[str, Any]
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     """``frames``: one row per segment × run × frame; ``summary``: per segment × run, frame-time
     statistics, means of the counts, frames slower than frustum only and where the cap binds."""
-    from tqdm.auto import tqdm
-
     segs = segments(params)
-    per_frame = 2 + len(params.grid_sizes) + len(DOC_CAPS) + len(CAP_SCALES)  # oracle, runs
-    total = params.frames * per_frame * len(segs)
-    with tqdm(total=total, unit="frame", desc="seed 002", disable=not progress) as bar:
-        df = pd.DataFrame([row for seg in segs for row in run_segment(seg, params, bar=bar)])
+    df = pd.concat([run_segment(seg, params, progress) for seg in segs], ignore_index=True)
     df["objects"] = df.segment.map({s.name: len(s.scene) for s in segs})
     # fmt: off
     summary = df.groupby(["segment", "run"], sort=False).agg(
@@ -219,18 +187,14 @@ _CAP_COLOURS = {"none": "tab:blue", "1x mean": "tab:orange", "0.75x mean": "tab:
                 "0.5x mean": "tab:brown"}  # fmt: skip
 
 
-def _segments(df: pd.DataFrame) -> list[str]:
-    return [s for s in SEGMENTS if s in set(df.segment)]
-
-
 def _panels(frames, params: Params, key: str, ylabel: str, title: str, *, frustum=True,
             oracle=False, mark_slower=False):  # fmt: skip
     """Rows: segments; left: grid sizes without a cap; right: the middle size under the scaled
-    caps (the document's caps never bind: they would lie on "no cap")."""
+    caps (the document's never bind)."""
     from matplotlib.figure import Figure
 
     df = frames["frames"]
-    segs = _segments(df)
+    segs = [s for s in SEGMENTS if s in set(df.segment)]
     fig = Figure(figsize=(14, 3.9 * len(segs) + 0.9))
     axes = fig.subplots(len(segs), 2, squeeze=False)
     mid = params.cap_size
@@ -268,29 +232,24 @@ def _panels(frames, params: Params, key: str, ylabel: str, title: str, *, frustu
 
 
 def plot_frametime(frames, params: Params):
-    """Frame time (cull + draw, ms) per frame, outdoor (top) and indoor (bottom). Left: frustum
-    culling only (black) and grid occlusion queries at each grid size without a cap; right:
-    the middle grid size without a cap and with caps of 1x, 0.75x and 0.5x its mean queries
-    per frame (4000 : 3000 : 2000; the document's caps never bind here and are not drawn).
-    × marks a frame that culling made slower than frustum culling alone."""
+    """Frame time (cull + draw, ms) per frame, outdoor (top) and indoor (bottom): frustum only
+    (black), each grid size uncapped (left), the middle size under caps of 1x, 0.75x, 0.5x its
+    mean queries (right); × marks a frame culling made slower than frustum culling alone."""
     return _panels(frames, params, "ms_total", "frame ms (cull + draw)",
                    f"Seed 002 — frame time per frame at {common.res_str(params.display)} "
                    "(× = slower than frustum only)", mark_slower=True)  # fmt: skip
 
 
 def plot_drawn(frames, params: Params):
-    """Objects drawn per frame, outdoor (top) and indoor (bottom): frustum culling only
-    (black), the oracle's exactly visible objects (grey dashes), grid occlusion queries at
-    each grid size (left) and under caps scaled to the mean queries of the middle grid size
-    (right)."""
+    """Objects drawn per frame, as the frame time: frustum only (black), the oracle's exactly
+    visible objects (grey dashes), grid sizes (left) and scaled caps (right)."""
     return _panels(frames, params, "drawn", "objects drawn",
                    "Seed 002 — drawn objects per frame", oracle=True)  # fmt: skip
 
 
 def plot_popping(frames, params: Params):
-    """Popping per frame: objects the oracle sees at the display resolution that the temporal
-    grid method did not draw (it reads its query results one frame late), outdoor (top) and
-    indoor (bottom), per grid size (left) and per scaled query cap (right)."""
+    """Popping per frame (objects the oracle sees that the grid, reading its queries a frame
+    late, did not draw), per grid size (left) and scaled cap (right)."""
     return _panels(frames, params, "popping", "popping (visible, not drawn)",
                    "Seed 002 — popping per frame", frustum=False)  # fmt: skip
 
@@ -303,7 +262,7 @@ def _segment_cases(frames, params: Params, need: int = 1, only: Sequence[str] = 
     ``by``), frustum culling's ``f``, the scaled caps' ``c1``, ``c75``, ``c50``, and more."""
     sm, df = frames["summary"], frames["frames"]
     sizes = sorted(params.grid_sizes)
-    for seg in _segments(df):
+    for seg in [s for s in SEGMENTS if s in set(df.segment)]:
         if seg not in only or len(sizes) < need:
             continue
         s = sm[sm.segment == seg]
@@ -332,20 +291,19 @@ def _segment_cases(frames, params: Params, need: int = 1, only: Sequence[str] = 
 
 def _even_why(q) -> str:
     """What orders the frame-time stds: the cull's or the draw's std, measured per size."""
-    parts = {}  # per grid size without a cap: std of cull ms, of draw ms, their correlation
     uncapped = q.rows[(q.rows.method == "grid") & (q.rows.cap_rule == "none")]
-    for z, r in uncapped.groupby("grid_size"):
-        rho = float(np.corrcoef(r.ms_cull, r.ms_draw)[0, 1]) if len(r) > 2 else float("nan")
-        parts[int(z)] = (float(r.ms_cull.std(ddof=0)), float(r.ms_draw.std(ddof=0)), rho)
+    parts = {  # per grid size: std of cull ms, of draw ms, their correlation
+        int(z): (float(r.ms_cull.std(ddof=0)), float(r.ms_draw.std(ddof=0)),
+                 float(np.corrcoef(r.ms_cull, r.ms_draw)[0, 1]) if len(r) > 2 else float("nan"))
+        for z, r in uncapped.groupby("grid_size")
+    }  # fmt: skip
     order = sorted(q.sizes, key=lambda z: q.g[z].ms_std)
     follows = [name for name, i in (("the draw's", 1), ("the cull's", 0))
                if sorted(q.sizes, key=lambda z: parts[z][i]) == order]  # fmt: skip
+    listed = ", ".join(f"{z}: cull {c:.1f}, draw {d:.1f}, ρ {r:+.2f}"
+                       for z, (c, d, r) in parts.items())  # fmt: skip
     return (
-        "std = √(cull² + draw² + 2·ρ·cull·draw) per size: "
-        + ", ".join(
-            f"{z}: cull {c:.1f}, draw {d:.1f}, ρ {r:+.2f}" for z, (c, d, r) in parts.items()
-        )
-        + "; the totals' order follows "
+        f"std = √(cull² + draw² + 2·ρ·cull·draw) per size: {listed}; the totals' order follows "
         + (" and ".join(follows) + " std" if follows else "neither part's std alone")
     )
 

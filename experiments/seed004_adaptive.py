@@ -3,15 +3,13 @@ octree nodes and the adaptive method, which "последовательно пр
 рендеринга" (applies the three modes in turn as objects are added), over the three growing
 dynamic scenes (:mod:`soc.scenes.dynamic`, objects ×1/4, triangles ×1/20 of the paper's).
 
-``frustum`` and ``queries`` are the ``adaptive`` method forced to mode 1, and to mode 3 with a
-query on every node in the frustum read ``LATENCY`` frames late. The three are interleaved per
-frame in a random order, so load hits them alike; a frame's time is events + cull + draw +
-decisions, finished (llvmpipe's ms: compare ratios). The oracle (id render of the alive
-objects) runs every ``oracle_every`` frames outside the timings: false culls are popping.
-Judged per scene: adaptive's mean against the better other method's, and its worst window of
-``WINDOW`` frames. At each scene's last frame a mode-3 method whose planner explores query
-counts gives the regression (8)-(10), and the frames timed at q = 0, n_0 and q* stand beside
-the model's T(0), T(n_0), T(q*).
+``frustum`` and ``queries`` are ``adaptive`` forced to mode 1, and to mode 3 querying every
+node in the frustum ``LATENCY`` frames late; the three run interleaved per frame in a random
+order, a frame's time being events + cull + draw + decisions (llvmpipe's ms: compare ratios).
+The oracle runs every ``oracle_every`` frames, untimed: false culls are popping. Judged per
+scene: adaptive's mean against the better other method's, and its worst ``WINDOW``-frame
+window. At each scene's last frame a planner exploring query counts gives the regression
+(8)-(10), and frames timed at q = 0, n_0, q* stand beside the model's T(0), T(n_0), T(q*).
 """
 
 from __future__ import annotations
@@ -25,7 +23,7 @@ import pandas as pd
 
 from experiments import harness
 from experiments.claims import DIFFERS, MEASURED, TREND, Each, Row, Rule, alter, holds_text
-from experiments.common import UsageError, res_str
+from experiments.common import UsageError, require, res_str
 from soc.culling.oracle import Oracle
 
 METHODS = ("frustum", "queries", "adaptive")
@@ -83,11 +81,9 @@ FRAMES = ("frames", "summary", "criterion", "switches", "regression", "fits", "q
 
 @dataclass(frozen=True)
 class Params:
-    """One run: ``frames`` per scene (at least :data:`WINDOW`) at ``resolution`` (the scenes
-    were sized for 1280x720); object ``scale`` (1 = ¼ of the paper's objects); the oracle every
-    ``oracle_every`` frames (0 = never); ``sweep_frames`` of the regression per scene;
-    ``repeats`` plays of each animation (at least 3): the first gives the frames, the oracle's
-    checks and the pictures, all give the run-to-run spread of the benchmark's ratios."""
+    """``frames`` per scene at ``resolution``; object ``scale`` (1 = ¼ of the paper's); the
+    oracle every ``oracle_every`` frames (0 = never); ``sweep_frames`` of the regression;
+    ``repeats`` plays per scene: the first gives the frames, all the ratios' spread."""
 
     frames: int = 200
     resolution: tuple[int, int] = (1280, 720)
@@ -102,24 +98,16 @@ class Params:
         """:class:`UsageError` for values the run cannot use."""
         from soc.scenes.dynamic import PRESETS
 
-        if self.frames < WINDOW:
-            raise UsageError(f"--frames must be at least {WINDOW}, got {self.frames}")
+        require(self, frames=WINDOW, oracle_every=0, repeats=3, sweep_frames=8)
         bad = [s for s in self.scenes if s not in PRESETS]
         if bad:
             raise UsageError(f"unknown scene {bad[0]!r}; available: {', '.join(PRESETS)}")
         if not self.scale > 0:
             raise UsageError(f"--scale must be > 0, got {self.scale}")
-        if self.oracle_every < 0:
-            raise UsageError(f"--oracle-every must be >= 0 (0 = never), got {self.oracle_every}")
-        if self.repeats < 3:
-            raise UsageError(f"--repeats must be at least 3 (for a spread), got {self.repeats}")
-        if self.sweep_frames < 8:
-            raise UsageError(f"--sweep-frames must be at least 8, got {self.sweep_frames}")
 
 
 class AliveOracle(Oracle):
-    """:class:`soc.Oracle` drawing only the ``alive`` objects of a pool scene (its dead objects
-    must hide nothing); the id buffer is that of drawing every alive object."""
+    """:class:`soc.Oracle` drawing only the ``alive`` objects of a pool scene."""
 
     alive = np.zeros(0, bool)
 
@@ -182,8 +170,7 @@ def _row(scene: str, name: str, state, ms_apply: float, fr, truth) -> dict:
 
 
 def sweep(dyn, params: Params, renderer, bar) -> tuple[pd.DataFrame, dict, list[dict]]:
-    """The regression's points, fit row and T(0)/T(n_0)/T(q*) rows: at the last frame, a
-    mode-3 method (its planner choosing q) renders ``sweep_frames`` times, then times each q."""
+    """The regression's points, fit row and T(0)/T(n_0)/T(q*) rows at the last frame."""
     import soc
     from soc.models.adaptive import MAX_FIT_RMS
     from soc.models.query_model import best_query_count, fit_query_model
@@ -365,10 +352,9 @@ def _mode_spans(ax, frames: np.ndarray, modes: np.ndarray, labels: bool = True) 
 
 
 def plot_frametimes(frames: dict[str, pd.DataFrame], params: Params):
-    """Figs. 3-5, one column per scene. Top: frame time (ms: events + cull + draw, finished)
-    of each method over the animation, the three interleaved frame by frame, on the adaptive
-    method's mode (background; a dotted line labelled "1→3" marks a switch). Bottom:
-    adaptive's predicted frame time of each mode at its decisions, beside its measured time."""
+    """Figs. 3-5, a column per scene. Top: each method's frame time over the animation on the
+    adaptive method's mode (background; dotted: a switch). Bottom: adaptive's predicted time
+    of each mode at its decisions, beside its measured time."""
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch
 
@@ -433,11 +419,9 @@ def _q_title(fit: pd.Series) -> str:
 
 
 def plot_regression(frames: dict[str, pd.DataFrame], params: Params):
-    """The query-count regression at each scene's last frame (one row per scene): measured
-    points (dots) of c(q) commands (8), s(q) command buffers (9) and e(q) elements (10)
-    against q and the fitted formulas (lines); the frame time with T(q) of (7) shifted to the
-    points' median and the frames timed at q = 0, n_0 and q* (squares). A panel says when the
-    fit misses at least half the query counts tried; the last one's title what q* is."""
+    """The query-count regression at each scene's last frame (a row per scene): c(q) (8),
+    s(q) (9), e(q) (10) measured (dots) and fitted (lines); the frame time with T(q) of (7)
+    shifted to the points' median and the frames timed at q = 0, n_0, q* (squares)."""
     from matplotlib.figure import Figure
 
     from soc.models.query_model import QueryModel
@@ -484,10 +468,9 @@ def plot_regression(frames: dict[str, pd.DataFrame], params: Params):
 
 
 def document_modes(ad: pd.DataFrame) -> tuple[list[int], dict[str, int | None]]:
-    """The modes the paper's rule passes through on the adaptive method's own decisions, and
-    the frames where (5), then (6), first failed: mode 1 while (5) holds, mode 2 while (6)
-    holds, then 3 (no way back is stated). Our ``condition5``/``condition6`` columns are the
-    switch conditions, the negations of (5) and (6)."""
+    """The modes the paper's rule (mode 1 while (5) holds, 2 while (6) holds, then 3) passes
+    through on adaptive's own decisions, and the frames where (5), then (6), first failed
+    (``condition5``/``condition6`` are the negations of (5) and (6))."""
     dec = ad[ad.pred_T1.notna()].sort_values("frame")
     mode, modes, at = 1, [1], {"5": None, "6": None}
     for r in dec.itertuples():
@@ -514,10 +497,8 @@ def _disagreements(ad: pd.DataFrame) -> tuple[int, int]:
 
 
 def _scenes(frames: dict[str, pd.DataFrame], params: Params):
-    """One case per scene: frustum's and the queries' summaries (``fr``, ``qu``), the
-    criterion row ``c``, the plays (``reps``, empty for a run before repeats), adaptive's
-    frames (``ad``), the modes it and the paper's rule pass through, and the spikes of its
-    frames with node buffers (modes 2-3)."""
+    """One case per scene: the summaries, criterion, plays (``reps``), adaptive's frames and
+    modes, the paper's rule's modes, and the spikes of its frames in modes 2-3."""
     f, crit = frames["frames"], frames["criterion"]
     by = frames["summary"].set_index(["scene", "method"])
     plays = frames.get("repeats", pd.DataFrame(columns=["scene"]))
