@@ -38,6 +38,7 @@ from experiments.common import (
     default_out,
     parse_resolution,
     res_str,
+    resolution_arg,
     scaled,
     write_json,
 )
@@ -125,21 +126,13 @@ def make_sweep(
         raise UsageError(f"--frames must be at least 2, got {frames}")
     chunk = chunk if chunk is not None else (QUICK_CHUNK if quick else CHUNK)
     frame_chunks(frames, chunk)  # checks chunk
-    disp = tuple(tuple(d) for d in displays) if displays else None
-    disp = disp or ((scaled(DISPLAY, QUICK_SCALE),) if quick else (DISPLAY,))
-    res = tuple(tuple(r) for r in resolutions) if resolutions else None
+    default = scaled(DISPLAY, QUICK_SCALE) if quick else DISPLAY
+    disp = tuple(dict.fromkeys(tuple(d) for d in displays or [default]))
+    res = tuple(dict.fromkeys(tuple(r) for r in resolutions)) if resolutions else None
     for r in (*disp, *(res or ())):
         parse_resolution(res_str(r))  # range check
-    return SweepSetup(
-        specs,
-        check_sweep_methods(methods),
-        tuple(dict.fromkeys(disp)),  # type: ignore[arg-type]
-        tuple(dict.fromkeys(res)) if res else None,  # type: ignore[arg-type]
-        frames,
-        chunk,
-        oracle,
-        draw,
-    )
+    methods = check_sweep_methods(methods)
+    return SweepSetup(specs, methods, disp, res, frames, chunk, oracle, draw)  # type: ignore[arg-type]
 
 
 # -- the table ---------------------------------------------------------------------------------
@@ -346,9 +339,7 @@ def _run_on(
             key=f"vislod-sweep-{task.key}{suffix}",
         )
 
-    futures = {}
-    for t in todo:
-        futures[submit(t, 0)] = (t, 0)
+    futures = {submit(t, 0): (t, 0) for t in todo}
     done, retried, failed = 0, set(), []
     finished: list = []  # futures kept until the scheduler told how many deaths they saw
 
@@ -409,9 +400,7 @@ def summary_text(summary: SweepSummary, keys: Sequence[str]) -> str:
     from experiments import terminal
 
     table = summary.frame(keys) if summary.rows else pd.DataFrame()
-    text = "(no rows)"
-    if len(table):
-        text = terminal.table(summary_frame(table))
+    text = terminal.table(summary_frame(table)) if len(table) else "(no rows)"
     s = summary
     counts = (
         f"{s.tasks} tasks: {s.done} run, {s.skipped} skipped (stored), {s.retried} "
@@ -427,14 +416,6 @@ def summary_text(summary: SweepSummary, keys: Sequence[str]) -> str:
 
 def add_sweep_parser(sub) -> argparse.ArgumentParser:
     """Add the ``sweep`` sub-command to ``sub`` (an ``add_subparsers()`` object)."""
-    from experiments.common import parse_resolution
-
-    def resolution(text: str) -> tuple[int, int]:
-        try:
-            return parse_resolution(text)
-        except UsageError as e:
-            raise argparse.ArgumentTypeError(str(e)) from None
-
     sp = sub.add_parser(
         "sweep",
         help="scenes x methods x resolutions x flight chunks on Dask, into one table",
@@ -450,72 +431,36 @@ def add_sweep_parser(sub) -> argparse.ArgumentParser:
         help="scenes NAME[:KEY=VALUE,...], e.g. market clutter:objects=80 (default: market)",
     )
     sp.add_argument("--seeds", type=int, nargs="+", default=[0], help="scene seeds (default 0)")
+    methods = f"culling methods (default: {' '.join(DEFAULT_METHODS)}; 'all')"
+    sp.add_argument("--methods", nargs="+", metavar="NAME", help=methods)
+    sizes = {"type": resolution_arg, "nargs": "+", "metavar": "WxH"}
     sp.add_argument(
-        "--methods",
-        nargs="+",
-        default=None,
-        metavar="NAME",
-        help=f"culling methods (default: {' '.join(DEFAULT_METHODS)}; 'all')",
+        "--displays", **sizes, help="camera resolutions (default 1920x1080, quick 480x270)"
     )
-    sp.add_argument(
-        "--displays",
-        type=resolution,
-        nargs="+",
-        default=None,
-        metavar="WxH",
-        help="camera resolutions (default 1920x1080, quick 480x270)",
-    )
-    sp.add_argument(
-        "--resolutions",
-        type=resolution,
-        nargs="+",
-        default=None,
-        metavar="WxH",
-        help="depth-buffer resolutions, crossed with every display (default: the display's)",
-    )
-    sp.add_argument("--frames", type=int, default=None, help="flight length (default 100; quick 6)")
-    sp.add_argument("--chunk", type=int, default=None, help="frames per task (default 25; quick 3)")
+    depth = "depth-buffer resolutions, crossed with every display (default: the display's)"
+    sp.add_argument("--resolutions", **sizes, help=depth)
+    sp.add_argument("--frames", type=int, help="flight length (default 100; quick 6)")
+    sp.add_argument("--chunk", type=int, help="frames per task (default 25; quick 3)")
     sp.add_argument("--oracle", action="store_true", help="count false culls against the oracle")
     sp.add_argument("--draw", action="store_true", help="also draw the kept set and time it")
+    sp.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="a running Dask scheduler")
+    workers = f"local worker processes, or workers to wait for (default {WORKERS})"
+    sp.add_argument("--workers", type=int, default=WORKERS, help=workers)
     sp.add_argument(
-        "--scheduler", default=None, metavar="tcp://HOST:PORT", help="a running Dask scheduler"
-    )
-    sp.add_argument(
-        "--workers",
-        type=int,
-        default=WORKERS,
-        help=f"local worker processes, or workers to wait for (default {WORKERS})",
-    )
-    sp.add_argument(
-        "--gl-threads",
-        type=int,
-        default=None,
-        help="llvmpipe threads per worker (default: cores / workers locally)",
+        "--gl-threads", type=int, help="llvmpipe threads per worker (default: cores / workers)"
     )
     sp.add_argument("--force", action="store_true", help="re-run tasks already stored")
-    sp.add_argument("--data", default=None, help="castle folder (default: $VISLOD_DATA)")
+    sp.add_argument("--data", help="castle folder (default: $VISLOD_DATA)")
     sp.add_argument("--quick", action="store_true", help="small market, 480x270, 6 frames")
-    sp.add_argument(
-        "--out", default=None, help="sweep folder (default: results/sweep; quick results/quick/)"
-    )
+    sp.add_argument("--out", help="sweep folder (default: results/[quick/]sweep)")
     sp.add_argument("--no-progress", action="store_true", help="no progress bar")
     return sp
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """Run ``vislod sweep``; 0 when every task is stored, 1 when some failed."""
-    setup = make_sweep(
-        args.scenes,
-        args.methods,
-        seeds=args.seeds,
-        displays=args.displays,
-        resolutions=args.resolutions,
-        frames=args.frames,
-        chunk=args.chunk,
-        oracle=args.oracle,
-        draw=args.draw,
-        quick=args.quick,
-    )
+    grid = ("seeds", "displays", "resolutions", "frames", "chunk", "oracle", "draw", "quick")
+    setup = make_sweep(args.scenes, args.methods, **{k: getattr(args, k) for k in grid})
     if args.scheduler is None and any(s.name == "castle" for s in setup.scenes):
         castle_path(args.data)  # local workers read it: fail now, not in every task
     if args.gl_threads is not None and args.gl_threads < 0:

@@ -48,11 +48,7 @@ def _parse_value(text: str) -> _SceneValue:
 def _loader(name: str):
     import soc
 
-    return {
-        "market": soc.scenes.market,
-        "clutter": soc.scenes.clutter,
-        "castle": soc.scenes.castle,
-    }[name]
+    return getattr(soc.scenes, name)  # market, clutter, castle
 
 
 @dataclass(frozen=True)
@@ -246,12 +242,8 @@ def run_task(
     crash_marker: str | None = None,
 ) -> TaskResult:
     """Cull (and optionally draw and check) the task's frames: one row per frame, the task's
-    columns beside :meth:`soc.FrameStats.as_row`. ``data``: the castle's folder;
-    ``gl_threads``: llvmpipe's and numba's threads; ``crash_marker``: see :func:`_crash_once`.
-
-    The culler warms up, untimed, on the frame before the chunk, so temporal methods (``chc``,
-    ``grid``, ``adaptive``) start each chunk from one frame of history.
-    """
+    columns beside :meth:`soc.FrameStats.as_row`. The culler warms up, untimed, on the frame
+    before the chunk, so temporal methods start each chunk from one frame of history."""
     import soc
     from soc.gl.context import default_context
 

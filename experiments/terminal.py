@@ -177,4 +177,3 @@ def _rows(row: list[list[str]], widths: list[int], right: list[bool]) -> list[st
             )
         )
     return out
-
