@@ -1,11 +1,7 @@
-"""The ``vislod`` command line: ``demo``, ``cull``, ``figures``, ``sweep`` and one command per
-experiment (``vislod --help`` lists them; ``vislod COMMAND --help`` their options).
-
-Mistakes print one line on stderr and exit with status 2 before any work: an unknown scene or
-method, a method that cannot cull the scene, a bad resolution, a data path that holds no
-castle, an output folder that cannot be written, a missing extra ("vislod seed004-model needs
-the 'fit' extra: pip install 'vislod[fit]'"). ``VISLOD_QUICK=1`` acts as ``--quick``;
-``VISLOD_DATA`` is where the castle is looked for.
+"""The ``vislod`` command line: ``cull``, ``figures``, ``sweep`` and one command per
+experiment. Mistakes (an unknown name, a bad resolution or data path, an output folder that
+cannot be written, a missing extra) print one line on stderr and exit with status 2 before any
+work. ``VISLOD_QUICK=1`` acts as ``--quick``; ``VISLOD_DATA`` is where the castle is looked for.
 """
 
 from __future__ import annotations
@@ -36,8 +32,6 @@ from experiments.sweep import DEFAULT_METHODS, add_sweep_parser, cmd_sweep
 
 EXIT_USAGE = 2
 EXIT_ENVIRONMENT = 1
-
-# -- optional dependencies: one table, checked before any work --------------------------------
 
 # Extra (pyproject.toml's optional-dependencies) → modules whose presence says it is installed.
 EXTRA_MODULES: dict[str, tuple[str, ...]] = {
@@ -91,8 +85,7 @@ def _named_methods(args: argparse.Namespace) -> list[str]:
 
 
 def required_extras(args: argparse.Namespace) -> dict[str, str]:
-    """Extras the parsed command needs → why ("" for the command itself, else the method or
-    figure that needs it)."""
+    """Extras the parsed command needs → why ("" for the command itself)."""
     extras = (
         HARNESS[args.command].extras if args.command in HARNESS else COMMAND_EXTRAS[args.command]
     )
@@ -113,8 +106,7 @@ def required_extras(args: argparse.Namespace) -> dict[str, str]:
 
 
 def check_extras(args: argparse.Namespace) -> None:
-    """:class:`MissingExtraError` naming the extras the command lacks, with the ``pip install``
-    line."""
+    """:class:`MissingExtraError` naming the extras the command lacks and how to install."""
     need = required_extras(args)
     missing = [e for e in need if not _installed(e)]
     if not missing:
@@ -213,8 +205,7 @@ def output_folder(args: argparse.Namespace) -> Path | None:
 
 
 def check_inputs(args: argparse.Namespace) -> None:
-    """Before the work, each a one-line :class:`UsageError`: the output folder is created and
-    probed, the scene, its data path and the methods named are valid."""
+    """Before the work: the output folder can be written, the scene and its data exist."""
     out = output_folder(args)
     if out is not None:
         check_writable(out)

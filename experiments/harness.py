@@ -69,12 +69,9 @@ Frames = dict[str, pd.DataFrame]
 
 @dataclass(frozen=True)
 class Experiment:
-    """An experiment as the harness runs it (made by :func:`experiment`): its command
-    (``key``, old names in ``aliases``), source document (``seed``), one-line ``title``, the
-    ``params`` dataclass and its ``quick`` overrides, the three parts (``claims`` evaluates the
-    declarative ``table``, empty when the claims are a function), rough full-run ``minutes``,
-    the pyproject ``extras`` it needs, whether it reads the data folder (``uses_data``), its
-    ``notebook`` and the ``intro`` (markdown) of its report section and notebook.
+    """An experiment as the harness runs it (made by :func:`experiment`). ``claims``
+    evaluates the declarative ``table`` (empty when the claims are a function); ``minutes``: a
+    full run's; ``extras``: the pyproject extras it needs; ``intro``: its notebook's markdown.
     """
 
     key: str

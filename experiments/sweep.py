@@ -60,10 +60,8 @@ PARTS = "parts"
 
 @dataclass(frozen=True)
 class SweepSetup:
-    """The grid of one sweep: scene specs (one per scene × seed), methods, camera resolutions,
-    depth resolutions (None: each display's own) crossed with every display, flight length,
-    frames per task, and :class:`~experiments.sweep_tasks.SweepTask`'s ``oracle`` and ``draw``.
-    """
+    """The grid of one sweep: scene specs (one per scene × seed), methods, displays, depth
+    resolutions (None: each display's own) crossed with them, flight length, frames per task."""
 
     scenes: tuple[SceneSpec, ...]
     methods: tuple[str, ...]
@@ -116,8 +114,7 @@ def make_sweep(
     quick: bool = False,
 ) -> SweepSetup:
     """A checked :class:`SweepSetup` (:class:`UsageError` on any bad name or number): scenes
-    as ``NAME[:KEY=VALUE,...]`` crossed with ``seeds``; defaults 1920x1080, 100 frames in tasks
-    of 25 (quick: small market, 480x270, 6 frames in tasks of 3)."""
+    as ``NAME[:KEY=VALUE,...]`` crossed with ``seeds``."""
     specs = tuple(SceneSpec.parse(s, seed, quick=quick) for s in scenes for seed in seeds)
     if not specs:
         raise UsageError("need at least one scene and one seed")
@@ -196,9 +193,8 @@ class SweepStore:
 
 @dataclass(frozen=True)
 class SweepSummary:
-    """What one :func:`run_sweep` did: tasks in the grid, run now and skipped (stored), retried
-    after a worker died, failed (key, label, error: their rows are absent), wall and cluster
-    start seconds, workers that served it, rows of the merged table (``table``)."""
+    """What one :func:`run_sweep` did; ``failed``: (key, label, error) of the tasks whose rows
+    are absent; ``rows`` of the merged ``table``."""
 
     tasks: int
     done: int
@@ -212,8 +208,7 @@ class SweepSummary:
     table: Path
 
     def frame(self, keys: Sequence[str] | None = None) -> pd.DataFrame:
-        """The merged table (only the rows of task ``keys`` when given), one row per task ×
-        frame; see :func:`~experiments.sweep_tasks.run_task` for the columns."""
+        """The merged table (only the rows of task ``keys`` when given)."""
         df = pd.read_csv(self.table, dtype_backend="numpy_nullable")
         return df if keys is None else df[df["key"].isin(set(keys))].reset_index(drop=True)
 
@@ -271,12 +266,10 @@ def run_sweep(
     gl_threads: int | None = None,
     crash_marker: str | os.PathLike | None = None,
 ) -> SweepSummary:
-    """Run the tasks not stored in ``out`` yet (all with ``force``) on Dask; store each; merge
-    the table; write ``sweep.json``. ``scheduler``: ``tcp://host:port`` (default a local
-    cluster of ``workers``); ``data``: the castle's folder on the workers; ``gl_threads``:
-    llvmpipe threads per worker; ``crash_marker``: tests only, one worker dies mid-task, once.
-    Failed tasks are reported in the summary, not raised.
-    """
+    """Run the tasks not stored in ``out`` yet (all with ``force``) on Dask (``scheduler``:
+    ``tcp://host:port``, default a local cluster), store each, merge the table and write
+    ``sweep.json``; failures are in the summary, not raised. ``crash_marker``: tests only, one
+    worker dies mid-task, once."""
     if workers < 1:
         raise UsageError(f"--workers must be at least 1, got {workers}")
     t0 = time.perf_counter()

@@ -1,10 +1,7 @@
 """One task of a ``vislod sweep`` (:class:`SweepTask`: one chunk of the seed-000 flight over
-one scene, method, depth and display resolution), its key, and how a worker runs it
-(:func:`run_task`: one row per frame).
-
-The key hashes the task's parameters and the code version: the same task has the same key in
-every process and on every machine, so a stored result can be reused. A worker keeps one EGL
-context and its last few scenes (with their oracles) in a cache that changes no result.
+one scene, method, depth and display resolution) and how a worker runs it (:func:`run_task`).
+Its key hashes its parameters and the code version, the same in every process and on every
+machine, so a stored result can be reused. A worker caches its EGL context and last scenes.
 """
 
 from __future__ import annotations
@@ -141,7 +138,8 @@ class SweepTask:
     @property
     def key(self) -> str:
         """20 hex digits of SHA-256 over :meth:`params` as canonical JSON."""
-        return _hash(self.params())
+        text = json.dumps(self.params(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()[:20]
 
     @property
     def label(self) -> str:
@@ -174,11 +172,6 @@ def code_version() -> str:
     except PackageNotFoundError:  # run from a checkout that is not installed
         v = "unknown"
     return f"{v}/rows{ROW_FORMAT}"
-
-
-def _hash(params: dict[str, Any]) -> str:
-    text = json.dumps(params, sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
 def frame_chunks(frames: int, chunk: int) -> list[tuple[int, int]]:
