@@ -1,14 +1,10 @@
 """Claims as data: an experiment's comparisons with its source document, one declarative row
-each (:class:`Row`), evaluated on the experiment's frames by :func:`evaluate`.
-
-A row names what it compares (``item``), quotes the document and reads our quantity from the
-frames (``ours``). A verdict that asserts something (``numbers``, ``trend``) carries its rule
-(:class:`Rule`): our value in the rule's units, a comparison, a bound with its origin and, where
-timing noise moves the value, its measured spread. :func:`evaluate` writes the verdict (the
-row's own when every rule holds, ``differs`` with the row's measured cause when one does not),
-the margin (how far the value lies from its bound, in the rule's units: positive holds) and
-``borderline`` (the margin within the measured noise). Every rule names the alterations of the
-frames that must flip it (:func:`alter`), so that a test shows each rule can fail.
+each (:class:`Row`: what it compares, the document's quote, our quantity), evaluated on the
+experiment's frames by :func:`evaluate`. A ``numbers`` or ``trend`` row carries its rules
+(:class:`Rule`): the verdict is the row's own when they hold, else ``differs`` with the row's
+measured cause; the margin says how far the value lies from its bound and ``borderline`` that
+it lies within the measured noise. Each rule names alterations of the frames (:func:`alter`)
+that must flip it, so that a test shows it can fail.
 
     ROWS = (
         Each(segments, (
@@ -199,14 +195,9 @@ def _margin_text(rule: Rule, m: float, noise: float | None, several: bool) -> st
         return label + "no edge"
     num = "–" if m != m else f"{m:+,.0f}" if abs(m) >= 1000 else f"{m:+.3g}"
     unit = f" {rule.unit}" if rule.unit else ""
-    spread = (
-        " (noise not measured)"
-        if noise is None
-        else " (deterministic)"
-        if noise == 0
-        else f" (noise {noise:.2g})"
-    )
-    return label + num + unit + spread
+    if noise is None:
+        return f"{label}{num}{unit} (noise not measured)"
+    return f"{label}{num}{unit} " + ("(deterministic)" if noise == 0 else f"(noise {noise:.2g})")
 
 
 @dataclass

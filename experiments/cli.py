@@ -1,11 +1,7 @@
-"""The ``vislod`` command line: ``demo``, ``cull``, ``figures``, ``sweep`` and one command per
-experiment (``vislod --help`` lists them; ``vislod COMMAND --help`` their options).
-
-Mistakes print one line on stderr and exit with status 2 before any work: an unknown scene or
-method, a method that cannot cull the scene, a bad resolution, a data path that holds no
-castle, an output folder that cannot be written, a missing extra ("vislod seed004-model needs
-the 'fit' extra: pip install 'vislod[fit]'"). ``VISLOD_QUICK=1`` acts as ``--quick``;
-``VISLOD_DATA`` is where the castle is looked for.
+"""The ``vislod`` command line: ``cull``, ``figures``, ``sweep`` and one command per
+experiment. Mistakes (an unknown name, a bad resolution or data path, an output folder that
+cannot be written, a missing extra) print one line on stderr and exit with status 2 before any
+work. ``VISLOD_QUICK=1`` acts as ``--quick``; ``VISLOD_DATA`` is where the castle is looked for.
 """
 
 from __future__ import annotations
@@ -27,17 +23,15 @@ from experiments.common import (
     check_writable,
     default_out,
     env_quick,
-    parse_resolution,
     res_str,
+    resolution_arg,
     scaled,
 )
 from experiments.harness import Experiment
-from experiments.sweep import add_sweep_parser, cmd_sweep
+from experiments.sweep import DEFAULT_METHODS, add_sweep_parser, cmd_sweep
 
 EXIT_USAGE = 2
 EXIT_ENVIRONMENT = 1
-
-# -- optional dependencies: one table, checked before any work --------------------------------
 
 # Extra (pyproject.toml's optional-dependencies) → modules whose presence says it is installed.
 EXTRA_MODULES: dict[str, tuple[str, ...]] = {
@@ -79,30 +73,19 @@ def _named_methods(args: argparse.Namespace) -> list[str]:
     if args.command == "cull":
         return [args.method.partition("(")[0].strip()]  # "masked(threads=1)" → masked
     if args.command == "sweep":
-        if args.methods is None:
-            from experiments.sweep import DEFAULT_METHODS
+        methods = list(args.methods or DEFAULT_METHODS)
+    else:  # a harness experiment's method parameter
+        text = getattr(args, "param_methods", None) or getattr(args, "param_method", None) or ""
+        methods = [m.strip() for m in text.split(",") if m.strip()]
+    if methods == ["all"]:
+        import soc
 
-            return list(DEFAULT_METHODS)
-        if list(args.methods) == ["all"]:
-            import soc
-
-            return soc.method_names()
-        return list(args.methods)
-    for name in ("param_methods", "param_method"):  # harness experiments' method parameters
-        text = getattr(args, name, None)
-        if text:
-            methods = [m.strip() for m in text.split(",") if m.strip()]
-            if methods == ["all"]:
-                import soc
-
-                return soc.method_names()
-            return methods
-    return []
+        return soc.method_names()
+    return methods
 
 
 def required_extras(args: argparse.Namespace) -> dict[str, str]:
-    """Extras the parsed command needs → why ("" for the command itself, else the method or
-    figure that needs it)."""
+    """Extras the parsed command needs → why ("" for the command itself)."""
     extras = (
         HARNESS[args.command].extras if args.command in HARNESS else COMMAND_EXTRAS[args.command]
     )
@@ -123,8 +106,7 @@ def required_extras(args: argparse.Namespace) -> dict[str, str]:
 
 
 def check_extras(args: argparse.Namespace) -> None:
-    """:class:`MissingExtraError` naming the extras the command lacks, with the ``pip install``
-    line."""
+    """:class:`MissingExtraError` naming the extras the command lacks and how to install."""
     need = required_extras(args)
     missing = [e for e in need if not _installed(e)]
     if not missing:
@@ -146,63 +128,39 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"vislod: error: {message} (see {self.prog} --help)\n")
 
 
-def _resolution(text: str) -> tuple[int, int]:
-    try:
-        return parse_resolution(text)
-    except UsageError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
-
-
 def build_parser() -> argparse.ArgumentParser:
-    """The ``vislod`` argument parser (sub-commands ``demo``, ``cull``, ``grid``, ``portals``)."""
+    """The ``vislod`` argument parser: ``cull``, ``figures``, ``sweep`` and the experiments."""
     p = _Parser(
         prog="vislod",
         description="Occlusion-culling and LOD experiments on headless OpenGL (Mesa llvmpipe).",
     )
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
-
-    def common(sp: argparse.ArgumentParser, scene_default: str | None) -> None:
-        sp.add_argument(
-            "--scene",
-            default=scene_default,
-            required=scene_default is None,
-            metavar="|".join(SCENES),
-            help=f"scene to fly over (default: {scene_default or 'required'})",
-        )
-        sp.add_argument(
-            "--frames",
-            type=int,
-            default=None,
-            help="frames of the flight (default 100; 6 in quick mode)",
-        )
-        sp.add_argument("--seed", type=int, default=0, help="scene generator seed (default 0)")
-        sp.add_argument(
-            "--data", default=None, help="folder holding intel_castle/ (default: $VISLOD_DATA)"
-        )
-        sp.add_argument(
-            "--quick",
-            action="store_true",
-            help="few frames, quarter resolutions, small market (also VISLOD_QUICK=1)",
-        )
-        sp.add_argument(
-            "--display",
-            type=_resolution,
-            default=None,
-            help="camera (display) resolution WxH (default 1920x1080, quick 480x270)",
-        )
-
+    data_help = "folder holding intel_castle/ (default: $VISLOD_DATA)"
     cull = sub.add_parser("cull", help="cull the flight with one method, print per-frame stats")
-    common(cull, "market")
+    scenes = "|".join(SCENES)
+    cull.add_argument(
+        "--scene", default="market", metavar=scenes, help="scene to fly over (default: market)"
+    )
+    cull.add_argument("--frames", type=int, help="frames of the flight (default 100; quick 6)")
+    cull.add_argument("--seed", type=int, default=0, help="scene generator seed (default 0)")
+    cull.add_argument("--data", help=data_help)
+    cull.add_argument(
+        "--quick",
+        action="store_true",
+        help="few frames, quarter resolutions, small market (also VISLOD_QUICK=1)",
+    )
+    cull.add_argument(
+        "--display",
+        type=resolution_arg,
+        help="camera (display) resolution WxH (default 1920x1080, quick 480x270)",
+    )
     cull.add_argument(
         "--method",
         required=True,
         help='culling method (soc.method_names()), options in parentheses: "masked(threads=1)"',
     )
     cull.add_argument(
-        "--resolution",
-        type=_resolution,
-        default=None,
-        help="depth-buffer resolution WxH (default: the display resolution)",
+        "--resolution", type=resolution_arg, help="depth-buffer resolution WxH (default: display)"
     )
     cull.add_argument(
         "--oracle",
@@ -212,16 +170,13 @@ def build_parser() -> argparse.ArgumentParser:
     cull.add_argument(
         "--view",
         metavar="PNG",
-        default=None,
         help="write a picture of the last frame's cull there (soc.viz.plot_cull, viz extra)",
     )
 
     figs = sub.add_parser(
         "figures", help="every figure of the source documents, then results/REPORT.md"
     )
-    figs.add_argument(
-        "--only", nargs="+", default=None, metavar="NAME", help="these figures only (see --list)"
-    )
+    figs.add_argument("--only", nargs="+", metavar="NAME", help="these figures only (see --list)")
     figs.add_argument("--list", action="store_true", help="list the figures and exit")
     figs.add_argument("--force", action="store_true", help="re-run figures already done")
     figs.add_argument(
@@ -232,12 +187,8 @@ def build_parser() -> argparse.ArgumentParser:
     figs.add_argument(
         "--quick", action="store_true", help="small scenes, few frames (VISLOD_QUICK=1)"
     )
-    figs.add_argument(
-        "--data", default=None, help="folder holding intel_castle/ (default: $VISLOD_DATA)"
-    )
-    figs.add_argument(
-        "--out", default=None, help="results folder (default: results/; quick runs: results/quick/)"
-    )
+    figs.add_argument("--data", help=data_help)
+    figs.add_argument("--out", help="results folder (default: results/[quick/])")
     figs.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_sweep_parser(sub)
     HARNESS.clear()  # the registry of this parser, not of an earlier one
@@ -254,13 +205,15 @@ def output_folder(args: argparse.Namespace) -> Path | None:
 
 
 def check_inputs(args: argparse.Namespace) -> None:
-    """Before the work, each a one-line :class:`UsageError`: the output folder is created and
-    probed, the scene, its data path and the methods named are valid."""
+    """Before the work: the output folder can be written, the scene and its data exist."""
     out = output_folder(args)
     if out is not None:
         check_writable(out)
-    if hasattr(args, "scene"):
-        _validate_scene(args)
+    if hasattr(args, "scene"):  # cull
+        if args.scene not in SCENES:
+            raise UsageError(f"unknown scene {args.scene!r}; available: {', '.join(SCENES)}")
+        if args.scene == "castle":
+            castle_path(args.data)
 
 
 def _check_method_culls(method: str, scene_name: str, scene=None) -> None:
@@ -285,18 +238,10 @@ def _check_method_culls(method: str, scene_name: str, scene=None) -> None:
         )
 
 
-def _validate_scene(args: argparse.Namespace) -> None:
-    if args.scene not in SCENES:
-        raise UsageError(f"unknown scene {args.scene!r}; available: {', '.join(SCENES)}")
-    if args.scene == "castle":
-        castle_path(args.data)  # raises before any work when the data is missing
-
-
 def cmd_cull(args: argparse.Namespace) -> int:
     import soc
     from experiments.common import load_scene
 
-    _validate_scene(args)
     _check_method_culls(args.method, args.scene)  # before loading a large scene
     frames = args.frames if args.frames is not None else (6 if args.quick else 100)
     if frames < 2:
@@ -317,17 +262,7 @@ def cmd_cull(args: argparse.Namespace) -> int:
                 scene, cams[-1], culler.cull(cams[-1]), truth, path=cams, screenshot=args.view
             )
             print(f"wrote {args.view}")
-    cols = [
-        "models_visible",
-        "models_culled",
-        "frustum_culled",
-        "occlusion_culled",
-        "triangles_culled_pct",
-        "draw_calls",
-        "queries",
-        *(["false_culls", "false_keeps"] if args.oracle else []),
-        "ms_cull",
-    ]
+    cols = [c for c in CULL_HEADERS if args.oracle or not c.startswith("false_")]
     table = df.set_index("frame")[cols].astype(float)
     table.loc["mean"] = table.mean()
     table.index = table.index.map(str)
@@ -350,6 +285,7 @@ CULL_HEADERS = {
     "occlusion_culled": "occlusion culled",
     "triangles_culled_pct": "triangles culled %",
     "draw_calls": "draw calls",
+    "queries": "queries",
     "false_culls": "false culls",
     "false_keeps": "false keeps",
     "ms_cull": "cull ms",

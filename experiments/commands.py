@@ -1,14 +1,10 @@
-"""Every harness experiment as a ``vislod`` command: ``--quick``, ``--out``, ``--data``,
-``--force``, ``--no-progress`` and one option per parameter (``--frames 30``,
-``--display 640x360``, ``--methods none,frustum``), its old names as aliases.
+"""Every harness experiment as a ``vislod`` command (its old names as aliases): ``--quick``,
+``--out``, ``--data``, ``--force``, ``--no-progress`` and one option per parameter
+(``--frames 30``, ``--display 640x360``, ``--methods none,frustum``). ``vislod demo`` is seed
+000's experiment, short unless ``--full`` (:func:`experiments.seed000_demo.short`).
 
-``vislod demo`` is seed 000's experiment, short by default (:func:`experiments.seed000_demo.
-short`: 13 frames of the flight, three depth resolutions, into ``results/demo/``); ``--full``
-runs the document's flight (the same files as ``vislod seed000`` and ``make figures``).
-
-A command prints what fits a terminal (:mod:`experiments.terminal`): the experiment's overview
-table when its module has one (``overview(frames, params)``), the claims as item / document /
-ours / verdict, and the files — the whole claims table as CSV and markdown beside the pictures.
+A command prints what fits a terminal: the module's ``overview(frames, params)`` table if it
+has one, the claims' main columns, and where the files are.
 """
 
 from __future__ import annotations
@@ -23,13 +19,8 @@ from experiments import harness, terminal
 
 DEMO = "demo"  # the short seed-000 run of `make demo` (--full: the whole flight)
 CLAIM_VIEW = ("item", "document", "ours", "verdict")  # the terminal's claims columns
-# Ours matters most in a narrow terminal: more of the width; it and the item may take a
-# third line.
+# In a narrow terminal ``ours`` gets more of the width; it and the item may take a third line.
 CLAIM_LAYOUT = {"weights": {"ours": 1.5}, "max_lines": {"ours": 3, "item": 3}}
-
-
-def _option(name: str) -> str:
-    return "--" + name.replace("_", "-")
 
 
 def _add_options(sp: argparse.ArgumentParser, exp: harness.Experiment) -> None:
@@ -47,7 +38,7 @@ def _add_options(sp: argparse.ArgumentParser, exp: harness.Experiment) -> None:
             continue
         default = f.default if f.default is not dataclasses.MISSING else "required"
         sp.add_argument(
-            _option(f.name),
+            "--" + f.name.replace("_", "-"),
             dest=f"param_{f.name}",
             default=None,
             metavar=f.name.upper(),
@@ -57,8 +48,8 @@ def _add_options(sp: argparse.ArgumentParser, exp: harness.Experiment) -> None:
 
 
 def add_parsers(sub: Any, taken: set[str]) -> dict[str, harness.Experiment]:
-    """A sub-command per experiment whose key is not in ``taken`` (and ``demo``); returns
-    name → experiment for every name and alias added."""
+    """A sub-command per experiment whose key is not in ``taken`` (and ``demo``): name or
+    alias → experiment."""
     added: dict[str, harness.Experiment] = {}
     for exp in harness.experiments():
         if exp.key in taken:
@@ -86,11 +77,6 @@ def add_parsers(sub: Any, taken: set[str]) -> dict[str, harness.Experiment]:
     return added
 
 
-def _short(args: argparse.Namespace) -> bool:
-    """``vislod demo`` without ``--full`` or ``--quick``: the short run."""
-    return args.command == DEMO and not args.full and not args.quick
-
-
 def run_command(exp: harness.Experiment, args: argparse.Namespace) -> int:
     """Run ``exp`` with the parsed options; print its overview, claims and files."""
     from experiments.common import default_results_dir
@@ -102,7 +88,8 @@ def run_command(exp: harness.Experiment, args: argparse.Namespace) -> int:
         if k.startswith("param_") and v is not None
     }
     out = args.out
-    if _short(args):
+    short_demo = args.command == DEMO and not args.full and not args.quick
+    if short_demo:
         from experiments.seed000_demo import DISPLAY, short
 
         overrides = short(overrides.get("display", DISPLAY)) | overrides
@@ -117,7 +104,7 @@ def run_command(exp: harness.Experiment, args: argparse.Namespace) -> int:
         progress=not args.no_progress,
         **overrides,
     )
-    print_results(res, short=_short(args))
+    print_results(res, short=short_demo)
     return 0
 
 
@@ -127,21 +114,13 @@ def _path(p: Path) -> str:
     return p.as_posix() if rel.startswith("..") else rel
 
 
-def write_claims_markdown(res: harness.Results) -> Path | None:
-    """The whole claims table as ``claims.md`` beside ``claims.csv``; its path."""
+def print_results(res: harness.Results, *, short: bool = False) -> None:
+    """The terminal's view of a run: overview, claims, then where the files are (the whole
+    claims table as CSV and markdown)."""
+    import importlib
+
     from experiments.common import atomic_write
     from experiments.markdown import markdown_table
-
-    if res.folder is None:
-        return None
-    text = f"# {res.experiment.key}: claims\n\n{markdown_table(res.claims)}\n"
-    return atomic_write(res.folder / "claims.md", lambda p: p.write_text(text))
-
-
-def print_results(res: harness.Results, *, short: bool = False) -> None:
-    """The terminal's view of a run: overview, claims (item / document / ours / verdict),
-    then where the files are (the whole claims table as CSV and markdown)."""
-    import importlib
 
     exp, cols = res.experiment, terminal.width()
     params = res.params if res.params is not None else exp.make_params()
@@ -157,7 +136,8 @@ def print_results(res: harness.Results, *, short: bool = False) -> None:
     state = "read back (same inputs; --force recomputes)" if res.resumed else "written"
     if res.folder is None:
         return
-    md = write_claims_markdown(res)
+    text = f"# {exp.key}: claims\n\n{markdown_table(res.claims)}\n"
+    md = atomic_write(res.folder / "claims.md", lambda p: p.write_text(text))
     pngs = sorted(p.name for p in res.folder.glob("*.png"))
     lines = [
         f"{exp.key}: {state} in {_path(res.folder)}",

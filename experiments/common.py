@@ -1,8 +1,6 @@
-"""What every experiment shares: where results go, writing them atomically, choosing a scene,
-parsing resolutions and quick mode.
-
-Experiments take every setting as an argument; only the entry points (the CLI, notebooks)
-read the environment (``VISLOD_QUICK``, ``VISLOD_DATA``) and say so when they do.
+"""What every experiment shares: where results go, writing them atomically, checking
+parameters, resolutions, scenes and quick mode. Experiments take every setting as an argument;
+only the entry points (the CLI, notebooks) read the environment.
 """
 
 from __future__ import annotations
@@ -23,9 +21,7 @@ DISPLAY = (1920, 1080)  # seed 000's display (and default depth) resolution
 FRAMES = 100  # seed 000's flight length
 MAX_RESOLUTION = 16384  # llvmpipe's largest render target side
 
-# Quick mode (notebooks, CI): a few frames, everything at a quarter of the resolution, and the
-# small market. Depth resolutions keep their ratio to the display, so the table still lines up
-# with the document's columns.
+# Quick mode (notebooks, CI): a few frames at a quarter of the resolution on the small market.
 QUICK_FRAMES = 6
 QUICK_SCALE = 0.25
 QUICK_OCCLUDEES = 2000
@@ -42,20 +38,19 @@ GALLERY = ROOT / "docs" / "gallery"  # the tracked pictures (:mod:`experiments.g
 
 
 def in_checkout() -> bool:
-    """The package runs from a vislod checkout (README.md and docs/ beside it), not from an
-    installed wheel, whose site-packages must stay as pip left it."""
+    """The package runs from a checkout, not from an installed wheel (whose site-packages must
+    stay as pip left it)."""
     return (ROOT / "pyproject.toml").is_file()
 
 
 def gallery_path(stem: str, folder: Path | None = None) -> Path:
-    """Where the picture ``stem`` (``<key>_<plot>``) lives in the tracked gallery (``folder``,
-    default :data:`GALLERY`)."""
+    """Where the picture ``stem`` (``<key>_<plot>``) lives in the gallery ``folder``."""
     return Path(folder if folder is not None else GALLERY) / f"{stem}.png"
 
 
 def default_results_dir() -> Path:
-    """``results/`` at the repository root (the current directory when not run from a checkout),
-    or ``$VISLOD_RESULTS`` when set (tests and CI keep their results out of the checkout)."""
+    """``$VISLOD_RESULTS`` when set (tests, CI), else ``results/`` in the checkout (or in the
+    current folder when installed)."""
     if os.environ.get("VISLOD_RESULTS"):
         return Path(os.environ["VISLOD_RESULTS"])
     if in_checkout():
@@ -64,8 +59,7 @@ def default_results_dir() -> Path:
 
 
 def default_out(quick: bool) -> Path:
-    """Where a run writes by default: ``results/``, quick runs ``results/quick/`` (so that a
-    quick run never overwrites the full run's files)."""
+    """``results/``, or ``results/quick/`` for quick runs (never overwriting a full run's)."""
     return default_results_dir() / "quick" if quick else default_results_dir()
 
 
@@ -78,10 +72,8 @@ def env_quick() -> bool:
 
 
 def atomic_write(path: str | os.PathLike, write: Callable[[Path], None]) -> Path:
-    """Call ``write(tmp)`` on a temporary file next to ``path``, then rename it to ``path``.
-
-    Nothing is left at ``path`` (nor a temporary file) when ``write`` raises.
-    """
+    """Call ``write(tmp)`` on a temporary file next to ``path``, then rename it to ``path``:
+    nothing is left when ``write`` raises."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -151,6 +143,16 @@ def parse_resolution(text: str) -> tuple[int, int]:
     return w, h
 
 
+def resolution_arg(text: str) -> tuple[int, int]:
+    """:func:`parse_resolution` as an ``argparse`` type (its message in the usage error)."""
+    import argparse
+
+    try:
+        return parse_resolution(text)
+    except UsageError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 def res_str(resolution: Sequence[int]) -> str:
     """``(1920, 1080)`` → ``"1920x1080"`` (ASCII, for file names and CSV cells)."""
     return f"{int(resolution[0])}x{int(resolution[1])}"
@@ -164,20 +166,11 @@ def scaled(resolution: Sequence[int], scale: float) -> tuple[int, int]:
 # -- scenes ------------------------------------------------------------------------------------
 
 
-# Where the castle's scene files may sit under a data folder: ``<data>/intel_castle/Asset``,
-# ``<data>/Asset`` or ``<data>`` itself (what :func:`soc.scenes.castle` accepts).
-CASTLE_LAYOUTS = (("intel_castle", "Asset"), ("Asset",), ())
-
-
 def castle_path(data: str | os.PathLike | None) -> Path:
-    """The castle data folder from ``data`` or ``VISLOD_DATA``; :class:`UsageError` when neither
-    is set, or the path is missing, is a file, or holds no castle (no ``.set`` scene file in
-    ``intel_castle/Asset/``, ``Asset/`` or the folder itself) — checked before any work, so a
-    wrong path is an error, never a silent fallback to the generated market.
-
-    :func:`soc.scenes.castle` accepts the folder holding ``intel_castle/``, ``intel_castle/``
-    itself or its ``Asset/`` folder.
-    """
+    """The castle data folder from ``data`` or ``VISLOD_DATA``, checked before any work (a
+    wrong path is an error, never a fallback to the generated market): :class:`UsageError`
+    unless it holds ``.set`` scene files in ``intel_castle/Asset/``, ``Asset/`` or itself (the
+    layouts :func:`soc.scenes.castle` reads)."""
     env = os.environ.get("VISLOD_DATA")
     source = "VISLOD_DATA" if not data or str(data) == env else "--data"
     data = data or env
@@ -191,8 +184,7 @@ def castle_path(data: str | os.PathLike | None) -> Path:
         raise UsageError(f"castle data folder {str(root)!r} ({source}) does not exist")
     if not root.is_dir():
         raise UsageError(f"castle data folder {str(root)!r} ({source}) is a file, not a folder")
-    for parts in CASTLE_LAYOUTS:
-        folder = root.joinpath(*parts)
+    for folder in (root / "intel_castle" / "Asset", root / "Asset", root):
         if folder.is_dir() and any(folder.glob("*.set")):
             return root
     raise UsageError(
@@ -202,11 +194,9 @@ def castle_path(data: str | os.PathLike | None) -> Path:
 
 
 def check_writable(folder: str | os.PathLike) -> Path:
-    """Create ``folder`` (with its parents) and write and delete a probe file in it, so that a
-    results folder that cannot be written fails in a second, before the work, not minutes
-    later when the first file is saved; :class:`UsageError` (one line) otherwise. The folders
-    it created are removed again, so that a mistake found after this check leaves nothing
-    behind (the command creates them when it writes)."""
+    """Probe that ``folder`` can be written (:class:`UsageError` otherwise), before the work
+    rather than when the first file is saved; the folders made for the probe are removed
+    again, so that a mistake found later leaves nothing behind."""
     folder = Path(folder).expanduser()
     created = []
     missing = folder
@@ -237,17 +227,9 @@ def load_scene(
     quick: bool = False,
     data: str | os.PathLike | None = None,
 ):
-    """A scene by name.
-
-    Parameters
-    ----------
-    name : {"market", "castle", "clutter"}
-        ``market``: the generated town with seed 000's counts (the small version in quick
-        mode); ``castle``: Intel's castle from ``data`` / ``VISLOD_DATA``, its marketplace
-        refilled to seed 000's counts (so partly synthetic); ``clutter``: a small test scene.
-    seed : int
-        Generator seed (market, clutter).
-    """
+    """A scene of :data:`SCENES`: the generated market with seed 000's counts (small when
+    ``quick``), Intel's castle from ``data`` with its marketplace refilled to those counts, or
+    the small clutter test scene."""
     import soc
     from soc.errors import SceneError
 
@@ -255,9 +237,8 @@ def load_scene(
         raise UsageError(f"unknown scene {name!r}; available: {', '.join(SCENES)}")
     try:
         if name == "market":
-            if quick:
-                return soc.scenes.market(seed=seed, occludees=QUICK_OCCLUDEES)
-            return soc.scenes.market(seed=seed)
+            small = {"occludees": QUICK_OCCLUDEES} if quick else {}
+            return soc.scenes.market(seed=seed, **small)
         if name == "castle":
             return soc.scenes.castle(castle_path(data), refill_market=True, seed=seed)
         return soc.scenes.clutter(seed)
@@ -283,6 +264,3 @@ def scene_info(scene, name: str | None = None) -> dict[str, Any]:
         "occluder_triangles": int(scene.triangle_counts[scene.occluder].sum()),
         "meta": {k: v for k, v in meta.items() if isinstance(v, (str, int, float, bool))},
     }
-
-
-# -- numbers and small tables -------------------------------------------------------------------

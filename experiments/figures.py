@@ -1,19 +1,14 @@
-"""Every experiment of the source documents in one run (``make figures`` = ``vislod figures``),
-then the gallery (:mod:`experiments.gallery`: every picture redrawn into the tracked
-``docs/gallery/``) and ``REPORT.md`` (:mod:`experiments.report`).
+"""Every experiment in one run (``make figures`` = ``vislod figures``), then the gallery
+(:mod:`experiments.gallery`) and ``REPORT.md`` (:mod:`experiments.report`).
 
-Each experiment is a harness experiment (:mod:`experiments.harness`). Before anything runs,
-every chosen experiment's parameters are checked (a data path given with ``--data`` or
-``VISLOD_DATA`` that lacks what an experiment reads is an error, never a silent fallback to
-the generated scenes) and the output folder is probed. An experiment whose files exist with the
-same inputs (:func:`experiments.harness.inputs_key`: parameters, data path, package version and
-its module's source) is skipped, so an interrupted run resumes where it stopped; ``--force``
-runs everything again. The report is rewritten from whatever results exist at the end.
+Every chosen experiment's parameters (its data path included: a wrong one is an error, never a
+fallback to the generated scenes) and the output folder are checked before anything runs. An
+experiment done with the same inputs (:func:`experiments.harness.inputs_key`) is skipped, so an
+interrupted run resumes where it stopped; ``--force`` runs everything again.
 """
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -22,35 +17,28 @@ from experiments import harness, terminal
 from experiments.common import GALLERY, UsageError, check_writable, default_out
 
 
-def figure_names() -> list[str]:
-    """The keys ``--only`` accepts, in report order."""
-    return [e.key for e in harness.experiments()]
-
-
-def _overrides(params: Any) -> dict[str, Any]:
-    """A parameters dataclass as keyword overrides (``quick`` is passed apart)."""
-    return {
-        f.name: getattr(params, f.name) for f in dataclasses.fields(params) if f.name != "quick"
-    }
+def chosen(only: Sequence[str] | None) -> list[harness.Experiment]:
+    """The experiments ``--only`` names (all without it), in report order."""
+    exps = harness.experiments()
+    names = [e.key for e in exps]
+    unknown = sorted(set(only or ()) - set(names))
+    if unknown:
+        raise UsageError(f"unknown figure(s) {', '.join(unknown)}; available: {', '.join(names)}")
+    return [e for e in exps if not only or e.key in only]
 
 
 def reclaim_figures(
     out: str | Path | None = None, *, quick: bool = False, only: Sequence[str] | None = None
 ) -> dict[str, Any]:
-    """Claims only: every stored experiment's claims evaluated anew on its frames (no
-    compute), then ``REPORT.md``. Returns ``{"reclaimed": [...], "missing": [...],
-    "report": path}``."""
+    """Every stored experiment's claims judged anew on its frames (no compute), then
+    ``REPORT.md``: ``{"reclaimed": [...], "missing": [...], "report": path}``."""
     from experiments.report import write_report
 
-    names = figure_names()
-    unknown = sorted(set(only or ()) - set(names))
-    if unknown:
-        raise UsageError(f"unknown figure(s) {', '.join(unknown)}; available: {', '.join(names)}")
+    exps = chosen(only)
     out = check_writable(Path(out) if out is not None else default_out(quick))
     done, missing = [], []
-    for exp in harness.experiments():
-        if not only or exp.key in only:
-            (done if harness.reclaim(exp, out) is not None else missing).append(exp.key)
+    for exp in exps:
+        (done if harness.reclaim(exp, out) is not None else missing).append(exp.key)
     if missing:
         print(f"not run, no frames to judge (run them first): {', '.join(missing)}")
     report = write_report(out, quick=quick)
@@ -67,21 +55,15 @@ def run_figures(
     data: str | None = None,
     progress: bool = True,
 ) -> dict[str, Any]:
-    """Run every experiment (or ``only`` those), skipping the ones done with the same inputs
-    unless ``force``; then redraw the gallery (the checkout's ``results/`` only:
-    :func:`refresh_gallery`) and write ``REPORT.md``. Returns ``{"ran": [...], "skipped": [...],
-    "seconds": {...}, "report": path, "gallery": [pictures redrawn]}``."""
+    """Run every experiment (or ``only`` those) not done with the same inputs (all with
+    ``force``), then :func:`refresh_gallery` and ``REPORT.md``: ``{"ran": [...], "skipped":
+    [...], "seconds": {...}, "report": path, "gallery": [pictures redrawn]}``."""
     from tqdm.auto import tqdm
 
     from experiments.report import write_report
 
-    names = figure_names()
-    unknown = sorted(set(only or ()) - set(names))
-    if unknown:
-        raise UsageError(f"unknown figure(s) {', '.join(unknown)}; available: {', '.join(names)}")
+    plans = [(e, e.make_params(quick, data if e.uses_data else None)) for e in chosen(only)]
     out = Path(out) if out is not None else default_out(quick)
-    chosen = [e for e in harness.experiments() if not only or e.key in only]
-    plans = [(e, e.make_params(quick, data if e.uses_data else None)) for e in chosen]
     for _, params in plans:  # wrong data or options: fail now, not after the ones before
         if callable(getattr(params, "check", None)):
             params.check()
@@ -92,19 +74,12 @@ def run_figures(
         print(terminal.paragraph(f"already done (--force re-runs): {', '.join(skipped)}"))
     seconds: dict[str, float] = {}
     weight = {e.key: (e.minutes / 10 if quick else e.minutes) for e, _ in todo}
-    bar = tqdm(
-        total=round(sum(weight.values()), 1),
-        unit="min",
-        desc="figures",
-        disable=not progress,
-        position=0,
-    )
-    with bar:
+    total = round(sum(weight.values()), 1)
+    with tqdm(total=total, unit="min", desc="figures", disable=not progress, position=0) as bar:
         for exp, params in todo:
             bar.set_postfix_str(exp.key)
-            res = harness.run(
-                exp, quick=quick, out=out, force=True, progress=False, **_overrides(params)
-            )
+            given = {k: v for k, v in vars(params).items() if k != "quick"}
+            res = harness.run(exp, quick=quick, out=out, force=True, progress=False, **given)
             seconds[exp.key] = res.seconds
             bar.update(round(weight[exp.key], 1))
     pictures = refresh_gallery(out, [e.key for e, _ in todo]) if not quick else []
@@ -120,9 +95,8 @@ def run_figures(
 
 
 def refresh_gallery(out: Path, ran: Sequence[str]) -> list[Path]:
-    """When ``out`` is the checkout's ``results/`` (whose REPORT.md git tracks), redraw into
-    ``docs/gallery/`` the pictures of the experiments that ran and of those missing there,
-    and the README's gallery section; returns the pictures written."""
+    """When ``out`` is the checkout's ``results/``: redraw into ``docs/gallery/`` the pictures
+    of the experiments that ran or are missing there, and the README's gallery section."""
     from experiments import gallery
     from experiments.report import _is_tracked_report_folder
 

@@ -1,17 +1,13 @@
-"""``docs/gallery/``: every picture of every experiment at the size a reader sees, tracked in
-git, so that ``results/REPORT.md`` and the README show them in a fresh clone.
-
-Each picture is drawn again from the experiment's stored frames (:func:`experiments.harness.
-load`, then its plotting functions; nothing is recomputed) at :data:`WIDTH` pixels wide and
-written as a palette PNG no larger than :data:`MAX_BYTES`. ``make figures`` refreshes the
-gallery after the experiments it ran; ``python -m experiments.gallery [RESULTS]`` redraws it
-from a results folder. The README's gallery section (:data:`SHOTS`) picks a few of them.
+"""``docs/gallery/``: every picture of every experiment, tracked in git so that
+``results/REPORT.md`` and the README show them in a fresh clone. Each is drawn again from the
+experiment's stored frames (nothing is recomputed) as a small palette PNG. ``make figures``
+refreshes it after the experiments it ran; ``python -m experiments.gallery [RESULTS]`` redraws
+it from a results folder. The README's gallery section (:data:`SHOTS`) picks a few pictures.
 """
 
 from __future__ import annotations
 
 import io
-import json
 import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -85,9 +81,8 @@ path = gallery_path  # where a picture lives in the gallery (``<key>_<plot>``)
 
 
 def save(fig: Any, target: Path, width: int = WIDTH, max_bytes: int = MAX_BYTES) -> Path:
-    """Write the matplotlib ``fig`` as a PNG ``width`` pixels wide, quantized to the largest
-    palette of :data:`COLORS` that keeps it within ``max_bytes`` (the smallest when none
-    does), atomically; returns ``target``."""
+    """Write ``fig`` as a PNG ``width`` pixels wide with the largest palette of :data:`COLORS`
+    that keeps it within ``max_bytes`` (the smallest when none does), atomically."""
     from PIL import Image
 
     buf = io.BytesIO()
@@ -105,33 +100,13 @@ def save(fig: Any, target: Path, width: int = WIDTH, max_bytes: int = MAX_BYTES)
     return atomic_write(Path(target), lambda p: p.write_bytes(data))
 
 
-def _tuples(x: Any) -> Any:
-    if isinstance(x, list):
-        return tuple(_tuples(v) for v in x)
-    if isinstance(x, dict):
-        return {k: _tuples(v) for k, v in x.items()}
-    return x
-
-
-def stored_params(exp, folder: Path):
-    """The parameters a stored run was made with (its ``inputs.json``), as ``exp.params``."""
-    meta = json.loads((Path(folder) / "inputs.json").read_text())
-    return exp.params(**_tuples(meta["params"]))
-
-
 def draw(exp, results: Path, folder: Path | None = None) -> list[Path]:
     """Every picture of ``exp`` drawn again from its stored frames under ``results`` into
     ``folder``; [] when it has not run there."""
     from experiments import harness
 
     res = harness.load(exp, results)
-    if res is None:
-        return []
-    res.params = stored_params(exp, res.folder)
-    written = []
-    for stem, fig in res.draw().items():
-        written.append(save(fig, path(stem, folder)))
-    return written
+    return [] if res is None else [save(fig, path(s, folder)) for s, fig in res.draw().items()]
 
 
 def write(
@@ -149,27 +124,19 @@ def write(
             continue
         paths = draw(exp, results, folder)
         if not paths:
-            print(
-                terminal.paragraph(
-                    f"skipped {exp.key}: not in {results} (`vislod figures --only {exp.key}`)",
-                    indent="  ",
-                )
-            )
+            skip = f"skipped {exp.key}: not in {results} (`vislod figures --only {exp.key}`)"
+            print(terminal.paragraph(skip, indent="  "))
         written += paths
     return written
 
 
 def markdown(shots: Sequence[Shot] = SHOTS, folder: Path | None = None) -> str:
     """The README section listing the shots present in ``folder``."""
-    lines = []
-    for s in shots:
-        if path(s.name, folder).is_file():
-            lines += [
-                f"![{s.name}](docs/gallery/{s.name}.png)",
-                f"*{s.caption}* — `{s.command}`",
-                "",
-            ]
-    return "\n".join(lines)
+    return "\n".join(
+        f"![{s.name}](docs/gallery/{s.name}.png)\n*{s.caption}* — `{s.command}`\n"
+        for s in shots
+        if path(s.name, folder).is_file()
+    )
 
 
 def update_readme(readme: Path | None = None, folder: Path | None = None) -> Path:

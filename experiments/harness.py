@@ -1,13 +1,11 @@
 """One harness for every experiment: an experiment is data, pictures and claims.
 
-A module registers (:func:`experiment`) ``compute(params, progress) -> dict[str, DataFrame]``
-(tidy frames), plotting functions ``plot_x(frames, params) -> Figure`` (each draws from the
-frames only; its docstring's first paragraph is the caption) and a claims table
-(:mod:`experiments.claims`) evaluated on the frames. Its parameters are a frozen dataclass
-whose defaults are the full run, with quick overrides. The harness gives it the rest: a
-``vislod`` command with one option per parameter, the output folder checked before any work,
-files written atomically, resuming keyed on every input (:func:`inputs_key`), its section of
-``REPORT.md`` and its notebook cells.
+A module registers (:func:`experiment`) ``compute(params, progress) -> dict[str, DataFrame]``,
+plotting functions ``plot_x(frames, params) -> Figure`` (drawing from the frames only; the
+docstring's first paragraph is the caption) and a claims table (:mod:`experiments.claims`), with
+a frozen parameters dataclass (defaults: the full run) and quick overrides. The harness gives it
+a ``vislod`` command, checked and atomically written files, resuming keyed on every input
+(:func:`inputs_key`), its section of ``REPORT.md`` and its notebook cells.
 
     from experiments import harness
     res = harness.run("seed002", quick=True)    # Results: frames, figures, claims, folder
@@ -61,9 +59,7 @@ claim = claims_mod.claim
 fmt = claims_mod.fmt
 
 
-def claims_frame(rows: Sequence[Mapping[str, str]]) -> pd.DataFrame:
-    """The claims table as a DataFrame with :data:`CLAIM_COLUMNS`."""
-    return claims_mod.frame_of(rows)
+claims_frame = claims_mod.frame_of  # evaluated rows → the claims table
 
 
 # -- the registry --------------------------------------------------------------------------------
@@ -73,12 +69,9 @@ Frames = dict[str, pd.DataFrame]
 
 @dataclass(frozen=True)
 class Experiment:
-    """An experiment as the harness runs it (made by :func:`experiment`): its command
-    (``key``, old names in ``aliases``), source document (``seed``), one-line ``title``, the
-    ``params`` dataclass and its ``quick`` overrides, the three parts (``claims`` evaluates the
-    declarative ``table``, empty when the claims are a function), rough full-run ``minutes``,
-    the pyproject ``extras`` it needs, whether it reads the data folder (``uses_data``), its
-    ``notebook`` and the ``intro`` (markdown) of its report section and notebook.
+    """An experiment as the harness runs it (made by :func:`experiment`). ``claims``
+    evaluates the declarative ``table`` (empty when the claims are a function); ``minutes``: a
+    full run's; ``extras``: the pyproject extras it needs; ``intro``: its notebook's markdown.
     """
 
     key: str
@@ -141,30 +134,18 @@ def experiment(
     quick: Mapping[str, Any] | None = None,
     **attrs: Any,
 ) -> Experiment:
-    """Register an experiment (call once at the end of its module); returns it. ``claims``
-    is a declarative table (:mod:`experiments.claims`) or a function of frames and params."""
+    """Register an experiment (once, at the end of its module). ``claims``: a declarative
+    table (:mod:`experiments.claims`) or a function of frames and params."""
     if not dataclasses.is_dataclass(params):
         raise TypeError(f"{key}: params must be a dataclass, got {params!r}")
     if not callable(claims):
         attrs["table"] = tuple(claims)
         claims = functools.partial(claims_mod.evaluate, attrs["table"])
     module = inspect.getmodule(compute)
-    intro = attrs.pop("intro", None)
-    if intro is None:
-        intro = inspect.getdoc(module) or ""
-    exp = Experiment(
-        key,
-        seed,
-        title,
-        params,
-        dict(quick or {}),
-        compute,
-        tuple(plots),
-        claims,
-        intro=intro,
-        module=module.__name__ if module else "",
-        **attrs,
-    )
+    attrs.setdefault("intro", inspect.getdoc(module) or "")
+    attrs["module"] = module.__name__ if module else ""
+    quick = dict(quick or {})
+    exp = Experiment(key, seed, title, params, quick, compute, tuple(plots), claims, **attrs)
     _REGISTRY[key] = exp
     return exp
 
@@ -312,23 +293,8 @@ def reclaim(exp: Experiment, out: Path) -> Results | None:
     return res
 
 
-def _check_frames(exp: Experiment, frames: Any) -> Frames:
-    if not isinstance(frames, Mapping) or not all(
-        isinstance(v, pd.DataFrame) for v in frames.values()
-    ):
-        raise TypeError(f"{exp.key}: compute must return a dict of DataFrames")
-    return dict(frames)
-
-
 def _write_csv(path: Path, df: pd.DataFrame) -> None:
     atomic_write(path, lambda p: df.to_csv(p, index=False))
-
-
-def _write_png(path: Path, fig: Any) -> None:
-    def save(p: Path) -> None:
-        fig.savefig(p, format="png", dpi=110)
-
-    atomic_write(path, save)
 
 
 def run(
@@ -342,13 +308,9 @@ def run(
     write: bool = True,
     **overrides: Any,
 ) -> Results:
-    """Run one experiment: parameters, then compute, claims and pictures, written under
-    ``<out>/<key>/`` (frames as CSV, ``claims.csv``, one PNG per picture, ``inputs.json``).
-
-    The output folder and the parameters are checked before any work; a run whose files
-    exist with the same inputs is read back instead of recomputed (``force`` recomputes).
-    ``write=False`` computes in memory only (notebooks that change a parameter).
-    """
+    """Run one experiment into ``<out>/<key>/`` (frames as CSV, ``claims.csv``, PNGs,
+    ``inputs.json``), its folder and parameters checked first; a run done with the same
+    inputs is read back unless ``force``; ``write=False`` computes in memory only."""
     exp = key if isinstance(key, Experiment) else get(key)
     params = exp.make_params(quick, data, **overrides)
     check = getattr(params, "check", None)
@@ -364,7 +326,12 @@ def run(
                 res.resumed = True
                 return res
     t0 = time.perf_counter()
-    frames = _check_frames(exp, exp.compute(params, progress=progress))
+    frames = exp.compute(params, progress=progress)
+    if not isinstance(frames, Mapping) or not all(
+        isinstance(v, pd.DataFrame) for v in frames.values()
+    ):
+        raise TypeError(f"{exp.key}: compute must return a dict of DataFrames")
+    frames = dict(frames)
     claims = exp.claims(frames, params)
     if list(claims.columns) != list(CLAIM_COLUMNS):
         raise TypeError(f"{exp.key}: claims must have the columns {CLAIM_COLUMNS}")
@@ -375,7 +342,9 @@ def run(
             _write_csv(folder / f"{name}.csv", df)
         _write_csv(folder / "claims.csv", claims)
         for stem, fig in res.figures.items():
-            _write_png(folder / f"{stem}.png", fig)
+            atomic_write(
+                folder / f"{stem}.png", lambda p, f=fig: f.savefig(p, format="png", dpi=110)
+            )
         meta = {
             "key": inputs_key(exp, params),
             **inputs(exp, params),

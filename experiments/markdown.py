@@ -1,8 +1,5 @@
-"""Markdown from DataFrames: the one table printer of the benchmarks, and their sections of
-``results/BENCHMARKS.md`` (each between ``<!-- begin NAME -->`` and ``<!-- end NAME -->``).
-
-``DataFrame.to_markdown`` needs ``tabulate``, which is not a dependency; this is the few lines
-it would give us.
+"""Markdown tables from DataFrames (``DataFrame.to_markdown`` needs ``tabulate``, not a
+dependency) and the benchmarks' sections of ``results/BENCHMARKS.md``.
 """
 
 from __future__ import annotations
@@ -14,17 +11,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from experiments.common import atomic_write
+
 
 def markdown_table(df: pd.DataFrame, floatfmt: str | Mapping[str, str] = ".2f") -> str:
-    """GitHub markdown of ``df``: its columns as the header, one line per row, index dropped.
-
-    Parameters
-    ----------
-    df : DataFrame
-    floatfmt : str or {column: str}
-        ``format`` spec of float cells, one for all or per column (others ``".2f"``). NaN is
-        an empty cell; ints and strings are written as they are.
-    """
+    """GitHub markdown of ``df`` without its index; ``floatfmt``: the float cells' format,
+    one for all or per column (others ``".2f"``); NaN is an empty cell."""
 
     def cell(column: str, v) -> str:
         if isinstance(v, float | np.floating):
@@ -56,7 +48,5 @@ def replace_section(path: str | Path, name: str, body: str) -> str:
         text = head + block + rest.split(end, 1)[1]
     else:
         text = old.rstrip("\n") + "\n\n" + block + "\n"
-    tmp = path.with_suffix(".md.tmp")
-    tmp.write_text(text)
-    tmp.replace(path)
+    atomic_write(path, lambda p: p.write_text(text))
     return text

@@ -1,14 +1,6 @@
-"""``results/REPORT.md``: every experiment beside the source document's numbers, with a
-verdict per row, read from the harness's files (:func:`experiments.harness.load`).
-
-Verdicts (:data:`experiments.harness.VERDICTS`): **numbers** (the same quantity within the
-tolerance the row states), **trend** (the document's qualitative claim asserted on our data, as
-the row states), **differs** (with the measured cause), **image** (the same kind of picture,
-drawn by us), **measured** (the document gives no number, or the row goes beyond it). Each
-claims table opens with its tally (rows by verdict, borderline rows) and gives every rule's
-margin (:mod:`experiments.claims`). An experiment whose files are missing is listed as "not
-run". Under each picture its caption (the first paragraph of its plotting function's
-docstring).
+"""``results/REPORT.md``: every experiment's pictures and claims beside the source document's
+numbers, read from the harness's files (:func:`experiments.harness.load`); an experiment whose
+files are missing is listed as "not run".
 """
 
 from __future__ import annotations
@@ -28,15 +20,10 @@ def _cell(text: str) -> str:
 
 
 def image_lines(report_dir: Path, png: Path, key: str, *, gallery: bool) -> list[str]:
-    """Markdown showing the picture ``png`` (an experiment's PNG in its results folder) in a
-    report written to ``report_dir``.
-
-    ``gallery`` (the checkout's ``results/REPORT.md``, which git tracks while ``results/``
-    itself is not): the picture is shown from ``docs/gallery/`` (tracked, redrawn by ``make
-    figures``: :mod:`experiments.gallery`), linked relative to the report, so that it shows in
-    a fresh clone; one not there yet is named with the command that draws it. Otherwise (a
-    report in any other folder, beside its results) the PNG itself is linked.
-    """
+    """Markdown showing ``png`` (a picture in an experiment's results folder) in a report in
+    ``report_dir``. ``gallery`` (the tracked ``results/REPORT.md``; ``results/`` itself is not
+    tracked): the copy in ``docs/gallery/``, so that it shows in a fresh clone, or the command
+    that draws it when missing; otherwise the PNG itself."""
     stem = Path(png).stem
     target = gallery_path(stem) if gallery else Path(png)
     if gallery and not target.is_file():
@@ -82,10 +69,8 @@ def claims_lines(claims: pd.DataFrame) -> list[str]:
 def experiment_lines(
     out: Path, exp, *, gallery: bool, report_dir: Path | None = None
 ) -> tuple[list[str], pd.DataFrame]:
-    """A harness experiment's section (its claims' tally, pictures with captions, then its
-    claims) and its claims; "not run" when its files are missing. ``out``: the results folder
-    read; ``report_dir``: where the report goes (default ``out``); ``gallery``: see
-    :func:`image_lines`."""
+    """An experiment's section (tally, pictures with captions, claims) read from ``out``, and
+    its claims; ``report_dir``: where the report goes (default ``out``)."""
     from experiments import harness
 
     lines = [f"## Seed {exp.seed} — {exp.title}", ""]
@@ -106,9 +91,8 @@ def experiment_lines(
 
 
 def write_report(out: Path, *, quick: bool = False, to: Path | None = None) -> Path:
-    """Write ``REPORT.md`` from the experiments' results present in ``out``, into the folder
-    ``to`` (default ``out``); returns its path. The checkout's ``results/REPORT.md`` shows the
-    pictures from ``docs/gallery/``, any other report the PNGs under ``out``."""
+    """Write ``REPORT.md`` from the results in ``out`` into the folder ``to`` (default
+    ``out``); returns its path."""
     from experiments import harness
 
     out = Path(out)
@@ -125,12 +109,11 @@ def write_report(out: Path, *, quick: bool = False, to: Path | None = None) -> P
         "**measured** (the document gives no number, or the row goes beyond it).",
         "",
     ]
-    sections, tables = [], []
-    for exp in harness.experiments():
-        sec, claims = experiment_lines(out, exp, gallery=gallery, report_dir=to)
-        sections.append(sec)
-        tables.append(claims)
-    every = pd.concat([t for t in tables if not t.empty] or [pd.DataFrame()], ignore_index=True)
+    parts = [
+        experiment_lines(out, e, gallery=gallery, report_dir=to) for e in harness.experiments()
+    ]
+    tables = [claims for _, claims in parts if not claims.empty]
+    every = pd.concat(tables or [pd.DataFrame()], ignore_index=True)
     lines += [
         f"All claims: {tally(every) if not every.empty else 'none yet'}. A row's margin is how "
         "far its value lies from the edge of its rule, in the rule's units (negative: the rule "
@@ -138,7 +121,6 @@ def write_report(out: Path, *, quick: bool = False, to: Path | None = None) -> P
         "counts of a seeded run); **borderline**: within that noise of the edge.",
         "",
     ]
-    for sec in sections:
-        lines += sec
+    lines += [line for section, _ in parts for line in section]
     text = "\n".join(lines) + "\n"
     return atomic_write(to / "REPORT.md", lambda p: p.write_text(text))

@@ -38,6 +38,7 @@ from experiments.common import (
     default_out,
     parse_resolution,
     res_str,
+    resolution_arg,
     scaled,
     write_json,
 )
@@ -59,10 +60,8 @@ PARTS = "parts"
 
 @dataclass(frozen=True)
 class SweepSetup:
-    """The grid of one sweep: scene specs (one per scene × seed), methods, camera resolutions,
-    depth resolutions (None: each display's own) crossed with every display, flight length,
-    frames per task, and :class:`~experiments.sweep_tasks.SweepTask`'s ``oracle`` and ``draw``.
-    """
+    """The grid of one sweep: scene specs (one per scene × seed), methods, displays, depth
+    resolutions (None: each display's own) crossed with them, flight length, frames per task."""
 
     scenes: tuple[SceneSpec, ...]
     methods: tuple[str, ...]
@@ -115,8 +114,7 @@ def make_sweep(
     quick: bool = False,
 ) -> SweepSetup:
     """A checked :class:`SweepSetup` (:class:`UsageError` on any bad name or number): scenes
-    as ``NAME[:KEY=VALUE,...]`` crossed with ``seeds``; defaults 1920x1080, 100 frames in tasks
-    of 25 (quick: small market, 480x270, 6 frames in tasks of 3)."""
+    as ``NAME[:KEY=VALUE,...]`` crossed with ``seeds``."""
     specs = tuple(SceneSpec.parse(s, seed, quick=quick) for s in scenes for seed in seeds)
     if not specs:
         raise UsageError("need at least one scene and one seed")
@@ -125,21 +123,13 @@ def make_sweep(
         raise UsageError(f"--frames must be at least 2, got {frames}")
     chunk = chunk if chunk is not None else (QUICK_CHUNK if quick else CHUNK)
     frame_chunks(frames, chunk)  # checks chunk
-    disp = tuple(tuple(d) for d in displays) if displays else None
-    disp = disp or ((scaled(DISPLAY, QUICK_SCALE),) if quick else (DISPLAY,))
-    res = tuple(tuple(r) for r in resolutions) if resolutions else None
+    default = scaled(DISPLAY, QUICK_SCALE) if quick else DISPLAY
+    disp = tuple(dict.fromkeys(tuple(d) for d in displays or [default]))
+    res = tuple(dict.fromkeys(tuple(r) for r in resolutions)) if resolutions else None
     for r in (*disp, *(res or ())):
         parse_resolution(res_str(r))  # range check
-    return SweepSetup(
-        specs,
-        check_sweep_methods(methods),
-        tuple(dict.fromkeys(disp)),  # type: ignore[arg-type]
-        tuple(dict.fromkeys(res)) if res else None,  # type: ignore[arg-type]
-        frames,
-        chunk,
-        oracle,
-        draw,
-    )
+    methods = check_sweep_methods(methods)
+    return SweepSetup(specs, methods, disp, res, frames, chunk, oracle, draw)  # type: ignore[arg-type]
 
 
 # -- the table ---------------------------------------------------------------------------------
@@ -203,9 +193,8 @@ class SweepStore:
 
 @dataclass(frozen=True)
 class SweepSummary:
-    """What one :func:`run_sweep` did: tasks in the grid, run now and skipped (stored), retried
-    after a worker died, failed (key, label, error: their rows are absent), wall and cluster
-    start seconds, workers that served it, rows of the merged table (``table``)."""
+    """What one :func:`run_sweep` did; ``failed``: (key, label, error) of the tasks whose rows
+    are absent; ``rows`` of the merged ``table``."""
 
     tasks: int
     done: int
@@ -219,8 +208,7 @@ class SweepSummary:
     table: Path
 
     def frame(self, keys: Sequence[str] | None = None) -> pd.DataFrame:
-        """The merged table (only the rows of task ``keys`` when given), one row per task ×
-        frame; see :func:`~experiments.sweep_tasks.run_task` for the columns."""
+        """The merged table (only the rows of task ``keys`` when given)."""
         df = pd.read_csv(self.table, dtype_backend="numpy_nullable")
         return df if keys is None else df[df["key"].isin(set(keys))].reset_index(drop=True)
 
@@ -278,12 +266,10 @@ def run_sweep(
     gl_threads: int | None = None,
     crash_marker: str | os.PathLike | None = None,
 ) -> SweepSummary:
-    """Run the tasks not stored in ``out`` yet (all with ``force``) on Dask; store each; merge
-    the table; write ``sweep.json``. ``scheduler``: ``tcp://host:port`` (default a local
-    cluster of ``workers``); ``data``: the castle's folder on the workers; ``gl_threads``:
-    llvmpipe threads per worker; ``crash_marker``: tests only, one worker dies mid-task, once.
-    Failed tasks are reported in the summary, not raised.
-    """
+    """Run the tasks not stored in ``out`` yet (all with ``force``) on Dask (``scheduler``:
+    ``tcp://host:port``, default a local cluster), store each, merge the table and write
+    ``sweep.json``; failures are in the summary, not raised. ``crash_marker``: tests only, one
+    worker dies mid-task, once."""
     if workers < 1:
         raise UsageError(f"--workers must be at least 1, got {workers}")
     t0 = time.perf_counter()
@@ -346,9 +332,7 @@ def _run_on(
             key=f"vislod-sweep-{task.key}{suffix}",
         )
 
-    futures = {}
-    for t in todo:
-        futures[submit(t, 0)] = (t, 0)
+    futures = {submit(t, 0): (t, 0) for t in todo}
     done, retried, failed = 0, set(), []
     finished: list = []  # futures kept until the scheduler told how many deaths they saw
 
@@ -409,9 +393,7 @@ def summary_text(summary: SweepSummary, keys: Sequence[str]) -> str:
     from experiments import terminal
 
     table = summary.frame(keys) if summary.rows else pd.DataFrame()
-    text = "(no rows)"
-    if len(table):
-        text = terminal.table(summary_frame(table))
+    text = terminal.table(summary_frame(table)) if len(table) else "(no rows)"
     s = summary
     counts = (
         f"{s.tasks} tasks: {s.done} run, {s.skipped} skipped (stored), {s.retried} "
@@ -427,14 +409,6 @@ def summary_text(summary: SweepSummary, keys: Sequence[str]) -> str:
 
 def add_sweep_parser(sub) -> argparse.ArgumentParser:
     """Add the ``sweep`` sub-command to ``sub`` (an ``add_subparsers()`` object)."""
-    from experiments.common import parse_resolution
-
-    def resolution(text: str) -> tuple[int, int]:
-        try:
-            return parse_resolution(text)
-        except UsageError as e:
-            raise argparse.ArgumentTypeError(str(e)) from None
-
     sp = sub.add_parser(
         "sweep",
         help="scenes x methods x resolutions x flight chunks on Dask, into one table",
@@ -450,72 +424,36 @@ def add_sweep_parser(sub) -> argparse.ArgumentParser:
         help="scenes NAME[:KEY=VALUE,...], e.g. market clutter:objects=80 (default: market)",
     )
     sp.add_argument("--seeds", type=int, nargs="+", default=[0], help="scene seeds (default 0)")
+    methods = f"culling methods (default: {' '.join(DEFAULT_METHODS)}; 'all')"
+    sp.add_argument("--methods", nargs="+", metavar="NAME", help=methods)
+    sizes = {"type": resolution_arg, "nargs": "+", "metavar": "WxH"}
     sp.add_argument(
-        "--methods",
-        nargs="+",
-        default=None,
-        metavar="NAME",
-        help=f"culling methods (default: {' '.join(DEFAULT_METHODS)}; 'all')",
+        "--displays", **sizes, help="camera resolutions (default 1920x1080, quick 480x270)"
     )
-    sp.add_argument(
-        "--displays",
-        type=resolution,
-        nargs="+",
-        default=None,
-        metavar="WxH",
-        help="camera resolutions (default 1920x1080, quick 480x270)",
-    )
-    sp.add_argument(
-        "--resolutions",
-        type=resolution,
-        nargs="+",
-        default=None,
-        metavar="WxH",
-        help="depth-buffer resolutions, crossed with every display (default: the display's)",
-    )
-    sp.add_argument("--frames", type=int, default=None, help="flight length (default 100; quick 6)")
-    sp.add_argument("--chunk", type=int, default=None, help="frames per task (default 25; quick 3)")
+    depth = "depth-buffer resolutions, crossed with every display (default: the display's)"
+    sp.add_argument("--resolutions", **sizes, help=depth)
+    sp.add_argument("--frames", type=int, help="flight length (default 100; quick 6)")
+    sp.add_argument("--chunk", type=int, help="frames per task (default 25; quick 3)")
     sp.add_argument("--oracle", action="store_true", help="count false culls against the oracle")
     sp.add_argument("--draw", action="store_true", help="also draw the kept set and time it")
+    sp.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="a running Dask scheduler")
+    workers = f"local worker processes, or workers to wait for (default {WORKERS})"
+    sp.add_argument("--workers", type=int, default=WORKERS, help=workers)
     sp.add_argument(
-        "--scheduler", default=None, metavar="tcp://HOST:PORT", help="a running Dask scheduler"
-    )
-    sp.add_argument(
-        "--workers",
-        type=int,
-        default=WORKERS,
-        help=f"local worker processes, or workers to wait for (default {WORKERS})",
-    )
-    sp.add_argument(
-        "--gl-threads",
-        type=int,
-        default=None,
-        help="llvmpipe threads per worker (default: cores / workers locally)",
+        "--gl-threads", type=int, help="llvmpipe threads per worker (default: cores / workers)"
     )
     sp.add_argument("--force", action="store_true", help="re-run tasks already stored")
-    sp.add_argument("--data", default=None, help="castle folder (default: $VISLOD_DATA)")
+    sp.add_argument("--data", help="castle folder (default: $VISLOD_DATA)")
     sp.add_argument("--quick", action="store_true", help="small market, 480x270, 6 frames")
-    sp.add_argument(
-        "--out", default=None, help="sweep folder (default: results/sweep; quick results/quick/)"
-    )
+    sp.add_argument("--out", help="sweep folder (default: results/[quick/]sweep)")
     sp.add_argument("--no-progress", action="store_true", help="no progress bar")
     return sp
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """Run ``vislod sweep``; 0 when every task is stored, 1 when some failed."""
-    setup = make_sweep(
-        args.scenes,
-        args.methods,
-        seeds=args.seeds,
-        displays=args.displays,
-        resolutions=args.resolutions,
-        frames=args.frames,
-        chunk=args.chunk,
-        oracle=args.oracle,
-        draw=args.draw,
-        quick=args.quick,
-    )
+    grid = ("seeds", "displays", "resolutions", "frames", "chunk", "oracle", "draw", "quick")
+    setup = make_sweep(args.scenes, args.methods, **{k: getattr(args, k) for k in grid})
     if args.scheduler is None and any(s.name == "castle" for s in setup.scenes):
         castle_path(args.data)  # local workers read it: fail now, not in every task
     if args.gl_threads is not None and args.gl_threads < 0:

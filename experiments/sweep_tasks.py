@@ -1,10 +1,7 @@
 """One task of a ``vislod sweep`` (:class:`SweepTask`: one chunk of the seed-000 flight over
-one scene, method, depth and display resolution), its key, and how a worker runs it
-(:func:`run_task`: one row per frame).
-
-The key hashes the task's parameters and the code version: the same task has the same key in
-every process and on every machine, so a stored result can be reused. A worker keeps one EGL
-context and its last few scenes (with their oracles) in a cache that changes no result.
+one scene, method, depth and display resolution) and how a worker runs it (:func:`run_task`).
+Its key hashes its parameters and the code version, the same in every process and on every
+machine, so a stored result can be reused. A worker caches its EGL context and last scenes.
 """
 
 from __future__ import annotations
@@ -48,11 +45,7 @@ def _parse_value(text: str) -> _SceneValue:
 def _loader(name: str):
     import soc
 
-    return {
-        "market": soc.scenes.market,
-        "clutter": soc.scenes.clutter,
-        "castle": soc.scenes.castle,
-    }[name]
+    return getattr(soc.scenes, name)  # market, clutter, castle
 
 
 @dataclass(frozen=True)
@@ -145,7 +138,8 @@ class SweepTask:
     @property
     def key(self) -> str:
         """20 hex digits of SHA-256 over :meth:`params` as canonical JSON."""
-        return _hash(self.params())
+        text = json.dumps(self.params(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()[:20]
 
     @property
     def label(self) -> str:
@@ -178,11 +172,6 @@ def code_version() -> str:
     except PackageNotFoundError:  # run from a checkout that is not installed
         v = "unknown"
     return f"{v}/rows{ROW_FORMAT}"
-
-
-def _hash(params: dict[str, Any]) -> str:
-    text = json.dumps(params, sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
 def frame_chunks(frames: int, chunk: int) -> list[tuple[int, int]]:
@@ -246,12 +235,8 @@ def run_task(
     crash_marker: str | None = None,
 ) -> TaskResult:
     """Cull (and optionally draw and check) the task's frames: one row per frame, the task's
-    columns beside :meth:`soc.FrameStats.as_row`. ``data``: the castle's folder;
-    ``gl_threads``: llvmpipe's and numba's threads; ``crash_marker``: see :func:`_crash_once`.
-
-    The culler warms up, untimed, on the frame before the chunk, so temporal methods (``chc``,
-    ``grid``, ``adaptive``) start each chunk from one frame of history.
-    """
+    columns beside :meth:`soc.FrameStats.as_row`. The culler warms up, untimed, on the frame
+    before the chunk, so temporal methods start each chunk from one frame of history."""
     import soc
     from soc.gl.context import default_context
 

@@ -1,10 +1,6 @@
-"""Tables and text that fit the terminal: every ``vislod`` command prints through here.
-
-A DataFrame becomes a plain-text table no wider than the terminal (``shutil``'s width, 100
-columns when the output is not a terminal, never more than :data:`MAX_WIDTH`): columns that
-fit keep their width, the widest share what is left, and a cell longer than its column is
-wrapped onto at most ``max_lines`` lines, the last cut with "…". Headers wrap at ``_`` and
-spaces. Nothing here knows what a claim is: the caller picks the columns.
+"""Tables and text that fit the terminal: every ``vislod`` command prints through here. In a
+table, columns that fit keep their width, the widest share what is left, and a longer cell wraps
+onto at most ``max_lines`` lines, the last cut with "…".
 """
 
 from __future__ import annotations
@@ -24,8 +20,7 @@ MIN_COLUMN = 8  # a text column narrower than this says nothing
 
 
 def width() -> int:
-    """Columns to print in: the terminal's (``$COLUMNS`` first), :data:`NOT_A_TERMINAL` when
-    stdout is not a terminal, at most :data:`MAX_WIDTH`, at least 40."""
+    """Columns to print in: the terminal's (``$COLUMNS`` first), at most :data:`MAX_WIDTH`."""
     cols = shutil.get_terminal_size((NOT_A_TERMINAL, 24)).columns
     return max(40, min(cols, MAX_WIDTH))
 
@@ -39,8 +34,7 @@ def cut(text: str, columns: int) -> str:
 
 
 def wrap(text: str, columns: int, max_lines: int = 2) -> list[str]:
-    """``text`` wrapped at ``columns``, at most ``max_lines`` lines, the last cut with "…"
-    when text remains (words longer than a line are broken)."""
+    """``text`` wrapped at ``columns`` onto at most ``max_lines`` lines, the last cut with "…"."""
     text = " ".join(str(text).split())
     if len(text) <= columns:
         return [text]
@@ -77,9 +71,8 @@ def _cell(v, floatfmt: str) -> str:
 def _allot(
     natural: list[int], minimum: list[int], space: int, weight: list[float] | None = None
 ) -> list[int]:
-    """Column widths summing to at most ``space``: every column its natural width if that
-    fits, else the narrow ones keep theirs and the wide ones share the rest in proportion to
-    ``weight`` (water filling), never below ``minimum``."""
+    """Column widths within ``space``: the natural widths if they fit, else the wide columns
+    share what the narrow ones leave in proportion to ``weight`` (water filling)."""
     if sum(natural) <= space:
         return natural
     weight = weight or [1.0] * len(natural)
@@ -111,12 +104,9 @@ def table(
     index: bool = False,
 ) -> str:
     """``df`` (its ``columns``, the ``index`` first when asked) as text no wider than
-    ``columns_width`` (default :func:`width`): a header wrapped at ``_`` and spaces, a rule,
-    one or more lines per row. A cell wraps onto ``max_lines`` lines (per column: a mapping),
-    the last cut with "…"; ``weights`` say how the columns that must shrink share the width.
-    Numeric columns are right-aligned and never cut; floats use ``floatfmt`` (NaN empty), ints
-    get thousands separators.
-    """
+    ``columns_width``: a header wrapped at ``_`` and spaces, a rule, then the rows. ``max_lines``
+    and ``weights`` (how shrinking columns share the width) may be per column. Numbers are
+    right-aligned and never cut."""
     total = columns_width or width()
     if index:
         df = df.reset_index()
@@ -151,8 +141,7 @@ def table(
 
 
 def _blocks(minimum: list[int], total: int) -> list[list[int]]:
-    """Column indices per printed block: all at once when their narrowest widths fit, else
-    as many as fit per block, each block repeating the first column (the row's name)."""
+    """Column indices per printed block: as many as fit, each block repeating the first."""
     if sum(minimum) + len(GAP) * (len(minimum) - 1) <= total or len(minimum) < 2:
         return [list(range(len(minimum)))]
     blocks, block, used = [], [0], minimum[0]
@@ -177,4 +166,3 @@ def _rows(row: list[list[str]], widths: list[int], right: list[bool]) -> list[st
             )
         )
     return out
-
