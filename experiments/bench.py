@@ -62,22 +62,18 @@ def methods_markdown(result: bench_floor.FloorResult, command: str) -> str:
     """The ``methods-<scene>`` section body."""
     w, h = result.resolution
     fmt = {"cull ms": ".1f", "queries ÷ this (cull)": ".1f", "cull + draw ms": ".1f"}
-    return "\n".join(
+    return "\n\n".join(
         [
             f"## Culling methods side by side ({result.scene})",
-            "",
             f"`{command}`",
-            "",
             f"{result.scene}: {result.objects:,} objects; {result.frames_n} consecutive frames of "
             f"the seed-000 flight at {w}×{h} (display and depth buffer); medians per frame, "
             "ratios medians of per-frame ratios. "
             + bench_floor.gpu_clock_line(soc.gl.context.default_context()),
-            "",
             markdown_table(methods_table(result), fmt),
-            "",
-            "'everything' draws all objects without culling; 'ideal' draws exactly the oracle's",
-            "visible set, nearest first, with no culling cost. 'false keeps ÷ visible' = hidden",
-            "objects kept per object the oracle sees. Temporal methods (results reused across",
+            "'everything' draws all objects without culling; 'ideal' draws exactly the oracle's\n"
+            "visible set, nearest first, with no culling cost. 'false keeps ÷ visible' = hidden\n"
+            "objects kept per object the oracle sees. Temporal methods (results reused across\n"
             "frames) may cull visible objects for a frame: their false culls are the popping.",
         ]
     )
@@ -124,27 +120,19 @@ def foundation_markdown(
     stages, frame = foundation_tables(result)
     glctx = soc.gl.context.default_context()
     w, h = result.resolution
-    return "\n".join(
+    return "\n\n".join(
         [
             "## Foundation: seed-000 pipeline (frustum, per-object GL queries)",
-            "",
             f"`{command}` on {time.strftime('%Y-%m-%d')}: Python {platform.python_version()}, "
             f"{glctx.ctx.info['GL_RENDERER']}.",
-            "",
             f"{result.scene}: {result.objects:,} objects, {result.frames_n}-frame seed-000 "
             f"flight, display and depth buffer {w}×{h}, llvmpipe with {glctx.threads} threads. "
             "Medians over frames; ratios medians of per-frame ratios.",
-            "",
             "Culling cost per stage (ms):",
-            "",
             markdown_table(stages),
-            "",
             "Frame time = culling + drawing the kept set (ms), and ratios:",
-            "",
             markdown_table(frame, {"draw only": ".1f", "cull + draw": ".1f"}),
-            "",
             "'ideal' draws exactly the oracle's visible set with no culling cost.",
-            "",
             f"Scene load/generation: {load_s:.1f} s. Peak RSS of this benchmark process: "
             f"{rss_mb:.0f} MiB.",
         ]
@@ -159,15 +147,14 @@ def adaptive_markdown(out: Path, progress: bool = True) -> str:
     res = harness.run(ADAPTIVE, out=out, progress=progress)
     parts = [
         "## Seed 004 Figs. 3-5: frustum culling vs queries on all nodes vs adaptive",
-        "",
         f"`vislod {ADAPTIVE}` (methods interleaved per frame; compare ratios, not absolute ms); "
         f"per-frame rows and the claims in `{out.name}/{ADAPTIVE}/`"
         + (" (a stored run, read back)." if res.resumed else f", {time.strftime('%Y-%m-%d')}."),
     ]
     for name in ADAPTIVE_TABLES:
         if len(res.frames.get(name, ())):
-            parts += ["", f"### {name}", "", markdown_table(res.frames[name])]
-    return "\n".join(parts)
+            parts += [f"### {name}", markdown_table(res.frames[name])]
+    return "\n\n".join(parts)
 
 
 def lod_sections(out: Path) -> dict[str, str]:

@@ -128,22 +128,13 @@ def _row(frame, method, truth, kept, draw_ms, gpu_draw, triangles, *, conservati
     """One frame × method row of :attr:`FloorResult.frames`."""
     gpu_cull = math.nan if gpu_cull is None else gpu_cull
     return {
-        "frame": frame,
-        "method": method,
-        "conservative": conservative,
-        "cull_ms": cull_ms,
-        "draw_ms": draw_ms,
-        "total_ms": cull_ms + draw_ms,
-        "kept": int(kept.sum()),
-        "visible": int(truth.sum()),
-        "false_culls": int((truth & ~kept).sum()),
-        "false_keeps": int((kept & ~truth).sum()),
-        "queries": int(queries),
-        "gpu_cull_ms": gpu_cull,
-        "gpu_draw_ms": gpu_draw,
-        "gpu_total_ms": gpu_cull + gpu_draw,
+        "frame": frame, "method": method, "conservative": conservative, "cull_ms": cull_ms,
+        "draw_ms": draw_ms, "total_ms": cull_ms + draw_ms, "kept": int(kept.sum()),
+        "visible": int(truth.sum()), "false_culls": int((truth & ~kept).sum()),
+        "false_keeps": int((kept & ~truth).sum()), "queries": int(queries),
+        "gpu_cull_ms": gpu_cull, "gpu_draw_ms": gpu_draw, "gpu_total_ms": gpu_cull + gpu_draw,
         "triangles_drawn": int(triangles),
-    } | {f"ms_{k}": v for k, v in (stages or {}).items() if k != "draw"}
+    } | {f"ms_{k}": v for k, v in (stages or {}).items() if k != "draw"}  # fmt: skip
 
 
 def run_floor(
@@ -185,20 +176,13 @@ def run_floor(
                 ms = renderer.draw(cam, ids)
             return ms, frame.gpu_ms.get("draw", math.nan)
 
-        def time_gl(fn) -> float:  # wall ms of fn() and ctx.finish()
+        def time_gl(*steps) -> float:  # wall ms of the steps and ctx.finish()
             ctx.finish()
             t0 = time.perf_counter()
-            fn()
+            for step in steps:
+                step()
             ctx.finish()
             return 1e3 * (time.perf_counter() - t0)
-
-        def depth_clear():
-            renderer.fbo.use()
-            renderer.fbo.clear(depth=1.0)
-
-        def empty_draw():
-            renderer.fbo.use()
-            empty_vao.render(vertices=0)
 
         try:
             with glctx.current():  # compile shaders and kernels outside the timed frames
@@ -219,8 +203,12 @@ def run_floor(
                     )
                 with glctx.current():
                     floor = {
-                        f"clear colour + depth ({w}×{h})": time_gl(depth_clear),
-                        "empty draw call": time_gl(empty_draw),
+                        f"clear colour + depth ({w}×{h})": time_gl(
+                            renderer.fbo.use, lambda: renderer.fbo.clear(depth=1.0)
+                        ),
+                        "empty draw call": time_gl(
+                            renderer.fbo.use, lambda: empty_vao.render(vertices=0)
+                        ),
                         "frame with nothing drawn (clear, bind, finish)": renderer.draw(
                             cam, nothing
                         ),
@@ -406,15 +394,12 @@ def markdown(result: FloorResult, command: str, note: str = "") -> str:
     }
     parts = [
         f"## Culling at the floor of this machine ({result.scene}{on})",
-        "",
         f"`{command}` on {bc.now_utc()}: {result.scene}, {result.objects:,} objects, "
         f"{result.frames_n} consecutive frames of {PATH_WORDS.get(result.path, result.path)} at "
         f"{w}×{h} (display and depth buffer), {glctx.ctx.info['GL_RENDERER']} with "
         f"{glctx.threads} threads. Methods interleaved frame by frame in one run; medians over "
         "frames; ratios are medians of per-frame ratios. " + gpu_clock_line(glctx) + " " + note,
-        "",
         markdown_table(summary),
-        "",
         "'hidden kept' = objects kept that the oracle does not see (false keeps), per frame; "
         "'÷ visible' divides by the oracle's visible count. 'over ideal ms' = cull + draw minus "
         "drawing exactly the oracle's set. Non-conservative methods may cull visible objects "
@@ -423,5 +408,5 @@ def markdown(result: FloorResult, command: str, note: str = "") -> str:
         "drawn (a method drawing clusters draws parts of objects) ÷ those of the oracle's set.",
     ]
     for heading, table in tables.items():
-        parts += ["", f"### {heading}", "", markdown_table(table)]
-    return "\n".join(parts)
+        parts += [f"### {heading}", markdown_table(table)]
+    return "\n\n".join(parts)

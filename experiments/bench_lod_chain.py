@@ -189,28 +189,21 @@ def markdown(frames: dict[str, pd.DataFrame]) -> str:
         table3[f"{s} s"] = m["seconds", s].values
     table3["error Melax ÷ quadric"] = (m["error", "Melax"] / m["error", "quadric"]).values
     fmt3 = {"quadric error": ".5f", "Melax error": ".5f", "quadric s": ".3f"}
-    return "\n".join(
-        [
-            "## LOD chain building (seed 001)",
-            "",
-            f"Mesh: {steps['mesh'].iloc[0]}; ratios {RATIOS}; agg {AGGRESSIVENESS}. The one call "
-            f"and the cascade: best of {steps['runs'].iloc[0]} runs; the rest: one run. CPU = "
-            "this process's CPU time (the error measurement runs on 2 threads; the machine may "
-            "be shared).",
-            "",
-            markdown_table(table1),
-            "",
-            markdown_table(table2, ".6f"),
-            "",
-            f"Quadric vs Melax on a noisy icosphere of {melax['mesh_triangles'].iloc[0]:,} "
-            "triangles (error: sampled symmetric Hausdorff, object units; radius 1). Quadric: "
-            "one ``quadric_simplify`` call per target; Melax: time from the full mesh to each "
-            "snapshot of one pass (``melax_levels``):",
-            "",
-            markdown_table(table3, fmt3),
-            "",
-        ]
-    )
+    parts = [
+        "## LOD chain building (seed 001)",
+        f"Mesh: {steps['mesh'].iloc[0]}; ratios {RATIOS}; agg {AGGRESSIVENESS}. The one call "
+        f"and the cascade: best of {steps['runs'].iloc[0]} runs; the rest: one run. CPU = "
+        "this process's CPU time (the error measurement runs on 2 threads; the machine may "
+        "be shared).",
+        markdown_table(table1),
+        markdown_table(table2, ".6f"),
+        f"Quadric vs Melax on a noisy icosphere of {melax['mesh_triangles'].iloc[0]:,} "
+        "triangles (error: sampled symmetric Hausdorff, object units; radius 1). Quadric: "
+        "one ``quadric_simplify`` call per target; Melax: time from the full mesh to each "
+        "snapshot of one pass (``melax_levels``):",
+        markdown_table(table3, fmt3),
+    ]
+    return "\n\n".join(parts) + "\n"  # the section ends in a blank line
 
 
 if __name__ == "__main__":

@@ -135,13 +135,10 @@ def markdown(frames: dict[str, pd.DataFrame]) -> str:
         sf = frames["scale_frames"]
         scale_targets = dict.fromkeys(("exact", "naive", "funkhouser-sequin"), SCALE_TARGET_MS)
         scale_md = [
-            "",
             f"At scale: {sf['objects'].iloc[0]:,} boxes, the same city and orbit, {len(sf)} "
             f"frames after one warm-up frame; {100 * sf['on_screen'].median():.0f} % on "
             "screen; medians per frame:",
-            "",
             _step_table(frames["scale"], scale_targets),
-            "",
             f"(greedy within {(1 - sf['greedy_over_lp']).max():.1e} of the LP bound on every "
             f"frame; incremental / greedy median {sf['incremental_over_greedy'].median():.6f}.)",
         ]
@@ -155,34 +152,34 @@ def markdown(frames: dict[str, pd.DataFrame]) -> str:
     big = area[area["pixels"] > AREA_MIN_PIXELS]
     rel = big["abs_error"] / big["pixels"]
     n_boxes, n_cams = area["box"].nunique(), area["camera"].nunique()
-    return "\n".join(
+    quality = [
+        f"- greedy at {per_frame['objects'].iloc[0]:,} objects is within {lp.max():.1e} "
+        f"(worst frame; median {lp.median():.1e}) of the LP bound, which is above the "
+        "optimum;",
+        "- incremental (1 round per frame, hysteresis on its own last frame) / greedy on the "
+        f"same instance: min {inc.min():.6f}, median {inc.median():.6f};",
+        f"- greedy / exact optimum (dynamic programming) on {len(small) // len(fams)} "
+        "instances each, N = 20–40, L = 4–6, budget 20–60 % of the finest: "
+        + "; ".join(fams)
+        + ";",
+        f"- exact area vs rasterized pixels (id render, {n_boxes} boxes × {n_cams} "
+        "cameras incl. off-screen, near-crossing and eye-inside cases): |pixels − exact| / "
+        f"pixels median {rel.median():.4f}, 95 % {rel.quantile(0.95):.4f}, max "
+        f"{rel.max():.4f} ({len(big)} cases over {AREA_MIN_PIXELS} px); |pixels − exact| "
+        f"per boundary pixel max {area['per_boundary'].max():.2f} (sampling at pixel "
+        "centres: at most 0.5).",
+    ]
+    return "\n\n".join(
         [
             f"{per_frame['objects'].iloc[0]:,} boxes (a city on a 600×600 ground), {N_LEVELS} "
             f"levels per object, {len(per_frame)} frames of a camera orbit at "
             f"{DISPLAY[0]}×{DISPLAY[1]} after {WARMUP} warm-up frames; "
             f"{100 * per_frame['on_screen'].median():.0f} % of the boxes on screen. Medians per "
             "frame; CPU = this process's CPU time (the machine may be shared).",
-            "",
             _step_table(frames["steps"], targets),
             *scale_md,
-            "",
             "Quality:",
-            "",
-            f"- greedy at {per_frame['objects'].iloc[0]:,} objects is within {lp.max():.1e} "
-            f"(worst frame; median {lp.median():.1e}) of the LP bound, which is above the "
-            "optimum;",
-            "- incremental (1 round per frame, hysteresis on its own last frame) / greedy on the "
-            f"same instance: min {inc.min():.6f}, median {inc.median():.6f};",
-            f"- greedy / exact optimum (dynamic programming) on {len(small) // len(fams)} "
-            "instances each, N = 20–40, L = 4–6, budget 20–60 % of the finest: "
-            + "; ".join(fams)
-            + ";",
-            f"- exact area vs rasterized pixels (id render, {n_boxes} boxes × {n_cams} "
-            "cameras incl. off-screen, near-crossing and eye-inside cases): |pixels − exact| / "
-            f"pixels median {rel.median():.4f}, 95 % {rel.quantile(0.95):.4f}, max "
-            f"{rel.max():.4f} ({len(big)} cases over {AREA_MIN_PIXELS} px); |pixels − exact| "
-            f"per boundary pixel max {area['per_boundary'].max():.2f} (sampling at pixel "
-            "centres: at most 0.5).",
+            "\n".join(quality),
         ]
     )
 

@@ -119,10 +119,8 @@ def _loop_run(scene, cams, progress: bool) -> list[dict]:
     glctx = default_context()
     geometry = glctx.geometry(scene)
     targets = {res: DepthTarget(glctx, res) for res in (RESOLUTION, TINY)}
-    loops = {
-        "compiled": OcclusionQueries(geometry),
-        "Python": OcclusionQueries(geometry, compiled=False),
-    }
+    loops = {"compiled": OcclusionQueries(geometry)}
+    loops["Python"] = OcclusionQueries(geometry, compiled=False)
     rows = []
     try:
         with glctx.current():
@@ -235,14 +233,12 @@ def markdown(frames: dict[str, pd.DataFrame], command: str) -> str:
     ratio_py = float(ratio_wall["queries (Python)"])
     verdict = "met" if max(ratio, ratio_1) <= RATIO_TARGET else "missed"
     renderer = soc.gl.context.default_context().renderer
-    return "\n".join(
+    return "\n\n".join(
         [
             "## Occlusion queries from compiled loops (issue 24, item 3)",
-            "",
             f"`{command}` on {time.strftime('%Y-%m-%d')}, {renderer}; "
             f"load average {setup['load_before']:.1f} before, {setup['load_after']:.1f} after "
             "(2 cores, shared).",
-            "",
             f"`soc.scenes.random_boxes({int(setup['objects']):,}, occluders={OCCLUDERS})`, "
             f"{methods['frame'].nunique()} overview cameras seeing every box at "
             f"{RESOLUTION[0]}×{RESOLUTION[1]} (after {WARMUP} warm-up), methods interleaved frame "
@@ -250,14 +246,10 @@ def markdown(frames: dict[str, pd.DataFrame], command: str) -> str:
             "process CPU time during the cull call (process includes llvmpipe's rasterizer "
             "threads and numba's). Ratios are medians of per-frame ratios. '(Python)' = the "
             "same method with `compiled=False`, the loops this change replaced.",
-            "",
             markdown_table(table, ".1f"),
-            "",
             "The per-object query loop alone (every box in view, against the occluders' depth), "
             "µs per query, medians over frames:",
-            "",
             markdown_table(loop_table, ".2f"),
-            "",
             f"Where a query's time goes (calling thread CPU unless said): {removed:.2f} µs of "
             f"interpreter time removed by compiling (Python − compiled loop at {tiny}); the "
             f"compiled loop itself costs {1e3 * dry:.1f} ns (no-op functions in place of GL's); "
@@ -267,11 +259,9 @@ def markdown(frames: dict[str, pd.DataFrame], command: str) -> str:
             f"more at {full} (llvmpipe bins each query's begin and end into every 64×64 tile, "
             f"{tiles} of them, besides the box's triangles); {raster:.2f} µs on llvmpipe's "
             "rasterizer threads (process − calling thread CPU).",
-            "",
             f"Target `queries` ≤ {RATIO_TARGET:.0f}× `masked` (cull ms): {ratio:.1f}×, and "
             f"{ratio_1:.1f}× `masked` on one numba thread ({ratio_c:.1f}× its calling-thread "
             f"CPU time): {verdict} (the Python loops: {ratio_py:.1f}×).",
-            "",
             f"Target ≤ {GPU_CPU_TARGET_US:.0f} µs of CPU per query on an NVIDIA GPU: no GPU was "
             "available to this task, so it was not measured; the loop's own share of it is the "
             f"{1e3 * dry:.1f} ns above, the rest is the driver's.",

@@ -301,7 +301,6 @@ def markdown(result: dict[str, pd.DataFrame], command: str, figure: str | None =
     load_fmt |= {"rss scene MiB": ".0f", "peak rss MiB": ".0f"}
     parts = [
         "## Culling cost against scene size (issue 24)",
-        "",
         f"`{command}` on {bc.now_utc()}: "
         f"{glctx.ctx.info['GL_RENDERER']} with {glctx.threads} threads; each size in a process "
         "of its own. Random boxes (`soc.scenes.random_boxes(n, occluders=0.02)`) from a camera "
@@ -312,30 +311,22 @@ def markdown(result: dict[str, pd.DataFrame], command: str, figure: str | None =
         "object hierarchy; `(hierarchy=False)` rows test every box (the reference). 'nodes': "
         "hierarchy nodes the walk visited; 'box tests': node and object boxes tested against "
         "the occluder depth; 'gpu ms': GL timer where the method reports one (empty: none).",
-        "",
     ]
     if figure:
-        parts += [f"![scale]({figure})", ""]
+        parts += [f"![scale]({figure})"]
     parts += [
         "### Cull ms against objects",
-        "",
         markdown_table(growth(s), {"exponent": ".2f", "10⁵→10⁶ ×": ".2f"}),
-        "",
         "### Per size (medians)",
-        "",
         markdown_table(s, {"cull ms": ".3f", "gpu ms": ".2f"} | dict.fromkeys(counts, ".0f")),
-        "",
         "### Scene build and memory per size (one process each)",
-        "",
         markdown_table(result["sizes"], load_fmt),
     ]
     city = result.get("city")
     if city is not None:
         info = result["city_info"].iloc[0]
         parts += [
-            "",
             f"### The city (`soc.scenes.city(objects={int(info['objects'])})`)",
-            "",
             f"{int(info['objects']):,} objects ({int(info['occluders']):,} occluders: buildings "
             f"and ground tiles), {int(info['triangles']):,} triangles; built in "
             f"{info['load s']:.1f} s ({info['load cpu s']:.1f} s of CPU), "
@@ -348,17 +339,16 @@ def markdown(result: dict[str, pd.DataFrame], command: str, figure: str | None =
             f"{CITY_RESOLUTION[0]}×{CITY_RESOLUTION[1]} (the central district's flight, the "
             "city round it up to the far plane), the floor bench's run "
             "(`experiments.bench_floor.run_floor`, methods interleaved, exact oracle):",
-            "",
             markdown_table(_city_summary(city)),
-            "",
             "Cull stages (mean ms per frame):",
-            "",
             markdown_table(bc.stage_table(city)),
         ]
     t = targets(s, city)
-    parts += ["", "### Issue 24 targets", ""]
-    parts += [markdown_table(t) if len(t) else "None applies to the sizes run."]
-    return "\n".join(parts)
+    parts += [
+        "### Issue 24 targets",
+        markdown_table(t) if len(t) else "None applies to the sizes run.",
+    ]
+    return "\n\n".join(parts)
 
 
 def main(argv: list[str] | None = None) -> int:
