@@ -7,27 +7,16 @@ quantities measured in the same run, frame by frame, on the same cameras.
     python -m experiments.bench --only floor --scene castle-2114 --frames 60 \
         [--methods 'masked;hiz-gpu(footprint=4)'] [--path walk]
 
-Scenes: market (generated, 27,025 objects), castle (Intel's castle with the market refilled,
-27,025), castle-2114 (Intel's castle as shipped, 2,114), clutter, city (generated, 10⁶
-objects: by default only the methods of :data:`experiments.bench_scale.CITY_SPECS`).
-
-Every culling section comes from one run of :func:`experiments.bench_floor.run_floor` (every
-method culls each frame of a camera path in turn — the seed-000 flight, or with ``--path walk``
-a walk through the streets at eye height — its kept set drawn, beside the oracle and the
-machine's floor): its tidy DataFrames are written as CSV and each section's tables are
-drawn from them by :func:`experiments.markdown.markdown_table` — ``floor-<scene>`` (every
-method and option beside the floor), ``methods-<scene>`` (the methods side by side) and
-``foundation`` (seed 000's frustum and per-object queries, stage by stage). The LOD sections
-(:mod:`experiments.bench_lod_chain`, :mod:`experiments.bench_lod_select`) and seed 004's
-adaptive benchmark have their own runs, and so has the ``scale`` section
-(:mod:`experiments.bench_scale`: culling cost from 10⁴ to 10⁶ objects, and the city).
+Every culling section (``floor-<scene>``, ``methods-<scene>``, ``foundation``) is drawn from
+one :func:`experiments.bench_floor.run_floor` run, written as CSV; the LOD, adaptive, queries
+and scale sections have runs of their own. Scenes: market, castle (market refilled),
+castle-2114 (as shipped), clutter, city (10⁶ objects: :data:`bench_scale.CITY_SPECS` only).
 """
 
 from __future__ import annotations
 
 import argparse
 import platform
-import resource
 import sys
 import time
 from pathlib import Path
@@ -37,43 +26,29 @@ import pandas as pd
 import soc
 import soc.gl.context
 from experiments import bench_floor, bench_queries
+from experiments.bench_common import per_frame_ratio, rss_mib, write_csvs
 from experiments.markdown import markdown_table, replace_section
 
 SCENES = ("market", "castle", "castle-2114", "clutter", "city")
 BASELINE_METHODS = ("frustum", "queries")  # seed 000's pipeline: the foundation section
 SECTIONS = ("foundation", "methods", "floor", "lod", "adaptive", "queries", "scale")
 ADAPTIVE = "seed004-adaptive"  # the harness experiment behind the adaptive section
-# Its DataFrames shown (per scene × method, per scene, per switch, per scene × q); the rest
-# (per frame, per regression point) are only in its CSVs.
+# Its DataFrames shown; the rest (per frame, per regression point) are only in its CSVs.
 ADAPTIVE_TABLES = ("summary", "criterion", "switches", "q_compare")
 
 
 def _scene(name: str, data: str | None):
-    if name == "market":
-        return soc.scenes.market(seed=0)
-    if name == "castle":
-        return soc.scenes.castle(data, refill_market=True)
-    if name == "castle-2114":
-        return soc.scenes.castle(data, refill_market=False)
-    if name == "clutter":
-        return soc.scenes.clutter(0, objects=2000)
-    if name == "city":
-        return soc.scenes.city(seed=0)
-    raise SystemExit(f"unknown scene {name!r}: use {', '.join(SCENES)}")
-
-
-def _per_frame_ratio(df: pd.DataFrame, column: str, to: str) -> pd.Series:
-    """Per method: the median over frames of ``column`` ÷ method ``to``'s ``column``."""
-    wide = df.pivot(index="frame", columns="method", values=column)
-    return wide.div(wide[to], axis=0).median()
-
-
-# -- the methods section ------------------------------------------------------------------------
+    return {
+        "market": lambda: soc.scenes.market(seed=0),
+        "castle": lambda: soc.scenes.castle(data, refill_market=True),
+        "castle-2114": lambda: soc.scenes.castle(data, refill_market=False),
+        "clutter": lambda: soc.scenes.clutter(0, objects=2000),
+        "city": lambda: soc.scenes.city(seed=0),
+    }[name]()
 
 
 def methods_table(result: bench_floor.FloorResult) -> pd.DataFrame:
-    """One row per method (then 'everything' and 'ideal'): medians over frames of
-    :func:`bench_floor.summarize`'s columns that the methods section shows."""
+    """:func:`bench_floor.summarize`'s columns that the methods section shows."""
     s = bench_floor.summarize(result)
     cols = ["method", "conservative", "cull ms", "queries ÷ this (cull)", "tests", "kept"]
     cols += ["hidden kept ÷ visible", "false culls (max)", "cull + draw ms", "÷ ideal"]
@@ -87,54 +62,41 @@ def methods_markdown(result: bench_floor.FloorResult, command: str) -> str:
     """The ``methods-<scene>`` section body."""
     w, h = result.resolution
     fmt = {"cull ms": ".1f", "queries ÷ this (cull)": ".1f", "cull + draw ms": ".1f"}
-    return "\n".join(
+    return "\n\n".join(
         [
             f"## Culling methods side by side ({result.scene})",
-            "",
             f"`{command}`",
-            "",
             f"{result.scene}: {result.objects:,} objects; {result.frames_n} consecutive frames of "
             f"the seed-000 flight at {w}×{h} (display and depth buffer); medians per frame, "
             "ratios medians of per-frame ratios. "
             + bench_floor.gpu_clock_line(soc.gl.context.default_context()),
-            "",
             markdown_table(methods_table(result), fmt),
-            "",
-            "'everything' draws all objects without culling; 'ideal' draws exactly the oracle's",
-            "visible set, nearest first, with no culling cost. 'false keeps ÷ visible' = hidden",
-            "objects kept per object the oracle sees. Temporal methods (results reused across",
+            "'everything' draws all objects without culling; 'ideal' draws exactly the oracle's\n"
+            "visible set, nearest first, with no culling cost. 'false keeps ÷ visible' = hidden\n"
+            "objects kept per object the oracle sees. Temporal methods (results reused across\n"
             "frames) may cull visible objects for a frame: their false culls are the popping.",
         ]
     )
 
 
-# -- the foundation section ---------------------------------------------------------------------
-
-
 def foundation_tables(result: bench_floor.FloorResult) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Seed 000's pipeline from a floor run: (stages, frame).
-
-    ``stages``: one row per baseline method (and the oracle, for reference): median ms of the
-    frustum, prepass and queries stages (0 where a method has none), of the whole cull, and
-    the objects kept. ``frame``: one row per drawn set (everything, frustum, queries, ideal):
-    median draw and cull + draw ms, and the medians of per-frame ratios to drawing everything
-    and to the ideal frame.
-    """
+    """Seed 000's pipeline from a floor run: (median ms per stage and objects kept of each
+    baseline method and the oracle, median ms and ratios of each drawn set's frame)."""
     df = result.frames
     base = df[df["method"].isin(BASELINE_METHODS)]
     stage_cols = ["ms_frustum", "ms_prepass", "ms_queries", "cull_ms", "kept"]
     med = base.reindex(columns=["method", *stage_cols]).fillna(0.0).groupby("method").median()
     med = med.reindex([m for m in BASELINE_METHODS if m in med.index])
     oracle = result.floor.loc[result.floor["item"] == bench_floor.ORACLE_ITEM, "ms"]
-    ideal_kept = df.loc[df["method"] == "ideal", "kept"].median()
+    nan, ideal_kept = float("nan"), round(df.loc[df["method"] == "ideal", "kept"].median())
     stages = pd.DataFrame(
         {
             "method": [*med.index, bench_floor.ORACLE_ITEM],
-            "frustum": [*med["ms_frustum"], float("nan")],
-            "prepass": [*med["ms_prepass"], float("nan")],
-            "queries": [*med["ms_queries"], float("nan")],
+            "frustum": [*med["ms_frustum"], nan],
+            "prepass": [*med["ms_prepass"], nan],
+            "queries": [*med["ms_queries"], nan],
             "cull total": [*med["cull_ms"], oracle.median()],
-            "objects kept": [*med["kept"].round().astype(int), round(ideal_kept)],
+            "objects kept": [*med["kept"].round().astype(int), ideal_kept],
         }
     )
     sets = ["everything", *med.index, "ideal"]
@@ -144,8 +106,8 @@ def foundation_tables(result: bench_floor.FloorResult) -> tuple[pd.DataFrame, pd
             "drawn set": sets,
             "draw only": g["draw_ms"].median()[sets].values,
             "cull + draw": g["total_ms"].median()[sets].values,
-            "÷ draw everything": _per_frame_ratio(df, "total_ms", "everything")[sets].values,
-            "÷ ideal": _per_frame_ratio(df, "total_ms", "ideal")[sets].values,
+            "÷ draw everything": per_frame_ratio(df, "total_ms", "everything")[sets].values,
+            "÷ ideal": per_frame_ratio(df, "total_ms", "ideal")[sets].values,
         }
     )
     return stages, frame
@@ -158,73 +120,57 @@ def foundation_markdown(
     stages, frame = foundation_tables(result)
     glctx = soc.gl.context.default_context()
     w, h = result.resolution
-    return "\n".join(
+    return "\n\n".join(
         [
             "## Foundation: seed-000 pipeline (frustum, per-object GL queries)",
-            "",
             f"`{command}` on {time.strftime('%Y-%m-%d')}: Python {platform.python_version()}, "
             f"{glctx.ctx.info['GL_RENDERER']}.",
-            "",
             f"{result.scene}: {result.objects:,} objects, {result.frames_n}-frame seed-000 "
             f"flight, display and depth buffer {w}×{h}, llvmpipe with {glctx.threads} threads. "
             "Medians over frames; ratios medians of per-frame ratios.",
-            "",
             "Culling cost per stage (ms):",
-            "",
             markdown_table(stages),
-            "",
             "Frame time = culling + drawing the kept set (ms), and ratios:",
-            "",
             markdown_table(frame, {"draw only": ".1f", "cull + draw": ".1f"}),
-            "",
             "'ideal' draws exactly the oracle's visible set with no culling cost.",
-            "",
             f"Scene load/generation: {load_s:.1f} s. Peak RSS of this benchmark process: "
             f"{rss_mb:.0f} MiB.",
         ]
     )
 
 
-# -- the other sections -------------------------------------------------------------------------
-
-
 def adaptive_markdown(out: Path, progress: bool = True) -> str:
-    """The ``seed004-adaptive`` section: seed 004's adaptive experiment run by the harness into
-    ``out`` (a stored run with the same inputs is read back) and its tables
-    (:data:`ADAPTIVE_TABLES`) drawn from its DataFrames."""
+    """Seed 004's adaptive experiment run by the harness into ``out`` (a stored run with the
+    same inputs is read back) and its :data:`ADAPTIVE_TABLES`."""
     from experiments import harness
 
     res = harness.run(ADAPTIVE, out=out, progress=progress)
     parts = [
         "## Seed 004 Figs. 3-5: frustum culling vs queries on all nodes vs adaptive",
-        "",
         f"`vislod {ADAPTIVE}` (methods interleaved per frame; compare ratios, not absolute ms); "
         f"per-frame rows and the claims in `{out.name}/{ADAPTIVE}/`"
         + (" (a stored run, read back)." if res.resumed else f", {time.strftime('%Y-%m-%d')}."),
     ]
     for name in ADAPTIVE_TABLES:
-        if name in res.frames and len(res.frames[name]):
-            parts += ["", f"### {name}", "", markdown_table(res.frames[name])]
-    return "\n".join(parts)
+        if len(res.frames.get(name, ())):
+            parts += [f"### {name}", markdown_table(res.frames[name])]
+    return "\n\n".join(parts)
 
 
 def lod_sections(out: Path) -> dict[str, str]:
-    """``lod-chain`` and ``lod-select`` section bodies (runs both benchmarks); their frames are
-    written to ``out/<section>-<frame>.csv``."""
+    """``lod-chain`` and ``lod-select`` section bodies (both benchmarks run; CSVs in ``out``)."""
     from experiments import bench_lod_chain, bench_lod_select
 
     sections = {}
     for name, module in (("lod-chain", bench_lod_chain), ("lod-select", bench_lod_select)):
         frames = module.run()
-        for key, df in frames.items():
-            df.to_csv(out / f"{name}-{key}.csv", index=False)
+        write_csvs(frames, out, name)
         sections[name] = module.markdown(frames)
     return sections
 
 
 def _specs(args: argparse.Namespace, scene) -> list[str] | None:
-    """Method specs of the floor run the chosen sections need (None: every method and option,
-    :func:`bench_floor.default_specs`)."""
+    """Method specs of the floor run the chosen sections need (None: every method and option)."""
     specs = [s.strip() for s in args.methods.split(";") if s.strip()] if args.methods else None
     if specs is None and args.scene == "city":  # 10⁶ objects: per-object queries take minutes
         from experiments.bench_scale import CITY_SPECS
@@ -291,18 +237,15 @@ def main(argv: list[str] | None = None) -> int:
     result = bench_floor.run_floor(
         scene, args.frames, _specs(args, scene), label=args.scene, path=args.path
     )
-    rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    rss_mb = rss_mib()
     on = "" if args.path == "flight" else f"-{args.path}"
     stem = f"{args.only if args.only in ('methods', 'foundation') else 'floor'}-{args.scene}{on}"
     result.frames.to_csv(out / f"{stem}.csv", index=False)
     result.floor.to_csv(out / f"{stem}-items.csv", index=False)
-    command = f"python -m experiments.bench --scene {args.scene} --frames {args.frames}"
-    if args.only:
-        command = command.replace(" --scene", f" --only {args.only} --scene")
-    if args.methods:
-        command += f" --methods '{args.methods}'"
-    if args.path != "flight":
-        command += f" --path {args.path}"
+    only = f" --only {args.only}" if args.only else ""
+    command = f"python -m experiments.bench{only} --scene {args.scene} --frames {args.frames}"
+    command += f" --methods '{args.methods}'" if args.methods else ""
+    command += f" --path {args.path}" if on else ""
     sections = {}
     if args.only in (None, "floor"):
         note = (args.note + " " if args.note else "") + (
@@ -310,10 +253,9 @@ def main(argv: list[str] | None = None) -> int:
             f"`{out.name}/{stem}-items.csv` (floor items), not committed."
         )
         sections[f"floor-{args.scene}{on}"] = bench_floor.markdown(result, command, note=note)
-    flight = args.path == "flight"  # the methods and foundation sections are the flight's
-    if args.only in (None, "methods") and flight:
+    if args.only in (None, "methods") and not on:  # the methods and foundation are the flight's
         sections[f"methods-{args.scene}"] = methods_markdown(result, command)
-    if args.only in (None, "foundation") and flight:
+    if args.only in (None, "foundation") and not on:
         sections["foundation"] = foundation_markdown(result, command, load_s, rss_mb)
     for name, body in sections.items():
         text = replace_section(md, name, body)

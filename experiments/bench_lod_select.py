@@ -2,39 +2,27 @@
 objects (seed 001; issue 24's scale targets).
 
 Per frame of a camera orbit over 100,000 boxes: exact and naive projected areas
-(:func:`lod.projected_area`), then an LOD instance built from them with :mod:`lod.benefit`
-(Funkhouser–Séquin benefit with acuity off-centre factor and hysteresis, cost model) and the
-selection methods on it. The same for a few frames over 10⁶ boxes (the *scale* rows, against
-the targets of ≤ 100 ms for the areas and for ``lod.select``). Besides the timings: the exact
-area against rasterized pixels, the greedy against the exact optimum on small instances and
-against the LP bound at full size, and the incremental method against the greedy.
+(:func:`lod.projected_area`), then an LOD instance from them (:mod:`lod.benefit`: benefit with
+acuity and hysteresis, cost model) and the selection methods on it; a few frames over 10⁶ boxes
+against the ≤ 100 ms targets. Quality: the exact area against rasterized pixels, the greedy
+against the exact optimum (small instances) and the LP bound, incremental against greedy.
+Times: wall-clock medians over frames after a warm-up, with the process's CPU time.
 
     python -m experiments.bench_lod_select
-
-:func:`run` returns tidy DataFrames; :func:`markdown` draws the section from them. Times are
-wall-clock medians over the frames after a warm-up, with the process's CPU time
-beside them (the machine may be shared).
 """
 
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pandas as pd
 
 import lod
+import lod.benefit as lb
 import soc
+from experiments.bench_common import timed
 from experiments.markdown import markdown_table
-from lod.benefit import (
-    CostModel,
-    acuity_factor,
-    eccentricity,
-    funkhouser_sequin_benefit,
-    hysteresis,
-    rendering_accuracy,
-)
 from lod.selection import exact_select, lp_bound, total_benefit, total_cost
 
 N_OBJECTS = 100_000
@@ -52,8 +40,6 @@ SMALL_INSTANCES = 200  # greedy vs exact optimum
 GL_BOXES, GL_CAMERAS = 30, 6  # exact area vs rasterized pixels
 AREA_MIN_PIXELS = 1000  # relative area error only over boxes this large (pixels)
 SELECT_METHODS = ("funkhouser-sequin", "incremental", "screen-size")
-
-
 STEPS = ("exact", "naive", *SELECT_METHODS)
 
 
@@ -66,31 +52,19 @@ def run(
     scale_objects: int = SCALE_OBJECTS,
     scale_frames: int = SCALE_FRAMES,
 ) -> dict[str, pd.DataFrame]:
-    """Run everything (sizes default to the module's constants); tidy DataFrames, named.
-
-    Returns
-    -------
-    dict
-        ``"steps"``: one row per timed frame × step (``frame``, ``step``: ``exact`` /
-        ``naive`` projected area or a selection method, ``wall_ms``, ``cpu_ms``);
-        ``"frames"``: one row per timed frame (``objects``, ``on_screen`` fraction,
-        ``greedy_over_lp``, ``incremental_over_greedy``); ``"scale"`` and
-        ``"scale_frames"``: the same at ``scale_objects`` objects (``scale_frames`` frames,
-        no rows when 0); ``"small"``: one row per small instance (``family``,
-        ``greedy_over_exact``); ``"area"``: one row per box × camera of the id-render check
-        (``pixels``, ``abs_error`` px, ``per_boundary``: the error per boundary pixel).
-    """
+    """Everything; tidy DataFrames: ``steps`` (frame × step: wall and CPU ms), ``frames``
+    (per frame: on-screen fraction, greedy ÷ LP bound, incremental ÷ greedy), ``scale`` and
+    ``scale_frames`` (the same at ``scale_objects``; empty without frames), ``small`` (greedy
+    ÷ exact optimum per instance), ``area`` (per box × camera: pixels and area error)."""
     steps, per_frame = _orbit_run(np.random.default_rng(0), objects, frames)
-    scale, scale_frames_df = (
-        _orbit_run(np.random.default_rng(0), scale_objects, scale_frames, warmup=1)
-        if scale_frames
-        else (pd.DataFrame(), pd.DataFrame())
-    )
+    scale = (pd.DataFrame(), pd.DataFrame())
+    if scale_frames:
+        scale = _orbit_run(np.random.default_rng(0), scale_objects, scale_frames, warmup=1)
     return {
         "steps": steps,
         "frames": per_frame,
-        "scale": scale,
-        "scale_frames": scale_frames_df,
+        "scale": scale[0],
+        "scale_frames": scale[1],
         "small": _small_instances(np.random.default_rng(1), small_instances),
         "area": _area_against_pixels(np.random.default_rng(2), gl_boxes, gl_cameras),
     }
@@ -99,17 +73,13 @@ def run(
 def _orbit_run(rng, objects: int, frames: int, warmup: int = WARMUP):
     """Time every step on each orbit frame over ``objects`` boxes: (steps, per-frame) frames."""
     boxes, polys = _city(rng, objects)
-    model = CostModel(per_draw=2e-3)
+    model = lb.CostModel(per_draw=2e-3)
     steps, per_frame = [], []
     previous = None
     for f, cam in enumerate(_orbit(warmup + frames)):
         t = {}
-        for exact in (True, False):
-            w0, c0 = time.perf_counter(), time.process_time()
-            area = lod.projected_area(boxes, cam, exact=exact)
-            t["exact" if exact else "naive"] = (w0, c0, time.perf_counter(), time.process_time())
-            if exact:
-                size = area
+        size, t["exact"] = timed(lod.projected_area, boxes, cam, exact=True)
+        _, t["naive"] = timed(lod.projected_area, boxes, cam, exact=False)
         benefit, cost = _instance(boxes, polys, size, cam, model, previous)
         budget = BUDGET_FRACTION * float(cost[:, 0].sum())
         levels = {}
@@ -118,17 +88,12 @@ def _orbit_run(rng, objects: int, frames: int, warmup: int = WARMUP):
                 "incremental": {"previous": previous},
                 "screen-size": {"area": size, "thresholds": [2e4, 5e3, 1e3, 250, 60, 15]},
             }.get(m, {})
-            w0, c0 = time.perf_counter(), time.process_time()
-            levels[m] = lod.select(benefit, cost, budget, method=m, **kw)
-            t[m] = (w0, c0, time.perf_counter(), time.process_time())
+            levels[m], t[m] = timed(lod.select, benefit, cost, budget, method=m, **kw)
             assert total_cost(levels[m], cost) <= budget
         previous = levels["incremental"]
         if f < warmup:
             continue
-        steps += [
-            {"frame": f, "step": k, "wall_ms": 1e3 * (w1 - w0), "cpu_ms": 1e3 * (c1 - c0)}
-            for k, (w0, c0, w1, c1) in t.items()
-        ]
+        steps += [{"frame": f, "step": k, "wall_ms": w, "cpu_ms": c} for k, (w, _, c) in t.items()]
         greedy = total_benefit(levels["funkhouser-sequin"], benefit)
         per_frame.append(
             {
@@ -142,89 +107,79 @@ def _orbit_run(rng, objects: int, frames: int, warmup: int = WARMUP):
     return pd.DataFrame(steps), pd.DataFrame(per_frame)
 
 
-def markdown(frames: dict[str, pd.DataFrame]) -> str:
-    """The ``lod-select`` section of BENCHMARKS.md, drawn from :func:`run`'s frames."""
-    steps, per_frame, small, area = (frames[k] for k in ("steps", "frames", "small", "area"))
+def _step_table(steps: pd.DataFrame, targets: dict[str, float]) -> str:
+    """Median wall and CPU ms per step beside its target."""
     med = steps.groupby("step")[["wall_ms", "cpu_ms"]].median().reindex(list(STEPS))
     label = {
         "exact": "projected_area exact (silhouette LUT)",
         "naive": "projected_area naive (2D bbox)",
     }
-    target = {"exact": AREA_TARGET_MS, "funkhouser-sequin": SELECT_TARGET_MS}
-    target["incremental"] = SELECT_TARGET_MS
     table = pd.DataFrame(
         {
             "step": [label.get(k, f"select {k}") for k in med.index],
             "wall ms": med["wall_ms"].values,
             "CPU ms": med["cpu_ms"].values,
-            "target ms": [target.get(k, math.nan) for k in med.index],
+            "target ms": [targets.get(k, math.nan) for k in med.index],
         }
     )
+    return markdown_table(table, {"target ms": ".0f", "wall ms": ".1f", "CPU ms": ".1f"})
+
+
+def markdown(frames: dict[str, pd.DataFrame]) -> str:
+    """The ``lod-select`` section of BENCHMARKS.md, drawn from :func:`run`'s frames."""
+    per_frame, small, area = frames["frames"], frames["small"], frames["area"]
+    targets = {"exact": AREA_TARGET_MS, "funkhouser-sequin": SELECT_TARGET_MS}
+    targets["incremental"] = SELECT_TARGET_MS
     scale_md = []
     if len(frames.get("scale", ())):
-        sc, sf = frames["scale"], frames["scale_frames"]
-        med_s = sc.groupby("step")[["wall_ms", "cpu_ms"]].median().reindex(list(STEPS))
-        scale_target = {"exact": SCALE_TARGET_MS, "naive": SCALE_TARGET_MS}
-        scale_target.update({"funkhouser-sequin": SCALE_TARGET_MS})
-        table_s = pd.DataFrame(
-            {
-                "step": [label.get(k, f"select {k}") for k in med_s.index],
-                "wall ms": med_s["wall_ms"].values,
-                "CPU ms": med_s["cpu_ms"].values,
-                "target ms": [scale_target.get(k, math.nan) for k in med_s.index],
-            }
-        )
-        lp_s = 1 - sf["greedy_over_lp"]
+        sf = frames["scale_frames"]
+        scale_targets = dict.fromkeys(("exact", "naive", "funkhouser-sequin"), SCALE_TARGET_MS)
         scale_md = [
-            "",
             f"At scale: {sf['objects'].iloc[0]:,} boxes, the same city and orbit, {len(sf)} "
             f"frames after one warm-up frame; {100 * sf['on_screen'].median():.0f} % on "
             "screen; medians per frame:",
-            "",
-            markdown_table(table_s, {"target ms": ".0f", "wall ms": ".1f", "CPU ms": ".1f"}),
-            "",
-            f"(greedy within {lp_s.max():.1e} of the LP bound on every frame; incremental / "
-            f"greedy median {sf['incremental_over_greedy'].median():.6f}.)",
+            _step_table(frames["scale"], scale_targets),
+            f"(greedy within {(1 - sf['greedy_over_lp']).max():.1e} of the LP bound on every "
+            f"frame; incremental / greedy median {sf['incremental_over_greedy'].median():.6f}.)",
         ]
     lp = 1 - per_frame["greedy_over_lp"]
     inc = per_frame["incremental_over_greedy"]
-    fams = []
-    for family, r in small.groupby("family", sort=False)["greedy_over_exact"]:
-        fams.append(
-            f"{family} min {r.min():.4f}, 1 % {r.quantile(0.01):.4f}, median "
-            f"{r.median():.4f}, optimal in {np.mean(r > 1 - 1e-12):.0%}"
-        )
+    fams = [
+        f"{family} min {r.min():.4f}, 1 % {r.quantile(0.01):.4f}, median "
+        f"{r.median():.4f}, optimal in {np.mean(r > 1 - 1e-12):.0%}"
+        for family, r in small.groupby("family", sort=False)["greedy_over_exact"]
+    ]
     big = area[area["pixels"] > AREA_MIN_PIXELS]
     rel = big["abs_error"] / big["pixels"]
     n_boxes, n_cams = area["box"].nunique(), area["camera"].nunique()
-    return "\n".join(
+    quality = [
+        f"- greedy at {per_frame['objects'].iloc[0]:,} objects is within {lp.max():.1e} "
+        f"(worst frame; median {lp.median():.1e}) of the LP bound, which is above the "
+        "optimum;",
+        "- incremental (1 round per frame, hysteresis on its own last frame) / greedy on the "
+        f"same instance: min {inc.min():.6f}, median {inc.median():.6f};",
+        f"- greedy / exact optimum (dynamic programming) on {len(small) // len(fams)} "
+        "instances each, N = 20–40, L = 4–6, budget 20–60 % of the finest: "
+        + "; ".join(fams)
+        + ";",
+        f"- exact area vs rasterized pixels (id render, {n_boxes} boxes × {n_cams} "
+        "cameras incl. off-screen, near-crossing and eye-inside cases): |pixels − exact| / "
+        f"pixels median {rel.median():.4f}, 95 % {rel.quantile(0.95):.4f}, max "
+        f"{rel.max():.4f} ({len(big)} cases over {AREA_MIN_PIXELS} px); |pixels − exact| "
+        f"per boundary pixel max {area['per_boundary'].max():.2f} (sampling at pixel "
+        "centres: at most 0.5).",
+    ]
+    return "\n\n".join(
         [
             f"{per_frame['objects'].iloc[0]:,} boxes (a city on a 600×600 ground), {N_LEVELS} "
             f"levels per object, {len(per_frame)} frames of a camera orbit at "
             f"{DISPLAY[0]}×{DISPLAY[1]} after {WARMUP} warm-up frames; "
             f"{100 * per_frame['on_screen'].median():.0f} % of the boxes on screen. Medians per "
             "frame; CPU = this process's CPU time (the machine may be shared).",
-            "",
-            markdown_table(table, {"target ms": ".0f", "wall ms": ".1f", "CPU ms": ".1f"}),
+            _step_table(frames["steps"], targets),
             *scale_md,
-            "",
             "Quality:",
-            "",
-            f"- greedy at {per_frame['objects'].iloc[0]:,} objects is within {lp.max():.1e} "
-            f"(worst frame; median {lp.median():.1e}) of the LP bound, which is above the "
-            "optimum;",
-            "- incremental (1 round per frame, hysteresis on its own last frame) / greedy on the "
-            f"same instance: min {inc.min():.6f}, median {inc.median():.6f};",
-            f"- greedy / exact optimum (dynamic programming) on {len(small) // len(fams)} "
-            "instances each, N = 20–40, L = 4–6, budget 20–60 % of the finest: "
-            + "; ".join(fams)
-            + ";",
-            f"- exact area vs rasterized pixels (id render, {n_boxes} boxes × {n_cams} "
-            "cameras incl. off-screen, near-crossing and eye-inside cases): |pixels − exact| / "
-            f"pixels median {rel.median():.4f}, 95 % {rel.quantile(0.95):.4f}, max "
-            f"{rel.max():.4f} ({len(big)} cases over {AREA_MIN_PIXELS} px); |pixels − exact| "
-            f"per boundary pixel max {area['per_boundary'].max():.2f} (sampling at pixel "
-            "centres: at most 0.5).",
+            "\n".join(quality),
         ]
     )
 
@@ -242,28 +197,21 @@ def _city(rng, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _orbit(frames: int) -> list[soc.Camera]:
-    angles = np.linspace(0, np.pi / 2, frames)
+    w, h = DISPLAY
     return [
-        soc.Camera.look_at(
-            (250 * np.sin(a), 40.0, 250 * np.cos(a)),
-            (0.0, 0.0, 0.0),
-            width=DISPLAY[0],
-            height=DISPLAY[1],
-            near=0.1,
-            far=2000.0,
-        )
-        for a in angles
-    ]
+        soc.Camera.look_at((250 * np.sin(a), 40.0, 250 * np.cos(a)), (0.0, 0.0, 0.0), width=w,
+                           height=h, near=0.1, far=2000.0)
+        for a in np.linspace(0, np.pi / 2, frames)
+    ]  # fmt: skip
 
 
-def _instance(boxes, polys, size, cam, model: CostModel, previous):
+def _instance(boxes, polys, size, cam, model: lb.CostModel, previous):
     """Benefit and cost (N, L) of one frame."""
-    centres = boxes.astype(np.float64).mean(axis=1)
-    off_center = acuity_factor(eccentricity(centres, cam))
+    off_center = lb.acuity_factor(lb.eccentricity(boxes.astype(np.float64).mean(axis=1), cam))
     prev = np.full(len(boxes), -1) if previous is None else previous
-    benefit = funkhouser_sequin_benefit(
-        size, rendering_accuracy(polys), off_center=off_center,
-        hysteresis=hysteresis(N_LEVELS, prev),
+    benefit = lb.funkhouser_sequin_benefit(
+        size, lb.rendering_accuracy(polys), off_center=off_center,
+        hysteresis=lb.hysteresis(N_LEVELS, prev),
     )  # fmt: skip
     return benefit, model.cost(polys, polys / 2 + 2, size)
 
@@ -277,9 +225,9 @@ def _small_instances(rng, count: int) -> pd.DataFrame:
             if family == "LOD-like":
                 size = rng.lognormal(0, 1, n)
                 p = 1000 * rng.lognormal(0, 1, (n, 1)) * 0.5 ** np.arange(n_levels)
-                m = CostModel(per_polygon=0.01, per_vertex=0.0, per_pixel=0.1, per_draw=1.0)
+                m = lb.CostModel(per_polygon=0.01, per_vertex=0.0, per_pixel=0.1, per_draw=1.0)
                 cost = np.ceil(m.cost(p, p / 2, size * 50))
-                benefit = funkhouser_sequin_benefit(size, rendering_accuracy(p, c=10.0))
+                benefit = lb.funkhouser_sequin_benefit(size, lb.rendering_accuracy(p, c=10.0))
             else:
                 benefit = rng.random((n, n_levels))
                 cost = rng.integers(1, 51, (n, n_levels)).astype(float)
@@ -301,11 +249,10 @@ def _area_against_pixels(rng, n_boxes: int, n_cameras: int) -> pd.DataFrame:
         scene = soc.Scene.from_meshes([box_mesh(lo, hi)])
         with soc.Oracle(scene) as oracle:
             for c in range(n_cameras):
-                centre = (lo + hi) / 2
                 if c % 3 == 0:
                     d = rng.normal(size=3)
-                    eye = centre + d / np.linalg.norm(d) * rng.uniform(2, 15)
-                    target = centre + rng.normal(size=3) * 1.5
+                    eye = (lo + hi) / 2 + d / np.linalg.norm(d) * rng.uniform(2, 15)
+                    target = (lo + hi) / 2 + rng.normal(size=3) * 1.5
                 else:  # near the box (crossing the near plane) or inside it
                     eye = rng.uniform(lo - 0.5, hi + 0.5) if c % 3 == 1 else rng.uniform(lo, hi)
                     target = eye + rng.normal(size=3)

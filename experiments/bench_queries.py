@@ -3,22 +3,13 @@ replaced, beside ``masked`` (issue 24, item 3).
 
     python -m experiments.bench --only queries
 
-Scene: ``soc.scenes.random_boxes(10_000, occluders=0.02)``; cameras outside it that see every
-box (:func:`soc.scenes.random_boxes.overview_camera` from :data:`DIRECTIONS`), 1280×720.
-Two runs, each interleaved frame by frame so that load on the machine hits every variant alike:
-
-1. ``methods`` — every query method with its compiled loops and with its Python loops
-   (``compiled=False``), and ``masked``: the cull's wall time (stage timings, each ending in
-   ``ctx.finish()``), and the CPU time of the calling thread and of the whole process during
-   the cull (llvmpipe rasterizes on threads of its own; numba's parallel kernels too).
-2. ``loop`` — the query loop alone (:class:`soc.culling.queries.OcclusionQueries` on every
-   box against the occluders' depth), compiled and Python, at 1280×720 and at 1×1 pixel. A
-   1×1 target leaves llvmpipe one tile to bin and nothing to rasterize, so its calling-thread
-   CPU per query is the GL API's and driver's own cost plus the loop's; the difference
-   between the two loops there is what compiling removed. The compiled loop is also run
-   with no-op functions in place of GL's (``dry``): its own cost per query.
-
-:func:`run` returns the tidy DataFrames; :func:`markdown` draws the section from them.
+Scene: ``soc.scenes.random_boxes(10_000, occluders=0.02)``, seen whole by overview cameras at
+1280×720. Two runs, each interleaved frame by frame: ``methods`` — each query method compiled
+and in Python (``compiled=False``) beside ``masked``: the cull's wall time and the CPU time of
+the calling thread and of the process (llvmpipe and numba have threads of their own); ``loop``
+— the query loop alone, compiled and Python, at 1280×720 and at 1×1 pixel (one tile to bin,
+nothing to rasterize: the calling thread's CPU per query is the driver's cost plus the loop's),
+and the compiled loop with no-op functions in place of GL's (``dry``): its own cost.
 """
 
 from __future__ import annotations
@@ -31,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 import soc
+from experiments import bench_common as bc
 from experiments.markdown import markdown_table
 
 N_OBJECTS = 10_000
@@ -48,21 +40,17 @@ DIRECTIONS = (
     (0.1, 0.9, 0.4),
     (0.9, -0.2, 0.4),
 )
-# (label, method, options) of the methods run; each query method compiled and in Python.
-# masked runs twice: as configured (numba's threads) and on one numba thread, whose time does
-# not depend on how busy the other core is (parallel kernels wait for the slowest thread).
+# (label, method, options): each query method compiled and in Python; masked as configured and
+# on one numba thread, whose time does not depend on how busy the other core is.
 SERIAL = "masked (1 numba thread)"
 METHODS = (
     ("masked", "masked", {}),
     (SERIAL, "masked", {}),
-    ("queries", "queries", {}),
-    ("queries (Python)", "queries", {"compiled": False}),
-    ("queries-batched", "queries-batched", {}),
-    ("queries-batched (Python)", "queries-batched", {"compiled": False}),
-    ("chc", "chc", {}),
-    ("chc (Python)", "chc", {"compiled": False}),
-    ("grid", "grid", {}),
-    ("grid (Python)", "grid", {"compiled": False}),
+    *(
+        (f"{m}{py}", m, {"compiled": False} if py else {})
+        for m in ("queries", "queries-batched", "chc", "grid")
+        for py in ("", " (Python)")
+    ),
 )
 BASELINE = "masked"
 RATIO_TARGET = 15.0  # queries ÷ masked, cull time
@@ -74,88 +62,50 @@ def cameras(scene, frames: int) -> list[soc.Camera]:
     from soc.scenes.random_boxes import overview_camera
 
     w, h = RESOLUTION
-    return [
-        overview_camera(scene, w, h, direction=DIRECTIONS[f % len(DIRECTIONS)])
-        for f in range(frames)
-    ]
+    return [overview_camera(scene, w, h, direction=DIRECTIONS[f % len(DIRECTIONS)])
+            for f in range(frames)]  # fmt: skip
 
 
-def _clock() -> tuple[float, float, float]:
-    return time.perf_counter(), time.thread_time(), time.process_time()
-
-
-def _elapsed_ms(t0: tuple[float, float, float]) -> tuple[float, float, float]:
-    t1 = _clock()
-    return tuple(1e3 * (b - a) for a, b in zip(t0, t1, strict=True))
+def _loop_row(frame: int, loop: str, resolution: str, queries: int, ms) -> dict:
+    """A ``loop`` row: (wall, thread, process) ``ms`` of one frame's ``queries``."""
+    row = {"frame": frame - WARMUP, "loop": loop, "resolution": resolution, "queries": queries}
+    return row | dict(zip(("wall_ms", "thread_ms", "process_ms"), ms, strict=True))
 
 
 def run(
     objects: int = N_OBJECTS, frames: int = FRAMES, progress: bool = True
 ) -> dict[str, pd.DataFrame]:
-    """Both runs (module docstring); tidy DataFrames.
-
-    Returns
-    -------
-    dict
-        ``"methods"``: one row per timed frame × method (``frame``, ``method``, ``cull_ms``
-        wall, ``thread_ms`` and ``process_ms`` CPU, ``queries``, ``visible``); ``"loop"``: one
-        row per timed frame × loop × resolution (``loop`` compiled/Python, ``resolution``,
-        ``queries``, ``wall_ms``, ``thread_ms``, ``process_ms``); ``"setup"``: one row
-        (objects, in view, load average before and after).
-    """
+    """Both runs: ``methods`` (frame × method: cull and call ms, thread and process CPU ms,
+    queries, visible), ``loop`` (frame × loop × resolution: queries and ms) and ``setup`` (one
+    row: objects, in view, load average before and after)."""
     from tqdm import tqdm
 
     load0 = os.getloadavg()[0]
     scene = soc.scenes.random_boxes(objects, occluders=OCCLUDERS)
     cams = cameras(scene, WARMUP + frames)
-    rows, loop_rows = [], []
-    cullers = [
-        (label, soc.Culler(scene, method=m, resolution=RESOLUTION, **o)) for label, m, o in METHODS
-    ]
-    try:
+    rows = []
+    with bc.open_cullers(scene, {label: (m, o) for label, m, o in METHODS}, RESOLUTION) as cullers:
         for f, cam in enumerate(tqdm(cams, desc="queries bench: methods", disable=not progress)):
-            for label, culler in cullers:
+            for label, culler in cullers.items():
                 threads = numba.get_num_threads()
                 if label == SERIAL:
                     numba.set_num_threads(1)
                 try:
-                    t0 = _clock()
-                    r = culler.cull(cam)
-                    wall, thread, process = _elapsed_ms(t0)
+                    r, (wall, thread, process) = bc.timed(culler.cull, cam)
                 finally:
                     numba.set_num_threads(threads)
                 if f >= WARMUP:
                     rows.append(
-                        {
-                            "frame": f - WARMUP,
-                            "method": label,
-                            "cull_ms": r.stats.cull_ms,
-                            "call_ms": wall,
-                            "thread_ms": thread,
-                            "process_ms": process,
-                            "queries": r.stats.queries,
-                            "visible": int(r.visible.sum()),
-                        }
-                    )
-    finally:
-        for _, culler in cullers:
-            culler.close()
-    loop_rows = _loop_run(scene, cams, progress)
-    loop_rows += _dry_run(objects, frames)
-    from soc.culling.frustum import aabbs_in_frustum
-
-    in_view = int(aabbs_in_frustum(scene.aabbs, cams[0].planes).sum())
-    setup = pd.DataFrame(
-        [
-            {
-                "objects": objects,
-                "in_view": in_view,
-                "load_before": load0,
-                "load_after": os.getloadavg()[0],
-            }
-        ]
-    )
-    return {"methods": pd.DataFrame(rows), "loop": pd.DataFrame(loop_rows), "setup": setup}
+                        {"frame": f - WARMUP, "method": label, "cull_ms": r.stats.cull_ms,
+                         "call_ms": wall, "thread_ms": thread, "process_ms": process,
+                         "queries": r.stats.queries, "visible": int(r.visible.sum())}
+                    )  # fmt: skip
+    loop_rows = _loop_run(scene, cams, progress) + _dry_run(objects, frames)
+    in_view = int(soc.aabbs_in_frustum(scene.aabbs, cams[0]).sum())
+    setup = {"objects": objects, "in_view": in_view, "load_before": load0}
+    setup["load_after"] = os.getloadavg()[0]
+    return {"methods": pd.DataFrame(rows), "loop": pd.DataFrame(loop_rows),
+            "setup": pd.DataFrame([setup])}  # fmt: skip
 
 
 def _loop_run(scene, cams, progress: bool) -> list[dict]:
@@ -163,22 +113,19 @@ def _loop_run(scene, cams, progress: bool) -> list[dict]:
     from tqdm import tqdm
 
     from soc.culling.depth_prepass import DepthTarget, render_occluders
-    from soc.culling.frustum import aabbs_in_frustum
     from soc.culling.queries import OcclusionQueries, near_plane_straddlers
     from soc.gl.context import default_context
 
     glctx = default_context()
     geometry = glctx.geometry(scene)
     targets = {res: DepthTarget(glctx, res) for res in (RESOLUTION, TINY)}
-    loops = {
-        "compiled": OcclusionQueries(geometry),
-        "Python": OcclusionQueries(geometry, compiled=False),
-    }
+    loops = {"compiled": OcclusionQueries(geometry)}
+    loops["Python"] = OcclusionQueries(geometry, compiled=False)
     rows = []
     try:
         with glctx.current():
             for f, cam in enumerate(tqdm(cams, desc="queries bench: loop", disable=not progress)):
-                inside = aabbs_in_frustum(scene.aabbs, cam.planes)
+                inside = soc.aabbs_in_frustum(scene.aabbs, cam.planes)
                 occluders = np.flatnonzero(inside & scene.occluder)
                 ids = np.flatnonzero(inside)
                 ids = ids[~near_plane_straddlers(geometry.query_boxes[ids], cam)]
@@ -186,33 +133,21 @@ def _loop_run(scene, cams, progress: bool) -> list[dict]:
                     render_occluders(geometry, target, cam, occluders)
                     glctx.finish()
                     for name, loop in loops.items():
-                        t0 = _clock()
+                        t0 = bc.clock()
                         loop.test(target, cam, ids)
                         glctx.finish()
-                        wall, thread, process = _elapsed_ms(t0)
+                        ms = bc.elapsed_ms(t0)
                         if f >= WARMUP:
-                            rows.append(
-                                {
-                                    "frame": f - WARMUP,
-                                    "loop": name,
-                                    "resolution": f"{res[0]}×{res[1]}",
-                                    "queries": len(ids),
-                                    "wall_ms": wall,
-                                    "thread_ms": thread,
-                                    "process_ms": process,
-                                }
-                            )
+                            rows.append(_loop_row(f, name, f"{res[0]}×{res[1]}", len(ids), ms))
     finally:
-        for loop in loops.values():
-            loop.release()
-        for target in targets.values():
-            target.release()
+        for x in (*loops.values(), *targets.values()):
+            x.release()
     return rows
 
 
 def _dry_run(objects: int, frames: int) -> list[dict]:
     """The compiled issue and read-back loops over ``objects`` queries with no-op C functions
-    in place of GL's entry points: what the loop itself costs (rows as :func:`_loop_run`)."""
+    in place of GL's entry points: what the loop itself costs."""
     from numba import types
 
     from soc.gl import compiled
@@ -235,41 +170,22 @@ def _dry_run(objects: int, frames: int) -> list[dict]:
     def get(a, b, c):  # glGetQueryObjectuiv
         pass
 
-    fns = compiled.GLEntryPoints(
-        **{field: one.address for field in compiled.GLEntryPoints._fields}
-    )._replace(
-        begin_query=two.address,
-        bind_buffer=two.address,
-        draw_elements=draw.address,
-        get_query_object=get.address,
-    )
+    fns = compiled.GLEntryPoints(**dict.fromkeys(compiled.GLEntryPoints._fields, one.address))
+    fns = fns._replace(begin_query=two.address, bind_buffer=two.address,
+                       draw_elements=draw.address, get_query_object=get.address)  # fmt: skip
     ids = np.arange(objects, dtype=np.uint32)
     out = np.zeros(objects, np.uint32)
-    rows = []
-    for f in range(WARMUP + frames):
-        t0 = _clock()
+
+    def issue_and_read():
         compiled.issue_box_queries(fns, 0, 0, 0, ids, ids.astype(np.int64))
         compiled.read_query_results(fns, ids, out)
-        wall, thread, process = _elapsed_ms(t0)
+
+    rows = []
+    for f in range(WARMUP + frames):
+        _, ms = bc.timed(issue_and_read)
         if f >= WARMUP:
-            rows.append(
-                {
-                    "frame": f - WARMUP,
-                    "loop": "compiled, no-op GL (dry)",
-                    "resolution": "-",
-                    "queries": objects,
-                    "wall_ms": wall,
-                    "thread_ms": thread,
-                    "process_ms": process,
-                }
-            )
+            rows.append(_loop_row(f, "compiled, no-op GL (dry)", "-", objects, ms))
     return rows
-
-
-def _per_frame_ratio(df: pd.DataFrame, column: str, to: str = BASELINE) -> pd.Series:
-    """Per method: the median over frames of ``column`` ÷ method ``to``'s ``column``."""
-    wide = df.pivot(index="frame", columns="method", values=column)
-    return wide.div(wide[to], axis=0).median()
 
 
 def markdown(frames: dict[str, pd.DataFrame], command: str) -> str:
@@ -278,9 +194,9 @@ def markdown(frames: dict[str, pd.DataFrame], command: str) -> str:
     order = [label for label, _, _ in METHODS]
     med = methods.groupby("method")[["cull_ms", "thread_ms", "process_ms", "queries"]].median()
     med = med.reindex(order)
-    ratio_wall = _per_frame_ratio(methods, "cull_ms").reindex(order)
-    ratio_serial = _per_frame_ratio(methods, "cull_ms", SERIAL).reindex(order)
-    ratio_cpu = _per_frame_ratio(methods, "thread_ms", SERIAL).reindex(order)
+    ratio_wall = bc.per_frame_ratio(methods, "cull_ms", BASELINE).reindex(order)
+    ratio_serial = bc.per_frame_ratio(methods, "cull_ms", SERIAL).reindex(order)
+    ratio_cpu = bc.per_frame_ratio(methods, "thread_ms", SERIAL).reindex(order)
     table = pd.DataFrame(
         {
             "method": order,
@@ -294,9 +210,7 @@ def markdown(frames: dict[str, pd.DataFrame], command: str) -> str:
         }
     )
     per_query = loop.assign(
-        wall=1e3 * loop["wall_ms"] / loop["queries"],
-        thread=1e3 * loop["thread_ms"] / loop["queries"],
-        process=1e3 * loop["process_ms"] / loop["queries"],
+        **{k: 1e3 * loop[f"{k}_ms"] / loop["queries"] for k in ("wall", "thread", "process")}
     )
     lq = per_query.groupby(["resolution", "loop"])[["wall", "thread", "process"]].median()
     loop_table = lq.reset_index().rename(
@@ -319,14 +233,12 @@ def markdown(frames: dict[str, pd.DataFrame], command: str) -> str:
     ratio_py = float(ratio_wall["queries (Python)"])
     verdict = "met" if max(ratio, ratio_1) <= RATIO_TARGET else "missed"
     renderer = soc.gl.context.default_context().renderer
-    return "\n".join(
+    return "\n\n".join(
         [
             "## Occlusion queries from compiled loops (issue 24, item 3)",
-            "",
             f"`{command}` on {time.strftime('%Y-%m-%d')}, {renderer}; "
             f"load average {setup['load_before']:.1f} before, {setup['load_after']:.1f} after "
             "(2 cores, shared).",
-            "",
             f"`soc.scenes.random_boxes({int(setup['objects']):,}, occluders={OCCLUDERS})`, "
             f"{methods['frame'].nunique()} overview cameras seeing every box at "
             f"{RESOLUTION[0]}×{RESOLUTION[1]} (after {WARMUP} warm-up), methods interleaved frame "
@@ -334,24 +246,10 @@ def markdown(frames: dict[str, pd.DataFrame], command: str) -> str:
             "process CPU time during the cull call (process includes llvmpipe's rasterizer "
             "threads and numba's). Ratios are medians of per-frame ratios. '(Python)' = the "
             "same method with `compiled=False`, the loops this change replaced.",
-            "",
-            markdown_table(
-                table,
-                {
-                    "cull ms": ".1f",
-                    "thread CPU ms": ".1f",
-                    "process CPU ms": ".1f",
-                    "÷ masked (cull ms)": ".1f",
-                    "÷ masked 1 thread (cull ms)": ".1f",
-                    "÷ masked 1 thread (thread CPU)": ".1f",
-                },
-            ),
-            "",
+            markdown_table(table, ".1f"),
             "The per-object query loop alone (every box in view, against the occluders' depth), "
             "µs per query, medians over frames:",
-            "",
             markdown_table(loop_table, ".2f"),
-            "",
             f"Where a query's time goes (calling thread CPU unless said): {removed:.2f} µs of "
             f"interpreter time removed by compiling (Python − compiled loop at {tiny}); the "
             f"compiled loop itself costs {1e3 * dry:.1f} ns (no-op functions in place of GL's); "
@@ -361,11 +259,9 @@ def markdown(frames: dict[str, pd.DataFrame], command: str) -> str:
             f"more at {full} (llvmpipe bins each query's begin and end into every 64×64 tile, "
             f"{tiles} of them, besides the box's triangles); {raster:.2f} µs on llvmpipe's "
             "rasterizer threads (process − calling thread CPU).",
-            "",
             f"Target `queries` ≤ {RATIO_TARGET:.0f}× `masked` (cull ms): {ratio:.1f}×, and "
             f"{ratio_1:.1f}× `masked` on one numba thread ({ratio_c:.1f}× its calling-thread "
             f"CPU time): {verdict} (the Python loops: {ratio_py:.1f}×).",
-            "",
             f"Target ≤ {GPU_CPU_TARGET_US:.0f} µs of CPU per query on an NVIDIA GPU: no GPU was "
             "available to this task, so it was not measured; the loop's own share of it is the "
             f"{1e3 * dry:.1f} ns above, the rest is the driver's.",
@@ -376,19 +272,10 @@ def markdown(frames: dict[str, pd.DataFrame], command: str) -> str:
 def section(out, frames: int = FRAMES) -> str:
     """Run the benchmark, write its frames to ``out/queries-compiled-<name>.csv`` and return
     the ``queries-compiled`` section of BENCHMARKS.md."""
-    from pathlib import Path
-
     result = run(frames=frames)
-    for name, df in result.items():
-        df.to_csv(Path(out) / f"queries-compiled-{name}.csv", index=False)
+    bc.write_csvs(result, out, "queries-compiled")
     return markdown(result, "python -m experiments.bench --only queries")
 
 
-def main() -> int:
-    frames = run()
-    print(markdown(frames, "python -m experiments.bench_queries"))
-    return 0
-
-
 if __name__ == "__main__":
-    raise SystemExit(main())
+    print(markdown(run(), "python -m experiments.bench_queries"))

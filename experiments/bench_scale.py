@@ -1,20 +1,15 @@
 """``make bench`` scale section: what culling costs as a scene grows from 10⁴ to 10⁶ objects
 (issue 24), with the object hierarchy (the default) and without it (every box tested).
 
-Two parts, each size in a process of its own (its peak RSS is the scene's):
+1. Random boxes (``soc.scenes.random_boxes(n, occluders=0.02)``: the cube grows with ``n``)
+   from a camera at the cube's centre at 1280×720, n = 10⁴, 10⁵, 10⁶, from two views: the
+   **same view** at every size (≈ 1 % of the million boxes in its frustum) and **1 % in view**
+   (the far plane scaled with the cube). Every method culls the same frames, interleaved:
+   cull ms, GL timer ms, the hierarchy walk's nodes visited and boxes tested.
+2. The city (``soc.scenes.city()``, 10⁶ objects): load time and memory, then the floor bench
+   (:func:`experiments.bench_floor.run_floor`) for the issue's targets.
 
-1. **Random boxes** (``soc.scenes.random_boxes(n, occluders=0.02)``, seed 004's Table 1
-   scenes: the cube grows with ``n``, the density stays) seen from a camera at the cube's
-   centre at 1280×720, for ``n`` = 10⁴, 10⁵, 10⁶, from two views: **same view** — one camera
-   (eye, direction, far plane) at every size, whose frustum holds ≈ 1 % of the million boxes,
-   so what is in view stays (≈ 10⁴ boxes) while the scene grows; and **1 % in view** — the far
-   plane scaled with the cube, so ≈ 1 % of every scene is in view (the issue's table). Every
-   method culls the same :data:`FRAMES` frames (the camera turning 0.3° a frame), interleaved;
-   medians of cull ms, GL timer ms where the method reports one (``FrameStats.gpu_ms``), the
-   hierarchy walk's nodes visited and boxes tested.
-2. **The city** (``soc.scenes.city()``, 10⁶ objects): load time and memory, then the floor
-   bench (:func:`experiments.bench_floor.run_floor`: every method culls the seed-000 flight at
-   1920×1080 beside the exact oracle and the ideal draw) for the issue's targets.
+Each size runs in a process of its own (its peak RSS is the scene's).
 
     python -m experiments.bench --only scale [--frames 30]
     python -m experiments.bench_scale --sizes 10000,100000 --city-frames 0   # quick look
@@ -25,13 +20,15 @@ from __future__ import annotations
 import argparse
 import math
 import multiprocessing
-import resource
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from experiments import bench_common as bc
+from experiments.markdown import markdown_table
 
 SIZES = (10_000, 100_000, 1_000_000)
 RESOLUTION = (1280, 720)
@@ -40,20 +37,16 @@ FRAMES = 24  # medians over this many frames (12 left load spikes in sub-ms rows
 TURN_DEGREES = 0.3  # the camera's turn per frame
 IN_VIEW = 0.01  # the fraction of the million boxes in the same view's frustum
 VIEWS = ("same view", "1 % in view")
-# Every method at every size; flat (hierarchy=False) rows are the reference the walk replaces.
-# The CPU methods run on one thread: on this shared 2-core machine a numba parallel region
-# costs 10-80 ms when other processes hold the cores (measured), which would hide the tests.
+# Every method at every size, walking the hierarchy and testing every box (the reference). The
+# CPU methods run on one thread: on this shared 2-core machine a numba parallel region costs
+# 10-80 ms when other processes hold the cores (measured), which would hide the tests.
 SPECS = (
     "frustum",
     "frustum(hierarchy=False)",
-    "masked(threads=1)",
-    "masked(threads=1, hierarchy=False)",
-    "hiz-cpu(threads=1)",
-    "hiz-cpu(threads=1, hierarchy=False)",
-    "hiz-2phase(threads=1)",
-    "hiz-2phase(threads=1, hierarchy=False)",
+    *(f"{m}(threads=1{flat})" for m in ("masked", "hiz-cpu", "hiz-2phase")
+      for flat in ("", ", hierarchy=False")),
     "hiz-gpu",
-)
+)  # fmt: skip
 SMALL_ONLY = ("queries",)  # per-object GL queries: at the smallest size only
 CITY_SPECS = (
     "frustum",
@@ -73,11 +66,6 @@ TARGET_GROWTH = 3.2  # cull time 10⁵ → 10⁶ at the same view (exponent 0.5)
 GROWTH_METHODS = ("frustum", "masked(threads=1)", "hiz-2phase(threads=1)")
 TARGET_CITY_CULL_MS = 10.0  # hiz-2phase on the million-object scene
 TARGET_CITY_IDEAL = 1.2  # its cull + draw over the ideal frame
-TARGET_LOAD_S, TARGET_RSS_GIB = 15.0, 4.0
-
-
-def _rss_mib() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
 def scale_cameras(scene, view: str, frames: int, resolution=RESOLUTION) -> list:
@@ -96,13 +84,19 @@ def scale_cameras(scene, view: str, frames: int, resolution=RESOLUTION) -> list:
         raise ValueError(f"view must be one of {VIEWS}, got {view!r}")
     far = (IN_VIEW * extent**3 / volume) ** (1.0 / 3.0)
     eye = np.array([0.31, 0.17, -0.23])  # off the exact centre: no box edge on the axis
-    cams = []
-    for i in range(frames):
-        a = math.radians(25.0 + TURN_DEGREES * i)
-        d = np.array([math.cos(a), 0.25, math.sin(a)])
-        cams.append(soc.Camera.look_at(eye, eye + d, fov_y=60.0, width=w, height=h,
-                                       near=0.1, far=far))  # fmt: skip
-    return cams
+    angles = np.radians(25.0 + TURN_DEGREES * np.arange(frames))
+    return [soc.Camera.look_at(eye, eye + (math.cos(a), 0.25, math.sin(a)), fov_y=60.0, width=w,
+                               height=h, near=0.1, far=far) for a in angles]  # fmt: skip
+
+
+def _build(make_scene) -> tuple:
+    """(scene, its hierarchy, build s, build CPU s, hierarchy s, peak RSS MiB after the build)."""
+    from soc.culling.hierarchy import Hierarchy
+
+    scene, (load_ms, _, load_cpu_ms) = bc.timed(make_scene)
+    rss = bc.rss_mib()
+    hierarchy, (hier_ms, _, _) = bc.timed(Hierarchy.for_scene, scene)
+    return scene, hierarchy, load_ms / 1e3, load_cpu_ms / 1e3, hier_ms / 1e3, rss
 
 
 def _measure_size(n: int, frames: int, specs: tuple[str, ...]) -> dict:
@@ -110,32 +104,21 @@ def _measure_size(n: int, frames: int, specs: tuple[str, ...]) -> dict:
     (interleaved); the rows and this process's load and peak RSS."""
     import soc
     from experiments.bench_floor import parse_spec
-    from soc.culling.hierarchy import Hierarchy
 
-    t0, c0 = time.perf_counter(), time.process_time()
-    scene = soc.scenes.random_boxes(n, seed=0, occluders=0.02)
-    load_s, load_cpu = time.perf_counter() - t0, time.process_time() - c0
-    rss_scene = _rss_mib()
-    t0 = time.perf_counter()
-    Hierarchy.for_scene(scene)
-    hier_s = time.perf_counter() - t0
+    scene, _, load_s, load_cpu, hier_s, rss = _build(
+        lambda: soc.scenes.random_boxes(n, seed=0, occluders=0.02)
+    )
     rows = []
     for view in VIEWS:
         cams = scale_cameras(scene, view, frames)
         in_view = [int(soc.aabbs_in_frustum(scene.aabbs, c).sum()) for c in cams]
-        cullers = {}
-        for spec in specs:
-            name, options = parse_spec(spec)
-            cullers[spec] = soc.Culler(scene, name, RESOLUTION, **options)
-        try:
-            for c in cullers.values():  # warm-up: compile, allocate
-                c.cull(cams[0])
-                c.reset()
+        methods = {spec: parse_spec(spec) for spec in specs}
+        with bc.open_cullers(scene, methods, RESOLUTION) as cullers:
+            bc.warm_up(cullers, cams[0])
             for i, cam in enumerate(cams):
-                for spec in np.roll(list(cullers), -i).tolist():
-                    c = cullers[spec]
-                    r = c.cull(cam)
-                    walk = getattr(c.method, "last_walk", None)
+                for spec in bc.rotated(cullers, i):
+                    r = cullers[spec].cull(cam)
+                    walk = getattr(cullers[spec].method, "last_walk", None)
                     gpu = [v for k, v in r.stats.gpu_ms.items() if k != "draw"]
                     rows.append({
                         "objects": n, "view": view, "frame": i, "method": spec,
@@ -145,13 +128,10 @@ def _measure_size(n: int, frames: int, specs: tuple[str, ...]) -> dict:
                         "nodes": walk.nodes if walk is not None else math.nan,
                         "box tests": walk.tests if walk is not None else math.nan,
                     })  # fmt: skip
-        finally:
-            for c in cullers.values():
-                c.close()
     return {
         "rows": rows,
-        "info": {"objects": n, "load s": load_s, "load cpu s": load_cpu,
-                 "hierarchy s": hier_s, "rss scene MiB": rss_scene, "peak rss MiB": _rss_mib()},
+        "info": {"objects": n, "load s": load_s, "load cpu s": load_cpu, "hierarchy s": hier_s,
+                 "rss scene MiB": rss, "peak rss MiB": bc.rss_mib()},
     }  # fmt: skip
 
 
@@ -159,15 +139,10 @@ def _measure_city(frames: int, specs: tuple[str, ...], objects: int) -> dict:
     """The city of ``objects`` objects in this process: load, the hierarchy, the floor run."""
     import soc
     from experiments import bench_floor
-    from soc.culling.hierarchy import Hierarchy
 
-    t0, c0 = time.perf_counter(), time.process_time()
-    scene = soc.scenes.city(seed=0, objects=objects)
-    load_s, load_cpu = time.perf_counter() - t0, time.process_time() - c0
-    rss_scene = _rss_mib()
-    t0 = time.perf_counter()
-    h = Hierarchy.for_scene(scene)
-    hier_s = time.perf_counter() - t0
+    scene, h, load_s, load_cpu, hier_s, rss = _build(
+        lambda: soc.scenes.city(seed=0, objects=objects)
+    )
     cams = soc.scenes.paths.flight(scene, frames=frames, width=CITY_RESOLUTION[0],
                                    height=CITY_RESOLUTION[1])  # fmt: skip
     nodes = [h.in_frustum(c)[1].nodes for c in cams]
@@ -180,7 +155,7 @@ def _measure_city(frames: int, specs: tuple[str, ...], objects: int) -> dict:
                  "occluders": int(scene.occluder.sum()), "load s": load_s,
                  "load cpu s": load_cpu, "hierarchy s": hier_s, "hierarchy nodes": len(h),
                  "frustum walk nodes (median)": float(np.median(nodes)),
-                 "rss scene MiB": rss_scene, "peak rss MiB": _rss_mib()},
+                 "rss scene MiB": rss, "peak rss MiB": bc.rss_mib()},
     }  # fmt: skip
 
 
@@ -202,15 +177,13 @@ def run(
     (its floor items) and ``city_info`` (one row)."""
     rows, infos = [], []
     for i, n in enumerate(sizes):
-        specs = SPECS + (SMALL_ONLY if i == 0 else ())
         t0 = time.perf_counter()
-        out = _in_child(_measure_size, int(n), int(frames), specs)
+        out = _in_child(_measure_size, int(n), int(frames), SPECS + SMALL_ONLY * (i == 0))
         rows += out["rows"]
         infos.append(out["info"])
         if progress:
             print(f"bench scale: {n:,} boxes in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
-    frames_df = pd.DataFrame(rows)
-    result = {"frames": frames_df, "sizes": pd.DataFrame(infos)}
+    result = {"frames": pd.DataFrame(rows), "sizes": pd.DataFrame(infos)}
     if city_frames:
         t0 = time.perf_counter()
         city = _in_child(_measure_city, int(city_frames), CITY_SPECS, int(city_objects))
@@ -245,48 +218,41 @@ def growth(s: pd.DataFrame) -> pd.DataFrame:
 
 def targets(s: pd.DataFrame, city: pd.DataFrame | None) -> pd.DataFrame:
     """Issue 24's targets with the measured value and met / missed."""
+    ms = s.set_index(["view", "method", "objects"])["cull ms"].get
     rows = []
-
-    def add(target, measured, ok):
-        rows.append({"target": target, "measured": measured, "met": "yes" if ok else "no"})
-
-    def ms(view, method, n):
-        v = s[(s["view"] == view) & (s["method"] == method) & (s["objects"] == n)]["cull ms"]
-        return float(v.iloc[0]) if len(v) else math.nan
-
-    f = ms("1 % in view", "frustum", 1_000_000)
+    f = ms(("1 % in view", "frustum", 1_000_000), math.nan)
     if not math.isnan(f):
-        add(f"frustum, 10⁶ boxes, ≈ 1 % in view: ≤ {TARGET_FRUSTUM_MS} ms", f"{f:.2f} ms",
-            f <= TARGET_FRUSTUM_MS)  # fmt: skip
+        rows.append(bc.target_row(f"frustum, 10⁶ boxes, ≈ 1 % in view: ≤ {TARGET_FRUSTUM_MS} ms",
+                                  f"{f:.2f} ms", f <= TARGET_FRUSTUM_MS))  # fmt: skip
     for view in VIEWS:
         for m in GROWTH_METHODS:
-            a, b = ms(view, m, 100_000), ms(view, m, 1_000_000)
-            if not (math.isnan(a) or math.isnan(b)):
-                add(f"{m}, {view}: cull time 10⁵ → 10⁶ ≤ {TARGET_GROWTH}×", f"{b / a:.2f}×",
-                    b / a <= TARGET_GROWTH)  # fmt: skip
+            r = ms((view, m, 1_000_000), math.nan) / ms((view, m, 100_000), math.nan)
+            if not math.isnan(r):
+                rows.append(bc.target_row(f"{m}, {view}: cull time 10⁵ → 10⁶ ≤ {TARGET_GROWTH}×",
+                                          f"{r:.2f}×", r <= TARGET_GROWTH))  # fmt: skip
     if city is not None and len(city):
-        from experiments import bench_floor
-
-        cs = bench_floor.summarize(_floor_result(city))
+        cs = _city_summary(city)
         two = cs[cs["method"].str.startswith("hiz-2phase")]
         if len(two):  # the best variant for each target, named
             r = two.loc[two["cull ms"].idxmin()]
-            add(f"city: hiz-2phase cull ≤ {TARGET_CITY_CULL_MS:.0f} ms ({r['method']})",
-                f"{r['cull ms']:.2f} ms", r["cull ms"] <= TARGET_CITY_CULL_MS)  # fmt: skip
+            rows.append(bc.target_row(
+                f"city: hiz-2phase cull ≤ {TARGET_CITY_CULL_MS:.0f} ms ({r['method']})",
+                f"{r['cull ms']:.2f} ms", r["cull ms"] <= TARGET_CITY_CULL_MS))  # fmt: skip
             r = two.loc[two["÷ ideal"].idxmin()]
-            add(f"city: hiz-2phase cull + draw ≤ {TARGET_CITY_IDEAL}× ideal, 1080p ({r['method']})",
-                f"{r['÷ ideal']:.2f}×", r["÷ ideal"] <= TARGET_CITY_IDEAL)  # fmt: skip
-        cons = cs[cs["conservative"] == "yes"]
-        worst = int(cons["false culls (max)"].max())
-        add("city: every conservative method 0 false culls (oracle)", f"{worst} (max)", worst == 0)
+            rows.append(bc.target_row(
+                f"city: hiz-2phase cull + draw ≤ {TARGET_CITY_IDEAL}× ideal, 1080p ({r['method']})",
+                f"{r['÷ ideal']:.2f}×", r["÷ ideal"] <= TARGET_CITY_IDEAL))  # fmt: skip
+        worst = int(cs.loc[cs["conservative"] == "yes", "false culls (max)"].max())
+        rows.append(bc.target_row("city: every conservative method 0 false culls (oracle)",
+                                  f"{worst} (max)", worst == 0))  # fmt: skip
     return pd.DataFrame(rows)
 
 
-def _floor_result(city: pd.DataFrame):
-    from experiments.bench_floor import FloorResult
+def _city_summary(city: pd.DataFrame) -> pd.DataFrame:
+    from experiments.bench_floor import FloorResult, summarize
 
-    return FloorResult(city, pd.DataFrame(), "city", 0, int(city["frame"].nunique()),
-                       CITY_RESOLUTION)  # fmt: skip
+    frames_n = int(city["frame"].nunique())
+    return summarize(FloorResult(city, pd.DataFrame(), "city", 0, frames_n, CITY_RESOLUTION))
 
 
 def plot(frames: pd.DataFrame):
@@ -326,16 +292,16 @@ def plot(frames: pd.DataFrame):
 def markdown(result: dict[str, pd.DataFrame], command: str, figure: str | None = None) -> str:
     """The ``scale`` section of BENCHMARKS.md."""
     import soc.gl.context
-    from experiments.markdown import markdown_table
 
     s = summary(result["frames"])
     n_frames = int(result["frames"]["frame"].nunique())
     glctx = soc.gl.context.default_context()
-    load = result["sizes"].copy()
+    counts = ("in view", "kept", "nodes", "box tests")
+    load_fmt = {"load s": ".1f", "load cpu s": ".1f", "hierarchy s": ".2f"}
+    load_fmt |= {"rss scene MiB": ".0f", "peak rss MiB": ".0f"}
     parts = [
         "## Culling cost against scene size (issue 24)",
-        "",
-        f"`{command}` on {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}: "
+        f"`{command}` on {bc.now_utc()}: "
         f"{glctx.ctx.info['GL_RENDERER']} with {glctx.threads} threads; each size in a process "
         "of its own. Random boxes (`soc.scenes.random_boxes(n, occluders=0.02)`) from a camera "
         f"at the cube's centre, {RESOLUTION[0]}×{RESOLUTION[1]}, {n_frames} frames turning "
@@ -345,56 +311,22 @@ def markdown(result: dict[str, pd.DataFrame], command: str, figure: str | None =
         "object hierarchy; `(hierarchy=False)` rows test every box (the reference). 'nodes': "
         "hierarchy nodes the walk visited; 'box tests': node and object boxes tested against "
         "the occluder depth; 'gpu ms': GL timer where the method reports one (empty: none).",
-        "",
     ]
     if figure:
-        parts += [f"![scale]({figure})", ""]
+        parts += [f"![scale]({figure})"]
     parts += [
         "### Cull ms against objects",
-        "",
         markdown_table(growth(s), {"exponent": ".2f", "10⁵→10⁶ ×": ".2f"}),
-        "",
         "### Per size (medians)",
-        "",
-        markdown_table(
-            s,
-            {
-                "cull ms": ".3f",
-                "gpu ms": ".2f",
-                "in view": ".0f",
-                "kept": ".0f",
-                "nodes": ".0f",
-                "box tests": ".0f",
-            },
-        ),
-        "",
+        markdown_table(s, {"cull ms": ".3f", "gpu ms": ".2f"} | dict.fromkeys(counts, ".0f")),
         "### Scene build and memory per size (one process each)",
-        "",
-        markdown_table(
-            load,
-            {
-                "load s": ".1f",
-                "load cpu s": ".1f",
-                "hierarchy s": ".2f",
-                "rss scene MiB": ".0f",
-                "peak rss MiB": ".0f",
-            },
-        ),
+        markdown_table(result["sizes"], load_fmt),
     ]
     city = result.get("city")
     if city is not None:
-        from experiments import bench_floor
-
         info = result["city_info"].iloc[0]
-        cs = bench_floor.summarize(_floor_result(city))
-        stages = [c for c in city.columns if c.startswith("ms_")]
-        st = city.groupby("method", sort=False)[stages].mean().dropna(axis=1, how="all")
-        st = st.dropna(how="all").reset_index()
-        st.columns = ["method", *[c[3:] for c in st.columns[1:]]]
         parts += [
-            "",
             f"### The city (`soc.scenes.city(objects={int(info['objects'])})`)",
-            "",
             f"{int(info['objects']):,} objects ({int(info['occluders']):,} occluders: buildings "
             f"and ground tiles), {int(info['triangles']):,} triangles; built in "
             f"{info['load s']:.1f} s ({info['load cpu s']:.1f} s of CPU), "
@@ -407,17 +339,16 @@ def markdown(result: dict[str, pd.DataFrame], command: str, figure: str | None =
             f"{CITY_RESOLUTION[0]}×{CITY_RESOLUTION[1]} (the central district's flight, the "
             "city round it up to the far plane), the floor bench's run "
             "(`experiments.bench_floor.run_floor`, methods interleaved, exact oracle):",
-            "",
-            markdown_table(cs),
-            "",
+            markdown_table(_city_summary(city)),
             "Cull stages (mean ms per frame):",
-            "",
-            markdown_table(st),
+            markdown_table(bc.stage_table(city)),
         ]
     t = targets(s, city)
-    parts += ["", "### Issue 24 targets", ""]
-    parts += [markdown_table(t) if len(t) else "None applies to the sizes run."]
-    return "\n".join(parts)
+    parts += [
+        "### Issue 24 targets",
+        markdown_table(t) if len(t) else "None applies to the sizes run.",
+    ]
+    return "\n\n".join(parts)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -439,18 +370,16 @@ def write(result: dict[str, pd.DataFrame], out: Path, command: str) -> str:
     """CSVs, ``scale.png`` and the ``scale`` section of ``out/BENCHMARKS.md`` (and, when
     ``out`` is the checkout's ``results/``, a small copy of the figure in ``docs/gallery/``);
     returns the file's text."""
+    from experiments.common import GALLERY
     from experiments.markdown import replace_section
 
-    for key, df in result.items():
-        df.to_csv(out / f"scale-{key}.csv", index=False)
-    fig = plot(result["frames"])
-    fig.savefig(out / "scale.png", dpi=110)
+    bc.write_csvs(result, out, "scale")
+    plot(result["frames"]).savefig(out / "scale.png", dpi=110)
     link = "scale.png"  # results/ is not in git: in the checkout, a small copy is (README)
-    gallery = Path(__file__).resolve().parents[1] / "docs" / "gallery"
-    if gallery.is_dir() and out.resolve() == gallery.parents[1] / "results":
+    if GALLERY.is_dir() and out.resolve() == GALLERY.parents[1] / "results":
         from experiments.gallery import shrink
 
-        shrink(out / "scale.png", gallery / "scale.png")
+        shrink(out / "scale.png", GALLERY / "scale.png")
         link = "../docs/gallery/scale.png"
     text = replace_section(out / "BENCHMARKS.md", "scale", markdown(result, command, link))
     print(text.split("<!-- begin scale -->")[1].split("<!-- end scale -->")[0])
