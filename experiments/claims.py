@@ -110,16 +110,17 @@ class Rule:
     """``value(q) op bound``: one assertion of a ``numbers`` or ``trend`` row, in ``unit``.
 
     The bound's origin (the document's number, a measured spread, 0) belongs in the row's
-    basis. ``noise(q)``: the measured run-to-run spread of the value (None: not measured, 0:
-    deterministic). ``flips``: alterations of the frames (:func:`alter`) of which one must
-    change the verdict (a test applies them). ``name`` labels the margin when a row has several.
+    basis. ``noise``: the measured run-to-run spread of the value, a number or a function of
+    ``q`` (None: not measured, 0: deterministic). ``flips``: alterations of the frames
+    (:func:`alter`) of which one must change the verdict (a test applies them). ``name``
+    labels the margin when a row has several.
     """
 
     value: Callable[[Any], float]
     op: str
     bound: float | Callable[[Any], float] = 0.0
     unit: str = ""
-    noise: Callable[[Any], float | None] | None = None
+    noise: Callable[[Any], float | None] | float | None = None
     flips: tuple[Alteration, ...] = ()
     name: str = ""
 
@@ -133,7 +134,7 @@ class Rule:
         b = float(self.bound(q) if callable(self.bound) else self.bound)
         m = {">": v - b, ">=": v - b, "<": b - v, "<=": b - v, "==": -abs(v - b)}[self.op] + 0.0
         holds = m > 0 if self.op in (">", "<") else m >= 0
-        noise = None if self.noise is None else self.noise(q)
+        noise = self.noise(q) if callable(self.noise) else self.noise
         return bool(holds and m == m), m, None if noise is None else float(noise)
 
 

@@ -432,7 +432,7 @@ def _sweeps(frames: dict[str, pd.DataFrame], params: Params):
     }  # fmt: skip
 
 
-_DET = lambda q: 0.0  # noqa: E731  (pixel counts of seeded renders: deterministic)
+_DET = 0.0  # pixel counts of seeded renders: deterministic
 
 
 def _grows(frame: str, by: str, means: str) -> tuple[Rule, ...]:

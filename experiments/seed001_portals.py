@@ -147,7 +147,7 @@ def _walk(frames: dict[str, pd.DataFrame], params: Params):
     }  # fmt: skip
 
 
-_DET = lambda q: 0.0  # noqa: E731  (object counts of a seeded walk: deterministic)
+_DET = 0.0  # object counts of a seeded walk: deterministic
 
 # The table is laid out by hand, one row per block (the formatter would spread it out).
 # fmt: off

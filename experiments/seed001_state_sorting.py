@@ -379,7 +379,7 @@ CLAIMS = (Each(_streams, (
         "LRU at k={kmax}: ratio {adv:.2f} on its worst-case input, at most {prac:.2f} on "
         "{practical}",
         TREND,
-        Rule(lambda q: q.adv - q.prac, ">", 0, "ratio", noise=lambda q: 0.0, flips=(
+        Rule(lambda q: q.adv - q.prac, ">", 0, "ratio", noise=0.0, flips=(
             alter("sweep", "ratio", 0.1, "stream == 'adversarial'"),)),
         basis="LRU's worst-case ratio exceeds its largest on the practical streams (largest k; "
         "how much is 'very little' the lecture does not say: the margin shows it; counts of "

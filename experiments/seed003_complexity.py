@@ -473,7 +473,7 @@ def _gbuffer(frames, params: Params):
 
 
 _DEFERRED = "path != 'forward' and order == 'back-to-front'"
-_DET = lambda q: 0.0  # noqa: E731  (sizes: deterministic)
+_DET = 0.0  # sizes: deterministic
 
 # The table is laid out by hand, one row per block (the formatter would spread it out).
 # fmt: off

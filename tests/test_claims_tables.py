@@ -223,9 +223,12 @@ def test_each_comparison_and_its_margin(op, v, holds, margin):
 def test_noise_none_is_not_measured_and_zero_is_deterministic():
     rule = cl.Rule(lambda q: q.v, ">", 1.0, "pp")
     assert _eval(_table(rule), 2.0).margin == "+1 pp (noise not measured)"
-    rule = cl.Rule(lambda q: q.v, ">=", 1.0, "pp", noise=lambda q: 0.0)
-    r = _eval(_table(rule), 1.0)
-    assert r.margin == "+0 pp (deterministic)" and r.borderline == ""  # it cannot move
+    for noise in (lambda q: 0.0, 0.0):  # a function of the case, or a number
+        rule = cl.Rule(lambda q: q.v, ">=", 1.0, "pp", noise=noise)
+        r = _eval(_table(rule), 1.0)
+        assert r.margin == "+0 pp (deterministic)" and r.borderline == ""  # it cannot move
+    r = _eval(_table(cl.Rule(lambda q: q.v, ">", 1.0, "pp", noise=0.5)), 1.2)
+    assert r.margin == "+0.2 pp (noise 0.5)" and r.borderline == "borderline"
 
 
 def test_a_numbers_row_keeps_its_basis_and_several_rules_name_their_margins():
