@@ -385,7 +385,7 @@ def _per_frame(df, method, res, **kw) -> np.ndarray:
     return _rows(df, method, res, **kw).ms_total.to_numpy(float)
 
 
-def _flight(frames, params):
+def _case(frames, params) -> dict:
     """The flight's one case: per method at the display resolution its summary row (``one``),
     % triangles culled (``tri``), false culls (``fc``), mean frame ms (``ms``) and per-frame ms
     (``per``); the oracle's share; the query method per depth resolution (``ours``, ``pct``);
@@ -400,7 +400,7 @@ def _flight(frames, params):
     exact = [m for m in methods if m not in (QUERY, *beyond) and fc[m] == 0]
     top = max(exact, key=tri.get, default="")
     ours = [_one(s, QUERY, r) for r in params.depth_resolutions()]
-    yield {
+    return {
         "s": s,
         "d": d,
         "df": df,
@@ -422,69 +422,64 @@ def _flight(frames, params):
     }
 
 
+def _flight(frames, params) -> list[dict]:
+    return [_case(frames, params)]
+
+
 def _columns(frames, params):
     """One case per depth resolution with a column in the document's Abb. 8 table: ours
     (``o``), the document's (``dd``, ``dp``) and its coarser column's (``coarser``)."""
-    for case in _flight(frames, params):
-        coarser = mine = None  # the last column's % culled: the document's, ours
-        for r, o in zip(case["res"], case["ours"], strict=True):
-            col = doc.document_column(r, case["d"])
-            if col is None:
-                continue
-            dd = doc.ABB8[col]
-            dp, last = dd["triangles_culled_pct"], mine
-            mine = o.triangles_culled_pct
-            step = np.inf if coarser is None else (mine - last) * np.sign(dp - coarser)
-            yield {
-                **case,
-                "col": res_str(col),
-                "r": res_str(r),
-                "o": o,
-                "dd": dd,
-                "dp": dp,
-                "coarser": coarser,
-                "step": step,
-            }
-            coarser = dp
+    case = _case(frames, params)
+    coarser = mine = None  # the last column's % culled: the document's, ours
+    for r, o in zip(case["res"], case["ours"], strict=True):
+        col = doc.document_column(r, case["d"])
+        if col is None:
+            continue
+        dd = doc.ABB8[col]
+        dp, last, mine = dd["triangles_culled_pct"], mine, o.triangles_culled_pct
+        step = np.inf if coarser is None else (mine - last) * np.sign(dp - coarser)
+        yield dict(
+            case, col=res_str(col), r=res_str(r), o=o, dd=dd, dp=dp, coarser=coarser, step=step
+        )
+        coarser = dp
 
 
 def _switches(frames, params):
     """One case per Abb. 9 stage switch: the query method's summary and the document's row."""
-    for case in _flight(frames, params):
-        for n, (f, t) in SWITCHES.items():
-            o, dd = _one(case["s"], QUERY, case["d"], frustum=f, depth_test=t), doc.ABB9[n]
-            dp = dd["triangles_culled_pct"]
-            yield {**case, "n": n, "f": f, "t": t, "o": o, "dd": dd, "dp": dp, "coarser": None}
+    case = _case(frames, params)
+    for n, (f, t) in SWITCHES.items():
+        o, dd = _one(case["s"], QUERY, case["d"], frustum=f, depth_test=t), doc.ABB9[n]
+        yield dict(case, n=n, f=f, t=t, o=o, dd=dd, dp=dd["triangles_culled_pct"], coarser=None)
 
 
 def _vs_frustum(frames, params):
     """MOC and HiZ (as run) against frustum culling alone: the ratio of mean frame times."""
-    for case in _flight(frames, params):
-        for m in (MOC, HIZ):
-            if m in case["ms"] and "frustum" in case["ms"]:
-                a, b = case["per"]["frustum"], case["per"][m]
-                noise = cl.boot_std(lambda x, y: x.mean() / y.mean(), a, b)
-                yield {**case, "m": m, "r": a.mean() / b.mean(), "noise": noise}
+    case = _case(frames, params)
+    for m in (MOC, HIZ):
+        if m in case["ms"] and "frustum" in case["ms"]:
+            a, b = case["per"]["frustum"], case["per"][m]
+            noise = cl.boot_std(lambda x, y: x.mean() / y.mean(), a, b)
+            yield dict(case, m=m, r=a.mean() / b.mean(), noise=noise)
 
 
 def _gain(frames, params):
     """The query method with and without frustum culling (depth test on), frame by frame."""
-    for case in _flight(frames, params):
-        off = _per_frame(case["df"], QUERY, case["d"], frustum=False)
-        if len(off) and QUERY in case["per"]:
-            r = off / case["per"][QUERY]
-            culled = _one(case["s"], QUERY, case["d"], frustum=False).triangles_culled_pct
-            yield {**case, "ratio": r, "top": float(r.max()), "culled_off": culled}
+    case = _case(frames, params)
+    off = _per_frame(case["df"], QUERY, case["d"], frustum=False)
+    if len(off) and QUERY in case["per"]:
+        r = off / case["per"][QUERY]
+        culled = _one(case["s"], QUERY, case["d"], frustum=False).triangles_culled_pct
+        yield dict(case, ratio=r, top=float(r.max()), culled_off=culled)
 
 
 def _packets(frames, params):
     """The queries against queries-batched at the display resolution, per frame."""
-    for case in _flight(frames, params):
-        pk, qu = _rows(case["df"], PACKETS, case["d"]), _rows(case["df"], QUERY, case["d"])
-        if len(pk):
-            a, b = qu.ms_total.to_numpy(float), pk.ms_total.to_numpy(float)
-            noise = cl.boot_std(lambda x, y: x.mean() - y.mean(), a, b)
-            yield {**case, "pk": pk, "qu": qu, "faster": a.mean() - b.mean(), "noise": noise}
+    case = _case(frames, params)
+    pk, qu = _rows(case["df"], PACKETS, case["d"]), _rows(case["df"], QUERY, case["d"])
+    if len(pk):
+        a, b = qu.ms_total.to_numpy(float), pk.ms_total.to_numpy(float)
+        noise = cl.boot_std(lambda x, y: x.mean() - y.mean(), a, b)
+        yield dict(case, pk=pk, qu=qu, faster=a.mean() - b.mean(), noise=noise)
 
 
 def _column_why(q) -> str:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import time
 from collections.abc import Iterable, Sequence
 from contextlib import ExitStack
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -34,13 +34,8 @@ class RunSpec:
     resolution: tuple[int, int]
     frustum: bool = True
     depth_test: bool = True
-    draw: bool = False
+    draw: bool = field(default=False, compare=False)  # the same run, drawn or not
     options: tuple = ()  # (name, value) pairs, e.g. (("conservative", True),)
-
-    @property
-    def key(self) -> tuple:
-        """Identity of the run (everything but ``draw``)."""
-        return (self.method, tuple(self.resolution), self.frustum, self.depth_test, self.options)
 
     @property
     def label(self) -> str:
@@ -53,10 +48,10 @@ class RunSpec:
 
 def merge_specs(specs: Iterable[RunSpec]) -> list[RunSpec]:
     """Unique runs in first-seen order; a run is drawn when any request asked for drawing."""
-    out: dict[tuple, RunSpec] = {}
+    out: dict[RunSpec, RunSpec] = {}
     for s in specs:
-        prev = out.get(s.key)
-        out[s.key] = s if prev is None else replace(prev, draw=prev.draw or s.draw)
+        first = out.setdefault(s, s)
+        out[s] = replace(first, draw=first.draw or s.draw)
     return list(out.values())
 
 

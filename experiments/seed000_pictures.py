@@ -1,10 +1,8 @@
-"""Seed 000's pictures (Abb. 1, 4, 6, 7), rendered by our own GL renderer into DataFrames and
-drawn from them with matplotlib. Abb. 1: the objects the query method keeps (their AABBs
-outlined in red) beside those it classifies occluded, drawn alone; Abb. 4: only the occluders,
-only the rest; Abb. 6: a frame and its occluder depth buffer (world distance, grey); Abb. 7:
-the flight over a top view of the AABB footprints. A rendered image is kept as base64 PNG text
-in one row per panel, averaged down to at most :data:`STORED_WIDTH` px wide, so the pictures are
-data like the rest.
+"""Seed 000's pictures, rendered by our own GL renderer into DataFrames and drawn from them with
+matplotlib: Abb. 1 (what the query method keeps, AABBs in red, beside what it culls, drawn
+alone), Abb. 4 (the occluders alone, the rest alone), Abb. 6 (a frame and its occluder depth
+buffer) and Abb. 7 (the flight over a top view of the AABB footprints). Each rendered panel is
+a row holding a base64 PNG, at most :data:`STORED_WIDTH` px wide: pictures are data too.
 """
 
 from __future__ import annotations
@@ -79,12 +77,10 @@ def occluder_depth(scene, camera) -> np.ndarray:
 def render(scene, cameras: Sequence, frame: int, *, bar=None) -> dict[str, pd.DataFrame]:
     """Render Abb. 1, 4, 6 at camera ``frame`` and tabulate Abb. 7's flight and boxes.
 
-    ``pictures``: one row per panel — ``picture``, ``panel``, ``title``, ``frame``,
-    ``objects`` (drawn in it), ``png``; Abb. 1's ``false_culls`` (against the oracle) and
-    Abb. 6's ``depth_min``/``depth_max`` (the distances grey 0/254 stand for; 255: no
-    occluder). ``cameras``: eye and forward x, z per frame; ``boxes``: AABB footprints
-    ``x0, z0, x1, z1`` and ``occluder``.
-    """
+    ``pictures``: a row per panel (``picture``, ``panel``, ``title``, ``frame``, ``objects``
+    drawn, ``png``; Abb. 1's ``false_culls`` against the oracle; Abb. 6's ``depth_min``/
+    ``depth_max``: the distances grey 0/254 stand for, 255 = no occluder); ``cameras``: eye
+    and view direction (x, z) per frame; ``boxes``: AABB footprints and ``occluder``."""
     import soc
     from soc.gl.context import default_context
     from soc.rendering.renderer import Renderer
