@@ -1,11 +1,7 @@
-"""The numbers seed 000 (OpenGL occlusion culling on Mesa in Intel's SOC framework) reports,
-as data, so that every table and plot can put them beside ours.
-
-Source: ``seeds/000_6ce7f5d2788bd2fd.txt`` as digested in ``SPEC.md`` (Abb. 8 table, Abb. 9
-table, the claims in the text). Scene of the document: Intel's castle + marketplace, 115
-occluders with 48,700 triangles, 27,025 occludees with about 1,923,000 triangles, a 100-frame
-flight, display 1920×1080.
-"""
+"""The numbers seed 000 (OpenGL occlusion culling on Mesa in Intel's SOC framework) reports, as
+data to put beside ours: ``seeds/000_6ce7f5d2788bd2fd.txt`` as digested in ``SPEC.md`` (Abb. 8
+and Abb. 9 tables, the claims in the text). Its scene: Intel's castle + marketplace, a 100-frame
+flight at 1920×1080."""
 
 from __future__ import annotations
 
@@ -13,16 +9,7 @@ SCENE = {"objects": 27025, "occluders": 115, "occluder_triangles": 48700, "trian
 FRAMES = 100
 DISPLAY = (1920, 1080)
 
-# Abb. 8 (right) and its table: the OGL (occlusion query) method at six depth resolutions,
-# averages over the 100 frames.
-DEPTH_RESOLUTIONS: tuple[tuple[int, int], ...] = (
-    (320, 192),
-    (640, 360),
-    (1280, 720),
-    (1920, 1080),
-    (2432, 1440),
-    (3840, 2160),
-)
+# Abb. 8 (right) and its table: the OGL (query) method per depth resolution, 100-frame means.
 ABB8: dict[tuple[int, int], dict[str, float]] = {
     (320, 192): {"triangles_culled_pct": 51.88, "draw_calls": 3640,
                  "models_culled": 23795.46, "models_visible": 3229.54},
@@ -37,6 +24,7 @@ ABB8: dict[tuple[int, int], dict[str, float]] = {
     (3840, 2160): {"triangles_culled_pct": 75.03, "draw_calls": 2602,
                    "models_culled": 24718.0, "models_visible": 2307.0},
 }  # fmt: skip
+DEPTH_RESOLUTIONS: tuple[tuple[int, int], ...] = tuple(ABB8)
 
 # Abb. 9: the stage switches at 1920×1080 (MT = llvmpipe multithreading, always on here).
 # The last column's values in brackets in the document are the Abb. 8 run (43.81 %, …).
@@ -50,7 +38,7 @@ ABB9: dict[str, dict[str, float]] = {
                               "models_culled": 19728.07, "models_visible": 7296.93},
 }  # fmt: skip
 
-# The quantities of both tables, with the labels the document uses.
+# The quantities of both tables, with the document's labels.
 QUANTITIES: dict[str, str] = {
     "triangles_culled_pct": "triangles culled %",
     "draw_calls": "draw calls",
@@ -58,21 +46,16 @@ QUANTITIES: dict[str, str] = {
     "models_visible": "models visible",
 }
 
-# The document cites Hasselgren et al. for MOC vs HiZ; its own comparison with MOC is a
-# placeholder (after Abb. 8/9), so our row (masked on the same flight) goes beyond it.
+# Its own comparison with MOC is a placeholder (after Abb. 8/9): our masked row goes beyond it.
 MOC_COMPARISON_MISSING = "VERGLEICH MIT MOC FEHLT NOCH"
-# Hasselgren et al. as cited: MOC culls 2 % fewer triangles than HiZ and is still faster.
-MOC_FEWER_PCT = 2.0
-# The document ran its OGL method at 1920×1080 twice (Abb. 9's last column: 43.88 %, with
-# Abb. 8's 43.81 % in brackets): its own repeat spread of % triangles culled, percentage points.
+MOC_FEWER_PCT = 2.0  # Hasselgren et al. as cited: MOC culls 2 % fewer triangles than HiZ
+# Its OGL method at 1920×1080 ran twice (Abb. 9: 43.88 %, Abb. 8: 43.81 %): its own repeat
+# spread of % triangles culled, percentage points.
 REPEAT_PP = round(abs(ABB9["MT+Frustum+Depth test"]["triangles_culled_pct"]
                       - ABB8[(1920, 1080)]["triangles_culled_pct"]), 2)  # fmt: skip
-# «eine enorme Leistungssteigerung von teilweise über 200%» (frustum culling inside the OGL
-# method): a gain of 200 % is three times the frame rate.
+# «Leistungssteigerung von teilweise über 200%» by frustum culling: three times the frame rate.
 FRUSTUM_GAIN = 3.0
-# Future work: «Occludee zu Paketen schnüren und als Paket hochladen. Ziel ist es, weniger
-# Occlusion Queries bei gleichem Ergebnis zu generieren und dadurch an Performance zu gewinnen.»
-PACKETS = (
+PACKETS = (  # its future work
     "Occludee zu Paketen schnüren und als Paket hochladen. Ziel ist es, weniger Occlusion "
     "Queries bei gleichem Ergebnis zu generieren und dadurch an Performance zu gewinnen."
 )
@@ -81,11 +64,8 @@ PACKETS = (
 def document_column(
     resolution: tuple[int, int], display: tuple[int, int], tolerance: float = 0.05
 ) -> tuple[int, int] | None:
-    """The document's depth resolution whose ratio to 1920×1080 matches ``resolution``'s ratio
-    to ``display`` (within ``tolerance`` in width and height), or None.
-
-    Lets a quick run at a quarter of the resolution line up with the document's columns.
-    """
+    """The document's depth resolution whose ratio to 1920×1080 matches ``resolution``'s to
+    ``display`` (within ``tolerance``), or None: a quick run's columns line up with its own."""
     sx = resolution[0] / display[0] * DISPLAY[0]
     sy = resolution[1] / display[1] * DISPLAY[1]
     for r in DEPTH_RESOLUTIONS:

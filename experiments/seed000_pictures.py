@@ -1,16 +1,8 @@
-"""Seed 000's pictures (Abb. 1, 4, 6, 7), rendered by our own GL renderer into DataFrames and
-drawn from them with matplotlib:
-
-- Abb. 1: a frame with red AABB outlines of the objects the query method keeps; beside it, the
-  objects it classifies occluded (in the frustum, culled by the depth test), drawn alone.
-- Abb. 4: the same camera drawing only the occluders, and only the other objects.
-- Abb. 6: a frame and its occluder depth buffer (linearized to world distance, grey).
-- Abb. 7: the flight over a top view of the scene (AABB footprints), start / mid / exit
-  marked and view directions drawn as arrows.
-
-A rendered image is kept as a PNG (base64 text) in one row per picture panel, so that the
-pictures are data like the rest and are drawn from the frames alone; images wider than
-:data:`STORED_WIDTH` are averaged down by an integer factor first.
+"""Seed 000's pictures, rendered by our own GL renderer into DataFrames and drawn from them with
+matplotlib: Abb. 1 (what the query method keeps, AABBs in red, beside what it culls, drawn
+alone), Abb. 4 (the occluders alone, the rest alone), Abb. 6 (a frame and its occluder depth
+buffer) and Abb. 7 (the flight over a top view of the AABB footprints). Each rendered panel is
+a row holding a base64 PNG, at most :data:`STORED_WIDTH` px wide: pictures are data too.
 """
 
 from __future__ import annotations
@@ -28,6 +20,7 @@ QUERY_METHOD = "queries"
 STORED_WIDTH = 960  # px: a panel is ~880 px wide in the 16-inch, 110-dpi figures
 ARROWS = 12  # view-direction arrows along the flight in Abb. 7
 PICTURES = 3  # rendered pictures (progress-bar steps)
+PANELS = ("abb1", "abb1", "abb4", "abb4", "abb6")  # the rendered panels' pictures
 
 
 def telling_frame(frames: pd.DataFrame) -> int:
@@ -59,15 +52,8 @@ def decode(text: str) -> np.ndarray:
     return imread(io.BytesIO(base64.b64decode(text)), format="png")
 
 
-def _render(renderer, camera, ids: np.ndarray, outline: np.ndarray | None = None) -> np.ndarray:
-    renderer.draw(camera, ids)
-    if outline is not None:
-        renderer.draw_outlines(camera, outline, (1.0, 0.0, 0.0, 1.0))
-    return renderer.image()
-
-
 def occluder_depth(scene, camera) -> np.ndarray:
-    """(H, W) float64 eye distance (world units) in the occluder depth buffer at the camera's
+    """(H, W) eye distance (world units) in the occluder depth buffer at the camera's
     resolution, top row first; NaN where no occluder was drawn."""
     import soc
     from soc.culling.depth_prepass import DepthTarget, render_occluders
@@ -91,147 +77,82 @@ def occluder_depth(scene, camera) -> np.ndarray:
 def render(scene, cameras: Sequence, frame: int, *, bar=None) -> dict[str, pd.DataFrame]:
     """Render Abb. 1, 4, 6 at camera ``frame`` and tabulate Abb. 7's flight and boxes.
 
-    Returns
-    -------
-    dict of DataFrame
-        ``pictures``: one row per panel — ``picture`` (``abb1``/``abb4``/``abb6``), ``panel``,
-        ``title``, ``frame``, ``objects`` (drawn in it), ``png`` (base64), ``depth_min``/
-        ``depth_max`` (world units that grey 0/254 stand for; Abb. 6's depth panel only; 255
-        = no occluder), ``false_culls`` (Abb. 1: against the oracle at this resolution);
-        ``cameras``: ``frame``, ``eye_x``/``eye_z``, ``forward_x``/``forward_z``;
-        ``boxes``: AABB footprints ``x0, z0, x1, z1`` and ``occluder``.
-    """
+    ``pictures``: a row per panel (``picture``, ``panel``, ``title``, ``frame``, ``objects``
+    drawn, ``png``; Abb. 1's ``false_culls`` against the oracle; Abb. 6's ``depth_min``/
+    ``depth_max``: the distances grey 0/254 stand for, 255 = no occluder); ``cameras``: eye
+    and view direction (x, z) per frame; ``boxes``: AABB footprints and ``occluder``."""
     import soc
     from soc.gl.context import default_context
     from soc.rendering.renderer import Renderer
 
+    tick = bar.update if bar is not None else lambda n: None
     cam = cameras[frame]
     with soc.Culler(scene, QUERY_METHOD, cam.resolution) as culler:
         result = culler.cull(cam)
     with soc.Oracle(scene) as oracle:
-        truth = oracle.visible(cam)
+        false_culls = int((oracle.visible(cam) & ~result.visible).sum())
     in_frustum = soc.aabbs_in_frustum(scene.aabbs, cam.planes)
-    kept = result.visible_ids
-    occluded = np.flatnonzero(in_frustum & ~result.visible)
-    false_culls = int((truth & ~result.visible).sum())
-    occ = np.flatnonzero(scene.occluder)
-    rest = np.flatnonzero(~scene.occluder)
+    kept, occluded = result.visible_ids, np.flatnonzero(in_frustum & ~result.visible)
+    occ, rest = np.flatnonzero(scene.occluder), np.flatnonzero(~scene.occluder)
     tri = scene.triangle_counts
+    drawn = [kept, occluded, occ, rest, np.arange(len(scene))]
+    titles = [
+        f"kept by '{QUERY_METHOD}' ({len(kept):,} objects; red: their AABBs; "
+        f"{int((~in_frustum).sum()):,} outside the frustum)",
+        f"classified occluded ({len(occluded):,} objects in the frustum), drawn alone; false "
+        f"culls vs oracle: {false_culls}",
+        f"occluders only ({len(occ):,} objects, {int(tri[occ].sum()):,} triangles)",
+        f"occludees only ({len(rest):,} objects, {int(tri[rest].sum()):,} triangles)",
+        "frame (all objects)",
+    ]
+    rows = []
     r = Renderer(default_context().geometry(scene), cam.resolution)
     try:
-        images = [
-            (
-                "abb1",
-                f"kept by '{QUERY_METHOD}' ({len(kept):,} objects; red: their AABBs; "
-                f"{int((~in_frustum).sum()):,} outside the frustum)",
-                kept,
-                _render(r, cam, kept, outline=kept),
-            ),
-            (
-                "abb1",
-                f"classified occluded ({len(occluded):,} objects in the frustum), drawn "
-                f"alone; false culls vs oracle: {false_culls}",
-                occluded,
-                _render(r, cam, occluded),
-            ),
-        ]
-        if bar is not None:
-            bar.update(1)
-        images += [
-            (
-                "abb4",
-                f"occluders only ({len(occ):,} objects, {int(tri[occ].sum()):,} triangles)",
-                occ,
-                _render(r, cam, occ),
-            ),
-            (
-                "abb4",
-                f"occludees only ({len(rest):,} objects, {int(tri[rest].sum()):,} triangles)",
-                rest,
-                _render(r, cam, rest),
-            ),
-        ]
-        if bar is not None:
-            bar.update(1)
-        every = np.arange(len(scene))
-        images.append(("abb6", "frame (all objects)", every, _render(r, cam, every)))
+        for i, (p, t, ids) in enumerate(zip(PANELS, titles, drawn, strict=True)):
+            r.draw(cam, ids)
+            if i == 0:  # the kept objects' AABBs
+                r.draw_outlines(cam, ids, (1.0, 0.0, 0.0, 1.0))
+            rows.append(dict(picture=p, panel=i % 2, title=t, frame=frame, objects=len(ids)))
+            rows[-1]["png"] = encode(r.image())
+            if i in (1, 3):
+                tick(1)
     finally:
         r.release()
-    rows = [
-        {
-            "picture": p,
-            "panel": i % 2,
-            "title": t,
-            "frame": frame,
-            "objects": len(ids),
-            "png": encode(img),
-        }
-        for i, (p, t, ids, img) in enumerate(images)
-    ]
     rows[0]["false_culls"] = rows[1]["false_culls"] = false_culls
     depth = occluder_depth(scene, cam)
     lo, hi = (np.nanmin(depth), np.nanmax(depth)) if np.isfinite(depth).any() else (0.0, 1.0)
     grey = np.where(np.isnan(depth), 255, np.round(254 * (depth - lo) / max(hi - lo, 1e-9)))
-    rows.append(
-        {
-            "picture": "abb6",
-            "panel": 1,
-            "frame": frame,
-            "objects": int(scene.occluder.sum()),
-            "title": f"occluder depth buffer {res_str(cam.resolution)} (dark = near; white = "
-            "no occluder)",
-            "png": encode(grey.astype(np.uint8)),
-            "depth_min": lo,
-            "depth_max": hi,
-        }
-    )
-    if bar is not None:
-        bar.update(1)
-    boxes = scene.aabbs.astype(np.float64)
-    return {
-        "pictures": pd.DataFrame(rows),
-        "cameras": pd.DataFrame(
-            {
-                "frame": np.arange(len(cameras)),
-                "eye_x": [c.eye[0] for c in cameras],
-                "eye_z": [c.eye[2] for c in cameras],
-                "forward_x": [c.forward[0] for c in cameras],
-                "forward_z": [c.forward[2] for c in cameras],
-            }
-        ),
-        "boxes": pd.DataFrame(
-            {
-                "x0": boxes[:, 0, 0],
-                "z0": boxes[:, 0, 2],
-                "x1": boxes[:, 1, 0],
-                "z1": boxes[:, 1, 2],
-                "occluder": np.asarray(scene.occluder, bool),
-            }
-        ),
-    }
+    t = f"occluder depth buffer {res_str(cam.resolution)} (dark = near; white = no occluder)"
+    rows.append(dict(picture="abb6", panel=1, frame=frame, objects=int(scene.occluder.sum())))
+    rows[-1].update(title=t, png=encode(grey.astype(np.uint8)), depth_min=lo, depth_max=hi)
+    tick(1)
+    eye_fwd = np.array([[c.eye[0], c.eye[2], c.forward[0], c.forward[2]] for c in cameras])
+    cams = pd.DataFrame(eye_fwd, columns=["eye_x", "eye_z", "forward_x", "forward_z"])
+    cams = cams.rename_axis("frame").reset_index()
+    boxes = scene.aabbs.astype(np.float64)[:, :, [0, 2]].reshape(-1, 4)
+    boxes = pd.DataFrame(boxes, columns=["x0", "z0", "x1", "z1"])
+    boxes["occluder"] = np.asarray(scene.occluder, bool)
+    return {"pictures": pd.DataFrame(rows), "cameras": cams, "boxes": boxes}
 
 
 # -- drawing from the frames -------------------------------------------------------------------
 
 
-def _pair(frames, params, picture: str, suptitle: str):
+def _pair(frames, picture: str, suptitle: str):
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
     from matplotlib.figure import Figure
 
     rows = frames["pictures"].query("picture == @picture").sort_values("panel")
     images = [decode(t) for t in rows.png]
     h, w = images[0].shape[:2]
     fig = Figure(figsize=(16, 16 / 2 * h / w + 0.9), layout="constrained")
-    for ax, img, (_, row) in zip(
-        fig.subplots(1, len(images)), images, rows.iterrows(), strict=True
-    ):
-        if "depth_min" in row and np.isfinite(row.get("depth_min", np.nan)):
-            from matplotlib.cm import ScalarMappable
-            from matplotlib.colors import Normalize
-
+    axes = fig.subplots(1, len(images))
+    for ax, img, (_, row) in zip(axes, images, rows.iterrows(), strict=True):
+        if np.isfinite(row.get("depth_min", np.nan)):  # a depth buffer, in world distance
             ax.imshow(img[..., 0] if img.ndim == 3 else img, cmap="gray", vmin=0, vmax=1)
-            norm = Normalize(
-                row.depth_min, row.depth_min + (row.depth_max - row.depth_min) * 255 / 254
-            )
+            lo, hi = row.depth_min, row.depth_max
+            norm = Normalize(lo, lo + (hi - lo) * 255 / 254)
             label = "distance from the eye (world units)"
             fig.colorbar(ScalarMappable(norm, "gray"), ax=ax, shrink=0.8, label=label)
         else:
@@ -247,19 +168,19 @@ def plot_abb1(frames, params):
     """Abb. 1: left, the frame drawn from the objects the query method keeps, their AABBs
     outlined in red; right, the objects in the frustum that it classified occluded, drawn
     alone (false culls: of those, visible in the exact id render)."""
-    return _pair(frames, params, "abb1", "Seed 000 Abb. 1 — kept / classified occluded")
+    return _pair(frames, "abb1", "Seed 000 Abb. 1 — kept / classified occluded")
 
 
 def plot_abb4(frames, params):
     """Abb. 4: the same camera drawing only the occluders (left) and only the occludees
     (right)."""
-    return _pair(frames, params, "abb4", "Seed 000 Abb. 4 — occluders / occludees")
+    return _pair(frames, "abb4", "Seed 000 Abb. 4 — occluders / occludees")
 
 
 def plot_abb6(frames, params):
     """Abb. 6: the frame with every object (left) and the occluder depth buffer it is culled
     against (right), as distance from the eye: dark = near, white = no occluder."""
-    return _pair(frames, params, "abb6", "Seed 000 Abb. 6 — frame and its depth buffer")
+    return _pair(frames, "abb6", "Seed 000 Abb. 6 — frame and its depth buffer")
 
 
 def plot_abb7(frames, params):
@@ -279,70 +200,32 @@ def plot_abb7(frames, params):
     fig = Figure(figsize=(10, 9.2), layout="constrained")
     ax = fig.subplots()
     big = (hi - lo).prod(1) > 0.25 * np.ptp(np.r_[lo, hi], axis=0).prod()  # would hide all
-    for mask, style in (
-        (
-            big,
-            dict(
-                facecolor="#f4f1ea",
-                edgecolor="#999999",
-                linewidth=0.8,
-                linestyle="--",
-                label="ground / largest objects",
-            ),
-        ),
-        (
-            ~big & ~occluder,
-            dict(facecolor="#9fc5e8", edgecolor="#6fa8dc", linewidth=0.2, label="occludee AABBs"),
-        ),
-        (
-            ~big & occluder,
-            dict(
-                facecolor="#555555",
-                edgecolor="#222222",
-                linewidth=0.4,
-                alpha=0.85,
-                label="occluder AABBs",
-            ),
-        ),
+    for mask, face, edge, width, ls, alpha, label in (
+        (big, "#f4f1ea", "#999999", 0.8, "--", None, "ground / largest objects"),
+        (~big & ~occluder, "#9fc5e8", "#6fa8dc", 0.2, "solid", None, "occludee AABBs"),
+        (~big & occluder, "#555555", "#222222", 0.4, "solid", 0.85, "occluder AABBs"),
     ):
-        ax.add_collection(PolyCollection(quads[mask], **style))
+        style = dict(facecolor=face, edgecolor=edge, linewidth=width, linestyle=ls, alpha=alpha)
+        ax.add_collection(PolyCollection(quads[mask], label=label, **style))
     ax.plot(eyes[:, 0], eyes[:, 1], "-", color="tab:red", lw=1.5, label="camera path")
-    n = len(eyes)
+    n, mid = len(eyes), len(eyes) // 2
     idx = np.arange(0, n, max(1, n // ARROWS))
     span = float(np.ptp(np.r_[lo, hi, eyes], axis=0).max())
     d = fwd[idx] / np.maximum(np.linalg.norm(fwd[idx], axis=1, keepdims=True), 1e-9)
-    ax.quiver(
-        *eyes[idx].T,
-        *d.T,
-        color="tab:red",
-        angles="xy",
-        scale_units="xy",
-        scale=1 / (0.06 * span),
-        width=0.004,
-        label="view direction",
-    )
-    mid = n // 2
+    arrows = dict(angles="xy", scale_units="xy", scale=1 / (0.06 * span), width=0.004)
+    ax.quiver(*eyes[idx].T, *d.T, color="tab:red", label="view direction", **arrows)
     ax.plot(*eyes[0], "o", ms=13, mfc="none", mec="tab:green", mew=2.5, label="start (frame 0)")
-    ax.plot(
-        *eyes[-1],
-        "x",
-        ms=10,
-        color="black",
-        mew=2.5,
-        label=f"exit (frame {n - 1}, same arc as the approach)",
-    )
+    exit_label = f"exit (frame {n - 1}, same arc as the approach)"
+    ax.plot(*eyes[-1], "x", ms=10, color="black", mew=2.5, label=exit_label)
     ax.plot(*eyes[mid], "D", ms=9, color="tab:orange", label=f"mid (frame {mid})")
     for i, name in ((0, "start / exit"), (mid, "mid")):
         ax.annotate(name, eyes[i], textcoords="offset points", xytext=(10, 10), fontsize=10)
     ax.set_aspect("equal")
     ax.autoscale_view()
     ax.invert_yaxis()  # seen from above (+y) with x to the right, +z points down the page
-    ax.set(
-        xlabel="x (world units)",
-        ylabel="z (world units)",
-        title=f"Seed 000 Abb. 7 — the {n}-frame flight over a top view\n"
-        f"{frames['scene'].label.iloc[0]}",
-    )
+    scene = frames["scene"].label.iloc[0]
+    title = f"Seed 000 Abb. 7 — the {n}-frame flight over a top view\n{scene}"
+    ax.set(xlabel="x (world units)", ylabel="z (world units)", title=title)
     # Below the axes: loc="best" weighs every one of the N footprints (minutes for 27,025).
     ax.legend(fontsize=8, ncol=3, loc="upper center", bbox_to_anchor=(0.5, -0.07))
     return fig
