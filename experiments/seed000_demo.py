@@ -548,9 +548,7 @@ def _has(*methods: str):
     return lambda q: set(methods) <= set(q.ms)
 
 
-def _exact(q) -> float:
-    """The noise of counts from a seeded flight: none."""
-    return 0.0
+_EXACT = 0.0  # the noise of counts from a seeded flight
 
 
 def _document_curve(frames):
@@ -614,10 +612,10 @@ CLAIMS = (
             f"other method without false culls {q.best:.1f} %; not compared, culling more than "
             f"the oracle's {q.ideal:.1f} %: {q.beyond}",
             TREND,
-            (Rule(lambda q: q.fc[QUERY], "==", 0, "objects", name="false culls", noise=_exact,
+            (Rule(lambda q: q.fc[QUERY], "==", 0, "objects", name="false culls", noise=_EXACT,
                   flips=(alter("summary", "false_culls", plus=1.0, where=_QUERIES),)),
              Rule(lambda q: q.tri[QUERY] - q.best if q.best == q.best else np.inf, ">=", 0, "pp",
-                  name="culled", noise=_exact,
+                  name="culled", noise=_EXACT,
                   flips=(alter("summary", "triangles_culled_pct", 0.5, _QUERIES),))),
             basis=f"{QUERY} culls no visible object and no fewer triangles than any other method "
             "without false culls that culls no more than the oracle's exact set (counts of a "
@@ -632,7 +630,7 @@ CLAIMS = (
                 f"{m} {q.tri[m]:.1f} %" for m in q.others),
             TREND,
             Rule(lambda q: min(q.tri[m] for m in q.others) - q.tri[MOC], ">", 0, "pp",
-                 noise=_exact, flips=(alter("summary", "triangles_culled_pct", 0.1, _MOC),
+                 noise=_EXACT, flips=(alter("summary", "triangles_culled_pct", 0.1, _MOC),
                                       alter("summary", "triangles_culled_pct", 2.0, _MOC))),
             basis=f"{MOC} culls fewer triangles than every other occlusion culling method (the "
             "document: MOC's alone stand out as worse)",
@@ -649,10 +647,10 @@ CLAIMS = (
             lambda q: ", ".join(f"{res_str(r)} {p:.1f}" for r, p in zip(q.res, q.pct, strict=True)),
             TREND,
             (Rule(lambda q: min((a - b for a, b in itertools.pairwise(q.pct)), default=0.0), ">=",
-                  0, "pp", name="never rises", noise=_exact, flips=(
+                  0, "pp", name="never rises", noise=_EXACT, flips=(
                       alter("summary", "triangles_culled_pct", shuffle=True, where=_QUERIES),)),
              Rule(lambda q: q.pct[0] - q.pct[-1], ">", 0, "pp", name="coarsest over finest",
-                  noise=_exact,
+                  noise=_EXACT,
                   flips=(alter("summary", "triangles_culled_pct", to=75.0, where=_QUERIES),))),
             basis="ours never rises from a coarser to a finer buffer and the coarsest culls more "
             "than the finest (counts: deterministic)",
@@ -668,9 +666,9 @@ CLAIMS = (
         "{o.triangles_culled_pct:.2f} %, {o.models_visible:,.0f} models visible, "
         "{o.draw_calls:,.0f} draw calls, {o.false_culls:.1f} false culls/frame",
         NUMBERS,
-        (Rule(_gap, "<=", doc.REPEAT_PP, "pp", name="gap", noise=_exact, flips=(
+        (Rule(_gap, "<=", doc.REPEAT_PP, "pp", name="gap", noise=_EXACT, flips=(
             alter("summary", "triangles_culled_pct", plus=50.0), _document_curve)),
-         Rule(lambda q: q.step, ">", 0, "pp", name="same step", noise=_exact)),
+         Rule(lambda q: q.step, ">", 0, "pp", name="same step", noise=_EXACT)),
         basis=f"within {doc.REPEAT_PP} pp, the document's own repeat spread (its 1920×1080 run: "
         "43.88 % in Abb. 9, 43.81 % in Abb. 8), and from the coarser column ours moves the way "
         "the document's does (a coincident level is no match)",
@@ -686,7 +684,7 @@ CLAIMS = (
             lambda q: "; ".join(f"{res_str(r)} {o.draw_calls:,.0f} / {o.models_culled:,.0f}"
                                 for r, o in zip(q.res, q.ours, strict=True)),
             TREND,
-            Rule(lambda q: _opposite(q.ours), "==", 0, "steps", noise=_exact, flips=(
+            Rule(lambda q: _opposite(q.ours), "==", 0, "steps", noise=_EXACT, flips=(
                 alter("summary", "draw_calls", shuffle=True, where=_QUERIES),)),
             basis="from each depth resolution to the next, draw calls fall where the models "
             "culled rise and rise where they fall (counts: deterministic; the document finds "
@@ -710,7 +708,7 @@ CLAIMS = (
                                 zip(SWITCHES, _stages(q), strict=True)) + " models culled",
             TREND,
             Rule(lambda q: min(float((b - a).min()) for a, b in itertools.pairwise(_stages(q))),
-                 ">=", 0, "models", noise=_exact, flips=(
+                 ">=", 0, "models", noise=_EXACT, flips=(
                      alter("frames", "models_culled", to=0, where=f"{_QUERIES} and depth_test"),)),
             basis="in every frame each stage culls at least as many models as the one before",
             why="a frame where a later stage culls fewer models",
@@ -720,7 +718,7 @@ CLAIMS = (
         "Abb. 9, {n}", "{dp:.2f} % triangles culled, {dd[draw_calls]:,} draw calls",
         "{o.triangles_culled_pct:.2f} %, {o.draw_calls:,.0f} draw calls",
         NUMBERS,
-        Rule(_gap, "<=", doc.REPEAT_PP, "pp", noise=_exact, flips=(
+        Rule(_gap, "<=", doc.REPEAT_PP, "pp", noise=_EXACT, flips=(
             _document_switches, alter("summary", "triangles_culled_pct", plus=50.0))),
         basis=f"within {doc.REPEAT_PP} pp, the document's own repeat spread",
         why=_switch_why,
@@ -797,7 +795,7 @@ CLAIMS = (
             lambda q: f"{MOC} {_moc_hiz(q)[0]:+.1f} % fewer triangles culled than {HIZ} (cited: "
             f"{doc.MOC_FEWER_PCT:g} %), cull {_moc_hiz(q)[1]:.2f}× faster",
             TREND,
-            (Rule(lambda q: _moc_hiz(q)[0], ">", 0, "%", name="fewer", noise=_exact,
+            (Rule(lambda q: _moc_hiz(q)[0], ">", 0, "%", name="fewer", noise=_EXACT,
                   flips=(alter("summary", "triangles_culled_pct", 2.0, _MOC),
                          cl.chain(alter("summary", "triangles_culled_pct", to=50.0, where=_MOC),
                                   alter("summary", "triangles_culled_pct", to=51.0, where=_HIZ),
@@ -828,12 +826,12 @@ CLAIMS = (
         f"mean frame {q.qu.ms_total.mean():.3g} → {q.pk.ms_total.mean():.3g} ms",
         TREND,
         (Rule(lambda q: q.qu.queries.mean() - q.pk.queries.mean(), ">", 0, "queries",
-              name="fewer queries", noise=_exact, flips=(alter("frames", "queries", 100.0, _PK),)),
+              name="fewer queries", noise=_EXACT, flips=(alter("frames", "queries", 100.0, _PK),)),
          Rule(lambda q: q.pk.triangles_culled_pct.mean() - q.qu.triangles_culled_pct.mean(), ">=",
-              0, "pp", name="same result", noise=_exact,
+              0, "pp", name="same result", noise=_EXACT,
               flips=(alter("frames", "triangles_culled_pct", 0.5, _PK),)),
          Rule(lambda q: q.pk.false_culls.sum(), "==", 0, "objects", name="no false culls",
-              noise=_exact),
+              noise=_EXACT),
          Rule(lambda q: q.faster, ">", 0, "ms", name="faster", noise=lambda q: q.noise,
               flips=(alter("frames", "ms_total", 100.0, _PK),
                      cl.chain(alter("frames", "ms_total", 0.01, _PK),
