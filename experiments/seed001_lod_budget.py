@@ -26,7 +26,7 @@ import pandas as pd
 
 from experiments import harness
 from experiments.claims import IMAGE, MEASURED, TREND, Each, Row, Rule, alter
-from experiments.common import DISPLAY, QUICK_SCALE, UsageError, res_str, scaled
+from experiments.common import DISPLAY, QUICK_SCALE, UsageError, require, res_str, scaled
 from experiments.seed000_pictures import decode, encode
 from lod.budget import STRATEGIES, Strategies, predicted_ms, problem, tune_static_scale
 
@@ -68,15 +68,14 @@ class Params:
 
     def check(self) -> None:
         """:class:`UsageError` for values the run cannot use."""
-        if self.frames < 2:
-            raise UsageError(f"frames must be at least 2, got {self.frames}")
+        require(self, frames=2, display=16)
+        if len(self.display) != 2:
+            raise UsageError(f"display must be WIDTHxHEIGHT, got {self.display}")
         b = self.budget_ms
         if b is not None and not (math.isfinite(b) and b > 0):
             raise UsageError(f"budget_ms must be a positive number, got {self.budget_ms!r}")
         if not 0 < self.budget_fraction <= 1:
             raise UsageError(f"budget_fraction must be in (0, 1], got {self.budget_fraction!r}")
-        if len(self.display) != 2 or min(self.display) < 16:
-            raise UsageError(f"display must be at least 16x16 pixels, got {self.display}")
         if self.meshes is not None:
             folder = Path(self.meshes).expanduser()
             if not folder.is_dir():

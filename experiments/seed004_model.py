@@ -26,7 +26,7 @@ import pandas as pd
 
 from experiments import harness
 from experiments.claims import MEASURED, NUMBERS, TREND, Each, Row, Rule, alter
-from experiments.common import UsageError, res_str
+from experiments.common import UsageError, require, res_str
 
 # Seed 004, Table 1 (SPEC.md "Seed 004"): objects, measured ms, model ms, model error %.
 DOC_OBJECTS = (10, 20, 30, 100, 1000, 5000, 50000, 100000, 300000)
@@ -63,16 +63,9 @@ class Params:
     statistic: str = "min"
 
     def check(self) -> None:
-        if not self.sizes or min(self.sizes) < 1 or len(set(self.sizes)) != len(self.sizes):
-            raise UsageError(f"sizes must be distinct positive integers, got {list(self.sizes)}")
-        if any(s < 1 for s in self.dense_sizes):
-            raise UsageError(f"dense sizes must be positive, got {list(self.dense_sizes)}")
-        if min(self.resolution) < 8:
-            raise UsageError(f"resolution must be at least 8x8, got {res_str(self.resolution)}")
-        if self.repeats < 3:
-            raise UsageError(f"--repeats must be at least 3, got {self.repeats}")
-        if self.seed < 0:
-            raise UsageError(f"--seed must be >= 0, got {self.seed}")
+        require(self, distinct=["sizes"], sizes=1, resolution=8, repeats=3, seed=0)
+        if self.dense_sizes:  # none is fine: no dense scenes
+            require(self, dense_sizes=1)
         if self.statistic not in ("median", "min"):
             raise UsageError(f"--statistic must be median or min, got {self.statistic!r}")
 
@@ -135,35 +128,27 @@ def table_rows(cases: Sequence[Case], frames: dict, constants, statistic: str) -
     from soc.models.perf_model import frame_time, typical_ms
 
     paper_constants = constants.paper_only()
-    doc = {n: i for i, n in enumerate(DOC_OBJECTS)}
+    doc = dict(zip(DOC_OBJECTS, zip(DOC_MEASURED_MS, DOC_MODEL_MS, DOC_ERROR_PCT, strict=True),
+                   strict=True))  # fmt: skip
     rows = []
     for c in cases:
         t = np.asarray(frames[c.name])
         meas = typical_ms(t, statistic)
         ours = frame_time(constants, c.work, OVERLAP)
         paper = frame_time(paper_constants, c.work, "max")
-        i = doc.get(c.objects) if c.kind == "random" else None
-        rows.append(
-            {
-                "kind": c.kind,
-                "objects": c.objects,
-                "triangles": c.work.triangles,
-                "fragments": c.work.fragments,
-                "fragments_gl": c.fragments.rasterized,
-                "fragments_shaded": c.fragments.shaded,
-                "ms_measured": meas,
-                "ms_p25": float(np.percentile(t, 25)),
-                "ms_p75": float(np.percentile(t, 75)),
-                "ms_predicted": ours.total_ms,
-                "error_pct": 100.0 * (ours.total_ms - meas) / meas,
-                "ms_paper_form": paper.total_ms,
-                "error_paper_form_pct": 100.0 * (paper.total_ms - meas) / meas,
-                **{f"ms_{k}": v for k, v in ours.terms_ms.items() if not k.endswith("(H)")},
-                "doc_ms_measured": DOC_MEASURED_MS[i] if i is not None else np.nan,
-                "doc_ms_model": DOC_MODEL_MS[i] if i is not None else np.nan,
-                "doc_error_pct": DOC_ERROR_PCT[i] if i is not None else np.nan,
-            }
-        )
+        no_row = (np.nan,) * 3  # not a Table 1 size
+        doc_ms, doc_model, doc_err = doc.get(c.objects, no_row) if c.kind == "random" else no_row
+        rows.append({
+            "kind": c.kind, "objects": c.objects, "triangles": c.work.triangles,
+            "fragments": c.work.fragments, "fragments_gl": c.fragments.rasterized,
+            "fragments_shaded": c.fragments.shaded, "ms_measured": meas,
+            "ms_p25": float(np.percentile(t, 25)), "ms_p75": float(np.percentile(t, 75)),
+            "ms_predicted": ours.total_ms, "error_pct": 100.0 * (ours.total_ms - meas) / meas,
+            "ms_paper_form": paper.total_ms,
+            "error_paper_form_pct": 100.0 * (paper.total_ms - meas) / meas,
+            **{f"ms_{k}": v for k, v in ours.terms_ms.items() if not k.endswith("(H)")},
+            "doc_ms_measured": doc_ms, "doc_ms_model": doc_model, "doc_error_pct": doc_err,
+        })  # fmt: skip
     return rows
 
 
@@ -175,17 +160,12 @@ def memory_rows(cases: Sequence[Case]) -> list[dict]:
     for c in cases:
         est = geometry_memory(c.scene, c.renderer.resolution)
         got = allocated_memory(c.geometry, c.renderer)
-        rows.append(
-            {
-                "kind": c.kind,
-                "objects": c.objects,
-                **{f"formula_{k}": v for k, v in est.terms.items()},
-                "formula_bytes": est.total,
-                **{f"allocated_{k}": v for k, v in got.items()},
-                "allocated_bytes": sum(got.values()),
-                "match": est.total == sum(got.values()),
-            }
-        )
+        rows.append({
+            "kind": c.kind, "objects": c.objects,
+            **{f"formula_{k}": v for k, v in est.terms.items()}, "formula_bytes": est.total,
+            **{f"allocated_{k}": v for k, v in got.items()}, "allocated_bytes": sum(got.values()),
+            "match": est.total == sum(got.values()),
+        })  # fmt: skip
     return rows
 
 
@@ -227,19 +207,13 @@ def refit_timing(constants, seed: int) -> list[dict]:
         fit = qm.fit_query_model(stats, truth.c_n)
         ms = 1e3 * (time.perf_counter() - t0)
         model = fit.model(truth.c_n, truth.t_c, truth.t_s, truth.t_e)
-        rows.append(
-            {
-                "fit": k,
-                "compiling": k == 0,
-                "ms": ms,
-                "frames": REFIT_FRAMES,
-                "converged": bool(fit.converged),
-                "q_best": qm.best_query_count(model, int(truth.n_0)).q,
-                "q_best_truth": exact,
-                **{c: getattr(fit, c) for c in coefs},
-                **{f"{c}_truth": getattr(truth, c) for c in coefs},
-            }
-        )
+        rows.append({
+            "fit": k, "compiling": k == 0, "ms": ms, "frames": REFIT_FRAMES,
+            "converged": bool(fit.converged),
+            "q_best": qm.best_query_count(model, int(truth.n_0)).q, "q_best_truth": exact,
+            **{c: getattr(fit, c) for c in coefs},
+            **{f"{c}_truth": getattr(truth, c) for c in coefs},
+        })  # fmt: skip
     return rows
 
 

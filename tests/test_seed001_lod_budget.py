@@ -91,16 +91,18 @@ def test_level_greys_darker_means_finer():
 
 
 @pytest.mark.parametrize(
-    "kw",
+    "kw, match",
     [
-        {"frames": 1},
-        {"budget_ms": -5.0},
-        {"budget_ms": float("nan")},
-        {"budget_fraction": 0.0},
-        {"meshes": "/nonexistent/meshes"},
+        ({"frames": 1}, "frames must be at least 2, got 1"),
+        ({"display": (64, 8)}, r"display must be at least 16, got \[64, 8\]"),
+        ({"display": (64,)}, "display must be WIDTHxHEIGHT"),
+        ({"budget_ms": -5.0}, "budget_ms"),
+        ({"budget_ms": float("nan")}, "budget_ms"),
+        ({"budget_fraction": 0.0}, "budget_fraction"),
+        ({"meshes": "/nonexistent/meshes"}, "does not exist"),
     ],
 )
-def test_bad_params_refused_before_the_work(kw, tmp_path):
-    with pytest.raises(UsageError):
+def test_bad_params_refused_before_the_work(kw, match, tmp_path):
+    with pytest.raises(UsageError, match=match):
         harness.run("seed001-lod", quick=True, out=tmp_path, progress=False, **kw)
     assert not list(tmp_path.rglob("*.png"))

@@ -12,6 +12,7 @@ import soc
 from experiments import harness
 from experiments import seed001_lod_quality as q
 from experiments.common import UsageError
+from lod.testing import box_category, measure_screen_size, screen_size_cases
 
 SMALL = q.Params(
     ratios=(1 / 2, 1 / 4, 1 / 8, 1 / 16),
@@ -31,8 +32,8 @@ def simplifier_rows():
 
 @pytest.fixture(scope="module")
 def screen_rows():
-    cases = q.screen_size_cases(30, 6, (192, 144), seed=3)
-    return q.measure_screen_size(cases)
+    cases = screen_size_cases(30, 6, (192, 144), seed=3)
+    return measure_screen_size(cases, min_pixels=q.MIN_PIXELS)
 
 
 # -- simplifiers ----------------------------------------------------------------------------
@@ -129,7 +130,7 @@ def test_relative_errors_are_recomputed_from_the_counts(screen_rows):
 )
 def test_box_category_hand_cases(box, eye, target, near, expected):
     cam = soc.Camera.look_at(eye, target, fov_y=60, width=64, height=48, near=near)
-    assert q.box_category(np.array(box, float), cam) == expected
+    assert box_category(np.array(box, float), cam) == expected
 
 
 # -- the run --------------------------------------------------------------------------------
@@ -164,6 +165,21 @@ def test_tiny_compute_gives_frames_pictures_and_claims():
     melax = c[c.item.str.startswith("Melax")]
     assert len(melax) == 2 and (melax.verdict == harness.MEASURED).all()
     assert "curv(U)" in melax.document.iloc[0]
+
+
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        ({"samples": 99}, "samples must be at least 100, got 99"),
+        ({"boxes": 0}, "boxes must be at least 1, got 0"),
+        ({"cams_per_box": 0}, "cams_per_box must be at least 1, got 0"),
+        ({"ratios": (1 / 2, 1.0)}, r"ratios must lie in \(0, 1\)"),
+        ({"picture_ratio": 1 / 3}, "picture_ratio must be one of ratios"),
+    ],
+)
+def test_bad_params_refused(kw, match):
+    with pytest.raises(UsageError, match=match):
+        harness.get("lod-quality").make_params(True, **kw).check()
 
 
 def test_missing_meshes_refused_before_the_work(tmp_path):

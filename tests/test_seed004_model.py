@@ -135,17 +135,23 @@ def test_document_rows_are_self_consistent():
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        ({"sizes": (0, 10)}, "sizes"),
-        ({"sizes": (10, 10)}, "sizes"),
-        ({"repeats": 2}, "repeats"),
-        ({"resolution": (4, 300)}, "resolution"),
-        ({"dense_sizes": (-5,)}, "dense"),
+        ({"sizes": (0, 10)}, r"sizes must be at least 1, got \[0, 10\]"),
+        ({"sizes": ()}, r"sizes must be at least 1, got \[\]"),
+        ({"sizes": (10, 10)}, r"sizes must not repeat a value, got \[10, 10\]"),
+        ({"repeats": 2}, "repeats must be at least 3, got 2"),
+        ({"resolution": (4, 300)}, r"resolution must be at least 8, got \[4, 300\]"),
+        ({"dense_sizes": (-5,)}, r"dense_sizes must be at least 1, got \[-5\]"),
+        ({"seed": -1}, "seed must be at least 0, got -1"),
         ({"statistic": "mean"}, "statistic"),
     ],
 )
 def test_bad_parameters_are_refused(kwargs, match):
     with pytest.raises(UsageError, match=match):
         EXP.make_params(True, **kwargs).check()
+
+
+def test_no_dense_scenes_is_a_valid_choice():
+    EXP.make_params(True, dense_sizes=()).check()
 
 
 def test_command_refuses_bad_values_before_writing(tmp_path, capsys):

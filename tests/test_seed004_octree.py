@@ -85,8 +85,12 @@ def test_pictures_draw_from_the_frames(tiny):
 
 @pytest.mark.parametrize(
     "kwargs, match",
-    [({"scenes": ("scene9",)}, "unknown scene 'scene9'"), ({"frames": 3}, "frames"),
-     ({"objects": 10}, "objects"), ({"nodes_checked": (0,)}, "nodes checked")],
+    [({"scenes": ("scene9",)}, "unknown scene 'scene9'"),
+     ({"frames": 3}, "frames must be at least 10, got 3"),
+     ({"objects": 10}, "objects must be at least 1000, got 10"),
+     ({"nodes_checked": (0,)}, r"nodes_checked must be at least 1, got \[0\]"),
+     ({"nodes_checked": ()}, r"nodes_checked must be at least 1, got \[\]"),
+     ({"scale": 0.0}, "scale must be positive, got 0.0")],
 )  # fmt: skip
 def test_bad_parameters_are_refused(kwargs, match):
     with pytest.raises(UsageError, match=match):
