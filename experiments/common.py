@@ -5,6 +5,8 @@ only the entry points (the CLI, notebooks) read the environment.
 
 from __future__ import annotations
 
+import base64
+import io
 import json
 import math
 import os
@@ -123,6 +125,38 @@ def require(params: Any, *, distinct: Sequence[str] = (), **at_least: float) -> 
         values = list(getattr(params, name))
         if len(set(values)) != len(values):
             raise UsageError(f"{name} must not repeat a value, got {values}")
+
+
+# -- pictures as data and fits -------------------------------------------------------------------
+
+STORED_WIDTH = 960  # px: a panel is ~880 px wide in the 16-inch, 110-dpi figures
+
+
+def encode(img: np.ndarray) -> str:
+    """(H, W[, 3]) uint8 image → base64 PNG text, averaged down to at most
+    :data:`STORED_WIDTH` px wide."""
+    from matplotlib.image import imsave
+
+    k = -(-img.shape[1] // STORED_WIDTH)
+    if k > 1:
+        h, w = img.shape[0] // k * k, img.shape[1] // k * k
+        blocks = img[:h, :w].reshape(h // k, k, w // k, k, *img.shape[2:]).astype(np.float32)
+        img = blocks.mean(axis=(1, 3)).round().astype(np.uint8)
+    buf = io.BytesIO()
+    imsave(buf, img, format="png", cmap="gray" if img.ndim == 2 else None, vmin=0, vmax=255)
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def decode(text: str) -> np.ndarray:
+    """Base64 PNG text → (H, W, C) float image in [0, 1]."""
+    from matplotlib.image import imread
+
+    return imread(io.BytesIO(base64.b64decode(text)), format="png")
+
+
+def loglog_slope(x: Sequence[float], y: Sequence[float]) -> float:
+    """Least-squares slope of log y against log x (the exponent of a power law)."""
+    return float(np.polyfit(np.log(np.asarray(x, float)), np.log(np.asarray(y, float)), 1)[0])
 
 
 # -- resolutions -------------------------------------------------------------------------------

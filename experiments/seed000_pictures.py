@@ -7,17 +7,14 @@ a row holding a base64 PNG, at most :data:`STORED_WIDTH` px wide: pictures are d
 
 from __future__ import annotations
 
-import base64
-import io
 from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
 
-from experiments.common import res_str
+from experiments.common import decode, encode, res_str
 
 QUERY_METHOD = "queries"
-STORED_WIDTH = 960  # px: a panel is ~880 px wide in the 16-inch, 110-dpi figures
 ARROWS = 12  # view-direction arrows along the flight in Abb. 7
 PICTURES = 3  # rendered pictures (progress-bar steps)
 PANELS = ("abb1", "abb1", "abb4", "abb4", "abb6")  # the rendered panels' pictures
@@ -28,28 +25,6 @@ def telling_frame(frames: pd.DataFrame) -> int:
     occlusion-culled (max of min) in the query method's per-frame rows; earliest on ties."""
     score = np.minimum(frames["models_visible"], frames["occlusion_culled"]).to_numpy()
     return int(frames["frame"].to_numpy()[int(np.argmax(score))])
-
-
-def encode(img: np.ndarray) -> str:
-    """(H, W[, 3]) uint8 image → base64 PNG text, averaged down to at most
-    :data:`STORED_WIDTH` px wide."""
-    from matplotlib.image import imsave
-
-    k = -(-img.shape[1] // STORED_WIDTH)
-    if k > 1:
-        h, w = img.shape[0] // k * k, img.shape[1] // k * k
-        blocks = img[:h, :w].reshape(h // k, k, w // k, k, *img.shape[2:]).astype(np.float32)
-        img = blocks.mean(axis=(1, 3)).round().astype(np.uint8)
-    buf = io.BytesIO()
-    imsave(buf, img, format="png", cmap="gray" if img.ndim == 2 else None, vmin=0, vmax=255)
-    return base64.b64encode(buf.getvalue()).decode("ascii")
-
-
-def decode(text: str) -> np.ndarray:
-    """Base64 PNG text → (H, W, C) float image in [0, 1]."""
-    from matplotlib.image import imread
-
-    return imread(io.BytesIO(base64.b64decode(text)), format="png")
 
 
 def occluder_depth(scene, camera) -> np.ndarray:

@@ -25,8 +25,7 @@ import pandas as pd
 
 from experiments import harness
 from experiments.claims import IMAGE, NUMBERS, TREND, Each, Row, Rule, alter, holds_text
-from experiments.common import QUICK_OCCLUDEES, UsageError, require, res_str
-from experiments.seed000_pictures import decode, encode
+from experiments.common import QUICK_OCCLUDEES, UsageError, decode, encode, require, res_str
 
 FRAMES = ("stereo", "warp", "timing", "composite", "scene", "pictures")
 MOVERS = 0.03  # fraction of the market's occludees that move (drawn from the larger half)

@@ -26,8 +26,16 @@ import pandas as pd
 
 from experiments import harness
 from experiments.claims import IMAGE, MEASURED, TREND, Each, Row, Rule, alter
-from experiments.common import DISPLAY, QUICK_SCALE, UsageError, require, res_str, scaled
-from experiments.seed000_pictures import decode, encode
+from experiments.common import (
+    DISPLAY,
+    QUICK_SCALE,
+    UsageError,
+    decode,
+    encode,
+    require,
+    res_str,
+    scaled,
+)
 from lod.budget import STRATEGIES, Strategies, predicted_ms, problem, tune_static_scale
 
 FRAMES = ("pictures", "budgets", "flight", "summary", "calibration", "model")

@@ -26,7 +26,7 @@ import pandas as pd
 
 from experiments import harness
 from experiments.claims import MEASURED, NUMBERS, TREND, Each, Row, Rule, alter
-from experiments.common import UsageError, require, res_str
+from experiments.common import UsageError, loglog_slope, require, res_str
 
 # Seed 004, Table 1 (SPEC.md "Seed 004"): objects, measured ms, model ms, model error %.
 DOC_OBJECTS = (10, 20, 30, 100, 1000, 5000, 50000, 100000, 300000)
@@ -309,11 +309,6 @@ def plot_table1(frames: dict[str, pd.DataFrame], params: Params):
 # -- claims ---------------------------------------------------------------------------------------
 
 
-def _slope(objects, ms) -> float:
-    """Log-log slope of frame time against objects (least squares)."""
-    return float(np.polyfit(np.log(objects), np.log(ms), 1)[0])
-
-
 def _table1(frames: dict[str, pd.DataFrame], params: Params):
     """The one case: Table 1's random rows (``rnd``), their errors, the growth slopes (ours, per
     round, and the document's over the same sizes) and the measured per-frame constant."""
@@ -323,16 +318,16 @@ def _table1(frames: dict[str, pd.DataFrame], params: Params):
     doc_n = [n for n in DOC_OBJECTS if big.objects.min() <= n <= big.objects.max()]
     doc_ms = [DOC_MEASURED_MS[DOC_OBJECTS.index(n)] for n in doc_n]
     per_round = rounds[(rounds.kind == "random") & (rounds.objects >= 1000)]
-    slopes = [_slope(g.objects, g.ms) for _, g in per_round.groupby("round") if len(g) >= 2]
+    slopes = [loglog_slope(g.objects, g.ms) for _, g in per_round.groupby("round") if len(g) >= 2]
     const = frames["constants"].set_index("constant").value
     t_frame = float(const.get("T_frame", np.nan))
     yield {
         "rnd": rnd, "big": big, "pf": rnd.error_paper_form_pct.abs(), "ours": rnd.error_pct.abs(),
-        "ours_s": _slope(big.objects, big.ms_measured) if len(big) >= 2 else np.nan,
-        "doc_s": _slope(doc_n, doc_ms) if len(doc_n) >= 2 else np.nan,
+        "ours_s": loglog_slope(big.objects, big.ms_measured) if len(big) >= 2 else np.nan,
+        "doc_s": loglog_slope(doc_n, doc_ms) if len(doc_n) >= 2 else np.nan,
         "s_noise": float(np.std(slopes)) if len(slopes) >= 3 else None, "rounds": len(slopes),
         "t_frame": t_frame, "mem": frames["memory"], "fits": frames["refit"],
-        "net_s": _slope(big.objects, (big.ms_measured - t_frame).clip(lower=1e-6))
+        "net_s": loglog_slope(big.objects, (big.ms_measured - t_frame).clip(lower=1e-6))
         if len(big) >= 2 else np.nan,
     }  # fmt: skip
 

@@ -24,7 +24,7 @@ import pandas as pd
 
 from experiments import harness
 from experiments.claims import MEASURED, NUMBERS, TREND, Each, Row, Rule, alter
-from experiments.common import UsageError, require
+from experiments.common import UsageError, loglog_slope, require
 
 # Seed 004, Table 2 (SPEC.md "Seed 004"): nodes checked → estimated invisible objects, ms.
 DOC_NODES_CHECKED = (10, 20, 30, 100, 300, 1000, 2000, 10000)
@@ -435,10 +435,6 @@ def plot_expensive_nodes(frames: dict[str, pd.DataFrame], params: Params):
 # -- claims ---------------------------------------------------------------------------------------
 
 
-def _loglog(x, y) -> float:
-    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
-
-
 def _table2(frames: dict[str, pd.DataFrame], params: Params):
     """The one case: Table 2 per camera (``t2``) and at the default threshold (``d``: means
     over the cameras), the time slopes (over the budgets where the nodes checked grow), the
@@ -451,7 +447,7 @@ def _table2(frames: dict[str, pd.DataFrame], params: Params):
     first = d[d.estimate > 0].nodes_checked_budget
     grow = d[d.nodes_checked.diff().fillna(1) > 0]
     per_camera = [g[g.nodes_checked.diff().fillna(1) > 0] for _, g in per_cam.groupby("camera")]
-    cam_slopes = [_loglog(g.nodes_checked, g.ms) for g in per_camera if len(g) >= 2]
+    cam_slopes = [loglog_slope(g.nodes_checked, g.ms) for g in per_camera if len(g) >= 2]
     later = frames["frames"][frames["frames"].frame > 0]
     cols = ["ms_buf_h", "ms_buf_s", "dirty_nodes", "commands_recorded", "objects_in_frustum"]
     info = frames["table2_scene"].iloc[0]
@@ -461,10 +457,10 @@ def _table2(frames: dict[str, pd.DataFrame], params: Params):
         "over": int((t2.estimate > t2.true_invisible).sum()),
         "least_step": float(steps.min()) if len(steps) else 0.0,  # < 0: the estimate fell
         "first": f"{int(first.iloc[0]):,}" if len(first) else "none",
-        "slope": _loglog(grow.nodes_checked, grow.ms), "cam_slopes": cam_slopes,
+        "slope": loglog_slope(grow.nodes_checked, grow.ms), "cam_slopes": cam_slopes,
         "s_noise": float(np.std(cam_slopes)) if len(cam_slopes) >= 3 else None,
         "per_node": (d.ms / d.nodes_checked).to_numpy(),
-        "doc_slope": _loglog(DOC_NODES_CHECKED, DOC_MS),
+        "doc_slope": loglog_slope(DOC_NODES_CHECKED, DOC_MS),
         "med": later.groupby("scene", sort=False)[cols].median(),
         "lay": frames["layouts"].groupby("layout", sort=False)[["record_upload_ms", "draw_ms"]]
         .median(),
@@ -485,7 +481,7 @@ def _budgets(frames: dict[str, pd.DataFrame], params: Params):
 _BUDGET = "nodes_checked_budget >= 1000"  # the larger budgets, where our estimate is nonzero
 _SEES = (alter("table2", "false_invisible", plus=1),)  # an object the oracle sees counted
 _FALLS = (alter("table2", "estimate", -1.0, _BUDGET),)  # the estimate falls at large budgets
-_DET = lambda q: 0.0  # noqa: E731  (counts of seeded scenes and the exact oracle: deterministic)
+_DET = 0.0  # counts of seeded scenes and the exact oracle: deterministic
 
 
 # The table is laid out by hand, one row per block (the formatter would spread it out).

@@ -12,7 +12,7 @@ import pytest
 from conftest import cli_usage_error
 
 import soc
-from experiments import cli, harness, seed000_demo, seed000_pictures
+from experiments import cli, common, harness, seed000_demo
 from experiments import seed000_document as doc
 from experiments.common import (
     UsageError,
@@ -163,8 +163,8 @@ def test_pictures_are_not_blank_and_read_back(run):
     pics = run.frames["pictures"]
     assert sorted(pics.picture.unique()) == ["abb1", "abb4", "abb6"]
     assert (pics.loc[pics.picture == "abb1", "false_culls"] == 0).all()
-    img = seed000_pictures.decode(pics.png.iloc[0])
-    assert img.shape[1] <= seed000_pictures.STORED_WIDTH and img.std() > 0
+    img = common.decode(pics.png.iloc[0])
+    assert img.shape[1] <= common.STORED_WIDTH and img.std() > 0
     back = harness.load(run.experiment, run.folder.parent, run.params)
     pd.testing.assert_frame_equal(back.claims, run.claims.astype(str))
 

@@ -198,3 +198,17 @@ def test_require_names_the_field_its_bound_and_the_value():
         assert str(e.value) == needle
     with pytest.raises(UsageError, match=r"sizes must not repeat a value, got \[2, 2\]"):
         require(P(sizes=(2, 2)), distinct=["sizes"])
+
+
+def test_pictures_as_text_round_trip_and_a_power_law_has_its_exponent():
+    import numpy as np
+
+    from experiments.common import STORED_WIDTH, decode, encode, loglog_slope
+
+    img = (np.arange(40 * 2000 * 3) % 251).astype(np.uint8).reshape(40, 2000, 3)
+    back = decode(encode(img))
+    assert back.shape[1] <= STORED_WIDTH and back.shape[1] == 2000 // 3  # averaged down by 3
+    small = np.full((5, 7, 3), 200, np.uint8)
+    assert np.allclose(decode(encode(small))[..., :3] * 255, 200, atol=0.5)
+    x = np.array([10.0, 100.0, 1000.0])
+    assert abs(loglog_slope(x, 3 * x**0.5) - 0.5) < 1e-12
