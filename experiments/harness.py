@@ -56,7 +56,6 @@ NUMBERS, TREND, DIFFERS, IMAGE, MEASURED = claims_mod.VERDICTS
 VERDICTS = claims_mod.VERDICTS
 CLAIM_COLUMNS = claims_mod.COLUMNS
 claim = claims_mod.claim
-fmt = claims_mod.fmt
 
 
 claims_frame = claims_mod.frame_of  # evaluated rows → the claims table
