@@ -6,13 +6,15 @@ with soc.Culler(scene, method="queries", resolution=(1920, 1080)) as culler:
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from soc.gl.context import uses_gl
 from soc.methods import METHODS, CullConfig
 from soc.methods.base import CullMethod, MethodOutput, load_entry_points
 from soc.methods.spec import resolve as resolve_spec
-from soc.metrics import CullResult, frame_stats, gpu_stage
+from soc.metrics import OTHER_STAGE, CullResult, frame_stats, gpu_stage
 from soc.scenes.camera import Camera, _resolution
 
 
@@ -159,9 +161,11 @@ class Culler:
         Returns
         -------
         CullResult
-            ``stats.timings_ms`` holds every stage's wall time; ``stats.gpu_ms`` the same
-            stages on the GL's clock where it is meaningful (``glctx.gpu_clock``), else it is
-            empty and ``stats.gpu_note`` says why ("GL timer not meaningful on llvmpipe").
+            ``stats.timings_ms`` holds every stage's wall time, and as ``"other"`` the
+            method's wall time outside its stages (so ``stats.cull_ms`` is the whole call but
+            the draw); ``stats.gpu_ms`` the same stages on the GL's clock where it is
+            meaningful (``glctx.gpu_clock``), else it is empty and ``stats.gpu_note`` says why
+            ("GL timer not meaningful on llvmpipe").
         """
         if not isinstance(camera, Camera):
             raise TypeError(f"camera must be a soc.Camera, got {type(camera).__name__}")
@@ -169,12 +173,17 @@ class Culler:
         # Every stage of the method (soc.metrics.stage) is also timed on the GL's clock where
         # it is meaningful (GLContext.gpu_clock); read when the frame ends.
         with self.glctx.timed_frame() as clock:
+            t0 = time.perf_counter()
             if draws_frame:
                 out: MethodOutput = self.method.cull(camera, draw=draw)
             else:
                 out = self.method.cull(camera)
+            wall_ms = 1e3 * (time.perf_counter() - t0)
             visible = np.asarray(out.visible, bool)
             timings = dict(out.timings_ms)
+            # The method's work between its timed stages (Python, numpy passes over the
+            # objects) is part of its frame too: the stages alone would hide it.
+            timings[OTHER_STAGE] = max(wall_ms - sum(timings.values()), 0.0)
             if draw and not draws_frame:
                 renderer = self.renderer(camera.resolution)
                 with gpu_stage("draw"):

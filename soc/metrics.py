@@ -12,7 +12,11 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Protocol
 
+import numba
 import numpy as np
+
+# The stage name of a method's wall time outside its timed stages (soc.Culler adds it).
+OTHER_STAGE = "other"
 
 
 @dataclass(frozen=True)
@@ -33,7 +37,9 @@ class FrameStats:
     queries : int
         Occlusion tests issued (GL queries, or boxes tested by a compute pass).
     timings_ms : Mapping[str, float]
-        Wall time per stage, ms, measured with ``ctx.finish()`` around GL work.
+        Wall time per stage, ms, measured with ``ctx.finish()`` around GL work; from
+        :class:`soc.Culler`, also ``"other"`` (:data:`OTHER_STAGE`): the method's wall time
+        outside its stages, so that :attr:`cull_ms` is the whole call but the draw.
     gpu_ms : Mapping[str, float]
         GL timer per stage, ms (``GL_TIMESTAMP`` queries around the stage's GL commands, read
         at the frame's end: the GPU's time from the stage's first command to its last, 0 for a
@@ -116,24 +122,30 @@ def frame_stats(
     gpu_note: str = "",
 ) -> FrameStats:
     """Count a frame's result (``visible`` (N,) bool) into a :class:`FrameStats`."""
-    tri = scene.triangle_counts
-    tri_vis = int(tri[visible].sum())
-    tri_all = int(tri.sum())
-    n_vis = int(visible.sum())
-    false_culls = false_keeps = None
-    if truth is not None:
+    visible = np.asarray(visible, bool)
+    if visible.shape != scene.triangle_counts.shape:
+        raise ValueError(
+            f"visible must have shape {scene.triangle_counts.shape} (one per object), "
+            f"got {visible.shape}"
+        )
+    has_truth = truth is not None
+    if has_truth:
         truth = np.asarray(truth, bool)
         if truth.shape != visible.shape:
             raise ValueError(f"truth must have shape {visible.shape}, got {truth.shape}")
-        false_culls = int((truth & ~visible).sum())
-        false_keeps = int((visible & ~truth).sum())
+    n_vis, tri_vis, tri_all, calls, false_culls, false_keeps = _count_frame(
+        visible, truth if has_truth else visible, has_truth, scene.triangle_counts,
+        scene.mesh_counts,
+    )  # fmt: skip
+    if not has_truth:
+        false_culls = false_keeps = None
     return FrameStats(
         models_visible=n_vis,
         models_culled=len(visible) - n_vis,
         triangles_visible=tri_vis,
         triangles_culled=tri_all - tri_vis,
         triangles_culled_pct=100.0 * (tri_all - tri_vis) / max(tri_all, 1),
-        draw_calls=int(scene.mesh_counts[visible].sum()),
+        draw_calls=calls,
         frustum_culled=int(frustum_culled),
         occlusion_culled=len(visible) - n_vis - int(frustum_culled),
         queries=int(queries),
@@ -144,6 +156,25 @@ def frame_stats(
         triangles_drawn=tri_vis if triangles_drawn is None else int(triangles_drawn),
         gpu_note=gpu_note,
     )
+
+
+@numba.njit(cache=True)
+def _count_frame(visible, truth, has_truth, triangles, meshes):  # pragma: no cover - compiled
+    """One pass over the objects: kept objects, their triangles, all triangles, their draw
+    calls, and against ``truth`` the false culls and false keeps (a frame of 10⁶ objects: one
+    pass instead of six numpy passes and two gathers, ~4 ms)."""
+    n_vis = tri_vis = tri_all = calls = false_culls = false_keeps = 0
+    for i in range(len(visible)):  # branch-free, so that the compiler vectorizes it
+        v, t, k = np.int64(visible[i]), np.int64(truth[i]), triangles[i]
+        tri_all += k
+        n_vis += v
+        tri_vis += k * v
+        calls += meshes[i] * v
+        false_keeps += v * (1 - t)
+        false_culls += t * (1 - v)
+    if not has_truth:
+        false_culls = false_keeps = 0
+    return n_vis, tri_vis, tri_all, calls, false_culls, false_keeps
 
 
 @dataclass(frozen=True)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import ctypes
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -12,6 +13,8 @@ import pytest
 import soc
 from soc.culling.depth_prepass import DepthTarget, render_occluders
 from soc.gl.context import default_context
+from soc.methods import CullMethod, MethodOutput
+from soc.metrics import OTHER_STAGE, frame_stats, stage
 from soc.rendering.renderer import Renderer
 from soc.scenes.clutter import box_mesh, quad
 
@@ -111,13 +114,58 @@ def test_renderer_depth_holds_32_bit_floats():
     assert np.abs(depth - expected).max() <= 1e-6
 
 
+class SlowBetweenStages(CullMethod):
+    """Frustum culling in a 20 ms stage, then 40 ms of work outside any stage."""
+
+    name = "test-slow-between-stages"
+
+    def cull(self, camera):
+        timings: dict[str, float] = {}
+        with stage(timings, "frustum"):
+            keep = soc.aabbs_in_frustum(self.scene.aabbs, camera.planes)
+            time.sleep(0.02)
+        time.sleep(0.04)
+        return MethodOutput(keep, timings_ms=timings)
+
+
+def test_cull_ms_counts_the_work_between_stages():
+    s = soc.scenes.clutter(2)
+    cam = soc.scenes.paths.flight(s, frames=5, width=320, height=180)[1]
+    with soc.Culler(s, SlowBetweenStages, resolution=(320, 180)) as c:
+        st = c.cull(cam).stats
+    assert set(st.timings_ms) == {"frustum", OTHER_STAGE}
+    assert st.timings_ms["frustum"] >= 20 and st.timings_ms[OTHER_STAGE] >= 39
+    assert st.cull_ms >= 60
+
+
+def test_frame_counts_match_numpy_on_random_frames():
+    s = soc.scenes.clutter(3)
+    rng = np.random.default_rng(4)
+    tri, meshes = s.triangle_counts, s.mesh_counts
+    for _ in range(5):
+        visible, truth = rng.random((2, len(s))) < rng.random(2)[:, None]
+        st = frame_stats(s, visible, frustum_culled=0, queries=0, timings_ms={}, truth=truth)
+        assert st.models_visible == visible.sum()
+        assert st.triangles_visible == tri[visible].sum() == st.triangles_drawn
+        assert st.triangles_culled == tri[~visible].sum()
+        assert st.draw_calls == meshes[visible].sum()
+        assert st.false_culls == (truth & ~visible).sum()
+        assert st.false_keeps == (visible & ~truth).sum()
+        no_truth = frame_stats(s, visible, frustum_culled=0, queries=0, timings_ms={})
+        assert no_truth.false_culls is None and no_truth.false_keeps is None
+    with pytest.raises(ValueError, match="one per object"):
+        frame_stats(s, visible[1:], frustum_culled=0, queries=0, timings_ms={})
+    with pytest.raises(ValueError, match="truth must have shape"):
+        frame_stats(s, visible, frustum_culled=0, queries=0, timings_ms={}, truth=truth[1:])
+
+
 def test_culler_reports_stage_timings_and_counts():
     s = soc.scenes.clutter(2)
     cam = soc.scenes.paths.flight(s, frames=5, width=320, height=180)[1]
     with soc.Culler(s, method="queries", resolution=(320, 180)) as c:
         r = c.cull(cam, draw=True)
     st = r.stats
-    assert set(st.timings_ms) == {"frustum", "prepass", "queries", "draw"}
+    assert set(st.timings_ms) == {"frustum", "prepass", "queries", "draw", OTHER_STAGE}
     assert st.models_visible + st.models_culled == len(s)
     assert st.frustum_culled + st.occlusion_culled == st.models_culled
     assert 0 <= st.triangles_culled_pct <= 100
