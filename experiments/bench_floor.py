@@ -105,6 +105,10 @@ def default_specs(scene, resolution: tuple[int, int] = DISPLAY) -> list[str]:
             and options.keys() <= inspect.signature(METHODS[name].__init__).parameters.keys()
         ):
             extra.append(spec)
+    if not soc.gl.context.default_context().stage_sync:
+        # Where the methods queue their stages (a GPU), their rows finishing every stage too:
+        # what the waits cost.
+        extra += ["gpu-driven(sync=True)", "hiz-2phase(sync=True)"]
     return names + extra
 
 

@@ -14,7 +14,7 @@ from soc.gl.context import uses_gl
 from soc.methods import METHODS, CullConfig
 from soc.methods.base import CullMethod, MethodOutput, load_entry_points
 from soc.methods.spec import resolve as resolve_spec
-from soc.metrics import OTHER_STAGE, CullResult, frame_stats, gpu_stage
+from soc.metrics import FINISH_STAGE, OTHER_STAGE, CullResult, frame_stats, gpu_stage, stage
 from soc.scenes.camera import Camera, _resolution
 
 
@@ -178,9 +178,14 @@ class Culler:
                 out: MethodOutput = self.method.cull(camera, draw=draw)
             else:
                 out = self.method.cull(camera)
+            timings = dict(out.timings_ms)
+            if not getattr(self.method, "sync", True):
+                # The method queued its stages without waiting: its frame ends when the GL's
+                # work does.
+                with stage(timings, FINISH_STAGE):
+                    self.glctx.finish()
             wall_ms = 1e3 * (time.perf_counter() - t0)
             visible = np.asarray(out.visible, bool)
-            timings = dict(out.timings_ms)
             # The method's work between its timed stages (Python, numpy passes over the
             # objects) is part of its frame too: the stages alone would hide it.
             timings[OTHER_STAGE] = max(wall_ms - sum(timings.values()), 0.0)

@@ -17,6 +17,9 @@ import numpy as np
 
 # The stage name of a method's wall time outside its timed stages (soc.Culler adds it).
 OTHER_STAGE = "other"
+# The stage in which soc.Culler waits for the GL at the end of a frame whose method did not
+# (a method with ``sync=False``: its stages were queued, see GLContext.stage_sync).
+FINISH_STAGE = "finish"
 
 
 @dataclass(frozen=True)

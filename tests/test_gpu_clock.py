@@ -15,7 +15,7 @@ import pytest
 
 import soc
 from soc.gl.context import default_context
-from soc.metrics import OTHER_STAGE, gpu_stage, stage
+from soc.metrics import FINISH_STAGE, OTHER_STAGE, gpu_stage, stage
 from soc.rendering.renderer import Renderer
 from soc.scenes.clutter import box_mesh
 from soc.scenes.paths import random_cameras
@@ -217,3 +217,23 @@ def test_bench_floor_shows_gl_time_beside_wall_time_and_triangles_over_the_ideal
     assert ("triangles ÷ ideal" in bench.methods_table(result).columns) and (
         ("GPU cull + draw ms" in bench.methods_table(result).columns) == on
     )
+
+
+@pytest.mark.parametrize(
+    "spec",
+    ["gpu-driven", "gpu-driven(granularity='object')", "hiz-2phase", "hiz-2phase(test='gpu')"],
+)
+def test_queued_stages_cull_the_same_frames_and_the_culler_waits_at_the_end(spec, small_market):
+    """``sync=False`` (a GPU's default) queues the stages without finishing them: the frames are
+    the ones the finished stages give, and soc.Culler finishes the frame in its own stage."""
+    assert default_context().stage_sync  # llvmpipe: stages finished by default
+    scene = small_market
+    cams = soc.scenes.paths.flight(scene, frames=12, width=RES[0], height=RES[1])[::3]
+    with soc.Culler(scene, spec, RES) as synced, soc.Culler(scene, spec, RES, sync=False) as queued:
+        assert synced.method.sync and not queued.method.sync
+        for i, cam in enumerate(cams):
+            a, b = synced.cull(cam, draw=i % 2 == 0), queued.cull(cam, draw=i % 2 == 0)
+            np.testing.assert_array_equal(a.visible, b.visible)
+            assert a.stats.triangles_drawn == b.stats.triangles_drawn
+            assert FINISH_STAGE in b.stats.timings_ms and FINISH_STAGE not in a.stats.timings_ms
+            assert b.stats.cull_ms >= b.stats.timings_ms[FINISH_STAGE] >= 0

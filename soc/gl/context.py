@@ -121,6 +121,14 @@ class GLContext(BindableContext):
         Whether frames are timed on the GL's clock too (:meth:`timed_frame`; ``gpu_ms`` of
         :class:`soc.FrameStats`). Default :attr:`timer_meaningful`; set it to force the
         queries on (tests on llvmpipe) or off. :attr:`gpu_clock_note` says what it means.
+    stage_sync : bool
+        Whether the methods that can queue a whole frame without waiting (``gpu-driven``,
+        ``hiz-2phase``; their ``sync`` option, default this) finish the GL at the end of
+        every timed stage, so that its wall time holds its GL work. Default: on a software
+        renderer (wall time is the clock there, and finishing costs nothing), not where the
+        GL timer is meaningful: a GPU's stages are timed on its clock, and each wait for it
+        costs wall time (0.44 ms for a clear and a finish on an H100) that a renderer would
+        not pay; :class:`soc.Culler` then finishes once, at the end of the frame.
 
     Notes
     -----
@@ -198,6 +206,7 @@ class GLContext(BindableContext):
             # GL timer queries where they measure the GPU's work (see soc.gl.timer).
             self.timer_meaningful = not self.software
             self.gpu_clock = self.timer_meaningful
+            self.stage_sync = not self.timer_meaningful
             self._timer: GpuTimer | None = None
             self.gl_where = f"{choice.where}, EGL vendor {display.vendor(self._display)}"
             if choice.name == "software" and not self.software:

@@ -53,7 +53,9 @@ ways, so 2–4 % of clusters have a usable cone (``results/BENCHMARKS.md``, "GPU
 
 **Cull ms** (:attr:`soc.FrameStats.cull_ms`): the early pass, the pyramid, the test pass and the
 read back; ``"draw"`` is the early plus the late draw (shaded with ``cull(camera, draw=True)``,
-depth only otherwise), split in :attr:`GpuDriven.last_draws_ms`. Static scenes only (no
+depth only otherwise), split in :attr:`GpuDriven.last_draws_ms`. Each stage is finished
+(``sync``, the default on llvmpipe) or only queued (``sync=False``, the default on a GPU, whose
+clock times the stages; :class:`soc.Culler` waits at the frame's end). Static scenes only (no
 ``set_alive``).
 """
 
@@ -164,6 +166,11 @@ class GpuDriven(CullMethod):
     walk : {"auto", "levels", "subtrees"}
         How the walk dispatches (:meth:`soc.culling.bvh_gpu.GpuHierarchy.run`; ``"auto"``,
         the default: :attr:`~soc.culling.bvh_gpu.GpuHierarchy.auto_mode`); the same result.
+    sync : bool, optional
+        Finish the GL at the end of every stage, so that the stage's wall time holds its GL
+        work (default :attr:`soc.gl.context.GLContext.stage_sync`: on llvmpipe, not on a GPU,
+        where the frame's passes are queued back to back and only the read back of the bits
+        waits). The same frames either way.
 
     Attributes
     ----------
@@ -198,6 +205,7 @@ class GpuDriven(CullMethod):
         walk: str = "auto",
         reproject: bool = False,
         reproject_level: int = DEFAULT_LEVEL,
+        sync: bool | None = None,
     ):
         check_choice("granularity", granularity, GRANULARITIES)
         check_choice("count", count, COUNTS)
@@ -210,6 +218,7 @@ class GpuDriven(CullMethod):
         from soc.rendering.renderer import Renderer
 
         scene = self.scene
+        self.sync = self.glctx.stage_sync if sync is None else bool(sync)
         self.granularity = granularity
         self.footprint, self.refine, self.merge = footprint, refine, bool(merge)
         self.split = bool(split) and granularity == "cluster"
@@ -309,14 +318,15 @@ class GpuDriven(CullMethod):
         self.glctx.ctx.memory_barrier()
 
     def _draw(self, camera, late: bool, *, color: bool, clear: bool, clear_color: bool) -> float:
-        """Draw the commands the early (or late) pass wrote; ms, finished."""
+        """Draw the commands the early (or late) pass wrote; ms (finished with :attr:`sync`)."""
         t0 = time.perf_counter()
         with gpu_stage("draw"):  # the GL clock of the "draw" stage, where it is read
             program = self.renderer.bind(camera, color=color, clear=clear, clear_color=clear_color)
             vao = self.geometry.mesh_vao(program, self.gpu.ibo)
             c = self.gpu.count
             self.draws.draw(vao, program, self.commands, self.frame, 4 * late, c * late, c)
-        self.glctx.ctx.finish()
+        if self.sync:
+            self.glctx.ctx.finish()
         return 1e3 * (time.perf_counter() - t0)
 
     def cull(self, camera, draw: bool = False) -> MethodOutput:
@@ -324,7 +334,7 @@ class GpuDriven(CullMethod):
         ``draw``); returns the kept set (objects with a drawn cluster)."""
         timings: dict[str, float] = {}
         cfg = self.config
-        finish = self.glctx.finish
+        finish = self.glctx.finish if self.sync else None
         clusters = self.granularity == "cluster"
         occlusion = bool(cfg.depth_test)
         self._frame_id += 1
