@@ -238,6 +238,8 @@ class GpuDriven(CullMethod):
         self.early = self.glctx.compute("gpu_driven_early.comp")
         self.late = self.glctx.compute("gpu_driven_late.comp")
         self.cluster_pass = self.glctx.compute("gpu_driven_clusters.comp")
+        # Each pass with its uniforms' names: `name in program` scans them all, every time.
+        self._passes = [(p, frozenset(p)) for p in (self.early, self.late, self.cluster_pass)]
         self.draws = CountedDraws(self.glctx, prefer_native=count == "auto")
         ctx = self.glctx.ctx
         n, c = len(scene), self.gpu.count
@@ -350,10 +352,10 @@ class GpuDriven(CullMethod):
             "merge": self.merge,
             "early_runs": self.early_runs,
         }
-        for prog in (self.early, self.late, self.cluster_pass):
+        for prog, names in self._passes:
             set_frustum_uniforms(prog, camera)
             for name, value in (self._sizes | frame).items():
-                if name in prog:  # the compiler drops what a pass does not read
+                if name in names:  # the compiler drops what a pass does not read
                     prog[name].value = value
         walk = self.hierarchy is not None
         guess = occlusion and self.reprojection is not None and self._last_view_proj is not None
