@@ -78,7 +78,6 @@ from __future__ import annotations
 
 import time
 
-import numba
 import numpy as np
 
 from soc.culling.cluster_draws import cluster_commands, clusters_of
@@ -506,11 +505,17 @@ class TwoPhaseCulling(CullMethod):
 
         # Stages 2-3: pyramid of the early depth, every object tested once.
         codes = self._classify(camera, timings)
-        mark = self._mark
+        passed_ids = np.flatnonzero(codes == VISIBLE)
+        if not self._all_alive:
+            passed_ids = passed_ids[self.alive[passed_ids]]
+        mark = self._mark  # the early set, as a mask for as long as it takes to split
         mark[early] = True
-        passed_ids, late, n_out, outside = split_codes(codes, mark, self.alive, self._all_alive)
-        passed_early = passed_ids[mark[passed_ids]]
+        in_early = mark[passed_ids]
         mark[early] = False
+        late, passed_early = passed_ids[~in_early], passed_ids[in_early]
+        is_out = codes == OUTSIDE
+        n_out = int(np.count_nonzero(is_out))
+        outside = n_out if self._all_alive else int(np.count_nonzero(is_out & self.alive))
 
         # Stage 4: the late pass, into the same depth (its occluders first, if asked).
         first, first_ms = late[:0], 0.0
@@ -643,28 +648,3 @@ class TwoPhaseCulling(CullMethod):
         return MethodOutput(
             drawn, outside, n - n_out, timings, triangles_drawn=early_triangles + late_triangles
         )
-
-
-@numba.njit(cache=True)
-def split_codes(codes, early, alive, all_alive):  # pragma: no cover - compiled
-    """One pass over a frame's object codes (:data:`VISIBLE`, :data:`OUTSIDE`, occluded):
-    the ids that passed (alive, ascending), those of them not marked in ``early`` (the late
-    pass's), the objects outside the frustum, and of them those alive — instead of six numpy
-    passes over every object (1-1.5 ms a frame on the million-object city)."""
-    n = len(codes)
-    passed = np.empty(n, np.int64)
-    late = np.empty(n, np.int64)
-    n_passed = n_late = n_out = out_alive = 0
-    for i in range(n):
-        code = codes[i]
-        live = all_alive or alive[i]
-        if code == OUTSIDE:
-            n_out += 1
-            out_alive += live
-        elif code == VISIBLE and live:
-            passed[n_passed] = i
-            n_passed += 1
-            if not early[i]:
-                late[n_late] = i
-                n_late += 1
-    return passed[:n_passed].copy(), late[:n_late].copy(), n_out, out_alive
