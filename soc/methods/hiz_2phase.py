@@ -322,6 +322,7 @@ class TwoPhaseCulling(CullMethod):
             self._cluster_query = grown_aabbs(cl.aabbs, geometry.diagonal)
             self._cluster_starts = np.asarray(cl.object_clusters[:-1], np.int64)
             self._lone = np.diff(cl.object_clusters) == 1  # objects of one cluster
+            self._cluster_object = np.asarray(cl.object, np.int64)
             self._base_vertex = self.scene.vertex_offsets[:-1]
             self._cluster_passed = np.zeros(len(cl.first), bool)  # last frame's
 
@@ -580,8 +581,12 @@ class TwoPhaseCulling(CullMethod):
     # -- granularity="cluster" -------------------------------------------------------------
 
     def _per_object(self, cluster_mask: np.ndarray) -> np.ndarray:
-        """(N,) bool: the objects with a cluster in ``cluster_mask`` (C,) bool."""
-        return np.logical_or.reduceat(cluster_mask, self._cluster_starts)
+        """(N,) bool: the objects with a cluster in ``cluster_mask`` (C,) bool (a scatter of
+        the few set clusters' owners: ``np.logical_or.reduceat`` over every object's clusters
+        cost ~0.5 ms a call on the 27k-object scenes)."""
+        out = np.zeros(len(self.scene), bool)
+        out[self._cluster_object[np.flatnonzero(cluster_mask)]] = True
+        return out
 
     def _cull_clusters(self, camera, draw: bool, timings: dict) -> MethodOutput:
         """The frame with ``granularity="cluster"``: conservative as the object frame is (an
