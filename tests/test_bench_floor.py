@@ -219,3 +219,22 @@ def test_targets_of_a_run_without_queries(result):
     table = bench_floor.targets(run, bench_floor.summarize(run))
     assert "no queries row" in table["measured"].tolist()
     assert "best cull + draw ≤ 1.15× ideal" in table["target"].tolist()
+
+
+def test_where_stages_are_queued_the_floor_adds_the_finished_rows(monkeypatch):
+    """On a GPU (GLContext.stage_sync off) gpu-driven and hiz-2phase queue their stages: the
+    default specs then add their sync=True rows, which parse and cull."""
+    scene = soc.scenes.clutter(0, objects=60)
+    glctx = soc.gl.context.default_context()
+    synced = bench_floor.default_specs(scene, (160, 90))
+    assert not [s for s in synced if "sync=" in s]
+    monkeypatch.setattr(glctx, "stage_sync", False)
+    queued = bench_floor.default_specs(scene, (160, 90))
+    added = [s for s in queued if s not in synced]
+    assert added == ["gpu-driven(sync=True)", "hiz-2phase(sync=True)"]
+    for spec in added:
+        name, options = bench_floor.parse_spec(spec)
+        with soc.Culler(scene, name, (160, 90), **options) as c:
+            assert c.method.sync
+            cam = soc.scenes.paths.flight(scene, frames=3, width=160, height=90)[1]
+            assert "finish" not in c.cull(cam).stats.timings_ms
