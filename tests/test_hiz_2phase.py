@@ -131,6 +131,28 @@ def test_first_frame_and_reset_draw_nothing_early(clutter_scenes):
         assert not m.next_set.any()
 
 
+@pytest.mark.parametrize(
+    "options",
+    [{}, {"next_from": "final"}, {"next_from": "late", "occluders_first": True}, {"test": "gpu"}],
+    ids=["early", "final", "late", "gpu"],
+)
+def test_next_frame_draws_the_next_set_early(small_market, options):
+    """Culled twice from one camera, the second frame draws exactly the first frame's next set
+    early (all of it lies in the frustum), first in its draw order; the mask is read-only,
+    because the set is kept as ids and a write in place would not reach them."""
+    res = (320, 192)
+    cam = flight(small_market, frames=100, width=res[0], height=res[1])[25]
+    with soc.Culler(small_market, "hiz-2phase", res, **options) as c:
+        m = c.method
+        c.cull(cam)
+        early = np.flatnonzero(m.next_set)
+        assert len(early) > 0
+        with pytest.raises(ValueError, match="read-only"):
+            m.next_set[early[0]] = False
+        c.cull(cam)
+        assert sorted(m.last_order[: len(early)]) == early.tolist()
+
+
 @pytest.mark.parametrize("options", MODES, ids=MODE_IDS)
 def test_camera_walks_into_a_room_and_through_a_beam(options):
     """A room whose box holds the camera, a wall inside it, a beam crossing the near plane:

@@ -336,20 +336,21 @@ class TwoPhaseCulling(CullMethod):
 
     @property
     def next_set(self) -> np.ndarray:
-        """(N,) bool: the objects next frame's early pass draws (assign a new array to
-        change it; it is kept as ids, so that a frame costs what it draws, not N)."""
+        """(N,) bool, read-only: the objects next frame's early pass draws. It is kept as ids
+        (a frame costs what it draws, not N); assign a whole new mask to change it."""
         if self._next_mask is None:
             mask = np.zeros(len(self.scene), bool)
             mask[self._next_ids] = True
+            mask.flags.writeable = False  # a write in place would not reach the ids
             self._next_mask = mask
         return self._next_mask
 
     @next_set.setter
     def next_set(self, mask: np.ndarray) -> None:
-        mask = np.asarray(mask, bool)
+        mask = np.array(mask, bool)
         if mask.shape != (len(self.scene),):
             raise ValueError(f"next_set must be ({len(self.scene)},) bool, got {mask.shape}")
-        self._next_ids, self._next_mask = np.flatnonzero(mask), mask
+        self._set_next_ids(np.flatnonzero(mask))
 
     def _set_next_ids(self, ids: np.ndarray) -> None:
         self._next_ids, self._next_mask = np.asarray(ids, np.int64), None
@@ -573,8 +574,7 @@ class TwoPhaseCulling(CullMethod):
             # nowhere nearer than the finished depth (the test is monotone in the pyramid).
             inside = np.flatnonzero(drawn & (codes != OUTSIDE)).astype(np.uint32)
             again = self._classify(camera, timings, inside, "next ") == VISIBLE
-            self.next_set = np.zeros(n, bool)
-            self.next_set[inside[again]] = True
+            self._set_next_ids(inside[again])
 
         return MethodOutput(drawn, outside, n - n_out, timings)
 
