@@ -245,6 +245,7 @@ def test_count_read_back_merge_split_and_granularity_agree(small_market):
         "read": {"count": "read"},
         "unmerged": {"merge": False},
         "loop": {"split": False},
+        "unsorted": {"order": "unsorted"},
         "object": {"granularity": "object"},
     }
     commands = dict.fromkeys(variants, 0)
@@ -255,21 +256,70 @@ def test_count_read_back_merge_split_and_granularity_agree(small_market):
         assert not cullers["read"].method.draws.native
         for cam in cams:
             r = {k: c.cull(cam) for k, c in cullers.items()}
-            for k in ("read", "unmerged", "loop"):
+            for k in ("read", "unmerged", "loop", "unsorted"):
                 assert np.array_equal(r[k].visible, r["auto"].visible), k
                 assert r[k].stats.triangles_drawn == r["auto"].stats.triangles_drawn, k
             drawn = cullers["auto"].method.drawn_clusters()
-            assert np.array_equal(cullers["loop"].method.drawn_clusters(), drawn)
+            for k in ("loop", "unsorted"):
+                assert np.array_equal(cullers[k].method.drawn_clusters(), drawn), k
             assert not (r["auto"].visible & ~r["object"].visible).any()
             for k, c in cullers.items():
                 commands[k] += sum(c.method.last_commands)
             obj = r["object"].stats
             assert obj.triangles_drawn == obj.triangles_visible
         assert commands["auto"] < commands["unmerged"]
-        assert commands["loop"] == commands["auto"]
+        assert commands["loop"] == commands["unsorted"] == commands["auto"]
     finally:
         for c in cullers.values():
             c.close()
+
+
+def test_each_pass_draws_its_commands_nearest_first(small_market):
+    """order='front-to-back' (the default): each pass draws exactly the commands it appended,
+    with one instance, by depth bucket nearest first; a command's bucket is the distance from
+    the eye to its first cluster's box on gpu_driven.common.glsl's log scale (float64's bucket
+    within one, for the float32 rounding at bucket borders)."""
+    from soc.methods.gpu_driven import ORDER_BUCKETS
+
+    res = (480, 270)
+    cams = flight(small_market, frames=100, width=res[0], height=res[1])[40:46]
+    with soc.Culler(small_market, "gpu-driven", res) as c:
+        m = c.method
+        count = m.gpu.count
+        with m.glctx.current():  # buffers are read in vislod's context
+            first_index = np.frombuffer(m.gpu.info.read(), np.uint32).reshape(-1, 4)[:, 0]
+            boxes = np.frombuffer(m.gpu.boxes.read(), np.float32).reshape(-1, 2, 3)
+        buckets_seen = set()
+        for cam in cams:
+            c.cull(cam)
+            with m.glctx.current():
+                appended = np.frombuffer(m.commands.read(), np.uint32).reshape(2, count, 5)
+                drawn = np.frombuffer(m.sorted.read(), np.uint32).reshape(2, count, 5)
+            for p, n in enumerate(m.last_commands):
+                if n == 0:  # the first frame's early pass
+                    continue
+                a, d = appended[p, :n], drawn[p, :n]
+                assert (d[:, 1] == 1).all()
+                # The same commands (a run's first index names it within a pass) ...
+                assert np.array_equal(np.sort(a[:, 2]), np.sort(d[:, 2]))
+                key = np.argsort(a[:, 2])
+                at = key[np.searchsorted(a[:, 2], d[:, 2], sorter=key)]
+                assert np.array_equal(a[at][:, [0, 2, 3, 4]], d[:, [0, 2, 3, 4]])
+                # ... nearest bucket first ...
+                bucket = a[at, 1].astype(np.int64)
+                assert (np.diff(bucket) >= 0).all(), p
+                # ... the bucket of the distance to the run's first cluster.
+                cluster = np.searchsorted(first_index, a[:, 2])
+                assert np.array_equal(first_index[cluster], a[:, 2])
+                lo, hi = boxes[cluster, 0].astype(float), boxes[cluster, 1].astype(float)
+                eye = np.asarray(cam.eye, float)
+                gap = np.linalg.norm(np.clip(eye, lo, hi) - eye, axis=1)
+                scale = (ORDER_BUCKETS - 1) / np.log2(cam.far / cam.near)
+                expect = np.minimum(np.log2(np.maximum(gap, cam.near) / cam.near) * scale,
+                                    ORDER_BUCKETS - 1).astype(np.int64)  # fmt: skip
+                assert np.abs(a[:, 1].astype(np.int64) - expect).max() <= 1, p
+                buckets_seen |= set(bucket.tolist())
+        assert len(buckets_seen) > 5, buckets_seen
 
 
 def test_stage_switches(clutter_scenes):
@@ -314,6 +364,7 @@ def test_bad_options_are_clear_errors(clutter_scenes):
         ({"next_from": "late"}, "next_from"),
         ({"footprint": 3}, "footprint"),
         ({"cluster_triangles": 0}, "max_triangles"),
+        ({"order": "id"}, "order must be one of"),
     ):
         with pytest.raises(ValueError, match=match):
             soc.Culler(s, "gpu-driven", (64, 64), **options)

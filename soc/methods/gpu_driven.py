@@ -13,7 +13,8 @@ Stages of one frame, at the method's resolution (it draws the frame into its own
    each (``early_runs``; or, looping over the clusters, those whose own box is in the frustum
    too, consecutive ones as one command, ``merge``);
 2. **early draw** — those commands, drawn with ``glMultiDrawElementsIndirectCount`` (the
-   count stays on the GPU; :class:`soc.gl.indirect_count.CountedDraws`);
+   count stays on the GPU; :class:`soc.gl.indirect_count.CountedDraws`), nearest first
+   (``order``: a counting sort by depth bucket on the GPU, ``gpu_driven_order.comp.glsl``);
 3. **pyramid** — the max-depth pyramid of that depth, built in GL
    (:class:`soc.culling.hiz_gpu.DepthPyramid`);
 4. **test** — a compute pass (``gpu_driven_late.comp.glsl``) tests every object's box against
@@ -22,7 +23,7 @@ Stages of one frame, at the method's resolution (it draws the frame into its own
    objects of several clusters in a pass of their own, ``gpu_driven_clusters.comp.glsl``, one
    cluster per invocation: ``split``); it writes the commands of the clusters that pass and were
    not drawn early, and every cluster's state for next frame;
-5. **late draw** — those commands, into the same depth;
+5. **late draw** — those commands, nearest first, into the same depth;
 6. **read back** — the frame's counters and one bit per object (drawn or not): N / 8 bytes,
    because :class:`soc.Culler` returns the kept set. Nothing else crosses to the CPU: no
    depth, no per-object work in Python.
@@ -51,16 +52,17 @@ and the market, flight and walk) a cone rejects 0.1 % of the triangles drawn, of
 0.04 % or less of closed outward-facing ones — clusters of 128 triangles of buildings face many
 ways, so 2–4 % of clusters have a usable cone (``results/BENCHMARKS.md``, "GPU-driven").
 
-**Cull ms** (:attr:`soc.FrameStats.cull_ms`): the early pass, the pyramid, the test pass and the
-read back; ``"draw"`` is the early plus the late draw (shaded with ``cull(camera, draw=True)``,
-depth only otherwise), split in :attr:`GpuDriven.last_draws_ms`. Each stage is finished
-(``sync``, the default on llvmpipe) or only queued (``sync=False``, the default on a GPU, whose
-clock times the stages; :class:`soc.Culler` waits at the frame's end). Static scenes only (no
-``set_alive``).
+**Cull ms** (:attr:`soc.FrameStats.cull_ms`): the early pass, the sorts, the pyramid, the test
+pass and the read back; ``"draw"`` is the early plus the late draw (shaded with
+``cull(camera, draw=True)``, depth only otherwise), split in
+:attr:`GpuDriven.last_draws_ms`. Each stage is finished (``sync``, the default on llvmpipe) or
+only queued (``sync=False``, the default on a GPU, whose clock times the stages;
+:class:`soc.Culler` waits at the frame's end). Static scenes only (no ``set_alive``).
 """
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -85,14 +87,20 @@ GRANULARITIES = ("cluster", "object")
 _ZERO = bytes(4)
 COUNTS = ("auto", "read")
 NEXT_FROM = ("early", "final")
+ORDERS = ("front-to-back", "unsorted")
 # gpu-driven's clusters: 32 triangles, a quarter of the clusters module's usual size. With
 # clusters tested one per invocation (`split`) and drawn early by runs (`early_runs`), smaller
 # clusters cost little more to cull and draw fewer hidden triangles: on llvmpipe 64 beat 128 on
 # every bench path (castle-2114, market and the refilled castle, flight and walk), and 32 beat
 # 64 on castle-2114; 24 and 16 cost the same as 32 (results/BENCHMARKS.md, "Cluster size").
 CLUSTER_TRIANGLES = 32
-# Counters at the start of the frame buffer (gpu_driven.common.glsl's FRAME_*), then the bits.
-FRAME_COMMANDS, FRAME_TRIANGLES, FRAME_OUTSIDE, FRAME_JUDGED, FRAME_HEADER = 0, 2, 4, 5, 8
+# Depth buckets of the draw order (gpu_driven.common.glsl's ORDER_BUCKETS), log-spaced from the
+# near plane to the far plane: about 4-5 a doubling of the distance at near/far = 10^4.
+ORDER_BUCKETS = 64
+# Counters at the start of the frame buffer (gpu_driven.common.glsl's FRAME_*): the frame's,
+# then per pass the commands of each depth bucket and the order pass's cursors; then the bits.
+FRAME_COMMANDS, FRAME_TRIANGLES, FRAME_OUTSIDE, FRAME_JUDGED = 0, 2, 4, 5
+FRAME_HEADER = 8 + 4 * ORDER_BUCKETS
 # Storage-buffer binding points of gpu_driven.common.glsl, in order.
 BINDINGS = (
     "objects",
@@ -106,6 +114,7 @@ BINDINGS = (
 )
 PASSED_BINDING = 13  # gpu_driven.common.glsl's passed lists (8-12: bvh_walk.common.glsl's)
 RUNS_BINDING = 14  # its runs of clusters that passed
+SORTED_BINDING = 15  # gpu_driven_order.comp.glsl's commands drawn, nearest first
 
 
 @register
@@ -163,6 +172,13 @@ class GpuDriven(CullMethod):
     reproject_level : int
         The level of last frame's pyramid carried over (default
         :data:`~soc.culling.reprojection.DEFAULT_LEVEL`, 8×8 pixels a texel).
+    order : {"front-to-back", "unsorted"}
+        The order each pass draws its commands in: nearest cluster box first (default; by
+        :data:`ORDER_BUCKETS` log-spaced depth buckets, sorted on the GPU after the pass that
+        wrote them, stage ``"sort"``), or as the compute passes appended them. Drawn nearest
+        first, the depth test rejects hidden fragments before they are shaded (on llvmpipe the
+        market flight's draws cost 0.84× those in appended order, ``results/BENCHMARKS.md``,
+        "The draw order of gpu-driven"); the same clusters are drawn either way.
     walk : {"auto", "levels", "subtrees"}
         How the walk dispatches (:meth:`soc.culling.bvh_gpu.GpuHierarchy.run`; ``"auto"``,
         the default: :attr:`~soc.culling.bvh_gpu.GpuHierarchy.auto_mode`); the same result.
@@ -203,6 +219,7 @@ class GpuDriven(CullMethod):
         cluster_triangles: int = CLUSTER_TRIANGLES,
         hierarchy: bool = True,
         walk: str = "auto",
+        order: str = "front-to-back",
         reproject: bool = False,
         reproject_level: int = DEFAULT_LEVEL,
         sync: bool | None = None,
@@ -211,7 +228,9 @@ class GpuDriven(CullMethod):
         check_choice("count", count, COUNTS)
         check_choice("next_from", next_from, NEXT_FROM)
         check_choice("walk", walk, WALK_OPTIONS)
+        check_choice("order", order, ORDERS)
         self.walk = walk
+        self.order = order
         self.next_from = next_from
         footprint, refine = check_test_options(footprint, refine)
         super().__init__(geometry, resolution, config)
@@ -238,8 +257,10 @@ class GpuDriven(CullMethod):
         self.early = self.glctx.compute("gpu_driven_early.comp")
         self.late = self.glctx.compute("gpu_driven_late.comp")
         self.cluster_pass = self.glctx.compute("gpu_driven_clusters.comp")
+        self.order_pass = self.glctx.compute("gpu_driven_order.comp")
         # Each pass with its uniforms' names: `name in program` scans them all, every time.
-        self._passes = [(p, frozenset(p)) for p in (self.early, self.late, self.cluster_pass)]
+        programs = (self.early, self.late, self.cluster_pass, self.order_pass)
+        self._passes = [(p, frozenset(p)) for p in programs]
         self.draws = CountedDraws(self.glctx, prefer_native=count == "auto")
         ctx = self.glctx.ctx
         n, c = len(scene), self.gpu.count
@@ -250,6 +271,8 @@ class GpuDriven(CullMethod):
         self.runs = ctx.buffer(reserve=16 * c)
         self.cluster_state = ctx.buffer(reserve=4 * c)
         self.commands = ctx.buffer(reserve=2 * c * COMMAND_BYTES)
+        self.sort_draws = order == "front-to-back"
+        self.sorted = ctx.buffer(reserve=2 * c * COMMAND_BYTES) if self.sort_draws else None
         self.frame = ctx.buffer(reserve=4 * words)
         self._list_words = n + 1
         self._split_at = 2 * self._list_words  # gpu_driven.common.glsl's split lists
@@ -271,8 +294,9 @@ class GpuDriven(CullMethod):
 
     def release(self) -> None:
         buffers = (self.object_state, self.cluster_state, self.commands, self.frame, self.passed)
-        for b in (*buffers, self.runs):
-            b.release()
+        for b in (*buffers, self.runs, self.sorted):
+            if b is not None:
+                b.release()
         self.pyramid.release()
         if self.reprojection is not None:
             self.reprojection.release()
@@ -319,14 +343,22 @@ class GpuDriven(CullMethod):
         program.run(min(-(-items // TEST_GROUP), TEST_GROUPS))
         self.glctx.ctx.memory_barrier()
 
+    def _sort(self, late: bool) -> None:
+        """Write the commands of the early (or late) pass nearest first into :attr:`sorted`."""
+        self.order_pass["order_pass"].value = int(late)
+        self.sorted.bind_to_storage_buffer(SORTED_BINDING)
+        self._run(self.order_pass, items=self.gpu.count)
+
     def _draw(self, camera, late: bool, *, color: bool, clear: bool, clear_color: bool) -> float:
-        """Draw the commands the early (or late) pass wrote; ms (finished with :attr:`sync`)."""
+        """Draw the commands the early (or late) pass wrote, sorted with :attr:`sort_draws`;
+        ms (finished with :attr:`sync`)."""
         t0 = time.perf_counter()
         with gpu_stage("draw"):  # the GL clock of the "draw" stage, where it is read
             program = self.renderer.bind(camera, color=color, clear=clear, clear_color=clear_color)
             vao = self.geometry.mesh_vao(program, self.gpu.ibo)
             c = self.gpu.count
-            self.draws.draw(vao, program, self.commands, self.frame, 4 * late, c * late, c)
+            commands = self.sorted if self.sort_draws else self.commands
+            self.draws.draw(vao, program, commands, self.frame, 4 * late, c * late, c)
         if self.sync:
             self.glctx.ctx.finish()
         return 1e3 * (time.perf_counter() - t0)
@@ -351,9 +383,14 @@ class GpuDriven(CullMethod):
             "test_clusters": clusters,
             "merge": self.merge,
             "early_runs": self.early_runs,
+            "sort_draws": self.sort_draws,
+            "eye": tuple(float(v) for v in camera.eye),
+            "order_near": float(camera.near),
+            "order_scale": (ORDER_BUCKETS - 1) / math.log2(camera.far / camera.near),
         }
         for prog, names in self._passes:
-            set_frustum_uniforms(prog, camera)
+            if "planes" in names:  # not the order pass
+                set_frustum_uniforms(prog, camera)
             for name, value in (self._sizes | frame).items():
                 if name in names:  # the compiler drops what a pass does not read
                     prog[name].value = value
@@ -373,6 +410,9 @@ class GpuDriven(CullMethod):
             self.passed.write(_ZERO + _ZERO, offset=4 * self._split_at)
             if occlusion:  # frustum culling only: no early set
                 self._run(self.early)
+        if occlusion and self.sort_draws:
+            with stage(timings, "sort", finish):
+                self._sort(False)
         early_ms = self._draw(camera, False, color=draw, clear=True, clear_color=draw)
         with stage(timings, "pyramid", finish):
             if occlusion:
@@ -396,6 +436,9 @@ class GpuDriven(CullMethod):
                 self._run(cp, items=self.gpu.count)
                 cp["stage"].value = 1
                 self._run(cp)
+        if self.sort_draws:
+            with stage(timings, "sort", finish):
+                self._sort(True)
         late_ms = self._draw(camera, True, color=draw, clear=False, clear_color=False)
         if occlusion and self.next_from == "final":
             with stage(timings, "next pyramid", finish):

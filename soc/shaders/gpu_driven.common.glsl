@@ -24,10 +24,14 @@ layout(std430, binding = 4) buffer ObjectState { uint object_state[]; };
 // lists.
 layout(std430, binding = 5) buffer ClusterState { uint cluster_state[]; };
 // (2, cluster_count, 5) draw commands: count, instances, first index, base vertex, base
-// instance (= the object id), the early pass's then the late pass's.
-layout(std430, binding = 6) writeonly buffer Commands { uint commands[]; };
-// The frame's output, zeroed before the frame: FRAME_* counters, then the drawn objects' bits
-// (from object_bits), then the drawn clusters' bits (from cluster_bits).
+// instance (= the object id), the early pass's then the late pass's, in the order they were
+// appended. With `sort_draws` the instance count holds the command's depth bucket instead
+// (depth_bucket()), and gpu_driven_order.comp writes the commands drawn, nearest first.
+layout(std430, binding = 6) buffer Commands { uint commands[]; };
+// The frame's output, zeroed before the frame: FRAME_* counters, the commands per depth
+// bucket (FRAME_BUCKETS) and gpu_driven_order.comp's cursors (FRAME_CURSORS), each per pass,
+// then the drawn objects' bits (from object_bits), then the drawn clusters' bits (from
+// cluster_bits).
 layout(std430, binding = 7) buffer Frame { uint frame[]; };
 // Two lists of objects with a cluster that passed a late test, list_words apart: a count, then
 // the ids. The early pass reads last frame's (list_in), the late pass appends to this frame's
@@ -50,6 +54,12 @@ const uint FRAME_COMMANDS = 0u;   // + pass: commands written
 const uint FRAME_TRIANGLES = 2u;  // + pass: triangles drawn
 const uint FRAME_OUTSIDE = 4u;    // objects outside the frustum
 const uint FRAME_JUDGED = 5u;     // boxes tested against the pyramid
+// Depth buckets of the draw order (`sort_draws`): pass p's commands of bucket b are counted at
+// FRAME_BUCKETS + ORDER_BUCKETS * p + b, gpu_driven_order.comp's cursor of it is
+// ORDER_BUCKETS * 2 words further.
+const uint ORDER_BUCKETS = 64u;
+const uint FRAME_BUCKETS = 8u;
+const uint FRAME_CURSORS = FRAME_BUCKETS + 2u * ORDER_BUCKETS;
 
 uniform uint object_count;   // N
 uniform uint object_bits;    // first word of the drawn-object bits in `frame`
@@ -64,6 +74,13 @@ uniform uint cluster_count;  // C (also the commands a pass's half of `commands`
 // last frame) by the runs of its clusters that passed last frame (`runs`, one command each, no
 // test per cluster, no cluster state written), instead of looping over its clusters.
 uniform bool early_runs;
+// Draw each pass nearest first (gpu_driven_order.comp): every command gets the depth bucket of
+// its first cluster, the distance from `eye` to the cluster's box on a log scale from
+// order_near (bucket 0) with order_scale buckets per doubling, clamped at the last.
+uniform bool sort_draws;
+uniform vec3 eye;
+uniform float order_near;
+uniform float order_scale;
 
 // The cluster_state bit that says "drawn early" for an object drawn early this frame: bit 0
 // (passed last frame: all of those were drawn) with `early_runs`, else bit 1.
@@ -74,14 +91,29 @@ vec3 object_hi(uint o) { return vec3(object_boxes[6u * o + 3u], object_boxes[6u 
 vec3 cluster_lo(uint c) { return vec3(cluster_boxes[6u * c], cluster_boxes[6u * c + 1u], cluster_boxes[6u * c + 2u]); }
 vec3 cluster_hi(uint c) { return vec3(cluster_boxes[6u * c + 3u], cluster_boxes[6u * c + 4u], cluster_boxes[6u * c + 5u]); }
 
-// Append one draw command of `pass`: `count` indices from `first` of object `o`. A pass writes
-// at most one command per cluster, so the slot never reaches cluster_count (checked anyway).
-void emit(uint pass, uint first, uint count, uint base_vertex, uint o) {
+// The draw-order bucket of cluster c (see sort_draws): near boxes first, at a resolution
+// relative to their distance, as the depth test needs (a box twice as far is behind as often).
+uint depth_bucket(uint c) {
+    vec3 lo = cluster_lo(c), hi = cluster_hi(c);
+    float gap = length(clamp(eye, lo, hi) - eye);  // 0 with the eye inside the box
+    float b = log2(max(gap, order_near) / order_near) * order_scale;
+    return uint(min(b, float(ORDER_BUCKETS - 1u)));
+}
+
+// Append one draw command of `pass`: `count` indices from `first` of object `o`, starting
+// with its cluster c0. A pass writes at most one command per cluster, so the slot never
+// reaches cluster_count (checked anyway).
+void emit(uint pass, uint first, uint count, uint base_vertex, uint o, uint c0) {
     uint slot = atomicAdd(frame[FRAME_COMMANDS + pass], 1u);
     if (slot >= cluster_count) return;
     uint at = 5u * (pass * cluster_count + slot);
+    uint instances = 1u;
+    if (sort_draws) {
+        instances = depth_bucket(c0);
+        atomicAdd(frame[FRAME_BUCKETS + ORDER_BUCKETS * pass + instances], 1u);
+    }
     commands[at] = count;
-    commands[at + 1u] = 1u;
+    commands[at + 1u] = instances;
     commands[at + 2u] = first;
     commands[at + 3u] = base_vertex;
     commands[at + 4u] = o;
@@ -93,7 +125,7 @@ void emit(uint pass, uint first, uint count, uint base_vertex, uint o) {
 // the run's 32-cluster word are gathered in `bits` and set with one atomic when the run moves
 // to another word or is flushed (an object's clusters are consecutive: one atomic per word,
 // not per cluster).
-struct Run { uint first; uint count; uint word; uint bits; };
+struct Run { uint first; uint count; uint word; uint bits; uint c0; };
 
 void run_bits(inout Run run) {
     if (run.bits != 0u) atomicOr(frame[cluster_bits + run.word], run.bits);
@@ -103,10 +135,13 @@ void run_bits(inout Run run) {
 void run_add(inout Run run, uint pass, uint c, uint base_vertex, uint o) {
     uvec4 info = clusters[c];
     if (run.count > 0u && (!merge || run.first + run.count != info.x)) {
-        emit(pass, run.first, run.count, base_vertex, o);
+        emit(pass, run.first, run.count, base_vertex, o, run.c0);
         run.count = 0u;
     }
-    if (run.count == 0u) run.first = info.x;
+    if (run.count == 0u) {
+        run.first = info.x;
+        run.c0 = c;
+    }
     run.count += info.y;
     if ((c >> 5) != run.word) run_bits(run);
     run.word = c >> 5;
@@ -114,7 +149,7 @@ void run_add(inout Run run, uint pass, uint c, uint base_vertex, uint o) {
 }
 
 void run_flush(inout Run run, uint pass, uint base_vertex, uint o) {
-    if (run.count > 0u) emit(pass, run.first, run.count, base_vertex, o);
+    if (run.count > 0u) emit(pass, run.first, run.count, base_vertex, o, run.c0);
     run.count = 0u;
     run_bits(run);
 }
@@ -160,7 +195,7 @@ void passing_end(inout Passing p, uint o) {
 // early runs and the passed list) and whether it is drawn late (the late commands).
 struct Visit { Run run; Passing next; bool passed_any; bool drawn; };
 
-Visit visit_start(uint o) { return Visit(Run(0u, 0u, 0u, 0u), passing_start(o), false, false); }
+Visit visit_start(uint o) { return Visit(Run(0u, 0u, 0u, 0u, 0u), passing_start(o), false, false); }
 
 void visit(inout Visit v, uint c, bool pass, bool late, uint base_vertex, uint o) {
     if (pass) {

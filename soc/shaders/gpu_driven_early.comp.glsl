@@ -34,7 +34,7 @@ void main() {
             uint n = object_state[object_count + o];
             for (uint r = 0u; r < n; ++r) {
                 uvec4 run = runs[obj.x + r];
-                emit(EARLY, run.x, run.y, obj.z, o);
+                emit(EARLY, run.x, run.y, obj.z, o, run.z);
                 mark_clusters(run.z, run.w);
             }
             if (n > 0u) {
@@ -48,7 +48,7 @@ void main() {
         if (skip(lo, hi, inside)) continue;
         // A lone cluster's box is the object's: tested already.
         bool each = test_clusters && ((frustum && !inside) || reproject) && obj.y > 1u;
-        Run run = Run(0u, 0u, 0u, 0u);
+        Run run = Run(0u, 0u, 0u, 0u, 0u);
         bool drawn = false;
         for (uint c = obj.x; c < obj.x + obj.y; ++c) {
             bool draw = (cluster_state[c] & 1u) != 0u;
