@@ -173,8 +173,8 @@ class TwoPhaseCulling(CullMethod):
         where reading the depth back and testing in numba costs less than GL's passes
         (make bench's floor on castle-2114: 3.5 against 7.0 ms a frame), else GL.
     threads : int or None
-        numba threads of the pyramid and of the flat CPU test (default: numba's thread
-        count); the hierarchy's walk runs on one thread.
+        numba threads of the pyramid and of the CPU test (default: numba's thread count;
+        the hierarchy's walk deals its subtrees to them, the same codes for any count).
     order : {"front-to-back", "id"}
         The order each pass draws its objects in: nearest box first (default; the depth test
         then rejects the fragments of what is behind before shading them) or by object id.
@@ -450,7 +450,7 @@ class TwoPhaseCulling(CullMethod):
                 # the walk skips what is behind the camera (without the frustum it would
                 # descend into every node that reaches behind the near plane).
                 codes, walk = self._tree.classify_pyramid(
-                    pyramid, camera, self.config.frustum, 1, self.footprint, self.refine
+                    pyramid, camera, self.config.frustum, self.threads, self.footprint, self.refine
                 )
                 if ids is None:
                     self.last_walk = walk
