@@ -176,9 +176,11 @@ class GpuDriven(CullMethod):
         The order each pass draws its commands in: nearest cluster box first (default; by
         :data:`ORDER_BUCKETS` log-spaced depth buckets, sorted on the GPU after the pass that
         wrote them, stage ``"sort"``), or as the compute passes appended them. Drawn nearest
-        first, the depth test rejects hidden fragments before they are shaded (on llvmpipe the
-        market flight's draws cost 0.84× those in appended order, ``results/BENCHMARKS.md``,
-        "The draw order of gpu-driven"); the same clusters are drawn either way.
+        first, the depth test rejects hidden fragments before they are shaded: on llvmpipe a
+        frame's commands redrawn nearest first cost 0.93× (median of the market flight's
+        heavier frames), and whole runs move by -0.06 to +0.02× the ideal, within the noise
+        of a run (``results/BENCHMARKS.md``, "The draw order of gpu-driven"). The same
+        clusters are drawn either way.
     walk : {"auto", "levels", "subtrees"}
         How the walk dispatches (:meth:`soc.culling.bvh_gpu.GpuHierarchy.run`; ``"auto"``,
         the default: :attr:`~soc.culling.bvh_gpu.GpuHierarchy.auto_mode`); the same result.

@@ -41,10 +41,11 @@ class HiZCpuCulling(CullMethod):
         Levels finer than its own a box that is not behind its texels is judged at (default
         0; :data:`soc.culling.hiz_options.MAX_REFINE` judges it at the pixels), as hiz-gpu's.
     threads : int or None
-        Threads of the transform, the raster, the pyramid's first level and the flat box
-        tests (default None: numba's thread count); the depth and the codes are the same for
-        any number. The hierarchy's walk runs on one thread (it visits a few thousand nodes;
-        starting numba's thread pool costs as much).
+        Threads of the transform, the raster, the pyramid's first level and the box tests,
+        flat or by the hierarchy's walk, whose subtrees are dealt to them (default None:
+        numba's thread count); the depth and the codes are the same for any number. Two
+        threads walk in 0.5-0.7× the time of one on the floor bench's scenes, castle-2114's
+        2,114 objects too (``results/BENCHMARKS.md``, "The hierarchy's walk on both cores").
     hierarchy : bool
         Test the objects by a walk of the scene's BVH (default True) or every object's box
         (False: the reference; the same codes, tested in ``tests/test_hierarchy.py``).
@@ -132,7 +133,7 @@ class HiZCpuCulling(CullMethod):
         with stage(timings, "test"):
             if self.hierarchy is not None:
                 codes, self.last_walk = self.hierarchy.classify_pyramid(
-                    pyramid, camera, self.config.frustum, 1, self.footprint, self.refine
+                    pyramid, camera, self.config.frustum, self.threads, self.footprint, self.refine
                 )
                 tested = self.last_walk.tests
             else:

@@ -36,8 +36,8 @@ class MaskedCulling(CullMethod):
         True; open meshes are always drawn two-sided).
     threads : int or None
         Threads of the transform and the raster (default None: numba's thread count,
-        ``NUMBA_NUM_THREADS``); the buffer, and so what is culled, is the same for any number.
-        The hierarchy's walk runs on one thread.
+        ``NUMBA_NUM_THREADS``), and of the hierarchy's walk (its subtrees dealt to them); the
+        buffer, and so what is culled, is the same for any number.
     hierarchy : bool
         Test the objects by a walk of the scene's BVH (default True) or object by object
         (False: the reference; the same codes, tested in ``tests/test_hierarchy.py``).
@@ -87,7 +87,7 @@ class MaskedCulling(CullMethod):
         with stage(timings, "test"):
             if self.hierarchy is not None:
                 codes, self.last_walk = self.hierarchy.classify_masked(
-                    buffer, camera, self.config.frustum
+                    buffer, camera, self.config.frustum, buffer.bands
                 )
                 tested = self.last_walk.tests
             else:
