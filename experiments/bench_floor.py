@@ -53,6 +53,8 @@ def extra_specs(resolution: tuple[int, int] = DISPLAY) -> tuple[str, ...]:
         "hiz-cpu(threads=1)",
         "hiz-cpu(footprint=4, refine=23)",
         "gpu-driven(granularity='object')",
+        "gpu-driven(order='unsorted')",
+        "hiz-2phase(threads=1)",
         CLUSTER_2PHASE,
     )
 
