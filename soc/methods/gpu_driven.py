@@ -178,9 +178,9 @@ class GpuDriven(CullMethod):
         wrote them, stage ``"sort"``), or as the compute passes appended them. Drawn nearest
         first, the depth test rejects hidden fragments before they are shaded: on llvmpipe a
         frame's commands redrawn nearest first cost 0.93× (median of the market flight's
-        heavier frames), and whole runs move by -0.06 to +0.02× the ideal, within the noise
-        of a run (``results/BENCHMARKS.md``, "The draw order of gpu-driven"). The same
-        clusters are drawn either way.
+        heavier frames), and whole runs move by -0.07 to +0.02× the ideal, mostly within the
+        noise of a run (``results/BENCHMARKS.md``, "`gpu-driven` draws each pass nearest
+        first"). The same clusters are drawn either way.
     walk : {"auto", "levels", "subtrees"}
         How the walk dispatches (:meth:`soc.culling.bvh_gpu.GpuHierarchy.run`; ``"auto"``,
         the default: :attr:`~soc.culling.bvh_gpu.GpuHierarchy.auto_mode`); the same result.
@@ -273,7 +273,6 @@ class GpuDriven(CullMethod):
         self.runs = ctx.buffer(reserve=16 * c)
         self.cluster_state = ctx.buffer(reserve=4 * c)
         self.commands = ctx.buffer(reserve=2 * c * COMMAND_BYTES)
-        self.sort_draws = order == "front-to-back"
         self.sorted = ctx.buffer(reserve=2 * c * COMMAND_BYTES) if self.sort_draws else None
         self.frame = ctx.buffer(reserve=4 * words)
         self._list_words = n + 1
@@ -344,6 +343,11 @@ class GpuDriven(CullMethod):
         items = len(self.scene) if items is None else items
         program.run(min(-(-items // TEST_GROUP), TEST_GROUPS))
         self.glctx.ctx.memory_barrier()
+
+    @property
+    def sort_draws(self) -> bool:
+        """Whether the passes' commands are drawn nearest first (:attr:`order`)."""
+        return self.order == "front-to-back"
 
     def _sort(self, late: bool) -> None:
         """Write the commands of the early (or late) pass nearest first into :attr:`sorted`."""
