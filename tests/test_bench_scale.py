@@ -4,6 +4,7 @@ targets (experiments.bench_scale)."""
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import soc
@@ -62,3 +63,22 @@ def test_markdown_figure_and_targets(result, tmp_path):
     g = bench_scale.growth(bench_scale.summary(result["frames"]))
     assert {"view", "method", "1,500 ms", "3,000 ms"} <= set(g.columns)
     assert not any(math.isnan(v) for v in g["1,500 ms"])
+
+
+def test_growth_is_a_target_only_at_the_same_view():
+    """Only a fixed view's growth is judged; where the objects in view grow with the scene,
+    the row gives the growth per object in view and is not called met or missed."""
+    rows = []
+    for view, seen in (("same view", (9_000, 10_000)), ("1 % in view", (1_000, 10_000))):
+        for m in bench_scale.GROWTH_METHODS:
+            for n, in_view, ms in ((100_000, seen[0], 2.0), (1_000_000, seen[1], 10.0)):
+                rows.append({"view": view, "method": m, "objects": n, "in view": in_view,
+                             "cull ms": ms})  # fmt: skip
+    t = bench_scale.targets(pd.DataFrame(rows), None)
+    same = t[t["target"].str.contains("same view")]
+    assert len(same) == len(bench_scale.GROWTH_METHODS) and (same["met"] == "no").all()
+    assert (same["measured"] == "5.00×").all()
+    wide = t[t["target"].str.contains("1 % in view: cull")]
+    assert len(wide) == len(bench_scale.GROWTH_METHODS) and (wide["met"] == "–").all()
+    assert wide["target"].str.contains("grow 10.0×").all()
+    assert (wide["measured"] == "5.00× (0.50× per object in view)").all()
