@@ -152,7 +152,8 @@ def hausdorff_to(
 ) -> list[float]:
     """``hausdorff(s, full)`` for every surface s, object units: the points of ``full``
     against each surface (on ``threads`` threads), then every surface's points against
-    ``full`` in one stream of its triangles (the big mesh read once, not once per surface)."""
+    ``full`` in one stream of its triangles (the big mesh read once, not once per surface), its
+    triangles shared among the ``threads``."""
     from concurrent.futures import ThreadPoolExecutor
 
     if not surfaces:
@@ -165,7 +166,7 @@ def hausdorff_to(
     group = np.repeat(np.arange(len(surfaces)), [len(s.points) for s in surfaces])
     spacing = min(s.spacing for s in surfaces) / np.sqrt(len(surfaces))
     out = point_to_mesh.max_distances(
-        points, group, full.vertices, full.faces, floors, spacing=spacing
+        points, group, full.vertices, full.faces, floors, spacing=spacing, threads=threads
     )
     return [float(x) for x in out]
 

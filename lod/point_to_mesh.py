@@ -81,6 +81,7 @@ def max_distances(
     floors: np.ndarray,
     radius: float = 0.0,
     spacing: float = 0.0,
+    threads: int = 1,
 ) -> np.ndarray:
     """Per group g: max(floors[g], max over the points of group g of d(point, mesh)), object
     units, exact up to rounding; every group's points in one stream of the triangles.
@@ -97,6 +98,9 @@ def max_distances(
         Per group, the value below which distances do not matter.
     radius, spacing
         As :func:`max_distance` (``spacing``: of all the points together).
+    threads : int
+        Threads that stream the triangles, each a share of them with its own copy of the
+        points' distances, merged by their minimum (the same result for any count).
 
     Returns
     -------
@@ -109,7 +113,7 @@ def max_distances(
     if g.shape != (len(p),) or (len(g) and (g.min() < 0 or g.max() >= len(fl))):
         raise ValueError(f"group must be (q,) = ({len(p)},) integers in [0, {len(fl) - 1}]")
     best2 = fl * fl
-    _settle(p, g, v, f, best2, float(radius), float(spacing), True)
+    _settle(p, g, v, f, best2, float(radius), float(spacing), True, max(1, int(threads)))
     return np.sqrt(best2)
 
 
@@ -118,7 +122,7 @@ def distances(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np
     p = _points(points)
     v, f = _mesh(vertices, faces)
     best2 = np.zeros(1)
-    return np.sqrt(_settle(p, np.zeros(len(p), np.int64), v, f, best2, 0.0, 0.0, False))
+    return np.sqrt(_settle(p, np.zeros(len(p), np.int64), v, f, best2, 0.0, 0.0, False, 1))
 
 
 def _points(points):
@@ -149,11 +153,12 @@ def _mesh(vertices, faces):
 
 
 @_jit
-def _settle(points, group, v, f, best2, radius, spacing, prune):
+def _settle(points, group, v, f, best2, radius, spacing, prune, parts):
     """Passes of growing radius until every point that matters is exact. Returns the (q,)
     least squared distances seen (exact for every point when not ``prune``); with ``prune``,
     best2[g] = max(best2[g], exact squared distances of group g), and a point whose bound
-    is already below its group's maximum is dropped (it cannot raise it)."""
+    is already below its group's maximum is dropped (it cannot raise it). ``parts``: threads
+    of each pass's stream (:func:`_stream_parts`)."""
     q = points.shape[0]
     active = np.arange(q)
     r = radius if radius > 0 else 0.1 * _spacing(points, active, spacing)
@@ -168,7 +173,7 @@ def _settle(points, group, v, f, best2, radius, spacing, prune):
         if prune:
             for i in active:
                 enough[i] = best2[group[i]]
-        _pass(points, active, v, f, r, spacing, bound, enough, blocks, passes > 0)
+        _pass(points, active, v, f, r, spacing, bound, enough, blocks, passes > 0, parts)
         passes += 1
         r2 = r * r
         if prune:
@@ -218,7 +223,7 @@ def _spacing(points, active, spacing):
 
 
 @_jit
-def _pass(points, active, v, f, r, spacing, bound, enough, blocks, known):
+def _pass(points, active, v, f, r, spacing, bound, enough, blocks, known, parts):
     """One pass at radius r: bound[i] = min(bound[i], squared distances from point i to every
     triangle whose bounding box lies within r of it), for the active points; a point stops
     early once bound[i] ≤ enough[i]. blocks, known: as ``_stream`` takes them."""
@@ -263,16 +268,38 @@ def _pass(points, active, v, f, r, spacing, bound, enough, blocks, known):
         pts[s] = points[who[s]]
         best[s] = bound[who[s]]
         stop[s] = enough[who[s]]
-    _stream(pts, best, stop, lo, cell, dims, start, v, f, r, blocks, known)
+    if parts > 1 and blocks.shape[0] >= parts:
+        _stream_parts(pts, best, stop, lo, cell, dims, start, v, f, r, blocks, known, parts)
+    else:
+        _stream(pts, best, stop, lo, cell, dims, start, v, f, r, blocks, known, 0, blocks.shape[0])
     for s in range(n):
         bound[who[s]] = best[s]
 
 
+@numba.njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+def _stream_parts(pts, best, stop, lo, cell, dims, start, v, f, r, blocks, known, parts):
+    """``_stream`` of all the blocks on ``parts`` threads, each over a share of the blocks with
+    its own copy of ``best``, merged by the minimum. The same ``best`` as one stream wherever it
+    matters: a point that does not reach its ``stop`` ends with the least distance over the
+    same triangles either way (a minimum, exact in any order), and one that reaches it in a
+    share reaches it in the whole stream (and the other way round), which is all its caller
+    reads of it."""
+    nb = blocks.shape[0]
+    copies = np.empty((parts, best.shape[0]))
+    for p in numba.prange(parts):
+        copies[p, :] = best
+        _stream(pts, copies[p], stop, lo, cell, dims, start, v, f, r, blocks, known,
+                nb * p // parts, nb * (p + 1) // parts)  # fmt: skip
+    for s in range(best.shape[0]):
+        for p in range(parts):
+            best[s] = min(best[s], copies[p, s])
+
+
 @_jit
-def _stream(pts, best, stop, lo, cell, dims, start, v, f, r, blocks, known):
-    """Every triangle of (v, f), once: offered to the points of the cells that its bounding box,
-    grown by r, meets; best[s] = min(best[s], squared distance) for the points within r of
-    the box, until best[s] ≤ stop[s].
+def _stream(pts, best, stop, lo, cell, dims, start, v, f, r, blocks, known, b0, b1):
+    """Every triangle of (v, f) in blocks ``b0 .. b1 - 1``, once: offered to the points of the
+    cells that its bounding box, grown by r, meets; best[s] = min(best[s], squared distance)
+    for the points within r of the box, until best[s] ≤ stop[s].
 
     blocks (⌈m / BLOCK⌉, 6): the box (lo xyz, hi xyz) of each run of BLOCK triangles, written
     when not ``known``, else read: later passes carry few points, and a block whose grown box
@@ -283,7 +310,7 @@ def _stream(pts, best, stop, lo, cell, dims, start, v, f, r, blocks, known):
     # grid coordinates of the grown box's corners are (x ∓ r − lo) / cell
     ox, oy, oz = lo[0] + r, lo[1] + r, lo[2] + r
     ux, uy, uz = lo[0] - r, lo[1] - r, lo[2] - r
-    for blk in range(blocks.shape[0]):
+    for blk in range(b0, b1):
         if known and not _occupied(blocks[blk], ox, oy, oz, ux, uy, uz, inv, dims, start):
             continue
         qlx = qly = qlz = np.inf  # this block's box, when not known

@@ -121,6 +121,30 @@ def test_distances_and_maxima_match_brute_force(seed, kind):
         assert got[g] == pytest.approx(want, rel=1e-12)
 
 
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.sampled_from(["sphere", "soup"]), st.integers(2, 5))
+def test_the_stream_shared_among_threads_gives_the_same_maxima(seed, kind, threads):
+    """Each thread streams a share of the triangles with its own copy of the distances: the
+    maxima are those of one stream, bit for bit, floors and groups included."""
+    rng = np.random.default_rng(seed)
+    if kind == "sphere":  # 1,280 triangles: 20 blocks of 64
+        m = trimesh.creation.icosphere(3)
+        v, f = m.vertices * (1 + 0.05 * rng.standard_normal((len(m.vertices), 1))), m.faces
+    else:  # 1,500 random triangles of mixed sizes, some degenerate
+        v = rng.normal(size=(900, 3)) * rng.choice([0.1, 1, 5], size=(900, 1))
+        f = rng.integers(0, 900, size=(1500, 3))
+        f[:50, 2] = f[:50, 1]
+    near = v[f[rng.integers(0, len(f), 300)]].mean(axis=1) + rng.normal(size=(300, 3)) * 0.01
+    pts = np.concatenate([near, rng.normal(size=(20, 3)) * 5])
+    group = rng.integers(0, 3, len(pts))
+    one = point_to_mesh.max_distances(pts, group, v, f, np.zeros(3))
+    floors = np.array([0.0, 0.5, 2.0]) * one.max()
+    for fl in (np.zeros(3), floors):
+        want = point_to_mesh.max_distances(pts, group, v, f, fl)
+        got = point_to_mesh.max_distances(pts, group, v, f, fl, threads=threads)
+        assert got.tobytes() == want.tobytes()
+
+
 def test_float32_vertices_are_read_exactly():
     rng = np.random.default_rng(3)
     m = trimesh.creation.icosphere(2)
