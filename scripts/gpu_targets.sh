@@ -6,8 +6,8 @@
 #     command="bash scripts/gpu_targets.sh", carry=[".gpu"], timeout_s=570
 # Each step runs under its own time limit (545 s in all, besides the runner's setup), so a slow
 # step costs its limit and no more, and writes its log and BENCHMARKS sections to a folder of
-# its own under $OUT. Copy those sections
-# into results/BENCHMARKS.md by hand, with the card's name.
+# its own under $OUT. Copy those sections into results/BENCHMARKS.md by hand, with the card's
+# name.
 #
 # Dry run on this machine's llvmpipe, checking the script and not the GPU:
 #     OUT=/tmp/gpu RUNNER= FRAMES=3 CITY_FRAMES=2 bash scripts/gpu_targets.sh

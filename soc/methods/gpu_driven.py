@@ -92,7 +92,9 @@ ORDERS = ("front-to-back", "unsorted")
 # clusters tested one per invocation (`split`) and drawn early by runs (`early_runs`), smaller
 # clusters cost little more to cull and draw fewer hidden triangles: on llvmpipe 64 beat 128 on
 # every bench path (castle-2114, market and the refilled castle, flight and walk), and 32 beat
-# 64 on castle-2114; 24 and 16 cost the same as 32 (results/BENCHMARKS.md, "Cluster size").
+# 64 on castle-2114; 24 and 16 cost about as much as 32: castle-2114's flight, paired, 1.03 with
+# 0.68 of the ideal's triangles against 1.00 with 0.71 (results/BENCHMARKS.md, "Cheaper passes
+# and smaller clusters", "`gpu-driven`: clusters of 24 triangles against 32").
 CLUSTER_TRIANGLES = 32
 # Depth buckets of the draw order (gpu_driven.common.glsl's ORDER_BUCKETS), log-spaced from the
 # near plane to the far plane: about 4-5 a doubling of the distance at near/far = 10^4.
