@@ -7,7 +7,7 @@ slivers (height below ``SLIVER`` × the longest edge, zero-area ones included) g
 orthonormal frame on their longest edge instead: the distance is a 2D point–triangle distance
 in the triangle's plane plus the offset from that plane. The frame only rotates (Gram–Schmidt
 twice, so its axes are orthogonal to rounding), and a triangle of zero area is then exactly
-its longest edge. ``tests/test_point_to_mesh.py`` checks both against exact rational
+its longest edge. ``tests/lod/test_point_to_mesh.py`` checks both against exact rational
 arithmetic.
 
 Everything works on squared distances (no square root per triangle) and on scalars (no

@@ -43,7 +43,7 @@ g = c.default_context()
 print('renderer:', g.renderer, '| GL', g.ctx.version_code)
 print('timer meaningful:', g.timer_meaningful, '| stages queued:', not g.stage_sync)"
 step tests 100 python3 -m pytest -x -q -p no:cacheprovider \
-    tests/test_gpu_driven.py tests/test_gpu_clock.py tests/test_hiz_2phase.py
+    tests/soc/test_gpu_driven.py tests/soc/test_gpu_clock.py tests/soc/test_hiz_2phase.py
 for scene_path in "castle-2114 flight" "castle-2114 walk" "market flight" "market walk"; do
     set -- $scene_path
     step "floor-$1-$2" 60 python3 -m experiments.bench --only floor --scene "$1" --path "$2" \

@@ -52,7 +52,7 @@ of both computations:
   node read, whose max is no smaller; the node read none reaching its depth, so the box reads
   none reaching its own. Hence a hidden node holds only boxes ``judge`` hides.
 
-``tests/test_bvh_gpu.py`` checks this against the flat test on random scenes and cameras,
+``tests/soc/test_bvh_gpu.py`` checks this against the flat test on random scenes and cameras,
 with boxes through the near plane, odd resolutions, refitted trees and several leaf sizes and
 cuts.
 """

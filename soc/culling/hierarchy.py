@@ -29,7 +29,7 @@ Stages, top-down:
 **The walk gives the codes of the flat tests exactly** (``OCCLUDED``/``VISIBLE``/
 ``VIEW_CULLED`` of :func:`soc.culling.hiz_cpu.classify_objects` and
 :meth:`soc.culling.masked.MaskedBuffer.classify_objects`, ``True``/``False`` of
-:func:`soc.culling.frustum.aabbs_in_frustum`), object by object; ``tests/test_hierarchy.py``
+:func:`soc.culling.frustum.aabbs_in_frustum`), object by object; ``tests/soc/test_hierarchy.py``
 checks this on random scenes and cameras. Why: every node test decides only what the flat
 test of every box inside the node would decide, with margins for float64 rounding —
 

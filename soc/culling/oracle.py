@@ -23,7 +23,7 @@ drawing every object, bit for bit:**
 * drawing a subset in the same order leaves every other object's fragments and the depth
   test's outcomes (``<``, first drawn wins ties) unchanged.
 
-``tests/test_oracle.py`` compares both id buffers on random scenes and cameras and the hard
+``tests/soc/test_oracle.py`` compares both id buffers on random scenes and cameras and the hard
 cases. ``Oracle(scene, frustum=False)`` draws every object (the reference).
 """
 

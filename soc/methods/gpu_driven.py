@@ -40,7 +40,7 @@ depends on which subset the early pass drew: the first frame and :meth:`GpuDrive
 everything is tested against a cleared depth, frustum culling only), camera cuts (an unrelated
 set) are correct, only slower. A cluster is culled only when its box is outside the frustum or
 behind the pyramid at every pixel centre it may cover — no pixel of it can be visible, so a
-cluster-id render holds no culled cluster either (tests/test_gpu_driven.py checks both).
+cluster-id render holds no culled cluster either (tests/soc/test_gpu_driven.py checks both).
 
 **Normal cones are not used.** vislod's oracle draws without back-face culling, so a
 back-facing cluster is visible wherever no front face covers it. A cone may cull without
@@ -164,7 +164,7 @@ class GpuDriven(CullMethod):
     hierarchy : bool
         The late pass walks the scene's object hierarchy (:mod:`soc.culling.bvh_gpu`; default
         True: a subtree outside the frustum or behind the pyramid is dropped whole) or tests
-        every object box (False: the reference; the same frames, ``tests/test_bvh_gpu.py``).
+        every object box (False: the reference; the same frames, ``tests/soc/test_bvh_gpu.py``).
     reproject : bool
         The early pass also leaves out what last frame's depth, seen from this frame's camera,
         hides (:mod:`soc.culling.reprojection`): fewer clusters drawn early that the camera's

@@ -183,7 +183,7 @@ class TwoPhaseCulling(CullMethod):
         sort of 0.2 ms (0.4 ms for the 15k objects kept without ``occluders_first``).
     hierarchy : bool
         Test on the CPU by a walk of the scene's BVH (default True) or object by object
-        (False: the reference; the same codes, ``tests/test_hierarchy.py``). The GL test
+        (False: the reference; the same codes, ``tests/soc/test_hierarchy.py``). The GL test
         (``test="gpu"``) tests every box in its compute pass either way.
     granularity : {"object", "cluster"}
         Draw whole objects (default) or their clusters (:func:`soc.culling.clusters.scene_clusters`

@@ -48,7 +48,7 @@ class HiZCpuCulling(CullMethod):
         2,114 objects too (``results/BENCHMARKS.md``, "The hierarchy's walk on both cores").
     hierarchy : bool
         Test the objects by a walk of the scene's BVH (default True) or every object's box
-        (False: the reference; the same codes, tested in ``tests/test_hierarchy.py``).
+        (False: the reference; the same codes, tested in ``tests/soc/test_hierarchy.py``).
 
     After :meth:`cull`, :attr:`last_walk` holds the walk's
     :class:`~soc.culling.hierarchy.WalkStats` (None without the hierarchy),

@@ -64,7 +64,7 @@ class GpuHizCulling(CullMethod):
         Test by a walk of the scene's object hierarchy in the compute pass
         (:meth:`soc.culling.hiz_gpu.HizTest.walk`: a subtree outside the frustum or behind the
         pyramid is dropped whole; default True) or every box (False: the reference; the same
-        kept set and frustum-culled count, ``tests/test_bvh_gpu.py``).
+        kept set and frustum-culled count, ``tests/soc/test_bvh_gpu.py``).
     walk : {"auto", "levels", "subtrees"}
         How the walk dispatches (:meth:`soc.culling.bvh_gpu.GpuHierarchy.run`; ``"auto"``,
         the default: :attr:`~soc.culling.bvh_gpu.GpuHierarchy.auto_mode`); the same result.

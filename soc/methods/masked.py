@@ -40,7 +40,7 @@ class MaskedCulling(CullMethod):
         buffer, and so what is culled, is the same for any number.
     hierarchy : bool
         Test the objects by a walk of the scene's BVH (default True) or object by object
-        (False: the reference; the same codes, tested in ``tests/test_hierarchy.py``).
+        (False: the reference; the same codes, tested in ``tests/soc/test_hierarchy.py``).
 
     After :meth:`cull`, :attr:`last_codes` holds one code per object
     (:data:`soc.culling.masked.OCCLUDED`,

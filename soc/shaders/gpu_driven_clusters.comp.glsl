@@ -12,7 +12,7 @@
 //            and marked drawn when one is drawn.
 // The late pass's loop keeps one SIMD lane busy with an object's clusters while the others wait
 // (llvmpipe runs 8 invocations in lockstep, a GPU 32 or 64); stage 0 gives every lane a cluster.
-// The decisions are the loop's (tests/test_gpu_driven.py compares the clusters drawn).
+// The decisions are the loop's (tests/soc/test_gpu_driven.py compares the clusters drawn).
 #include "gpu_driven.common"
 #include "hiz_test.common"
 

@@ -22,7 +22,7 @@ from experiments.common import (
 )
 
 FRAMES = 3
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PNGS = [f"seed000_{n}.png" for n in ("abb1", "abb4", "abb6", "abb7", "abb8_left", "abb8_right")]
 PNGS += ["seed000_abb9.png", "seed000_abb10.png"]
 

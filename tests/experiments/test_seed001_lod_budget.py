@@ -1,7 +1,7 @@
 """Seed 001 LOD budget experiment on the harness in quick mode: the frames, the predictive
 selection's promise (predicted cost within the budget), measured frame times against no LOD as
 ratios within one run, the level picture's greys, the claims' verdicts, and bad input refused
-before any work (the static tuning: tests/test_lod_budget.py)."""
+before any work (the static tuning: tests/lod/test_lod_budget.py)."""
 
 from __future__ import annotations
 

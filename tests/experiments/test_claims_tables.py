@@ -3,9 +3,9 @@ its pre-table code wrote (verdicts unchanged, apart from the rows a listed issue
 every rule of every table can fail — each names alterations of the frames (the alternative
 hypothesis: shuffled, scaled, swapped) and one of them must change its verdict.
 
-Stored frames: ``tests/data/claims/<experiment>/`` (a quick run at the commit before the
+Stored frames: ``tests/experiments/data/claims/<experiment>/`` (a quick run at the commit before the
 tables, trimmed: frames as ``.csv.gz`` without pixels, its ``inputs.json`` parameters and the
-``claims.csv`` its code wrote); ``tests/data/claims-now/`` (quick runs of the experiments
+``claims.csv`` its code wrote); ``tests/experiments/data/claims-now/`` (quick runs of the experiments
 whose compute issue 23 extended: seed000, seed001-lod, seed001-portals, seed003,
 seed004-adaptive), on which the rules are flipped. More folders of full runs
 (``<dir>/<experiment>/``, as ``vislod figures --out <dir>`` writes them) are compared when

@@ -8,7 +8,7 @@ refitted trees — for both walk modes, any leaf size, cut and node refinement; 
 ``gpu-driven`` keeps, draws and remembers the same with its walk as with every box tested.
 
 Against the CPU's BVH walk (:meth:`soc.culling.hierarchy.Hierarchy.classify_pyramid`, itself
-the CPU flat test's answer, ``tests/test_hierarchy.py``) of the same depth, the objects outside
+the CPU flat test's answer, ``tests/soc/test_hierarchy.py``) of the same depth, the objects outside
 the frustum are the same, object by object. The kept sets are not compared there: the GPU and
 CPU pyramid tests are two conservative float computations that differ on boxes at the edge of
 a decision (measured: one or a few of ~200 objects in about 1 read of 6 of these cases, in

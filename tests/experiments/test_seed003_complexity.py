@@ -14,7 +14,7 @@ from experiments import harness
 from experiments import seed003_complexity as s3
 from soc.scenes import sphere_stack, sphere_stack_camera
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 # -- the fits on synthetic data -------------------------------------------------------------

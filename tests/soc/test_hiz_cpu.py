@@ -188,7 +188,7 @@ def test_conservative_at_a_large_odd_resolution(clutter_scenes):
     check_conservative(clutter_scenes[1], cams, (2432, 1440), ["hiz-cpu"])
 
 
-# The hard cases run for every conservative method in tests/test_culling_conservative.py.
+# The hard cases run for every conservative method in tests/soc/test_culling_conservative.py.
 
 
 @pytest.mark.heavy

@@ -141,7 +141,7 @@ def test_random_cameras_over_the_castle(data_dir):
 
 
 # The hard cases (camera inside a box, near plane, box-shaped occluders, decals on a wall top)
-# run for every conservative method in tests/test_culling_conservative.py.
+# run for every conservative method in tests/soc/test_culling_conservative.py.
 
 
 def test_box_covering_no_pixel_centre_is_culled_and_one_covering_a_centre_is_kept():

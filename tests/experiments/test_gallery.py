@@ -15,7 +15,7 @@ import pytest
 
 from experiments import gallery, harness
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _figure(width_in: float = 10.0, noise: bool = False):

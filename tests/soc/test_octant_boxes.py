@@ -1,7 +1,7 @@
 """Octant boxes (:mod:`soc.culling.octant_boxes`): every point of every triangle lies in one
 of its object's eight boxes, the boxes lie in the object's AABB, empty octants are marked, and
 the HiZ test judging by them keeps a subset of what the box test keeps and every visible object
-(hiz-2phase's ``octants`` option runs the temporal suite of tests/test_hiz_2phase.py)."""
+(hiz-2phase's ``octants`` option runs the temporal suite of tests/soc/test_hiz_2phase.py)."""
 
 from __future__ import annotations
 

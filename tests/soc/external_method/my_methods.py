@@ -1,5 +1,5 @@
 """A user's culling methods, written outside vislod (copied to a temporary folder by
-tests/test_soc_testing.py and checked there by pytest through vislod's plugin).
+tests/soc/test_soc_testing.py and checked there by pytest through vislod's plugin).
 
 ``FrustumMine`` is right (it keeps everything in the view frustum); ``OddCull`` is the
 deliberately wrong method of the README: it also culls every object whose index is odd.

@@ -26,7 +26,7 @@ STRICT = {
     "adaptive": {"temporal": False},
     "hiz-gpu": {"conservative": True},
 }
-# portals needs a scene of cells (tests/test_portals.py checks it against the oracle).
+# portals needs a scene of cells (tests/soc/test_portals.py checks it against the oracle).
 CONSERVATIVE = sorted(
     m for m, cls in METHODS.items() if (cls.conservative or m in STRICT) and m != "portals"
 )

@@ -11,7 +11,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = ("soc", "lod", "experiments")
 LAYERS = (
     ("soc.errors", "soc.constants", "soc.metrics", "soc.user_cache"),

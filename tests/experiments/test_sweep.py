@@ -164,7 +164,7 @@ def test_keys_are_stable_across_processes():
         "print(json.dumps([t.key for t in s.tasks()]))"
     )
     env = {**os.environ, "PYTHONHASHSEED": "12345"}
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     out = subprocess.run(
         [sys.executable, "-c", code, json.dumps(GRID)],
         capture_output=True,
