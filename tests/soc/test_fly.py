@@ -91,3 +91,74 @@ def test_interleaved_cullers_must_share_the_scene(scene):
             soc.fly({"a": a, "b": b}, cams, progress=False)
         with pytest.raises(ValueError, match="at least one culler"):
             soc.fly({}, cams, progress=False)
+
+
+class _Counting:
+    """A culler that counts its culls and resets (the rest is the wrapped culler's)."""
+
+    def __init__(self, culler):
+        self.culler, self.culls, self.resets = culler, 0, 0
+
+    def __getattr__(self, name):
+        return getattr(self.culler, name)
+
+    def cull(self, camera, **kw):
+        self.culls += 1
+        return self.culler.cull(camera, **kw)
+
+    def reset(self):
+        self.resets += 1
+        self.culler.reset()
+
+
+def test_warm_up_frames_are_culled_but_not_reported(scene):
+    """warmup=2: the first camera twice, then a reset; a sequence of cameras: those, no reset."""
+    cams = random_cameras(scene, 3, seed=2, width=160, height=96)
+    with soc.Culler(scene, "frustum", (160, 96)) as c:
+        counted = _Counting(c)
+        df = soc.fly({"f": counted}, cams, warmup=2, progress=False)
+        assert len(df) == 3 and (counted.culls, counted.resets) == (5, 1)
+        counted = _Counting(c)
+        df = soc.fly({"f": counted}, cams[1:], warmup=cams[:1], progress=False)
+        assert len(df) == 2 and (counted.culls, counted.resets) == (3, 0)
+        with pytest.raises(ValueError, match="warmup must be >= 0"):
+            soc.fly(c, cams, warmup=-1, progress=False)
+
+
+def test_reference_frames_draw_the_truth_and_everything(scene):
+    """'ideal' keeps exactly the oracle's set (no false keeps, no false culls) and only draws;
+    'everything' keeps every object; the oracle's time is in the ideal row."""
+    cams = random_cameras(scene, 3, seed=4, width=160, height=96)
+    with soc.Culler(scene, "frustum", (160, 96)) as c:
+        df = soc.fly(c, cams, truth="oracle", draw=True, ideal=True, everything=True,
+                     progress=False)  # fmt: skip
+        with pytest.raises(ValueError, match="give truth"):
+            soc.fly(c, cams, ideal=True, progress=False)
+    assert list(df.groupby("frame").size()) == [3] * 3
+    ideal, every = df[df.method == "ideal"], df[df.method == "everything"]
+    assert (ideal.false_keeps == 0).all() and (ideal.false_culls == 0).all()
+    assert (ideal.models_visible == ideal.oracle_visible).all()
+    assert (every.models_visible == len(scene)).all()
+    assert (ideal.ms_cull == 0).all() and (ideal.ms_draw > 0).all()
+    assert (ideal.oracle_ms > 0).all() and (df[df.method != "ideal"].oracle_ms.isna()).all()
+    fr = df[df.method == "frustum"].set_index("frame")
+    assert (fr.models_visible >= ideal.set_index("frame").models_visible).all()
+
+
+def test_repeats_truth_every_shuffled_order_and_drawing_some(scene):
+    cams = random_cameras(scene, 4, seed=6, width=160, height=96)
+    seen: list[int] = []
+    with soc.Culler(scene, "frustum", (160, 96)) as a, soc.Culler(scene, "queries", (160, 96)) as b:
+        df = soc.fly({"a": a, "b": b}, cams, truth="oracle", repeats=2, truth_every=2,
+                     order="shuffle", draw=["b"], progress=False,
+                     before_frame=lambda i, cam: seen.append(i))  # fmt: skip
+        with pytest.raises(ValueError, match="order must be one of"):
+            soc.fly(a, cams, order="random", progress=False)
+    assert seen == [0, 1, 2, 3] * 2
+    assert len(df) == 16 and set(df.repeat) == {0, 1}
+    judged = df.false_culls.notna()
+    assert set(df.loc[judged, "frame"]) == {0, 2} and (df.loc[judged, "false_culls"] == 0).all()
+    assert (df.loc[df.method == "b", "ms_draw"] > 0).all()
+    assert (df.loc[df.method == "a", "ms_draw"] == 0).all()
+    one, two = (df[(df.method == "a") & (df.repeat == r)] for r in (0, 1))
+    assert list(one.models_visible) == list(two.models_visible)
