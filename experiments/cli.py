@@ -71,7 +71,7 @@ def _installed(extra: str) -> bool:
 def _named_methods(args: argparse.Namespace) -> list[str]:
     """The culling methods a command will run, from its options (``all`` expanded)."""
     if args.command == "cull":
-        return [args.method.partition("(")[0].strip()]  # "masked(threads=1)" → masked
+        return [args.method.partition("(")[0].strip()]  # "masked(cpu_threads=1)" → masked
     if args.command == "sweep":
         methods = list(args.methods or DEFAULT_METHODS)
     else:  # a harness experiment's method parameter
@@ -157,7 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
     cull.add_argument(
         "--method",
         required=True,
-        help='culling method (soc.method_names()), options in parentheses: "masked(threads=1)"',
+        help='culling method (soc.method_names()), options in parentheses: "masked(cpu_threads=1)"',
     )
     cull.add_argument(
         "--resolution", type=resolution_arg, help="depth-buffer resolution WxH (default: display)"
@@ -223,7 +223,7 @@ def _check_method_culls(method: str, scene_name: str, scene=None) -> None:
     from soc.methods.spec import parse
 
     try:
-        method, _ = parse(method)  # "masked(threads=1)": the options go to soc.Culler
+        method, _ = parse(method)  # "masked(cpu_threads=1)": the options go to soc.Culler
     except ValueError as e:
         raise UsageError(str(e)) from None
     if method not in soc.method_names():

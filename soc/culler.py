@@ -6,6 +6,7 @@ with soc.Culler(scene, method="queries", resolution=(1920, 1080)) as culler:
 
 from __future__ import annotations
 
+import inspect
 import time
 
 import numpy as np
@@ -13,6 +14,7 @@ import numpy as np
 from soc.gl.context import uses_gl
 from soc.methods import METHODS, CullConfig
 from soc.methods.base import CullMethod, MethodOutput, load_entry_points
+from soc.methods.options import build as build_options
 from soc.methods.spec import resolve as resolve_spec
 from soc.metrics import FINISH_STAGE, OTHER_STAGE, CullResult, frame_stats, gpu_stage, stage
 from soc.scenes.camera import Camera, _resolution
@@ -23,6 +25,12 @@ def method_names(scene=None) -> list[str]:
     can cull it (portal culling, for instance, needs a scene of cells and portals)."""
     load_entry_points()
     return sorted(m for m, cls in METHODS.items() if scene is None or cls.supports(scene))
+
+
+def _keyword_options(cls: type[CullMethod]) -> bool:
+    """Whether ``cls`` still takes its options as ``__init__`` keywords (a method not yet
+    converted to an ``Options`` dataclass): its constructor has no ``options`` parameter."""
+    return "options" not in inspect.signature(cls.__init__).parameters
 
 
 class Culler:
@@ -41,13 +49,16 @@ class Culler:
         unchanged, so a resolution whose aspect differs from the camera's only changes the
         sampling density.
     config : CullConfig, optional
-        Stage switches (frustum, depth test, llvmpipe threads).
+        Stage switches (frustum, depth test, llvmpipe's ``gl_threads``).
     glctx : GLContext, optional
         Default: the process's context.
     **options
-        Method-specific options (e.g. a grid size or a query cap), documented by each method's
-        class; an option the method does not take raises ``ValueError``, and so does one
-        also written in ``method`` with another value.
+        Method-specific options (e.g. a grid size or a query cap): the fields of the method's
+        ``Options`` dataclass (``soc.methods.METHODS[name].Options``, documented field by
+        field), checked before anything is allocated. An option the method does not take, a
+        value it does not allow (:class:`soc.methods.options.OptionError`) or one also
+        written in ``method`` with another value raises ``ValueError`` naming the method and
+        the option.
 
     Notes
     -----
@@ -73,7 +84,7 @@ class Culler:
         glctx=None,
         **options,
     ):
-        if isinstance(method, str):  # "masked(threads=1)": the form tables print
+        if isinstance(method, str):  # "masked(cpu_threads=1)": the form tables print
             method, options = resolve_spec(method, options)
         if isinstance(method, type) and issubclass(method, CullMethod):
             cls = uses_gl(method)  # a user's class, registered or not
@@ -84,21 +95,27 @@ class Culler:
                 f"unknown culling method {method!r}; available: {method_names()} "
                 "(options: NAME(option=value, ...) or keywords)"
             )
+        legacy = _keyword_options(cls)
+        # The options are checked before any GL work: a wrong one costs nothing.
+        typed = None if legacy else build_options(cls, options)
         self.resolution = _resolution(*resolution)
         self.config = config or CullConfig()
         from soc.gl.context import _default_context
 
-        self.glctx = glctx or _default_context(self.config.threads)
+        self.glctx = glctx or _default_context(self.config.gl_threads)
         self._renderer = None
         with self.glctx.current():
             self.glctx.check_size(self.resolution, "culling resolution")
             self.scene = scene
             self.geometry = self.glctx.geometry(scene)
             try:
-                self.method = cls(self.geometry, self.resolution, self.config, **options)
+                if legacy:
+                    self.method = cls(self.geometry, self.resolution, self.config, **options)
+                else:
+                    self.method = cls(self.geometry, self.resolution, self.config, typed)
             except TypeError as e:
                 self.glctx.pop_errors()
-                if options and "argument" in str(e):
+                if legacy and options and "argument" in str(e):
                     raise ValueError(
                         f"method {method!r} does not take options {options}: {e}"
                     ) from e
@@ -109,7 +126,14 @@ class Culler:
 
     @property
     def conservative(self) -> bool:
-        return self.method.conservative
+        """Whether this instance, with its options, never culls what the oracle sees at its
+        resolution (the method's own ``conservative``, which an option may change)."""
+        return bool(self.method.conservative)
+
+    @property
+    def options(self):
+        """The method's options (its ``Options`` dataclass, checked), as it runs with them."""
+        return self.method.options
 
     @uses_gl
     def reset(self) -> None:
@@ -184,8 +208,17 @@ class Culler:
                 # work does.
                 with stage(timings, FINISH_STAGE):
                     self.glctx.finish()
-            wall_ms = 1e3 * (time.perf_counter() - t0)
             visible = np.asarray(out.visible, bool)
+            size = self.config.size_test
+            if size is not None and size.occludee > 0:  # Intel's IsTooSmall, after the method
+                from soc.culling.size_test import too_small
+
+                with stage(timings, "size test"):
+                    small = too_small(self.scene, camera, size.occludee)
+                    visible = visible & ~small
+                    if truth is not None:  # its culls are not false culls: counted apart
+                        truth = np.asarray(truth, bool) & ~small
+            wall_ms = 1e3 * (time.perf_counter() - t0)
             # The method's work between its timed stages (Python, numpy passes over the
             # objects) is part of its frame too: the stages alone would hide it.
             timings[OTHER_STAGE] = max(wall_ms - sum(timings.values()), 0.0)

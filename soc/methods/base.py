@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
+from soc.culling.size_test import SizeTest
+from soc.methods.options import MethodOptions, NoOptions
+from soc.methods.options import build as build_options
 from soc.metrics import stage
 
 
@@ -19,14 +23,21 @@ class CullConfig:
         Frustum-cull AABBs before anything else.
     depth_test : bool
         Run the method's occlusion test (off: only the frustum test, or nothing, remains).
-    threads : int or None
-        llvmpipe rasterizer threads ("MT"); None = Mesa's default (one per core). Fixed per
-        process by the first GL context.
+    gl_threads : int or None
+        llvmpipe's rasterizer threads ("MT"); None = Mesa's default (one per core). Fixed per
+        process by the first GL context; nothing on a GPU. (The threads of a method's numba
+        kernels are its own option, ``cpu_threads``.)
+    size_test : SizeTest or None
+        Intel's screen-size test (:mod:`soc.culling.size_test`): occludees too small are
+        culled by :class:`soc.Culler` after the method (not conservative; not counted as
+        false culls), occluders too small are left out of the query methods' depth prepass.
+        None (default): off.
     """
 
     frustum: bool = True
     depth_test: bool = True
-    threads: int | None = None
+    gl_threads: int | None = None
+    size_test: SizeTest | None = None
 
 
 @dataclass
@@ -48,22 +59,37 @@ class CullMethod:
     """Base class: a culling method bound to one scene, GL context and depth resolution.
 
     Subclasses set ``name`` and ``conservative`` and implement :meth:`cull`. A conservative
-    method never culls an object that the oracle sees at the same resolution. Methods that
-    reuse results across frames (temporal coherence) say so with ``temporal = True`` and
-    keep their state between calls of :meth:`cull`; :meth:`reset` forgets it. Method-specific
-    options are keyword arguments of the subclass's ``__init__``.
+    method never culls an object that the oracle sees at the same resolution; an instance
+    whose options make it otherwise sets its own ``conservative`` (what
+    :attr:`soc.Culler.conservative` reports). Methods that reuse results across frames
+    (temporal coherence) say so with ``temporal = True`` and keep their state between calls
+    of :meth:`cull`; :meth:`reset` forgets it.
+
+    Method-specific options are one frozen dataclass, the class's ``Options`` (a subclass of
+    :class:`soc.methods.options.MethodOptions`, documented field by field; :class:`NoOptions`
+    by default): :class:`soc.Culler` builds it from the spec's and the keyword options,
+    checked (:func:`soc.methods.options.build`), and the method receives it as ``options``
+    (kept as :attr:`options`).
     """
 
     name: str = ""
     conservative: bool = True
     temporal: bool = False
+    Options: ClassVar[type[MethodOptions]] = NoOptions
 
-    def __init__(self, geometry, resolution: tuple[int, int], config: CullConfig):
+    def __init__(
+        self,
+        geometry,
+        resolution: tuple[int, int],
+        config: CullConfig,
+        options: MethodOptions | None = None,
+    ):
         self.geometry = geometry
         self.glctx = geometry.glctx
         self.scene = geometry.scene
         self.resolution = resolution
         self.config = config
+        self.options = build_options(type(self), options)
 
     @classmethod
     def supports(cls, scene) -> bool:

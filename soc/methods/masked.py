@@ -17,30 +17,42 @@ the method warms them up.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from soc.culling.frustum import aabbs_in_frustum
 from soc.culling.hierarchy import Hierarchy
 from soc.culling.masked import OCCLUDED, VIEW_CULLED, VISIBLE, MaskedBuffer
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
+from soc.methods.options import MethodOptions, option
+
+
+@dataclass(frozen=True)
+class MaskedOptions(MethodOptions):
+    """Options of ``masked`` (:class:`MaskedCulling`).
+
+    Attributes
+    ----------
+    cpu_threads : int or None
+        numba threads of the transform, the raster and the hierarchy's walk (its subtrees
+        dealt to them); None (default): numba's thread count (``NUMBA_NUM_THREADS``). The
+        buffer, and so what is culled, is the same for any number.
+    hierarchy : bool
+        Test the objects by a walk of the scene's BVH (default True) or object by object
+        (False: the reference; the same codes, tested in ``tests/soc/test_hierarchy.py``).
+    """
+
+    cpu_threads: int | None = option(None, low=1)
+    hierarchy: bool = True
 
 
 @register
 class MaskedCulling(CullMethod):
     """Frustum + masked software occlusion culling (occluders front to back, box tests).
 
-    Options
-    -------
-    backface : bool
-        Skip back-facing triangles of closed, consistently oriented occluder meshes (default
-        True; open meshes are always drawn two-sided).
-    threads : int or None
-        Threads of the transform and the raster (default None: numba's thread count,
-        ``NUMBA_NUM_THREADS``), and of the hierarchy's walk (its subtrees dealt to them); the
-        buffer, and so what is culled, is the same for any number.
-    hierarchy : bool
-        Test the objects by a walk of the scene's BVH (default True) or object by object
-        (False: the reference; the same codes, tested in ``tests/soc/test_hierarchy.py``).
+    Options: :class:`MaskedOptions`. Back faces of closed, consistently oriented occluder
+    meshes are skipped (open meshes are drawn two-sided).
 
     After :meth:`cull`, :attr:`last_codes` holds one code per object
     (:data:`soc.culling.masked.OCCLUDED`,
@@ -52,22 +64,15 @@ class MaskedCulling(CullMethod):
     name = "masked"
     conservative = True
     temporal = False
+    Options = MaskedOptions
 
-    def __init__(
-        self,
-        geometry,
-        resolution,
-        config,
-        *,
-        backface: bool = True,
-        threads: int | None = None,
-        hierarchy: bool = True,
-    ):
-        super().__init__(geometry, resolution, config)
-        self.buffer = MaskedBuffer(self.scene, resolution, backface=backface, threads=threads)
+    def __init__(self, geometry, resolution, config, options: MaskedOptions | None = None):
+        super().__init__(geometry, resolution, config, options)
+        opts = self.options
+        self.buffer = MaskedBuffer(self.scene, resolution, threads=opts.cpu_threads)
         self.last_codes = np.zeros(len(self.scene), np.uint8)
-        self.use_hierarchy = bool(hierarchy)
-        self.hierarchy = Hierarchy.for_scene(self.scene) if hierarchy else None
+        self.use_hierarchy = opts.hierarchy
+        self.hierarchy = Hierarchy.for_scene(self.scene) if opts.hierarchy else None
         self.last_walk = None
 
     def cull(self, camera) -> MethodOutput:
@@ -100,4 +105,4 @@ class MaskedCulling(CullMethod):
         return MethodOutput(codes == VISIBLE, outside, tested, timings)
 
 
-__all__ = ["OCCLUDED", "VIEW_CULLED", "VISIBLE", "MaskedCulling"]
+__all__ = ["OCCLUDED", "VIEW_CULLED", "VISIBLE", "MaskedCulling", "MaskedOptions"]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from soc.culling.portals import cell_graph
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
+from soc.methods.options import NoOptions
 
 
 @register
@@ -26,8 +27,8 @@ class PortalCulling(CullMethod):
     def supports(cls, scene) -> bool:
         return "cells" in scene.meta and "portals" in scene.meta
 
-    def __init__(self, geometry, resolution, config):
-        super().__init__(geometry, resolution, config)
+    def __init__(self, geometry, resolution, config, options: NoOptions | None = None):
+        super().__init__(geometry, resolution, config, options)
         self.graph = cell_graph(self.scene)
         self.last_cells = -1
 

@@ -1,10 +1,11 @@
-"""Method specs as tables print them: ``"hiz-2phase(test='gpu')"``, ``"masked(threads=1)"``.
+"""Method specs as tables print them: ``"hiz-2phase(test='gpu')"``, ``"masked(cpu_threads=1)"``.
 
 :class:`soc.Culler` takes a method name with its options written after it in parentheses, the
 form the benchmarks name their rows in, as well as the name alone with options as keywords.
 The text is parsed, never evaluated: Python's own parser reads the parentheses as a call, and
 each keyword value must be a literal (:func:`ast.literal_eval`: numbers, strings, ``True``/
-``False``/``None``, tuples, lists, dicts).
+``False``/``None``, tuples, lists, dicts). What the options mean and allow is the method's
+``Options`` dataclass (:mod:`soc.methods.options`), which checks them.
 """
 
 from __future__ import annotations
@@ -79,7 +80,8 @@ def parse(spec: str) -> tuple[str, dict[str, Any]]:
 
 
 def format_spec(name: str, options: Mapping[str, Any] | None = None) -> str:
-    """The printed form: ``format_spec("masked", {"threads": 1})`` → ``"masked(threads=1)"``;
+    """The printed form: ``format_spec("masked", {"cpu_threads": 1})`` →
+    ``"masked(cpu_threads=1)"``;
     :func:`parse` reads it back to the same name and options."""
     if not options:
         return name

@@ -67,7 +67,7 @@ def test_the_quick_demo_and_a_resumed_run_fit(tmp_path, capsys, quiet):
 
 
 def test_cull_prints_fitted_columns(capsys, quiet):
-    argv = ["cull", "--scene", "clutter", "--method", "masked(threads=1)", "--quick"]
+    argv = ["cull", "--scene", "clutter", "--method", "masked(cpu_threads=1)", "--quick"]
     assert cli.main([*argv, "--frames", "2", "--oracle"]) == 0
     lines = _lines(capsys)
     _assert_fits(lines)
