@@ -14,8 +14,8 @@ section 4; decisions in :mod:`soc.models.adaptive`, octree in :mod:`soc.culling.
    nodes in the frustum (the most triangles first); a node found occluded is not drawn.
    ``temporal=True`` (default, the paper's test: "results are read with a delay of several
    frames to avoid CPU stalls"): the queries are issued after the frame is drawn, against its
-   depth buffer, and read ``latency`` frames later — **not conservative** (a node that comes
-   into view is drawn up to ``latency`` frames late: popping, measured against the oracle by
+   depth buffer, and read ``LATENCY`` frames later — **not conservative** (a node that comes
+   into view is drawn up to ``LATENCY`` frames late: popping, measured against the oracle by
    ``experiments.seed004_adaptive``). ``temporal=False``: the alive occluders in the frustum
    are rendered into a depth prepass, the queries test it and are waited for in the same
    frame — **conservative** at the depth resolution (node boxes contain their objects' AABBs;
@@ -24,20 +24,26 @@ section 4; decisions in :mod:`soc.models.adaptive`, octree in :mod:`soc.culling.
 Modes 1 and 2 are conservative (a node's box contains its objects' boxes, so node culling
 keeps every object the per-object test keeps).
 
-Each frame, top-down: ``collect`` (mode 3, temporal: read the results issued ``latency``
+Commands are recorded one at a time on one thread, as the paper's renderer records them
+(:mod:`soc.rendering.command_recording`): mode 1 records every command of the frustum's objects
+every frame, modes 2 and 3 the commands of the nodes whose objects changed.
+
+Each frame, top-down: ``collect`` (mode 3, temporal: read the results issued ``LATENCY``
 frames ago) → ``buf`` and ``fc`` (the mode's recording and frustum test) → ``prepass`` and
 ``queries`` (mode 3, same frame) → ``draw`` → ``queries`` (mode 3, temporal: issued against
-the frame's depth). Every frame's timings update the unit costs
-(:class:`soc.models.adaptive.UnitCosts`). At frame ``FIRST_DECISION`` and every ``DECIDE_EVERY``
-frames, ``decide``: the octree is brought up to date (mode 1 applies the frames' events in one
-batch), the invisible objects are estimated in modes 1 and 2 when due (``estimate``; every
-``estimate_every`` frames or less often: the interval doubles while estimates do not lead to
-mode 3, and the estimate takes at most ``ESTIMATE_SHARE`` of the frame time), the terms of
-(5) and (6) are predicted for every mode and the next mode chosen
-(:func:`soc.models.adaptive.choose_mode`; mode 3 is tried without the margin when predicted faster
-at all, since outside mode 3 its prediction rests on the conservative estimate). In mode 3
-with ``queries="auto"`` the query count is re-fitted every ``REFIT_EVERY`` frames (``fit``,
-formulas (7)-(11)). Every stage is part of the frame's time.
+the frame's depth) → ``decide``. Every frame's timings update the unit costs
+(:class:`soc.models.adaptive.UnitCosts`). ``decide`` (every frame with ``rule="paper"``; at
+frame ``FIRST_DECISION`` and every ``DECIDE_EVERY`` frames with ``rule="cost"``): the octree is
+brought up to date (mode 1 applies the events since the last decision in one batch), the terms
+of (5) and (6) are predicted and the next mode chosen by the rule. (6) outside mode 3 rests on
+the invisible-object estimate (``estimate``, inside ``decide``), which runs in modes 1 and 2
+when (6) is needed (with ``rule="paper"``: only where (5) fails) and due: the paper estimates
+every frame, at 0.03-0.26 ms on its GPU (Table 2); on llvmpipe an estimate costs far more of
+a frame, so it runs every ``ESTIMATE_EVERY`` frames at first, the interval doubling while
+estimates do not lead to mode 3, and takes at most ``ESTIMATE_SHARE`` of the frame time (our
+addition, for both rules). In mode 3 with ``queries="auto"`` the query count is re-fitted
+every ``REFIT_EVERY`` frames (``fit``, formulas (7)-(11)). Every stage is part of the frame's
+time; ``decide`` (with ``estimate``) and ``fit`` are the method's own bookkeeping.
 
 Dynamic scenes: build the method over the pool scene with ``alive`` (the objects alive
 before the first frame, usually none) and call :meth:`AdaptiveCulling.apply` with each
@@ -61,27 +67,32 @@ from soc.models.adaptive import (
     DEFAULT_MARGIN,
     MODE_NAMES,
     MODES,
+    RULES,
     ModeCosts,
     QueryPlanner,
     UnitCosts,
     choose_mode,
+    condition5,
+    paper_mode,
 )
 
-DEFAULT_LATENCY = 2  # frames between issuing a node query and using its result (temporal)
+LATENCY = 2  # frames between issuing a node query and using its result ("a few frames late")
 DEFAULT_LEAF_CAPACITY = 64  # objects per octree leaf before it splits (fewer, fuller nodes:
 # one multi-draw and one query per node, and llvmpipe pays ~10 µs per call)
-DEFAULT_MAX_DEPTH = 8
-DEFAULT_DWELL = 10  # frames in a mode before the next switch (a switch costs: see margin)
-DEFAULT_ESTIMATE_EVERY = 10  # frames between invisible-object estimates (modes 1 and 2)
-DEFAULT_NODES_CHECKED = 200  # the estimate's budget of node queries (Table 2: 100-300)
+MAX_DEPTH = 8  # the octree's deepest level
+NODES_CHECKED = 200  # the invisible estimate's budget of node queries (Table 2: 100-300)
 COUNT_SMOOTHING = 0.3  # weight of a new decision step in the running per-frame counts
-# Frames between decisions (predictions of (5), (6) and the choice of mode): decisions need the
-# octree current, which mode 1 otherwise updates only then (a batch of frames' events at once).
+# rule="cost" only (the paper's rule decides every frame, without margin or dwell): frames
+# between decisions (mode 1 then applies the frames' events to the octree in one batch), the
+# first decision early (the start may already want mode 3), and frames in a mode before the
+# next switch (a switch costs: see DEFAULT_MARGIN).
 DECIDE_EVERY = 10
-FIRST_DECISION = 2  # the first decision comes early: the start may already want mode 3
+FIRST_DECISION = 2
+DWELL = 10
+ESTIMATE_EVERY = 10  # frames between invisible-object estimates at first (modes 1 and 2)
 # Largest share of the frame time the invisible-object estimate may take on average (our
 # addition: on llvmpipe an estimate costs a few ms, not the paper's 0.03-0.26 ms on a GPU, so
-# it runs every ``estimate_every`` frames or less often).
+# it runs every ``ESTIMATE_EVERY`` frames or less often).
 ESTIMATE_SHARE = 0.02
 # An estimate that does not lead to mode 3 doubles the interval to the next one, up to this
 # many frames; one also runs (out of turn) when the alive objects grew by ESTIMATE_GROWTH.
@@ -110,7 +121,7 @@ class AdaptiveFrame:
     queries : int
         Node queries issued this frame.
     queries_effective : int
-        Queried nodes whose results decided this frame (issued ``latency`` frames ago when
+        Queried nodes whose results decided this frame (issued ``LATENCY`` frames ago when
         temporal).
     hidden_nodes : int
         Nodes not drawn because a query found them occluded.
@@ -125,6 +136,9 @@ class AdaptiveFrame:
         The predictions the choice of ``next_mode`` was made from (None for a forced mode).
     q_choice : QueryChoice or None
         The latest fitted choice of the query count (T(0), T(n_0), T(q*)).
+    record_ms : float
+        The recorder's own loop inside ``buf`` (``recorded`` commands written one at a time),
+        ms: ``record_ms / recorded`` is the cost of recording one command.
     """
 
     frame: int
@@ -145,6 +159,7 @@ class AdaptiveFrame:
     ms: float
     costs: ModeCosts | None = None
     q_choice: object | None = None
+    record_ms: float = 0.0
 
 
 @dataclass
@@ -208,31 +223,27 @@ class AdaptiveCulling(CullMethod):
 
     Options (keyword arguments of ``soc.Culler(scene, method="adaptive", ...)``)
     -----------------------------------------------------------------------------
+    rule : {"paper", "cost"}
+        How the mode is chosen. ``"paper"`` (default): seed 004's conditions in its order —
+        mode 1 while (5) holds, else mode 2 while (6) holds, else mode 3 — every frame
+        (:func:`soc.models.adaptive.paper_mode`). ``"cost"``: our variant, the least predicted
+        frame time with a 10 % margin, a 10-frame dwell, decisions every 10 frames and any
+        switch (:func:`soc.models.adaptive.choose_mode`).
     mode : {None, 1, 2, 3}
-        None (default): adaptive. 1, 2 or 3: that mode only (seed 004's baselines: 1 =
-        per-object frustum culling, 3 with ``queries="all"`` = queries on all leaves).
-    temporal : bool
-        Mode 3 reads query results ``latency`` frames late (default True; not conservative)
-        or waits for them in the same frame (False; conservative, used by the oracle tests).
-    latency : int
-        Frames between issuing and reading a query (temporal), default 2.
+        None (default): adaptive, starting in mode 1. 1, 2 or 3: that mode only (seed 004's
+        baselines: 1 = per-object frustum culling, 3 with ``queries="all"`` = queries on all
+        leaves).
     queries : "auto", "all" or int
         Node queries per frame in mode 3: fitted by formulas (7)-(11) (default), every node
         in the frustum, or at most this many.
+    temporal : bool
+        Mode 3 reads query results ``LATENCY`` frames late (default True, the paper's; not
+        conservative) or waits for them in the same frame (False; conservative, used by the
+        oracle tests).
     alive : (N,) bool, optional
         Objects that exist before the first :meth:`apply` (default: all, a static scene).
-    leaf_capacity, max_depth : int
-        Octree parameters (:class:`soc.culling.octree.Octree`).
-    margin : float
-        Relative gain a mode must promise before the method switches to it.
-    dwell : int
-        Frames in a mode before another switch.
-    estimate_every : int
-        Frames between invisible-object estimates in modes 1 and 2.
-    nodes_checked : int
-        The estimate's budget of node queries.
-    initial_mode : int
-        The adaptive method's first mode (default 1, the paper's start).
+    leaf_capacity : int
+        Objects an octree leaf holds before it splits (:class:`soc.culling.octree.Octree`).
     """
 
     name = "adaptive"
@@ -245,51 +256,38 @@ class AdaptiveCulling(CullMethod):
         resolution,
         config,
         *,
+        rule: str = "paper",
         mode: int | None = None,
-        temporal: bool = True,
-        latency: int = DEFAULT_LATENCY,
         queries: str | int = "auto",
+        temporal: bool = True,
         alive: np.ndarray | None = None,
         leaf_capacity: int = DEFAULT_LEAF_CAPACITY,
-        max_depth: int = DEFAULT_MAX_DEPTH,
-        margin: float = DEFAULT_MARGIN,
-        dwell: int = DEFAULT_DWELL,
-        estimate_every: int = DEFAULT_ESTIMATE_EVERY,
-        nodes_checked: int = DEFAULT_NODES_CHECKED,
-        initial_mode: int = 1,
     ):
         super().__init__(geometry, resolution, config)
+        if rule not in RULES:
+            raise ValueError(f"rule must be one of {', '.join(map(repr, RULES))}, got {rule!r}")
         if mode is not None and mode not in MODES:
             raise ValueError(f"mode must be None, 1, 2 or 3, got {mode!r}")
-        if initial_mode not in MODES:
-            raise ValueError(f"initial_mode must be 1, 2 or 3, got {initial_mode!r}")
-        if int(latency) < 1:
-            raise ValueError(f"latency must be >= 1 frame, got {latency}")
         if not (queries in ("auto", "all") or (isinstance(queries, int) and queries >= 0)):
             raise ValueError(f"queries must be 'auto', 'all' or an int >= 0, got {queries!r}")
-        if not 0.0 <= float(margin) < 1.0:
-            raise ValueError(f"margin must lie in [0, 1), got {margin}")
-        if int(dwell) < 1 or int(estimate_every) < 1 or int(nodes_checked) < 1:
-            raise ValueError(
-                "dwell, estimate_every and nodes_checked must be >= 1, got "
-                f"{dwell}, {estimate_every}, {nodes_checked}"
-            )
+        if int(leaf_capacity) < 1:
+            raise ValueError(f"leaf_capacity must be >= 1, got {leaf_capacity}")
         n = len(self.scene)
         if alive is None:
             alive = np.ones(n, bool)
         alive = np.asarray(alive, bool)
         if alive.shape != (n,):
             raise ValueError(f"alive must have shape ({n},), got {alive.shape}")
+        self.rule = rule
         self.forced = mode
         self.temporal = bool(temporal)
         self.conservative = not self.temporal or mode in (1, 2)
-        self.latency = int(latency)
+        self.latency = LATENCY
         self.queries = queries
-        self.margin = float(margin)
-        self.dwell = int(dwell)
-        self.estimate_every = int(estimate_every)
-        self.nodes_checked = int(nodes_checked)
-        self.initial_mode = mode or int(initial_mode)
+        # The cost rule's margin and dwell; the paper's rule has neither.
+        self.margin = DEFAULT_MARGIN if rule == "cost" else 0.0
+        self.dwell = DWELL if rule == "cost" else 1
+        self.initial_mode = mode or 1
         self.alive = alive.copy()
         self.costs = UnitCosts()
         self.planner = QueryPlanner()
@@ -305,11 +303,15 @@ class AdaptiveCulling(CullMethod):
         if mode != 1:
             from soc.culling.octree import Octree
 
-            self.octree = Octree.for_scene(
-                self.scene, leaf_capacity=leaf_capacity, max_depth=max_depth
+            # Node membership only: the commands are recorded by NodeCommands, per command.
+            self.octree = Octree(
+                self.scene.bounds, n, leaf_capacity=int(leaf_capacity), max_depth=MAX_DEPTH
             )
             ids = np.flatnonzero(self.alive)
             self.octree.insert(ids, self.scene.aabbs[ids])
+        # The per-object frustum test is compiled: load it now, not inside the first frame
+        # (whose T_fc(S) would otherwise weigh on every later prediction of (5)).
+        aabbs_in_frustum(np.zeros((1, 2, 3), np.float32), np.zeros((6, 4)))
         self._changes = 0  # octree updates so far (invalidates the per-node triangle sums)
         self._node_tris_at = -1
         self._node_tris = np.zeros(0, np.int64)
@@ -332,8 +334,8 @@ class AdaptiveCulling(CullMethod):
         self._rate = {"commands": 0.0, "nodes": 0.0}  # node-buffer changes per frame
         self._touched = {"commands": 0, "nodes": 0}  # node-buffer changes since the last decision
         self._frames_unsynced = 0  # frames whose events those changes cover
-        self._next_estimate = self.estimate_every - 1
-        self._estimate_interval = self.estimate_every
+        self._next_estimate = ESTIMATE_EVERY - 1
+        self._estimate_interval = ESTIMATE_EVERY
         self._estimated_alive = 0  # alive objects at the last estimate
         self._frame_ms = 0.0  # running frame time (estimate scheduling)
         self._frustum_ratio = 1.0  # objects in frustum / objects in frustum nodes (mode 1)
@@ -363,16 +365,16 @@ class AdaptiveCulling(CullMethod):
 
     def _flat_buffer(self):
         if self._flat is None:
-            from soc.culling.octree import ObjectCommands
+            from soc.rendering.command_recording import FlatCommands
 
-            self._flat = ObjectCommands(self.geometry)
+            self._flat = FlatCommands(self.geometry)
         return self._flat
 
     def _node_buffers(self):
         if self._nodes is None:
-            from soc.culling.octree import NodeBuffers
+            from soc.rendering.command_recording import NodeCommands
 
-            self._nodes = NodeBuffers(self.octree, self.geometry)
+            self._nodes = NodeCommands(self.octree, self.geometry)
         return self._nodes
 
     def _queries(self):
@@ -395,7 +397,7 @@ class AdaptiveCulling(CullMethod):
             from soc.culling.invisible_estimate import InvisibleEstimator
 
             self._estimator = InvisibleEstimator(
-                self.octree, self.geometry, self.resolution, nodes_checked=self.nodes_checked
+                self.octree, self.geometry, self.resolution, nodes_checked=NODES_CHECKED
             )
         return self._estimator
 
@@ -499,6 +501,7 @@ class AdaptiveCulling(CullMethod):
         visible = np.zeros(n, bool)
         alive_ids = np.flatnonzero(self.alive)
         recorded = recorded_nodes = issued = effective = hidden_count = 0
+        record_ms = 0.0
         counts: dict[str, float] = {}
         if mode == 3 and self.temporal:
             with stage(timings, "collect"):
@@ -512,8 +515,8 @@ class AdaptiveCulling(CullMethod):
                     kept = alive_ids
             flat = self._flat_buffer()
             with stage(timings, "buf"):
-                flat.sync(kept)  # finished inside
-            recorded = len(kept)
+                st = flat.sync(kept)  # T_buf(S): every command recorded, finished inside
+            recorded, record_ms = len(kept), st.ms_record
             canvas.begin(camera)
             with stage(timings, "draw", finish):
                 flat.draw(canvas.program)
@@ -528,7 +531,7 @@ class AdaptiveCulling(CullMethod):
             nodes_gl = self._node_buffers()
             with stage(timings, "buf"):
                 st = nodes_gl.sync()  # T_buf(H): dirty nodes only, finished inside
-            recorded, recorded_nodes = st.commands, len(st.nodes)
+            recorded, recorded_nodes, record_ms = st.commands, len(st.nodes), st.ms_record
             with stage(timings, "fc"):
                 if self.config.frustum:
                     in_nodes = octree.visible_nodes(camera)
@@ -586,11 +589,17 @@ class AdaptiveCulling(CullMethod):
         estimate = None
         costs = None
         next_mode = mode
-        decide = self.frame % DECIDE_EVERY == DECIDE_EVERY - 1 or self.frame == FIRST_DECISION
+        if self.rule == "paper":
+            decide = True  # the paper's conditions are judged every frame
+        else:
+            decide = self.frame % DECIDE_EVERY == DECIDE_EVERY - 1 or self.frame == FIRST_DECISION
         if self.forced is None and decide:
             with stage(timings, "decide"):
                 estimate, costs = self._predict(camera, mode, counts, alive_ids, timings)
-                if self._since_switch + 1 >= self.dwell:
+                if self.rule == "paper":
+                    allowed = MODES if self.config.depth_test else (1, 2)
+                    next_mode = paper_mode(costs, allowed=allowed)
+                elif self._since_switch + 1 >= self.dwell:
                     allowed = MODES if self.config.depth_test else (1, 2)
                     next_mode = choose_mode(mode, costs, margin=self.margin, allowed=allowed)
                     # Mode 3's prediction outside mode 3 rests on the conservative estimate (a
@@ -624,6 +633,7 @@ class AdaptiveCulling(CullMethod):
             ms=ms,
             costs=costs,
             q_choice=self.planner.choice,
+            record_ms=record_ms,
         )
         self._switch(next_mode)
         self.frame += 1
@@ -678,7 +688,7 @@ class AdaptiveCulling(CullMethod):
         self._pending.append((self.frame, batch, chosen, self.octree.version[chosen].copy()))
 
     def _collect(self) -> None:
-        """Read the batches issued at least ``latency`` frames ago; the latest decides."""
+        """Read the batches issued at least ``LATENCY`` frames ago; the latest decides."""
         while self._pending and self._pending[0][0] <= self.frame - self.latency:
             _, batch, nodes, versions = self._pending.popleft()
             passed = batch.results()
@@ -737,15 +747,21 @@ class AdaptiveCulling(CullMethod):
         else:
             in_frustum = self._frustum_ratio * node_objects
             tris_frustum = self._frustum_ratio * node_tris
+        c = self.costs
+        buf_s = c.buf.predict(commands=in_frustum, nodes=0)
+        fc_s = c.fc.predict(boxes=len(alive_ids))
+        buf_h = c.buf.predict(commands=self._rate["commands"], nodes=self._rate["nodes"])
+        fc_h = c.fc.predict(boxes=int((octree.own_counts > 0).sum()))
+        # The paper's rule needs (6), and so the estimate, only where (5) fails.
+        need6 = self.rule == "cost" or not condition5(buf_s, fc_s, buf_h, fc_h)
         grown = len(alive_ids) >= (1 + ESTIMATE_GROWTH) * self._estimated_alive
-        due = self.frame >= self._next_estimate or grown
+        due = need6 and (self.frame >= self._next_estimate or grown)
         estimate = None
         if due and mode in (1, 2) and self.config.depth_test and len(alive_ids):
             with stage(timings, "estimate", self.glctx.finish):
                 estimate = self._run_estimate(camera)
             self._estimated_alive = len(alive_ids)
         hid = self._hidden_units(mode)
-        c = self.costs
         nodes_n = len(in_nodes)
         extra = max(nodes_n - 1, 0)  # multi-draw calls beyond the first (mode 1 has one)
         if self.queries == "auto" and self.planner.choice is not None:
@@ -753,10 +769,10 @@ class AdaptiveCulling(CullMethod):
         else:
             q = nodes_n if not isinstance(self.queries, int) else min(self.queries, nodes_n)
         costs = ModeCosts(
-            buf_s=c.buf.predict(commands=in_frustum, nodes=0),
-            fc_s=c.fc.predict(boxes=len(alive_ids)),
-            buf_h=c.buf.predict(commands=self._rate["commands"], nodes=self._rate["nodes"]),
-            fc_h=c.fc.predict(boxes=int((octree.own_counts > 0).sum())),
+            buf_s=buf_s,
+            fc_s=fc_s,
+            buf_h=buf_h,
+            fc_h=fc_h,
             draw_s=c.draw.predict(commands=in_frustum, triangles=tris_frustum, calls=0),
             draw_h=c.draw.predict(commands=node_objects, triangles=node_tris, calls=extra),
             draw_vis=c.draw_for(3).predict(
@@ -769,7 +785,11 @@ class AdaptiveCulling(CullMethod):
         if estimate is not None:
             # Back off while estimates do not pay (mode 3 not chosen) and keep their share of
             # the frame time bounded (ESTIMATE_SHARE).
-            if costs.time(3) >= (1.0 - self.margin) * costs.time(mode):
+            if self.rule == "paper":
+                futile = paper_mode(costs) != 3
+            else:
+                futile = costs.time(3) >= (1.0 - self.margin) * costs.time(mode)
+            if futile:
                 self._estimate_interval = min(2 * self._estimate_interval, MAX_ESTIMATE_INTERVAL)
             share = timings["estimate"] / max(ESTIMATE_SHARE * self._frame_ms, 1e-9)
             wait = max(self._estimate_interval, int(np.ceil(share)))

@@ -10,10 +10,11 @@ section 4). Three modes:
    node frustum culling, only changed nodes re-recorded;
 3. many invisible objects: hardware occlusion queries on octree nodes.
 
-Switch 1 → 2 when (5) ``T_buf(S) + T_fc(S) >= T_buf(H) + T_fc(H)`` and 2 → 3 when
-(6) ``T(S) >= T(S_vis) + T_vis(H)``, with ``T(S_vis)`` from the conservative invisible-object
-estimate (:mod:`soc.culling.invisible_estimate`). The number of queries comes from formulas (7)-(11)
-(:mod:`soc.models.query_model`).
+"Адаптивный метод использует первый способ, пока выполняется условие (5)
+``T_buf(S) + T_fc(S) < T_buf(H) + T_fc(H)``" and "использует второй способ рендеринга до тех
+пор, пока выполняется условие (6) ``T(S) < T(S_vis) + T_vis(H)``", with ``T(S_vis)`` from the
+conservative invisible-object estimate (:mod:`soc.culling.invisible_estimate`). The number of
+queries comes from formulas (7)-(11) (:mod:`soc.models.query_model`).
 
 Stages, top-down:
 
@@ -23,16 +24,18 @@ Stages, top-down:
    towards documented priors until measurements arrive (a mode that never ran is predicted
    from the priors and from the units it shares with the modes that did).
 2. :class:`ModeCosts` — one frame's predicted terms of (5) and (6) for every mode.
-3. :func:`condition5`, :func:`condition6` — the paper's conditions, verbatim.
-4. :func:`choose_mode` — the mode with the smallest predicted frame time, switched to only
-   when it beats the current one by a margin. The predicted times are the sides of (5) and
-   (6) plus the terms both sides of a condition share, so on the paper's own terms the choice
-   is exactly the conditions: 1 → 2 iff (5), 2 → 3 iff (6); it also allows 1 → 3 (both
-   together) and going back when the scene changes.
+3. :func:`condition5`, :func:`condition6` — the paper's conditions, verbatim (True while the
+   current way of rendering is kept).
+4. The rule that picks the mode:
 
-On llvmpipe the draw itself differs between the modes (mode 2 issues one multi-draw per node,
-mode 1 one in all; node buffers draw whole nodes that straddle the frustum), so the draw time
-of each mode's set is part of its predicted time; with equal draws the choice reduces to (5).
+   * :func:`paper_mode` (``rule="paper"``, the default of the method) — the paper's: mode 1
+     while (5) holds, else mode 2 while (6) holds, else mode 3; evaluated at every frame, no
+     margin, no dwell.
+   * :func:`choose_mode` (``rule="cost"``, our variant) — the mode with the smallest predicted
+     frame time, switched to only when it beats the current one by a margin. Its predicted
+     times are the sides of (5) and (6) plus the terms both sides of a condition share (the
+     draws), so with equal draws and no margin 1 → 2 iff (5) fails and 2 → 3 iff (6) fails;
+     it also allows 1 → 3 and going back.
 """
 
 from __future__ import annotations
@@ -44,9 +47,11 @@ import numpy as np
 
 MODES = (1, 2, 3)
 MODE_NAMES = {1: "rebuild", 2: "octree", 3: "queries"}
+RULES = ("paper", "cost")  # paper_mode, choose_mode
 
-# Relative gain a mode must promise over the current one before the method switches: timings
-# on a shared machine are noisy, and every switch costs (re-recording all node buffers, 1 → 2).
+# rule="cost" only: relative gain a mode must promise over the current one before the method
+# switches (timings on a shared machine are noisy, and every switch costs: re-recording all
+# node buffers, 1 → 2). The paper's rule has no margin.
 DEFAULT_MARGIN = 0.10
 
 # Priors of the unit costs, ms per unit, as measured by the fits on Mesa llvmpipe with two
@@ -243,21 +248,36 @@ class ModeCosts:
     def as_dict(self) -> dict[str, float]:
         d = {k: float(getattr(self, k)) for k in self.__dataclass_fields__}
         d.update({f"T{m}": self.time(m) for m in MODES})
-        d["condition5"] = condition5(self.buf_s, self.fc_s, self.buf_h, self.fc_h)
-        d["condition6"] = condition6(self.draw_h, self.draw_vis, self.vis_h)
+        d["holds5"] = condition5(self.buf_s, self.fc_s, self.buf_h, self.fc_h)
+        d["holds6"] = condition6(self.draw_h, self.draw_vis, self.vis_h)
+        d["paper_mode"] = paper_mode(self)
         return d
 
 
 def condition5(buf_s: float, fc_s: float, buf_h: float, fc_h: float) -> bool:
-    """Seed 004's condition (5) for leaving mode 1 for the octree:
-    ``T_buf(S) + T_fc(S) >= T_buf(H) + T_fc(H)`` (ms)."""
-    return buf_s + fc_s >= buf_h + fc_h
+    """Seed 004's condition (5), under which mode 1 is kept:
+    ``T_buf(S) + T_fc(S) < T_buf(H) + T_fc(H)`` (ms)."""
+    return buf_s + fc_s < buf_h + fc_h
 
 
 def condition6(t_s: float, t_s_vis: float, t_vis_h: float) -> bool:
-    """Seed 004's condition (6) for turning occlusion queries on:
-    ``T(S) >= T(S_vis) + T_vis(H)`` (ms)."""
-    return t_s >= t_s_vis + t_vis_h
+    """Seed 004's condition (6), under which mode 2 is kept:
+    ``T(S) < T(S_vis) + T_vis(H)`` (ms)."""
+    return t_s < t_s_vis + t_vis_h
+
+
+def paper_mode(costs: ModeCosts, *, allowed: tuple[int, ...] = MODES) -> int:
+    """The paper's rule: mode 1 while (5) holds, else mode 2 while (6) holds, else mode 3.
+
+    ``allowed`` without 3 (no depth test: queries cannot hide anything) stops at mode 2.
+    (5) is judged on ``buf_s + fc_s`` against ``buf_h + fc_h``, (6) on ``draw_h`` (T(S)) against
+    ``draw_vis + vis_h`` (T(S_vis) + T_vis(H)).
+    """
+    if condition5(costs.buf_s, costs.fc_s, costs.buf_h, costs.fc_h):
+        return 1
+    if 3 not in allowed or condition6(costs.draw_h, costs.draw_vis, costs.vis_h):
+        return 2
+    return 3
 
 
 def choose_mode(
@@ -267,12 +287,13 @@ def choose_mode(
     margin: float = DEFAULT_MARGIN,
     allowed: tuple[int, ...] = MODES,
 ) -> int:
-    """The mode to render the next frames with.
+    """Our variant's mode for the next frames (``rule="cost"``; the paper's is
+    :func:`paper_mode`).
 
     The mode of least predicted time (:meth:`ModeCosts.time`) among ``allowed``; the method
     leaves ``current`` only for a mode predicted at least ``margin`` (a fraction) faster.
     With ``margin = 0`` and equal draws (``draw_s == draw_h``), 1 → 2 happens exactly when
-    (5) holds, and 2 → 3 exactly when (6) holds.
+    (5) fails, and 2 → 3 exactly when (6) fails.
     """
     if current not in MODES:
         raise ValueError(f"current mode must be 1, 2 or 3, got {current!r}")

@@ -1,9 +1,13 @@
 """``adaptive`` (seed 004): conservative in modes 1 and 2 (and 3 when it waits for its
-queries) against the oracle; the switching conditions (5) and (6) on synthetic timings; the
-query count equals the brute-force minimum of the fitted T(q); dynamic events keep the
-octree equal to the alive set; late query results pop only while the view changes."""
+queries) against the oracle; the conditions (5) and (6) as the paper writes them, and its rule
+(mode 1 while (5) holds, else 2 while (6) holds, else 3) on every combination and on the frames
+of a recorded run, judged by hand; our cost rule beside it; the query count equals the
+brute-force minimum of the fitted T(q); dynamic events keep the octree equal to the alive set;
+late query results pop only while the view changes."""
 
 from __future__ import annotations
+
+import itertools
 
 import numpy as np
 import pytest
@@ -17,6 +21,7 @@ from soc.models.adaptive import (
     choose_mode,
     condition5,
     condition6,
+    paper_mode,
 )
 from soc.models.query_model import QueryModel, synthetic_statistics
 from soc.scenes.paths import random_cameras
@@ -35,8 +40,9 @@ def _costs(**kw) -> ModeCosts:
 @pytest.mark.parametrize(
     "options",
     [{"mode": 1}, {"mode": 2}, {"mode": 3, "temporal": False, "queries": "all"},
-     {"mode": 3, "temporal": False, "queries": 3}, {"temporal": False}],
-    ids=["mode1", "mode2", "mode3-wait-all", "mode3-wait-3", "adaptive-wait"],
+     {"mode": 3, "temporal": False, "queries": 3}, {"temporal": False},
+     {"temporal": False, "rule": "cost"}],
+    ids=["mode1", "mode2", "mode3-wait-all", "mode3-wait-3", "adaptive-wait", "cost-wait"],
 )  # fmt: skip
 def test_conservative_on_random_cameras(clutter_scenes, options):
     """2 clutter scenes × 40 random cameras (some inside boxes) in each forced mode."""
@@ -60,10 +66,13 @@ def test_conservative_flag_follows_the_options():
 
 def test_bad_options_raise():
     scene = soc.scenes.clutter(0)
-    for bad in ({"mode": 4}, {"latency": 0}, {"queries": "some"}, {"margin": 1.0},
-                {"alive": np.ones(3, bool)}, {"dwell": 0}):  # fmt: skip
+    for bad in ({"mode": 4}, {"rule": "fastest"}, {"queries": "some"}, {"leaf_capacity": 0},
+                {"alive": np.ones(3, bool)}):  # fmt: skip
         with pytest.raises(ValueError):
             soc.Culler(scene, method="adaptive", resolution=RES, **bad)
+    for gone in ("margin", "dwell", "estimate_every", "initial_mode", "latency"):
+        with pytest.raises((TypeError, ValueError), match=gone):
+            soc.Culler(scene, method="adaptive", resolution=RES, **{gone: 1})
 
 
 def test_node_culling_keeps_a_superset_of_the_object_frustum_test(clutter_scenes):
@@ -84,29 +93,96 @@ def test_node_culling_keeps_a_superset_of_the_object_frustum_test(clutter_scenes
 
 
 def test_condition5_is_the_papers_inequality():
-    assert condition5(buf_s=3.0, fc_s=1.0, buf_h=2.0, fc_h=1.0)  # 4 >= 3
-    assert condition5(2.0, 1.0, 2.0, 1.0)  # equality switches (>=)
-    assert not condition5(1.0, 1.0, 2.0, 0.5)
+    """(5) T_buf(S) + T_fc(S) < T_buf(H) + T_fc(H): mode 1 is kept while it holds."""
+    assert not condition5(buf_s=3.0, fc_s=1.0, buf_h=2.0, fc_h=1.0)  # 4 < 3 fails
+    assert not condition5(2.0, 1.0, 2.0, 1.0)  # equality fails (strict <)
+    assert condition5(1.0, 1.0, 2.0, 0.5)
 
 
 def test_condition6_is_the_papers_inequality():
-    assert condition6(t_s=20.0, t_s_vis=12.0, t_vis_h=5.0)
-    assert condition6(17.0, 12.0, 5.0)
-    assert not condition6(16.9, 12.0, 5.0)
+    """(6) T(S) < T(S_vis) + T_vis(H): mode 2 is kept while it holds."""
+    assert not condition6(t_s=20.0, t_s_vis=12.0, t_vis_h=5.0)
+    assert not condition6(17.0, 12.0, 5.0)
+    assert condition6(16.9, 12.0, 5.0)
+
+
+def _by_hand(c: ModeCosts) -> int:
+    """The paper's section 4 read aloud: mode 1 while T_buf(S) + T_fc(S) < T_buf(H) + T_fc(H),
+    mode 2 while T(S) < T(S_vis) + T_vis(H), else mode 3."""
+    if c.buf_s + c.fc_s < c.buf_h + c.fc_h:
+        return 1
+    if c.draw_h < c.draw_vis + c.vis_h:
+        return 2
+    return 3
+
+
+def test_paper_rule_on_every_combination_of_the_conditions():
+    """(5) holding keeps mode 1 whatever (6) says (the order); (5) failing gives 2 or 3 by
+    (6); the draws of mode 1 and the cost rule's margin play no part."""
+    holds5 = dict(buf_s=1, fc_s=1, buf_h=2, fc_h=2)
+    fails5 = dict(buf_s=2, fc_s=2, buf_h=1, fc_h=1)
+    holds6 = dict(draw_h=10, draw_vis=9, vis_h=2)
+    fails6 = dict(draw_h=10, draw_vis=5, vis_h=2)
+    assert paper_mode(_costs(**holds5, **holds6)) == 1
+    assert paper_mode(_costs(**holds5, **fails6)) == 1  # (6) is not asked while (5) holds
+    assert paper_mode(_costs(**fails5, **holds6)) == 2
+    assert paper_mode(_costs(**fails5, **fails6)) == 3
+    assert paper_mode(_costs(**fails5, **fails6), allowed=(1, 2)) == 2  # no depth test
+    # a mode 1 draw far dearer than mode 2's does not move the paper's rule (it does ours)
+    c = _costs(**holds5, **holds6, draw_s=1000)
+    assert paper_mode(c) == 1 and choose_mode(1, c, margin=0.0) != 1
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        c = ModeCosts(*rng.uniform(0, 10, 8))
+        assert paper_mode(c) == _by_hand(c)
+
+
+@pytest.fixture(scope="module")
+def paper_run():
+    """A run of the paper's rule on a growing dynamic scene: its frames and each frame's
+    mode."""
+    from soc.scenes.dynamic import dynamic_scene
+
+    dyn = dynamic_scene("scene3", 0, frames=24, scale=0.03)
+    res = (160, 90)
+    with soc.Culler(dyn.scene, method="adaptive", resolution=res,
+                    alive=np.zeros(len(dyn.scene), bool), leaf_capacity=8) as c:  # fmt: skip
+        m = c.method
+        assert m.rule == "paper"
+        frames = []
+        for state, cam in zip(dyn, dyn.cameras(*res), strict=True):
+            m.apply(state)
+            c.cull(cam)
+            frames.append(m.last)
+    return frames
+
+
+def test_paper_rule_on_recorded_frames_is_conditions_5_and_6_by_hand(paper_run):
+    """Every frame decides (no cadence, no dwell): its next mode is the paper's rule on the
+    terms it recorded, evaluated here by hand, and the next frame renders in that mode."""
+    frames = paper_run
+    assert all(f.costs is not None for f in frames)
+    for f, nxt in itertools.pairwise(frames):
+        assert f.next_mode == _by_hand(f.costs), f.frame
+        assert nxt.mode == f.next_mode, f.frame
+    d = frames[-1].costs.as_dict()
+    assert d["holds5"] == (d["buf_s"] + d["fc_s"] < d["buf_h"] + d["fc_h"])
+    assert d["holds6"] == (d["draw_h"] < d["draw_vis"] + d["vis_h"])
 
 
 @pytest.mark.parametrize("seed", range(5))
 def test_choice_follows_conditions_5_and_6_with_equal_draws(seed):
-    """With equal draws and no margin: 1 → 2 exactly when (5) holds, 2 → 3 exactly when (6)."""
+    """Our cost rule, with equal draws and no margin: 1 → 2 exactly when (5) fails, 2 → 3
+    exactly when (6) fails."""
     rng = np.random.default_rng(seed)
     for _ in range(200):
         buf_s, fc_s, buf_h, fc_h = rng.uniform(0, 5, 4)
         draw, draw_vis, vis_h = 20.0, rng.uniform(0, 20), rng.uniform(0, 10)
         c = ModeCosts(buf_s, fc_s, buf_h, fc_h, draw, draw, draw_vis, vis_h)
         up = choose_mode(1, c, margin=0.0, allowed=(1, 2))
-        assert (up == 2) == condition5(buf_s, fc_s, buf_h, fc_h)
+        assert (up == 2) == (not condition5(buf_s, fc_s, buf_h, fc_h))
         on = choose_mode(2, c, margin=0.0, allowed=(2, 3))
-        assert (on == 3) == condition6(draw, draw_vis, vis_h)
+        assert (on == 3) == (not condition6(draw, draw_vis, vis_h))
 
 
 def test_choice_waits_for_the_margin_and_can_jump_or_go_back():
@@ -283,9 +359,9 @@ def test_late_results_do_not_pop_for_a_static_camera(clutter_scenes):
     cam = random_cameras(scene, 1, seed=2, width=RES[0], height=RES[1], inside_fraction=0)[0]
     truth = soc.exact_visibility(scene, cam, RES)
     with soc.Culler(scene, method="adaptive", resolution=RES, mode=3, queries="all",
-                    latency=2, leaf_capacity=2) as c:  # fmt: skip
+                    leaf_capacity=2) as c:  # fmt: skip
         results = [c.cull(cam, truth=truth) for _ in range(6)]
     effective = [r.stats.queries for r in results]
     assert effective[0] > 0  # queries issued from the first frame
     assert all(r.stats.false_culls == 0 for r in results)
-    assert c.method.last.queries_effective > 0  # results two frames old decide by now
+    assert c.method.last.queries_effective > 0  # results LATENCY frames old decide by now
