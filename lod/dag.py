@@ -1,0 +1,745 @@
+"""The cluster LOD DAG of one mesh: clusters of at most 128 triangles, grouped, simplified with the
+group's border locked and split again, level by level, so that a cut through it is chosen by a
+decision every cluster takes alone and is crack-free by construction.
+
+After B. Karis, R. Stubbe and G. Wihlidal, "Nanite: A Deep Dive" (SIGGRAPH 2021 Advances in
+Real-Time Rendering), itself after the Nexus multiresolution of F. Ponchio and M. Dellepiane and
+the batched multitriangulation of P. Cignoni et al. (2005); the loop as in A. Kapoulkine's
+meshoptimizer cluster LOD demo (``demo/clusterlod.h``), reimplemented here, not copied.
+
+Stages (:func:`build_dag` runs them in order, one round per level):
+
+1. **weld** — vertices merged by exact position (:func:`weld`): adjacency and the locked border
+   are topological, so a seam must not look like a border.
+2. **cluster** — the mesh split into clusters of at most :data:`MAX_TRIANGLES` triangles by
+   vislod's clusterizer (:func:`soc.culling.clusters.build_clusters`), which also gives every
+   cluster its culling bounds (box, sphere, normal cone).
+3. **group** — the clusters of the level partitioned by adjacency (shared edges, weighted by
+   their number) into groups of about :data:`GROUP_SIZE` (METIS through ``pymetis``).
+4. **simplify** — each group's triangles simplified to half with the group's outer border
+   locked (``meshoptimizer``'s ``SIMPLIFY_LOCK_BORDER``: a border edge is never collapsed, so
+   the border between two groups is the same polyline whether either side is simplified or
+   not); the error meshoptimizer reports is in object units. A group that does not shrink to
+   :data:`MAX_KEEP` of its triangles is not simplified this round: its clusters go on to the
+   next level's grouping with new neighbours (meshoptimizer's demo does the same).
+5. **split** — each simplified group split into clusters again (stage 2), the next level.
+
+The rounds stop when one cluster is left or no group shrinks. Simplification collapses edges
+onto existing vertices, so every level indexes the welded source vertices: one vertex array,
+and the DAG's index array holds every level's triangles (about twice the source's).
+
+**Errors and bounds.** A group's error is the largest of its simplification's error and its
+clusters' own errors; its LOD sphere holds its clusters' LOD spheres (level 0: their bounding
+spheres, error 0). Every cluster made by a group carries the group's (error, sphere) as its own
+and the (error, sphere) of the group that consumes it as its parent's (:data:`ROOT_ERROR` when
+none does). So along every path errors never decrease and spheres nest, the projected error
+(:func:`projected_error`) of a parent is at least its child's from any eye, and "my own
+projected error is within the threshold and my parent's is not" selects exactly one cut:
+the clusters of a group and those of the group that replaces them share the same (error,
+sphere) values, bit for bit, so their decisions agree (crack-free).
+
+**The hierarchy.** For a selection that does not test every cluster, the groups (each with its
+clusters' shared parent error and sphere) are leaves of a tree, one per level, Morton-ordered
+and gathered :data:`NODE_WIDTH` at a time; a node holds the largest error and a sphere holding
+its children's. When a node's projected error is within the threshold no cluster under it can
+be selected (its parent is within), so the walk stops there.
+
+The DAG depends only on the mesh and the parameters: :func:`mesh_dag` keeps it in the user
+cache (``<cache_root>/dag``, keyed by a SHA-256 of the arrays, the parameters and the
+simplifier's version).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+
+import numpy as np
+
+# Most triangles per cluster: the clusterizer's (niagara's and Nanite's 128).
+MAX_TRIANGLES = 128
+# Clusters per group that METIS aims for (meshoptimizer's demo and Nanite use 8 to 32): more
+# clusters share a border and lock less of it, fewer keep the groups' error local.
+GROUP_SIZE = 8
+# A group simplified to more than this share of its triangles is left for the next round.
+MAX_KEEP = 0.85
+# The parent error of clusters that nothing replaces: larger than any projected test passes.
+ROOT_ERROR = np.float32(3.0e38)
+# Children per node of the group hierarchy.
+NODE_WIDTH = 8
+# Bump when the layout or the algorithm changes: cached DAGs of older versions are ignored.
+FORMAT_VERSION = "dag-1"
+
+
+@dataclass(frozen=True)
+class ClusterDag:
+    """The cluster DAG of one mesh (C clusters over T triangles, G groups, M hierarchy nodes).
+
+    Clusters are sorted by the group that consumes them (their parent group), so a group's
+    clusters are one range; their triangles are one array, cluster after cluster.
+
+    Attributes
+    ----------
+    vertices : (V, 3) float32
+        The welded source vertices (every level indexes them).
+    faces : (T, 3) int32
+        Every cluster's triangles: cluster ``k`` is ``faces[first[k]:first[k] + count[k]]``.
+    first : (C,) int64
+    count : (C,) int32
+        Triangles per cluster, 1 to :data:`MAX_TRIANGLES`.
+    level : (C,) int32
+        0 for the source's clusters, 1 + the level of the group's clusters it was made from.
+    lod_sphere : (C, 4) float32
+        Centre and radius of the cluster's own LOD sphere (that of the group that made it;
+        level 0: its bounding sphere), object units.
+    lod_error : (C,) float32
+        The cluster's own error, object units (0 at level 0).
+    parent_sphere : (C, 4) float32
+    parent_error : (C,) float32
+        Those of the group that replaces the cluster (:data:`ROOT_ERROR` where none does).
+    group_first : (G + 1,) int64
+        Group ``g`` holds clusters ``group_first[g]:group_first[g + 1]`` (their parent values
+        are equal; groups of roots hold at most :data:`NODE_WIDTH` clusters).
+    spheres : (C, 4) float32
+    aabbs : (C, 2, 3) float32
+    cone_axis : (C, 3) float32
+    cone_cutoff : (C,) float32
+    cone_apex : (C, 3) float32
+        The clusters' culling bounds (:class:`soc.culling.clusters.Clusters`), object units.
+    node_sphere : (M, 4) float32
+    node_error : (M,) float32
+        A sphere holding the parent spheres under the node and the largest parent error under it.
+    node_first : (M,) int64
+    node_count : (M,) int32
+        Children: nodes ``node_first[i]:node_first[i] + node_count[i]`` (``node_leaf`` False) or
+        groups (True). Node 0 is the root.
+    node_leaf : (M,) bool
+    source_triangles : int
+        Triangles of the mesh the DAG was built from.
+    key : str
+        The cache key.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    first: np.ndarray
+    count: np.ndarray
+    level: np.ndarray
+    lod_sphere: np.ndarray
+    lod_error: np.ndarray
+    parent_sphere: np.ndarray
+    parent_error: np.ndarray
+    group_first: np.ndarray
+    spheres: np.ndarray
+    aabbs: np.ndarray
+    cone_axis: np.ndarray
+    cone_cutoff: np.ndarray
+    cone_apex: np.ndarray
+    node_sphere: np.ndarray
+    node_error: np.ndarray
+    node_first: np.ndarray
+    node_count: np.ndarray
+    node_leaf: np.ndarray
+    source_triangles: int
+    key: str
+
+    def __len__(self) -> int:
+        return len(self.first)
+
+    @property
+    def levels(self) -> int:
+        """Number of levels (1 + the largest cluster level)."""
+        return int(self.level.max()) + 1
+
+    @property
+    def groups(self) -> int:
+        """G, the number of groups (hierarchy leaves)."""
+        return len(self.group_first) - 1
+
+    def cut_faces(self, clusters: np.ndarray) -> np.ndarray:
+        """(K, 3) int32 the triangles of ``clusters`` (a cut: (k,) int indices)."""
+        clusters = np.asarray(clusters, np.int64)
+        idx = _ranges(self.first[clusters], self.count[clusters].astype(np.int64))
+        return self.faces[idx]
+
+    def index_bytes(self) -> int:
+        """Bytes of the DAG's index array (uint32, every level)."""
+        return int(self.faces.size) * 4
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The arrays by attribute name (what the cache stores)."""
+        return {name: getattr(self, name) for name in _ARRAYS}
+
+
+_ARRAYS = (
+    "vertices",
+    "faces",
+    "first",
+    "count",
+    "level",
+    "lod_sphere",
+    "lod_error",
+    "parent_sphere",
+    "parent_error",
+    "group_first",
+    "spheres",
+    "aabbs",
+    "cone_axis",
+    "cone_cutoff",
+    "cone_apex",
+    "node_sphere",
+    "node_error",
+    "node_first",
+    "node_count",
+    "node_leaf",
+)
+
+
+def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """(sum(lengths),) int64 the concatenated ranges ``starts[i]:starts[i] + lengths[i]``."""
+    lengths = np.asarray(lengths, np.int64)
+    total = int(lengths.sum())
+    if total == 0:
+        return np.zeros(0, np.int64)
+    offs = np.concatenate([[0], np.cumsum(lengths)[:-1]])
+    return np.arange(total, dtype=np.int64) + np.repeat(
+        np.asarray(starts, np.int64) - offs, lengths
+    )
+
+
+# -- stage 1: weld ---------------------------------------------------------------------------------
+
+
+def weld(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Merge vertices at the same position (bit for bit) and drop unreferenced ones and
+    triangles whose corners coincide after the merge.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    faces : (m, 3) int
+
+    Returns
+    -------
+    vertices : (V, 3) float32
+    faces : (M, 3) int32
+    """
+    v = np.ascontiguousarray(vertices, np.float32)
+    f = np.asarray(faces)
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise ValueError(f"vertices must have shape (n, 3), got {v.shape}")
+    if f.ndim != 2 or f.shape[1] != 3 or not np.issubdtype(f.dtype, np.integer):
+        raise ValueError(f"faces must be (m, 3) integers, got {f.shape} {f.dtype}")
+    if len(f) == 0:
+        raise ValueError("the mesh has no triangles")
+    if f.min() < 0 or f.max() >= len(v):
+        raise ValueError(f"faces index vertices 0..{len(v) - 1}, got {f.min()}..{f.max()}")
+    if not np.isfinite(v).all():
+        raise ValueError("vertices must be finite")
+    used = np.unique(f)
+    uniq, inv = np.unique(v[used].view(np.dtype((np.void, 12))).ravel(), return_inverse=True)
+    remap = np.full(len(v), -1, np.int64)
+    remap[used] = inv.reshape(-1)
+    wf = remap[f]
+    keep = (wf[:, 0] != wf[:, 1]) & (wf[:, 1] != wf[:, 2]) & (wf[:, 2] != wf[:, 0])
+    wv = np.frombuffer(uniq.tobytes(), np.float32).reshape(-1, 3).copy()
+    return wv, np.ascontiguousarray(wf[keep], np.int32)
+
+
+# -- stage 2 and 5: cluster and split --------------------------------------------------------------
+
+
+def _cluster(vertices, pieces, max_triangles):
+    """Split each of ``pieces`` (list of (m_i, 3) int64 faces into ``vertices``) into clusters
+    with the clusterizer (one scene object per piece, its vertices compacted). Returns faces
+    (F, 3) int64 in cluster order, the clusters' first (C,), count (C,), piece (C,) and their
+    bounds (aabbs, spheres, cone axis, cutoff, apex)."""
+    from soc.culling.clusters import build_clusters
+    from soc.scenes.scene import Scene
+
+    faces = np.concatenate(pieces)
+    sizes = np.array([len(p) for p in pieces], np.int64)
+    owner = np.repeat(np.arange(len(pieces)), sizes)
+    # Compact each piece's vertices (object-local indices, as a scene wants them).
+    key = owner.repeat(3) * (len(vertices) + 1) + faces.reshape(-1)
+    uniq, inv = np.unique(key, return_inverse=True)
+    local_vertex = uniq % (len(vertices) + 1)
+    vertex_owner = uniq // (len(vertices) + 1)
+    vcounts = np.bincount(vertex_owner, minlength=len(pieces))
+    voffs = np.concatenate([[0], np.cumsum(vcounts)])
+    local = (inv.reshape(-1) - voffs[owner.repeat(3)]).reshape(-1, 3)
+    scene = Scene(vertices[local_vertex], local, vcounts, sizes, np.zeros(len(pieces), bool))
+    cl = build_clusters(scene, max_triangles)
+    ordered = faces[cl.order]
+    return (
+        ordered,
+        cl.first.copy(),
+        cl.count.copy(),
+        cl.object.astype(np.int64),
+        cl.aabbs.copy(),
+        cl.spheres.copy(),
+        cl.cone_axis.copy(),
+        cl.cone_cutoff.copy(),
+        cl.cone_apex.copy(),
+    )
+
+
+# -- stage 3: group --------------------------------------------------------------------------------
+
+
+def _cluster_adjacency(faces, first, count, n_vertices):
+    """CSR adjacency of clusters that share an edge: (xadj, adjncy, weights) with the number
+    of shared edges as weight."""
+    c = len(first)
+    owner = np.repeat(np.arange(c, dtype=np.int64), count)
+    tri = faces[_ranges(first, count)].astype(np.int64)
+    a = tri.reshape(-1)
+    b = tri[:, [1, 2, 0]].reshape(-1)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    key = lo * n_vertices + hi
+    cl = np.repeat(owner, 3)
+    order = np.argsort(key, kind="stable")
+    key, cl = key[order], cl[order]
+    same = key[1:] == key[:-1]
+    p, q = cl[:-1][same], cl[1:][same]
+    diff = p != q
+    p, q = p[diff], q[diff]
+    pairs = np.concatenate([np.stack([p, q], 1), np.stack([q, p], 1)])
+    if len(pairs) == 0:
+        return np.zeros(c + 1, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64)
+    pk, w = np.unique(pairs[:, 0] * c + pairs[:, 1], return_counts=True)
+    src, dst = pk // c, pk % c
+    xadj = np.concatenate([[0], np.cumsum(np.bincount(src, minlength=c))])
+    return xadj.astype(np.int64), dst.astype(np.int64), w.astype(np.int64)
+
+
+def _group(faces, first, count, n_vertices, group_size):
+    """(C,) int64 a group per cluster, groups numbered from 0 and each non-empty."""
+    c = len(first)
+    parts = -(-c // group_size)
+    if parts <= 1:
+        return np.zeros(c, np.int64)
+    xadj, adjncy, weights = _cluster_adjacency(faces, first, count, n_vertices)
+    import pymetis
+
+    opts = pymetis.Options(seed=1)
+    _, membership = pymetis.part_graph(
+        parts, pymetis.CSRAdjacency(xadj, adjncy), eweights=weights, options=opts
+    )
+    _, labels = np.unique(np.asarray(membership), return_inverse=True)
+    return labels.reshape(-1).astype(np.int64)
+
+
+# -- stage 4: simplify -----------------------------------------------------------------------------
+
+
+def _simplify(vertices, tri):
+    """``tri`` (m, 3) int64 faces into ``vertices`` simplified to half with the border locked:
+    (k, 3) int64 faces and the error in object units."""
+    import meshoptimizer
+
+    used, inv = np.unique(tri.reshape(-1), return_inverse=True)
+    local = inv.astype(np.uint32)
+    pos = np.ascontiguousarray(vertices[used])
+    dest = np.zeros(local.size, np.uint32)
+    err = np.zeros(1, np.float32)
+    target = max(3 * (len(tri) // 2), 3)
+    n = meshoptimizer.simplify(
+        dest,
+        local,
+        pos,
+        target_index_count=target,
+        target_error=float(np.finfo(np.float32).max),
+        options=meshoptimizer.SIMPLIFY_LOCK_BORDER | meshoptimizer.SIMPLIFY_ERROR_ABSOLUTE,
+        result_error=err,
+    )
+    return used[dest[:n].astype(np.int64)].reshape(-1, 3), float(err[0])
+
+
+def _merge_spheres(spheres: np.ndarray) -> np.ndarray:
+    """(4,) float32 a sphere holding every sphere of ``spheres`` (k, 4), its radius rounded up
+    in float32 against the stored centre."""
+    s = spheres.astype(np.float64)
+    lo = (s[:, :3] - s[:, 3:]).min(0)
+    hi = (s[:, :3] + s[:, 3:]).max(0)
+    centre = (0.5 * (lo + hi)).astype(np.float32).astype(np.float64)
+    r = (np.linalg.norm(s[:, :3] - centre, axis=1) + s[:, 3]).max()
+    r32 = np.float32(r)
+    while np.float64(r32) < r:
+        r32 = np.nextafter(r32, np.float32(np.inf))
+    return np.array([*centre, np.nextafter(r32, np.float32(np.inf))], np.float32)
+
+
+# -- the build -------------------------------------------------------------------------------------
+
+
+def build_dag(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    *,
+    max_triangles: int = MAX_TRIANGLES,
+    group_size: int = GROUP_SIZE,
+) -> ClusterDag:
+    """Build the cluster DAG of one mesh (stages 1–5 of the module), no caching.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    faces : (m, 3) int
+    max_triangles : int
+        Most triangles per cluster (>= 8).
+    group_size : int
+        Clusters per group METIS aims for (>= 2).
+
+    Returns
+    -------
+    ClusterDag
+    """
+    if not (8 <= int(max_triangles)):
+        raise ValueError(f"max_triangles must be >= 8, got {max_triangles!r}")
+    if not (2 <= int(group_size)):
+        raise ValueError(f"group_size must be >= 2, got {group_size!r}")
+    v, f = weld(vertices, faces)
+    source_triangles = len(np.asarray(faces))
+    nv = len(v)
+
+    # Level 0.
+    out_faces, first, count, _, aabbs, spheres, axes, cutoffs, apexes = _cluster(
+        v, [f.astype(np.int64)], max_triangles
+    )
+    store = _Store()
+    ids = store.add(
+        out_faces, first, count, np.zeros(len(first), np.int32), spheres,
+        np.zeros(len(first), np.float32), aabbs, spheres, axes, cutoffs, apexes,
+    )  # fmt: skip
+    active = ids
+    level = 0
+    while len(active) > 1:
+        a_first, a_count = store.first_of(active), store.count_of(active)
+        a_faces = store.faces_all()
+        labels = _group(a_faces, a_first, a_count, nv, group_size)
+        order = np.argsort(labels, kind="stable")
+        bounds = np.flatnonzero(np.diff(np.concatenate([[-1], labels[order], [-2]])))
+        pieces, made_by, retry = [], [], []
+        group_err, group_sph = [], []
+        for g in range(len(bounds) - 1):
+            members = active[order[bounds[g] : bounds[g + 1]]]
+            tri = a_faces[_ranges(store.first_of(members), store.count_of(members))]
+            simple, err = _simplify(v, tri)
+            if len(simple) == 0 or len(simple) > MAX_KEEP * len(tri):
+                retry.append(members)
+                continue
+            e = np.float32(max(err, float(store.lod_error[members].max())))
+            s = _merge_spheres(store.lod_sphere[members])
+            store.set_parent(members, s, e)
+            pieces.append(simple)
+            made_by.append((s, e))
+            group_err.append(e)
+            group_sph.append(s)
+        if not pieces:
+            break
+        level += 1
+        out_faces, first, count, piece, aabbs, spheres, axes, cutoffs, apexes = _cluster(
+            v, pieces, max_triangles
+        )
+        sph = np.stack(group_sph)[piece]
+        err = np.asarray(group_err, np.float32)[piece]
+        new = store.add(
+            out_faces, first, count, np.full(len(first), level, np.int32), sph, err,
+            aabbs, spheres, axes, cutoffs, apexes,
+        )  # fmt: skip
+        active = np.concatenate(retry + [new]) if retry else new
+    params = dag_key_params(max_triangles, group_size)
+    key = dag_key(np.asarray(vertices, np.float32), np.asarray(faces, np.int64), params)
+    return _finish(store, v, source_triangles, key)
+
+
+class _Store:
+    """The clusters as they are made (lists of arrays joined on demand)."""
+
+    def __init__(self):
+        self.parts: dict[str, list] = {k: [] for k in _STORE}
+        self.n = 0
+        self.n_faces = 0
+        self._joined: dict[str, np.ndarray] = {}
+
+    def add(self, faces, first, count, level, lod_sphere, lod_error, aabbs, spheres, axes,
+            cutoffs, apexes):  # fmt: skip
+        c = len(first)
+        vals = dict(
+            faces=faces,
+            first=first + self.n_faces,
+            count=count,
+            level=level,
+            lod_sphere=np.asarray(lod_sphere, np.float32),
+            lod_error=np.asarray(lod_error, np.float32),
+            parent_sphere=np.zeros((c, 4), np.float32),
+            parent_error=np.full(c, ROOT_ERROR, np.float32),
+            parent_group=np.full(c, -1, np.int64),
+            aabbs=aabbs,
+            spheres=spheres,
+            cone_axis=axes,
+            cone_cutoff=cutoffs,
+            cone_apex=apexes,
+        )
+        for k, a in vals.items():
+            self.parts[k].append(a)
+        self._joined.clear()
+        ids = np.arange(self.n, self.n + c)
+        self.n += c
+        self.n_faces += len(faces)
+        self._groups = getattr(self, "_groups", 0)
+        return ids
+
+    def get(self, k):
+        if k not in self._joined:
+            self._joined[k] = np.concatenate(self.parts[k])
+            self.parts[k] = [self._joined[k]]
+        return self._joined[k]
+
+    def faces_all(self):
+        return self.get("faces")
+
+    def first_of(self, ids):
+        return self.get("first")[ids]
+
+    def count_of(self, ids):
+        return self.get("count")[ids]
+
+    @property
+    def lod_error(self):
+        return self.get("lod_error")
+
+    @property
+    def lod_sphere(self):
+        return self.get("lod_sphere")
+
+    def set_parent(self, ids, sphere, error):
+        self.get("parent_sphere")[ids] = sphere
+        self.get("parent_error")[ids] = error
+        self.get("parent_group")[ids] = self._groups
+        self._groups += 1
+
+
+_STORE = (
+    "faces",
+    "first",
+    "count",
+    "level",
+    "lod_sphere",
+    "lod_error",
+    "parent_sphere",
+    "parent_error",
+    "parent_group",
+    "aabbs",
+    "spheres",
+    "cone_axis",
+    "cone_cutoff",
+    "cone_apex",
+)
+
+
+def _finish(store: _Store, vertices, source_triangles, key) -> ClusterDag:
+    """Clusters sorted by parent group (roots last, in chunks of NODE_WIDTH), the faces in
+    that order, and the group hierarchy."""
+    a = {k: store.get(k) for k in _STORE}
+    c = store.n
+    group = a["parent_group"].copy()
+    n_groups = int(group.max()) + 1 if (group >= 0).any() else 0
+    roots = np.flatnonzero(group < 0)
+    group[roots] = n_groups + np.arange(len(roots)) // NODE_WIDTH
+    order = np.argsort(group, kind="stable")
+    group = group[order]
+    group_first = np.flatnonzero(np.diff(np.concatenate([[-1], group]))).astype(np.int64)
+    group_first = np.append(group_first, c)
+    first, count = a["first"][order], a["count"][order]
+    faces = a["faces"][_ranges(first, count)].astype(np.int32)
+    new_first = np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)
+    out = {k: a[k][order] for k in _STORE if k not in ("faces", "first", "parent_group")}
+    # A group's parent values and level (its first cluster's: all are equal but the level,
+    # which may differ for retried clusters; the tree takes the group's highest).
+    g0 = group_first[:-1]
+    g_sphere = out["parent_sphere"][g0]
+    g_error = out["parent_error"][g0]
+    g_level = np.maximum.reduceat(out["level"], g0)
+    root_g = g_error >= ROOT_ERROR
+    # Root groups: their sphere holds their clusters' LOD spheres (never prunes anyway).
+    for g in np.flatnonzero(root_g):
+        g_sphere[g] = _merge_spheres(out["lod_sphere"][group_first[g] : group_first[g + 1]])
+    out["parent_sphere"] = out["parent_sphere"].copy()
+    out["parent_sphere"][out["parent_error"] >= ROOT_ERROR] = np.repeat(
+        g_sphere, np.diff(group_first), axis=0
+    )[out["parent_error"] >= ROOT_ERROR]
+    nodes = _hierarchy(g_sphere, g_error, g_level)
+    arrays = dict(
+        vertices=np.asarray(vertices, np.float32),
+        faces=np.ascontiguousarray(faces),
+        first=new_first,
+        count=out["count"].astype(np.int32),
+        level=out["level"].astype(np.int32),
+        lod_sphere=out["lod_sphere"],
+        lod_error=out["lod_error"],
+        parent_sphere=out["parent_sphere"],
+        parent_error=out["parent_error"],
+        group_first=group_first,
+        spheres=out["spheres"].astype(np.float32),
+        aabbs=out["aabbs"].astype(np.float32),
+        cone_axis=out["cone_axis"].astype(np.float32),
+        cone_cutoff=out["cone_cutoff"].astype(np.float32),
+        cone_apex=out["cone_apex"].astype(np.float32),
+        **nodes,
+    )
+    return ClusterDag(
+        **arrays,
+        source_triangles=int(source_triangles),
+        key=key,
+    )
+
+
+def _hierarchy(g_sphere, g_error, g_level) -> dict[str, np.ndarray]:
+    """The tree over groups: per level, groups in Morton order of their sphere centres
+    gathered NODE_WIDTH at a time up to one node; the levels' roots under node 0. Nodes are
+    stored top-down, each node's children consecutive."""
+    from soc.culling.clusters import _morton_codes
+
+    g = len(g_sphere)
+    # Build as python lists of (sphere, error, children, leaf) bottom-up, then lay out BFS.
+    spheres, errors, children, leaf = [], [], [], []
+
+    def new_node(sph, err, kids, is_leaf):
+        spheres.append(sph)
+        errors.append(err)
+        children.append(kids)
+        leaf.append(is_leaf)
+        return len(spheres) - 1
+
+    level_roots = []
+    for lvl in np.unique(g_level):
+        members = np.flatnonzero(g_level == lvl)
+        c = g_sphere[members, :3].astype(np.float64)
+        lo, hi = c.min(0), c.max(0)
+        codes = _morton_codes(c, lo[None], np.maximum(hi - lo, 1e-30)[None])
+        members = members[np.argsort(codes, kind="stable")]
+        layer = [new_node(g_sphere[m], g_error[m], [int(m)], True) for m in members]
+        while len(layer) > 1:
+            nxt = []
+            for i in range(0, len(layer), NODE_WIDTH):
+                kids = layer[i : i + NODE_WIDTH]
+                sph = _merge_spheres(np.stack([spheres[k] for k in kids]))
+                err = np.float32(max(errors[k] for k in kids))
+                nxt.append(new_node(sph, err, kids, False))
+            layer = nxt
+        level_roots.append(layer[0])
+    if len(level_roots) == 1 and not leaf[level_roots[0]]:
+        root = level_roots[0]
+    else:
+        sph = _merge_spheres(np.stack([spheres[k] for k in level_roots]))
+        err = np.float32(max(errors[k] for k in level_roots))
+        root = new_node(sph, err, level_roots, False)
+    # Breadth-first layout: every node's children consecutive.
+    pos = {root: 0}
+    queue = [root]
+    order = []
+    head = 0
+    while head < len(queue):
+        n = queue[head]
+        head += 1
+        order.append(n)
+        if not leaf[n]:
+            for k in children[n]:
+                pos[k] = len(queue)
+                queue.append(k)
+    m = len(order)
+    node_sphere = np.stack([spheres[n] for n in order]).astype(np.float32)
+    node_error = np.array([errors[n] for n in order], np.float32)
+    node_first = np.array(
+        [children[n][0] if leaf[n] else pos[children[n][0]] for n in order], np.int64
+    )
+    node_count = np.array([len(children[n]) for n in order], np.int32)
+    node_leaf = np.array([leaf[n] for n in order], bool)
+    assert m == len(node_sphere) and g == int(node_leaf.sum())
+    return dict(
+        node_sphere=node_sphere,
+        node_error=node_error,
+        node_first=node_first,
+        node_count=node_count,
+        node_leaf=node_leaf,
+    )
+
+
+# -- the decision ----------------------------------------------------------------------------------
+
+
+def projected_error(sphere: np.ndarray, error: np.ndarray, eye, scale: float) -> np.ndarray:
+    """(k,) float64 error in pixels of ``error`` (k,) object units at the nearest point of
+    ``sphere`` (k, 4) from ``eye`` (3,): ``error * scale / max(distance - radius, tiny)``,
+    ``scale`` = pixels per unit at distance 1 (:func:`pixel_scale`). Monotonic: a larger
+    error in a sphere holding the other's is never projected smaller. Infinite with the eye
+    inside the sphere."""
+    s = np.asarray(sphere, np.float64)
+    d = np.linalg.norm(s[:, :3] - np.asarray(eye, np.float64), axis=1) - s[:, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.asarray(error, np.float64) * scale / np.maximum(d, 0.0)
+    return np.where(np.asarray(error) == 0, 0.0, out)
+
+
+def pixel_scale(camera) -> float:
+    """Pixels covered by one object unit at distance 1 on ``camera``'s screen (vertical):
+    ``height / (2 tan(fov_y / 2))``."""
+    p = np.asarray(camera.projection, np.float64)
+    return float(camera.resolution[1]) * 0.5 * p[1, 1]
+
+
+# -- caching ---------------------------------------------------------------------------------------
+
+
+def dag_key_params(max_triangles: int, group_size: int) -> dict:
+    """The parameters that enter the cache key."""
+    return {"max_triangles": int(max_triangles), "group_size": int(group_size)}
+
+
+def dag_key(vertices: np.ndarray, faces: np.ndarray, params: dict) -> str:
+    """Hex SHA-256 of the format and simplifier versions, the arrays and the parameters."""
+    import importlib.metadata
+
+    h = hashlib.sha256(FORMAT_VERSION.encode())
+    for pkg in ("meshoptimizer", "pymetis"):
+        try:
+            h.update(importlib.metadata.version(pkg).encode())
+        except importlib.metadata.PackageNotFoundError:  # pragma: no cover
+            h.update(b"?")
+    for a in (vertices, faces):
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(a.tobytes())
+    h.update(repr(sorted(params.items())).encode())
+    return h.hexdigest()
+
+
+def mesh_dag(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    *,
+    max_triangles: int = MAX_TRIANGLES,
+    group_size: int = GROUP_SIZE,
+    cache: bool = True,
+) -> ClusterDag:
+    """The DAG of a mesh from the user cache (``<cache_root>/dag/<key>.npz``), else built
+    (:func:`build_dag`) and stored. Arrays are read-only."""
+    from lod.cache import default_dir, load, store
+
+    params = dag_key_params(max_triangles, group_size)
+    key = dag_key(np.asarray(vertices, np.float32), np.asarray(faces, np.int64), params)
+    folder = default_dir("dag")
+    arrays = load(folder, key) if cache else None
+    if arrays is not None and set(arrays) == set(_ARRAYS) | {"source_triangles"}:
+        st = int(arrays.pop("source_triangles"))
+        dag = ClusterDag(**arrays, source_triangles=st, key=key)
+    else:
+        built = build_dag(vertices, faces, max_triangles=max_triangles, group_size=group_size)
+        dag = ClusterDag(**built.arrays(), source_triangles=built.source_triangles, key=key)
+        if cache:
+            store(folder, key, {**dag.arrays(), "source_triangles": np.int64(dag.source_triangles)})
+    for a in dag.arrays().values():
+        a.flags.writeable = False
+    return dag
