@@ -42,7 +42,7 @@ test: setup
 	MPLBACKEND=Agg $(PY) -m pytest $(PYTEST_ARGS)
 
 bench: setup
-	MPLBACKEND=Agg $(PY) -m experiments.bench $(ARGS)
+	MPLBACKEND=Agg $(PY) -m benchmarks $(ARGS)
 
 # Every figure of the source documents, then results/REPORT.md (skips figures already done;
 # ARGS=--force re-runs them, ARGS=--quick for a small run).

@@ -234,9 +234,10 @@ def run_task(
     gl_threads: int | None = None,
     crash_marker: str | None = None,
 ) -> TaskResult:
-    """Cull (and optionally draw and check) the task's frames: one row per frame, the task's
-    columns beside :meth:`soc.FrameStats.as_row`. The culler warms up, untimed, on the frame
-    before the chunk, so temporal methods start each chunk from one frame of history."""
+    """Cull (and optionally draw and check) the task's frames, flown by :func:`soc.fly`: one
+    row per frame, the task's columns beside :meth:`soc.FrameStats.as_row`. The culler warms
+    up, untimed, on the frame before the chunk, so temporal methods start each chunk from one
+    frame of history."""
     import soc
     from soc.gl.context import default_context
 
@@ -258,14 +259,19 @@ def run_task(
         "gl_threads": glctx.threads,
         "worker": f"{socket.gethostname()}:{os.getpid()}",
     }
-    rows = []
     halfway = (task.start + task.stop) // 2
+
+    def before_frame(i: int, _camera) -> None:
+        if crash_marker is not None and task.start + i == halfway:
+            _crash_once(crash_marker)
+
+    truth = (lambda cam: loaded.oracle.visible(cam)) if task.oracle else None
     with soc.Culler(scene, method=task.method, resolution=task.resolution, glctx=glctx) as culler:
-        culler.cull(cams[max(task.start - 1, 0)], draw=task.draw)  # warm-up, untimed
-        for i in range(task.start, task.stop):
-            if crash_marker is not None and i == halfway:
-                _crash_once(crash_marker)
-            truth = loaded.oracle.visible(cams[i]) if task.oracle else None
-            stats = culler.cull(cams[i], truth=truth, draw=task.draw).stats
-            rows.append({**common, "frame": i, **stats.as_row()})
-    return TaskResult(task.key, pd.DataFrame(rows), common["worker"], time.perf_counter() - t0)
+        flown = soc.fly(culler, cams[task.start : task.stop], truth=truth, draw=task.draw,
+                        warmup=[cams[max(task.start - 1, 0)]], before_frame=before_frame,
+                        progress=False)  # fmt: skip
+    flown = flown.drop(columns=["frame", "method", "width", "height", "oracle_visible"],
+                       errors="ignore")  # fmt: skip
+    columns = {**common, "frame": range(task.start, task.stop)}
+    frame = pd.concat([pd.DataFrame(columns), flown], axis=1)
+    return TaskResult(task.key, frame, common["worker"], time.perf_counter() - t0)

@@ -246,6 +246,7 @@ def test_the_wheel_holds_the_code_and_shaders_and_nothing_else(wheel):
     assert tracked and tracked <= shaders
     assert not [n for n in names if "cache" in n.split("/")[:-1] or "__pycache__" in n]
     assert not [n for n in names if n.startswith(("tests/", "data/", "results/", "notebooks/"))]
+    assert not [n for n in names if n.startswith("benchmarks/")]  # a checkout's tool
     entry = next(n for n in names if n.endswith("entry_points.txt"))
     assert "vislod = experiments.cli:main" in wheel.read(entry).decode()
 

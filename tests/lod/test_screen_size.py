@@ -182,7 +182,7 @@ def test_compiled_areas_equal_the_numpy_version_bit_for_bit(seed, near, size, dt
 
 def test_compiled_areas_equal_the_numpy_version_on_a_city():
     """20,000 boxes of the LOD bench's city seen from its orbit: the same areas."""
-    from experiments.bench_lod_select import _city, _orbit
+    from benchmarks.lod_select import _city, _orbit
 
     boxes, _ = _city(np.random.default_rng(0), 20_000)
     for cam in _orbit(3):

@@ -1,12 +1,12 @@
 """``make bench --only queries`` on a tiny scene: the compiled-queries benchmark's DataFrames and
-its BENCHMARKS.md section (experiments.bench_queries)."""
+its BENCHMARKS.md section (benchmarks.queries)."""
 
 import re
 
 import numpy as np
 import pytest
 
-from experiments import bench_queries
+from benchmarks import queries as bench_queries
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +32,7 @@ def test_every_method_and_loop_is_timed_on_the_same_frames(frames):
 
 
 def test_markdown_states_the_targets_and_where_the_time_goes(frames):
-    text = bench_queries.markdown(frames, "python -m experiments.bench --only queries")
+    text = bench_queries.markdown(frames, "python -m benchmarks --only queries")
     assert text.startswith("## Occlusion queries from compiled loops")
     assert "≤ 15× `masked`" in text and "no GPU was available" in text
     assert "interpreter time removed by compiling" in text

@@ -1,7 +1,7 @@
 """``make bench`` section: occlusion queries from compiled loops against the Python loops they
 replaced, beside ``masked`` (issue 24, item 3).
 
-    python -m experiments.bench --only queries
+    python -m benchmarks --only queries
 
 Scene: ``soc.scenes.random_boxes(10_000, occluders=0.02)``, seen whole by overview cameras at
 1280×720. Two runs, each interleaved frame by frame: ``methods`` — each query method compiled
@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 import soc
-from experiments import bench_common as bc
+from benchmarks import common as bc
 from experiments.markdown import markdown_table
 
 N_OBJECTS = 10_000
@@ -269,13 +269,13 @@ def markdown(frames: dict[str, pd.DataFrame], command: str) -> str:
     )
 
 
-def section(out, frames: int = FRAMES) -> str:
+def section(out, frames: int = FRAMES, command: str = "python -m benchmarks --only queries") -> str:
     """Run the benchmark, write its frames to ``out/queries-compiled-<name>.csv`` and return
-    the ``queries-compiled`` section of BENCHMARKS.md."""
+    the ``queries-compiled`` section of BENCHMARKS.md (made by ``command``)."""
     result = run(frames=frames)
     bc.write_csvs(result, out, "queries-compiled")
-    return markdown(result, "python -m experiments.bench --only queries")
+    return markdown(result, command)
 
 
 if __name__ == "__main__":
-    print(markdown(run(), "python -m experiments.bench_queries"))
+    print(markdown(run(), "python -m benchmarks.queries"))

@@ -1,4 +1,4 @@
-"""``make bench`` on tiny inputs: the floor run's DataFrames (experiments.bench_floor), the
+"""``make bench`` on tiny inputs: the floor run's DataFrames (benchmarks.floor), the
 tables every section draws from them (floor, methods, foundation; LOD chain and selection) and
 their BENCHMARKS.md sections (experiments.markdown)."""
 
@@ -8,7 +8,10 @@ import pandas as pd
 import pytest
 
 import soc
-from experiments import bench, bench_floor, bench_lod_chain, bench_lod_select
+from benchmarks import cli as bench
+from benchmarks import floor as bench_floor
+from benchmarks import lod_chain as bench_lod_chain
+from benchmarks import lod_select as bench_lod_select
 from experiments.markdown import markdown_table, replace_section
 
 # methods that draw the frame itself (draws_frame) too, when registered
@@ -85,7 +88,7 @@ def test_a_floor_run_on_the_walk(tmp_path):
 
 
 def test_markdown_section_written_between_markers(result, tmp_path):
-    body = bench_floor.markdown(result, "python -m experiments.bench --only floor")
+    body = bench_floor.markdown(result, "python -m benchmarks --only floor")
     for heading in ("### The floor", "### Issue 10 targets", "| hiz-gpu(footprint=4) |"):
         assert heading in body
     path = tmp_path / "BENCHMARKS.md"
@@ -118,7 +121,7 @@ def test_methods_table_is_the_floor_summary_per_method(result):
     s = bench_floor.summarize(result).set_index("method")
     assert (t["cull + draw ms"] == s["cull + draw ms"]).all()
     assert t.loc["queries", "queries ÷ this (cull)"] == pytest.approx(1.0)
-    body = bench.methods_markdown(result, "python -m experiments.bench --only methods")
+    body = bench.methods_markdown(result, "python -m benchmarks --only methods")
     assert body.startswith("## Culling methods side by side (tiny)")
     assert "| method | conservative | cull ms |" in body and "| hiz-gpu(footprint=4) |" in body
 
@@ -156,7 +159,7 @@ def test_lod_sections_store_frames_and_draw_tables(monkeypatch, tmp_path):
     monkeypatch.setattr(bench_lod_select, "run", functools.partial(
         select, objects=500, frames=2, small_instances=3, gl_boxes=2, scale_objects=800,
         scale_frames=1))  # fmt: skip
-    sections = bench.lod_sections(tmp_path)
+    sections = {s.name: s.body for s in bench.lod_sections(tmp_path)}
 
     levels = pd.read_csv(tmp_path / "lod-chain-levels.csv")
     assert set(levels["strategy"]) == {"cascade", "restart", "one pass"}
@@ -238,3 +241,20 @@ def test_where_stages_are_queued_the_floor_adds_the_finished_rows(monkeypatch):
             assert c.method.sync
             cam = soc.scenes.paths.flight(scene, frames=3, width=160, height=90)[1]
             assert "finish" not in c.cull(cam).stats.timings_ms
+
+
+def test_the_whole_file_gathers_every_sections_targets(result):
+    """The file is written whole: a header with the command, one table of every section's
+    targets (each row linking its section), then the sections between their markers."""
+    summary = bench_floor.summarize(result)
+    floor = bench.Section("floor-tiny", bench_floor.markdown(result, "cmd"),
+                          bench_floor.targets(result, summary))  # fmt: skip
+    other = bench.Section("lod-chain", "## LOD chain building (seed 001)\n\nbody")
+    text = bench.whole_file([floor, other], "python -m benchmarks --quick", "quick mode")
+    assert text.startswith("# Benchmarks\n\nGenerated whole by `python -m benchmarks --quick`")
+    table = text.split("## Where the targets stand")[1].split("<!-- begin")[0]
+    rows = [line for line in table.splitlines() if line.startswith("| [")]
+    assert len(rows) == len(floor.targets) > 0
+    assert "(#culling-at-the-floor-of-this-machine-tiny)" in rows[0]
+    for name in ("floor-tiny", "lod-chain"):
+        assert text.count(f"<!-- begin {name} -->") == text.count(f"<!-- end {name} -->") == 1

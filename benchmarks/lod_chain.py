@@ -8,7 +8,7 @@
 2. Quadric vs Melax on a ≈20k-triangle mesh: Hausdorff error and time at the same targets.
 
 Times: wall clock (best of ``repeats`` for the one call and the cascade) and this process's
-CPU time (the machine may be shared). ``python -m experiments.bench_lod_chain`` prints it.
+CPU time (the machine may be shared). ``python -m benchmarks.lod_chain`` prints it.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from experiments.bench_common import clock
+from benchmarks.common import clock
 from experiments.markdown import markdown_table
 
 RATIOS = (1.0, 0.5, 0.25, 0.125, 0.0625, 0.03125)  # 6 levels (issue 24)

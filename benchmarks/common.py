@@ -84,6 +84,7 @@ def target_row(target: str, measured: str, ok: bool, method: str | None = None) 
 def stage_table(frames: pd.DataFrame, skipped_as_zero: bool = False) -> pd.DataFrame:
     """Mean ms per method of each ``ms_<stage>`` column; ``skipped_as_zero``: a frame without
     the stage counts 0 (so the stages add up to the mean cull time)."""
+    frames = frames[~frames["method"].isin(("everything", "ideal"))]  # no stages: drawn only
     g = frames.groupby("method", sort=False)[[c for c in frames if c.startswith("ms_")]]
     if skipped_as_zero:
         means = g.apply(lambda d: d.fillna(0.0).mean()).where(g.count() > 0)

@@ -8,7 +8,7 @@ against the ≤ 100 ms targets. Quality: the exact area against rasterized pixel
 against the exact optimum (small instances) and the LP bound, incremental against greedy.
 Times: wall-clock medians over frames after a warm-up, with the process's CPU time.
 
-    python -m experiments.bench_lod_select
+    python -m benchmarks.lod_select
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import pandas as pd
 import lod
 import lod.benefit as lb
 import soc
-from experiments.bench_common import timed
+from benchmarks.common import timed
 from experiments.markdown import markdown_table
 from lod.selection import exact_select, lp_bound, total_benefit, total_cost
 

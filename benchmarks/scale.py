@@ -7,12 +7,12 @@
    (the far plane scaled with the cube). Every method culls the same frames, interleaved:
    cull ms, GL timer ms, the hierarchy walk's nodes visited and boxes tested.
 2. The city (``soc.scenes.city()``, 10⁶ objects): load time and memory, then the floor bench
-   (:func:`experiments.bench_floor.run_floor`) for the issue's targets.
+   (:func:`benchmarks.floor.run_floor`) for the issue's targets.
 
 Each size runs in a process of its own (its peak RSS is the scene's).
 
-    python -m experiments.bench --only scale [--frames 30]
-    python -m experiments.bench_scale --sizes 10000,100000 --city-frames 0   # quick look
+    python -m benchmarks --only scale [--frames 30]
+    python -m benchmarks.scale --sizes 10000,100000 --city-frames 0   # quick look
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from experiments import bench_common as bc
+from benchmarks import common as bc
 from experiments.markdown import markdown_table
 
 SIZES = (10_000, 100_000, 1_000_000)
@@ -43,7 +43,7 @@ VIEWS = ("same view", "1 % in view")
 SPECS = (
     "frustum",
     "frustum(hierarchy=False)",
-    *(f"{m}(threads=1{flat})" for m in ("masked", "hiz-cpu", "hiz-2phase")
+    *(f"{m}(cpu_threads=1{flat})" for m in ("masked", "hiz-cpu", "hiz-2phase")
       for flat in ("", ", hierarchy=False")),
     "hiz-gpu",
 )  # fmt: skip
@@ -54,16 +54,15 @@ CITY_SPECS = (
     "hiz-cpu",
     "hiz-2phase",
     "hiz-gpu",
-    "hiz-2phase(threads=1)",
-    "hiz-2phase(threads=1, order='id')",
+    "hiz-2phase(cpu_threads=1)",
     "hiz-2phase(occluders_first=True)",
-    "hiz-2phase(occluders_first=True, threads=1)",
-    "hiz-2phase(occluders_first=True, next_from='late', threads=1)",
+    "hiz-2phase(occluders_first=True, cpu_threads=1)",
+    "hiz-2phase(occluders_first=True, next_from='late', cpu_threads=1)",
 )
 # Issue 24's targets.
 TARGET_FRUSTUM_MS = 2.0  # frustum culling of 10⁶ boxes, ≈ 1 % in view
 TARGET_GROWTH = 3.2  # cull time 10⁵ → 10⁶ at the same view (exponent 0.5)
-GROWTH_METHODS = ("frustum", "masked(threads=1)", "hiz-2phase(threads=1)")
+GROWTH_METHODS = ("frustum", "masked(cpu_threads=1)", "hiz-2phase(cpu_threads=1)")
 TARGET_CITY_CULL_MS = 10.0  # hiz-2phase on the million-object scene
 TARGET_CITY_IDEAL = 1.2  # its cull + draw over the ideal frame
 
@@ -103,31 +102,32 @@ def _measure_size(n: int, frames: int, specs: tuple[str, ...]) -> dict:
     """One size in this process: build, then per view every method over the frames
     (interleaved); the rows and this process's load and peak RSS."""
     import soc
-    from experiments.bench_floor import parse_spec
+    from benchmarks.floor import available, parse_spec
 
     scene, _, load_s, load_cpu, hier_s, rss = _build(
         lambda: soc.scenes.random_boxes(n, seed=0, occluders=0.02)
     )
     rows = []
+
+    def walked(_label, culler, result) -> dict:  # the hierarchy walk's counters, if any
+        walk = getattr(culler.method, "last_walk", None)
+        gpu = [v for k, v in result.stats.gpu_ms.items() if k != "draw"]
+        return {"nodes": walk.nodes if walk is not None else math.nan,
+                "box tests": walk.tests if walk is not None else math.nan,
+                "gpu ms": float(sum(gpu)) if gpu else math.nan}  # fmt: skip
+
+    methods = {spec: parse_spec(spec) for spec in available(specs)}
     for view in VIEWS:
         cams = scale_cameras(scene, view, frames)
         in_view = [int(soc.aabbs_in_frustum(scene.aabbs, c).sum()) for c in cams]
-        methods = {spec: parse_spec(spec) for spec in specs}
         with bc.open_cullers(scene, methods, RESOLUTION) as cullers:
-            bc.warm_up(cullers, cams[0])
-            for i, cam in enumerate(cams):
-                for spec in bc.rotated(cullers, i):
-                    r = cullers[spec].cull(cam)
-                    walk = getattr(cullers[spec].method, "last_walk", None)
-                    gpu = [v for k, v in r.stats.gpu_ms.items() if k != "draw"]
-                    rows.append({
-                        "objects": n, "view": view, "frame": i, "method": spec,
-                        "in view": in_view[i], "kept": int(r.visible.sum()),
-                        "cull ms": r.stats.cull_ms,
-                        "gpu ms": float(sum(gpu)) if gpu else math.nan,
-                        "nodes": walk.nodes if walk is not None else math.nan,
-                        "box tests": walk.tests if walk is not None else math.nan,
-                    })  # fmt: skip
+            flown = soc.fly(cullers, cams, extra=walked, progress=False)
+        flown = flown.rename(columns={"models_visible": "kept", "ms_cull": "cull ms"})
+        flown = flown.assign(
+            objects=n, view=view, **{"in view": flown["frame"].map(in_view.__getitem__)}
+        )
+        cols = ["objects", "view", "frame", "method", "in view", "kept", "cull ms", "gpu ms"]
+        rows += flown[[*cols, "nodes", "box tests"]].to_dict("records")
     return {
         "rows": rows,
         "info": {"objects": n, "load s": load_s, "load cpu s": load_cpu, "hierarchy s": hier_s,
@@ -138,7 +138,7 @@ def _measure_size(n: int, frames: int, specs: tuple[str, ...]) -> dict:
 def _measure_city(frames: int, specs: tuple[str, ...], objects: int) -> dict:
     """The city of ``objects`` objects in this process: load, the hierarchy, the floor run."""
     import soc
-    from experiments import bench_floor
+    from benchmarks import floor as bench_floor
 
     scene, h, load_s, load_cpu, hier_s, rss = _build(
         lambda: soc.scenes.city(seed=0, objects=objects)
@@ -146,7 +146,8 @@ def _measure_city(frames: int, specs: tuple[str, ...], objects: int) -> dict:
     cams = soc.scenes.paths.flight(scene, frames=frames, width=CITY_RESOLUTION[0],
                                    height=CITY_RESOLUTION[1])  # fmt: skip
     nodes = [h.in_frustum(c)[1].nodes for c in cams]
-    result = bench_floor.run_floor(scene, frames, list(specs), label="city", cameras=cams,
+    specs = bench_floor.available(specs)
+    result = bench_floor.run_floor(scene, frames, specs, label="city", cameras=cams,
                                    resolution=CITY_RESOLUTION, progress=False)  # fmt: skip
     return {
         "frames": result.frames,
@@ -260,7 +261,7 @@ def targets(s: pd.DataFrame, city: pd.DataFrame | None) -> pd.DataFrame:
 
 
 def _city_summary(city: pd.DataFrame) -> pd.DataFrame:
-    from experiments.bench_floor import FloorResult, summarize
+    from benchmarks.floor import FloorResult, summarize
 
     frames_n = int(city["frame"].nunique())
     return summarize(FloorResult(city, pd.DataFrame(), "city", 0, frames_n, CITY_RESOLUTION))
@@ -349,7 +350,7 @@ def markdown(result: dict[str, pd.DataFrame], command: str, figure: str | None =
             f"{int(city['frame'].nunique())} frames of the seed-000 flight at "
             f"{CITY_RESOLUTION[0]}×{CITY_RESOLUTION[1]} (the central district's flight, the "
             "city round it up to the far plane), the floor bench's run "
-            "(`experiments.bench_floor.run_floor`, methods interleaved, exact oracle):",
+            "(`benchmarks.floor.run_floor`, methods interleaved, exact oracle):",
             markdown_table(_city_summary(city)),
             "Cull stages (mean ms per frame):",
             markdown_table(bc.stage_table(city)),
@@ -372,7 +373,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     result = run(args.frames, [int(n) for n in args.sizes.split(",")], args.city_frames)
-    write(result, out, f"python -m experiments.bench_scale --sizes {args.sizes} "
+    write(result, out, f"python -m benchmarks.scale --sizes {args.sizes} "
                        f"--frames {args.frames} --city-frames {args.city_frames}")  # fmt: skip
     return 0
 

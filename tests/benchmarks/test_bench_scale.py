@@ -1,5 +1,5 @@
 """The scale section of ``make bench`` on tiny inputs: its DataFrames, tables, figure and
-targets (experiments.bench_scale)."""
+targets (benchmarks.scale)."""
 
 import math
 
@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 import soc
-from experiments import bench_scale
+from benchmarks import scale as bench_scale
 
 
 @pytest.fixture(scope="module")
@@ -24,8 +24,18 @@ def test_every_size_view_and_method_has_its_frames(result):
     assert (per == 2).all()
     assert "queries" in set(df[df["objects"] == 1500]["method"])
     assert "queries" not in set(df[df["objects"] == 3000]["method"])
-    # The walk and the flat test keep the same objects, frame by frame.
-    for base in ("frustum", "masked(threads=1", "hiz-cpu(threads=1", "hiz-2phase(threads=1"):
+    # The walk and the flat test keep the same objects, frame by frame (each method that
+    # still takes hierarchy=False; frustum and masked always do).
+    methods = set(df["method"])
+    assert {"frustum(hierarchy=False)", "masked(cpu_threads=1, hierarchy=False)"} <= methods
+    for base in (
+        "frustum",
+        "masked(cpu_threads=1",
+        "hiz-cpu(cpu_threads=1",
+        "hiz-2phase(cpu_threads=1",
+    ):
+        if not any(m.startswith(base) and "hierarchy=False" in m for m in methods):
+            continue
         walk = df[df["method"].isin([base if base == "frustum" else base + ")"])]
         flat = df[df["method"] == (base + "(hierarchy=False)" if base == "frustum"
                                    else base + ", hierarchy=False)")]  # fmt: skip
@@ -51,7 +61,7 @@ def test_same_view_keeps_the_frustum_and_scaled_view_keeps_the_fraction():
 
 
 def test_markdown_figure_and_targets(result, tmp_path):
-    text = bench_scale.write(result, tmp_path, "python -m experiments.bench --only scale")
+    text = bench_scale.write(result, tmp_path, "python -m benchmarks --only scale")
     assert (tmp_path / "scale.png").stat().st_size > 1000
     assert "<!-- begin scale -->" in text and "### Issue 24 targets" in text
     assert "### The city" in text and "hiz-2phase" in text

@@ -9,28 +9,26 @@ times are wall time around ``ctx.finish()``, and GL timestamps too where that cl
 something (``gpu_*`` columns). Two tidy DataFrames (frame × method, frame × floor item) give
 every table; ratios are medians of per-frame ratios.
 
-    python -m experiments.bench --only floor --scene castle-2114 --frames 30
+    python -m benchmarks --only floor --scene castle-2114 --frames 30
 """
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import math
-import time
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from tqdm import tqdm
 
 import soc
 import soc.gl.context
-from experiments import bench_common as bc
+from benchmarks import common as bc
 from experiments.markdown import markdown_table
 from soc.culling.draw_order import front_to_back
 from soc.culling.hiz_gpu import DepthPyramid
 from soc.methods import METHODS
-from soc.metrics import gpu_stage
 from soc.rendering.renderer import Renderer
 
 DISPLAY = (1920, 1080)
@@ -49,12 +47,12 @@ def extra_specs(resolution: tuple[int, int] = DISPLAY) -> tuple[str, ...]:
         "hiz-2phase(footprint=2, refine=0)",
         "hiz-2phase(octants=True)",
         "hiz-2phase(next_from='final')",
-        "masked(threads=1)",
-        "hiz-cpu(threads=1)",
+        "masked(cpu_threads=1)",
+        "hiz-cpu(cpu_threads=1)",
         "hiz-cpu(footprint=4, refine=23)",
         "gpu-driven(granularity='object')",
         "gpu-driven(order='unsorted')",
-        "hiz-2phase(threads=1)",
+        "hiz-2phase(cpu_threads=1)",
         CLUSTER_2PHASE,
     )
 
@@ -81,6 +79,17 @@ ORACLE_ITEM = "oracle (exact id render, for reference)"
 BASELINES = {"frustum", "queries", "everything", "ideal"}
 
 
+def accepted_options(name: str) -> set[str]:
+    """The option names method ``name`` takes (its ``Options`` dataclass's fields, or for a
+    method without one its constructor's keywords)."""
+    cls = METHODS[name]
+    opts = getattr(cls, "Options", None)
+    if opts is not None and dataclasses.is_dataclass(opts) and dataclasses.fields(opts):
+        return {f.name for f in dataclasses.fields(opts)}
+    params = inspect.signature(cls.__init__).parameters
+    return set(params) - {"self", "geometry", "resolution", "config", "options"}
+
+
 def parse_spec(spec: str) -> tuple[str, dict]:
     """``"hiz-gpu(footprint=4)"`` → ``("hiz-gpu", {"footprint": 4})``; ValueError naming the spec
     if it does not parse or names no registered method."""
@@ -92,21 +101,27 @@ def parse_spec(spec: str) -> tuple[str, dict]:
         raise ValueError(f"method spec {spec!r}: {e}") from e
     if name not in METHODS:
         raise ValueError(f"method spec {spec!r}: unknown method {name!r}; {soc.method_names()}")
+    accepted = accepted_options(name)
+    if "cpu_threads" in options and "cpu_threads" not in accepted and "threads" in accepted:
+        options["threads"] = options.pop("cpu_threads")  # a method not yet on typed options
     return name, options
+
+
+def available(specs) -> list[str]:
+    """The specs whose method exists and takes their options (the others are left out)."""
+    out = []
+    for spec in specs:
+        name, options = parse_spec(spec)
+        if name in METHODS and options.keys() <= accepted_options(name):
+            out.append(spec)
+    return out
 
 
 def default_specs(scene, resolution: tuple[int, int] = DISPLAY) -> list[str]:
     """Every method that can cull ``scene`` ('none' is the 'everything' row), then the
     :func:`extra_specs` whose method and options exist."""
     names = [m for m in soc.method_names(scene) if m != "none"]
-    extra = []
-    for spec in extra_specs(resolution):
-        name, options = parse_spec(spec)
-        if (
-            name in names
-            and options.keys() <= inspect.signature(METHODS[name].__init__).parameters.keys()
-        ):
-            extra.append(spec)
+    extra = [s for s in available(extra_specs(resolution)) if parse_spec(s)[0] in names]
     if not soc.gl.context.default_context().stage_sync:
         # Where the methods queue their stages (a GPU), their rows finishing every stage too:
         # what the waits cost.
@@ -129,18 +144,71 @@ class FloorResult:
     path: str = "flight"  # a name in soc.scenes.paths.PATHS
 
 
-def _row(frame, method, truth, kept, draw_ms, gpu_draw, triangles, *, conservative=True,
-         cull_ms=0.0, gpu_cull=0.0, queries=0, stages=None) -> dict:  # fmt: skip
-    """One frame × method row of :attr:`FloorResult.frames`."""
-    gpu_cull = math.nan if gpu_cull is None else gpu_cull
-    return {
-        "frame": frame, "method": method, "conservative": conservative, "cull_ms": cull_ms,
-        "draw_ms": draw_ms, "total_ms": cull_ms + draw_ms, "kept": int(kept.sum()),
-        "visible": int(truth.sum()), "false_culls": int((truth & ~kept).sum()),
-        "false_keeps": int((kept & ~truth).sum()), "queries": int(queries),
-        "gpu_cull_ms": gpu_cull, "gpu_draw_ms": gpu_draw, "gpu_total_ms": gpu_cull + gpu_draw,
-        "triangles_drawn": int(triangles),
-    } | {f"ms_{k}": v for k, v in (stages or {}).items() if k != "draw"}  # fmt: skip
+FLOOR = "floor"  # the label of the floor probe's rows in the flown frames
+FLOOR_ITEMS = {  # the probe's stages and what they time
+    "clear": "clear colour + depth",
+    "empty_draw": "empty draw call",
+    "nothing_drawn": "frame with nothing drawn (clear, bind, finish)",
+    "pyramid": "HiZ pyramid build (DepthPyramid.build)",
+}
+# soc.fly's columns under the names the tables use.
+COLUMNS = {"ms_cull": "cull_ms", "ms_draw": "draw_ms", "ms_total": "total_ms",
+           "models_visible": "kept", "oracle_visible": "visible", "gpu_ms_cull": "gpu_cull_ms",
+           "gpu_ms_draw": "gpu_draw_ms", "gpu_ms_total": "gpu_total_ms"}  # fmt: skip
+
+
+class FloorProbe:
+    """The floor of this machine, flown by :func:`soc.fly` beside the methods as if it were
+    one: each frame it times, as stages of its row, a clear, an empty draw call, a frame with
+    nothing drawn and the HiZ pyramid built from the ideal frame's depth (the ideal set drawn
+    first, untimed). It keeps the frame's truth."""
+
+    conservative = True
+
+    def __init__(self, scene, resolution: tuple[int, int]):
+        from types import SimpleNamespace
+
+        self.glctx = soc.gl.context.default_context()
+        self.scene, self.resolution = scene, tuple(resolution)
+        self.method = SimpleNamespace(name=FLOOR)
+        with self.glctx.current():
+            self.renderer = Renderer(self.glctx.geometry(scene), self.resolution)
+            self.pyramid = DepthPyramid(self.glctx, self.resolution)
+            self.empty_vao = self.glctx.ctx.vertex_array(self.pyramid.programs[0], [])
+
+    def cull(self, camera, *, truth=None, draw=False) -> soc.CullResult:
+        """Time the floor items of ``camera``'s frame (``truth``: the ideal set, (N,) bool)."""
+        from soc.metrics import CullResult, frame_stats, stage
+
+        truth = np.zeros(len(self.scene), bool) if truth is None else np.asarray(truth, bool)
+        fbo, ctx, t = self.renderer.fbo, self.glctx.ctx, {}
+        with self.glctx.current():
+            for name, work in (
+                ("clear", lambda: fbo.clear(depth=1.0)),
+                ("empty_draw", lambda: self.empty_vao.render(vertices=0)),
+            ):
+                ctx.finish()
+                with stage(t, name, finish=ctx.finish):
+                    fbo.use()
+                    work()
+            t["nothing_drawn"] = self.renderer.draw(camera, np.zeros(0, np.int64))
+            ideal = front_to_back(self.scene.aabbs, np.flatnonzero(truth), camera.eye)
+            self.renderer.draw(camera, ideal)  # the pyramid reduces the ideal frame's depth
+            ctx.finish()
+            with stage(t, "pyramid", finish=ctx.finish):
+                self.pyramid.build(self.renderer.depth)
+        stats = frame_stats(self.scene, truth, frustum_culled=0, queries=0, timings_ms=t)
+        return CullResult(truth, stats)
+
+    def reset(self) -> None:
+        """Nothing carried over."""
+
+    def close(self) -> None:
+        """Release the probe's GL objects."""
+        with self.glctx.current():
+            self.empty_vao.release()
+            self.pyramid.release()
+            self.renderer.release()
 
 
 def run_floor(
@@ -154,8 +222,9 @@ def run_floor(
     progress: bool = True,
     path: str = "flight",
 ) -> FloorResult:
-    """Every method of ``specs`` (default :func:`default_specs`) and the floor items, interleaved
-    frame by frame over ``frames`` cameras of ``path`` (or ``cameras``) at ``resolution``."""
+    """Every method of ``specs`` (default :func:`default_specs`), the reference frames and the
+    floor probe, flown by :func:`soc.fly` (interleaved frame by frame, the oracle once per
+    frame) over ``frames`` cameras of ``path`` (or ``cameras``) at ``resolution``."""
     parsed = {s: parse_spec(s) for s in specs or default_specs(scene, resolution)}
     if path not in soc.scenes.paths.PATHS:
         raise ValueError(f"unknown path {path!r}; use one of {sorted(soc.scenes.paths.PATHS)}")
@@ -163,90 +232,30 @@ def run_floor(
     if cameras is None:
         cameras = soc.scenes.paths.PATHS[path](scene, frames, width=w, height=h)
     cameras = list(cameras)[:frames]
-    glctx = soc.gl.context.default_context()
+    probe = FloorProbe(scene, resolution)
+    try:
+        with bc.open_cullers(scene, parsed, resolution) as cullers:
+            flown = soc.fly({**cullers, FLOOR: probe}, cameras, truth="oracle", draw=True,
+                            ideal=True, everything=True, progress=progress)  # fmt: skip
+    finally:
+        probe.close()
     # The class flag (never culls a visible object), not the instance: hiz-gpu's instance
     # attribute ``conservative`` is its raster option and shadows the flag.
     conservative = {s: bool(METHODS[n].conservative) for s, (n, _) in parsed.items()}
-    everything, all_ = np.arange(len(scene)), np.ones(len(scene), bool)
-    triangles, nothing = scene.triangle_counts, np.zeros(0, np.int64)
-    rows, floor_rows = [], []
-    with soc.Oracle(scene) as oracle, bc.open_cullers(scene, parsed, resolution) as cullers:
-        with glctx.current():
-            renderer = Renderer(glctx.geometry(scene), resolution)
-            pyramid = DepthPyramid(glctx, resolution)
-            ctx = glctx.ctx
-            empty_vao = ctx.vertex_array(pyramid.programs[0], [])
-
-        def draw_timed(cam, ids) -> tuple[float, float]:  # wall ms and GL-clock ms (NaN: not read)
-            with glctx.current(), glctx.timed_frame() as frame, gpu_stage("draw"):
-                ms = renderer.draw(cam, ids)
-            return ms, frame.gpu_ms.get("draw", math.nan)
-
-        def time_gl(*steps) -> float:  # wall ms of the steps and ctx.finish()
-            ctx.finish()
-            t0 = time.perf_counter()
-            for step in steps:
-                step()
-            ctx.finish()
-            return 1e3 * (time.perf_counter() - t0)
-
-        try:
-            with glctx.current():  # compile shaders and kernels outside the timed frames
-                renderer.draw(cameras[0], everything)
-                pyramid.build(renderer.depth)
-            bc.warm_up(cullers, cameras[0], draw=True)
-            it = tqdm(cameras, desc=f"bench floor {label}", unit="frame", disable=not progress)
-            for i, cam in enumerate(it):
-                t0 = time.perf_counter()
-                truth = oracle.visible(cam)
-                oracle_ms = 1e3 * (time.perf_counter() - t0)
-                # The ideal draws the exact set nearest first (the order hiz-2phase draws in;
-                # not timed: it is handed its answer): no method beats it by its order alone.
-                ideal = front_to_back(scene.aabbs, np.flatnonzero(truth), cam.eye)
-                for name, ids, kept in (("everything", everything, all_), ("ideal", ideal, truth)):
-                    rows.append(
-                        _row(i, name, truth, kept, *draw_timed(cam, ids), triangles[ids].sum())
-                    )
-                with glctx.current():
-                    floor = {
-                        f"clear colour + depth ({w}×{h})": time_gl(
-                            renderer.fbo.use, lambda: renderer.fbo.clear(depth=1.0)
-                        ),
-                        "empty draw call": time_gl(
-                            renderer.fbo.use, lambda: empty_vao.render(vertices=0)
-                        ),
-                        "frame with nothing drawn (clear, bind, finish)": renderer.draw(
-                            cam, nothing
-                        ),
-                    }
-                    renderer.draw(cam, ideal)  # the pyramid reduces the ideal frame's depth
-                    build = time_gl(lambda: pyramid.build(renderer.depth))
-                    floor["HiZ pyramid build (DepthPyramid.build)"] = build
-                floor[ORACLE_ITEM] = oracle_ms
-                floor_rows += [{"frame": i, "item": k, "ms": v} for k, v in floor.items()]
-                for spec in bc.rotated(cullers, i):
-                    c = cullers[spec]
-                    if getattr(c.method, "draws_frame", False):
-                        r = c.cull(cam, truth=truth, draw=True)
-                        draw_ms = float(r.stats.timings_ms.get("draw", math.nan))
-                        gpu_draw = r.stats.gpu_ms.get("draw", math.nan)
-                        tris = r.stats.triangles_drawn
-                    else:
-                        r = c.cull(cam, truth=truth)
-                        draw_ms, gpu_draw = draw_timed(cam, r.visible_ids)
-                        tris = r.stats.triangles_visible
-                    rows.append(
-                        _row(i, spec, truth, r.visible, draw_ms, gpu_draw, tris,
-                             conservative=conservative[spec], cull_ms=r.stats.cull_ms,
-                             gpu_cull=r.stats.gpu_cull_ms, queries=r.stats.queries,
-                             stages=dict(r.stats.timings_ms))
-                    )  # fmt: skip
-        finally:
-            with glctx.current():
-                empty_vao.release()
-                pyramid.release()
-                renderer.release()
-    df, fl = pd.DataFrame(rows), pd.DataFrame(floor_rows)
+    df = flown[flown["method"] != FLOOR].rename(columns=COLUMNS).reset_index(drop=True)
+    for col in ("gpu_cull_ms", "gpu_draw_ms", "gpu_total_ms"):
+        if col not in df:
+            df[col] = math.nan
+    df = df.drop(columns=[c for c in df if c.startswith("ms_") and c[3:] in FLOOR_ITEMS])
+    df.insert(2, "conservative", df["method"].map(conservative).fillna(True).astype(bool))
+    probe_rows = flown[flown["method"] == FLOOR]
+    items = {f"ms_{k}": v for k, v in FLOOR_ITEMS.items()}
+    items["ms_clear"] += f" ({w}×{h})"
+    fl = probe_rows.melt(id_vars="frame", value_vars=list(items), var_name="item", value_name="ms")
+    fl["item"] = fl["item"].map(items)
+    oracle = df.loc[df["method"] == "ideal", ["frame", "oracle_ms"]]
+    fl = pd.concat([fl, oracle.rename(columns={"oracle_ms": "ms"}).assign(item=ORACLE_ITEM)])
+    fl = fl.sort_values("frame", kind="stable").reset_index(drop=True)[["frame", "item", "ms"]]
     df.insert(0, "scene", label)
     fl.insert(0, "scene", label)
     return FloorResult(df, fl, label, len(scene), len(cameras), tuple(resolution), path)
