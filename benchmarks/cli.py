@@ -251,7 +251,8 @@ def floor_sections(args: argparse.Namespace, scene_name: str, path: str, frames:
             f"`{out.name}/{stem}-items.csv` (floor items), not committed."
         )
         summary = bench_floor.summarize(result)
-        both = [bench_floor.targets(result, summary), bench_floor.targets_21(result, summary)]
+        both = [bench_floor.targets(result, summary)]
+        both.append(bench_floor.gpu_driven_targets(result, summary))
         targets = pd.concat(both, ignore_index=True)
         body = bench_floor.markdown(result, command, note=note)
         sections.append(Section(f"floor-{scene_name}{on}", body, targets))

@@ -1,13 +1,13 @@
 """``make bench`` floor section: every culling method beside the floor of this machine.
 
-Issue 10's benchmark (and issue 21's rows: ``gpu-driven``, triangles drawn). Per frame of a
-camera path (the seed-000 flight, or ``--path walk`` at eye height) at 1920×1080, interleaved
-frame by frame: the oracle's visible set; every method culls and its kept set is drawn (a method
-that ``draws_frame`` reports its own draw); 'everything' and 'ideal' (the oracle's set, nearest
-first) are drawn; and the floor: a clear, an empty draw call and the HiZ pyramid build. GL
-times are wall time around ``ctx.finish()``, and GL timestamps too where that clock means
-something (``gpu_*`` columns). Two tidy DataFrames (frame × method, frame × floor item) give
-every table; ratios are medians of per-frame ratios.
+Per frame of a camera path (the seed-000 flight, or ``--path walk`` at eye height) at
+1920×1080, flown by :func:`soc.fly` (interleaved frame by frame, the oracle's visible set once
+per frame): every method culls and its kept set is drawn (a method that ``draws_frame``
+reports its own draw, ``gpu-driven`` its triangles); 'everything' and 'ideal' (the oracle's
+set, nearest first) are drawn; and the floor (:class:`FloorProbe`): a clear, an empty draw
+call and the HiZ pyramid build. GL times are wall time around ``ctx.finish()``, and GL
+timestamps too where that clock means something (``gpu_*`` columns). Two tidy DataFrames
+(frame × method, frame × floor item) give every table; ratios are medians of per-frame ratios.
 
     python -m benchmarks --only floor --scene castle-2114 --frames 30
 """
@@ -37,7 +37,7 @@ OCCLUDER_DIVISOR = 4
 
 
 def extra_specs(resolution: tuple[int, int] = DISPLAY) -> tuple[str, ...]:
-    """Option rows issue 10 asks to compare beside the registered methods at ``resolution``."""
+    """Option rows to compare beside the registered methods at ``resolution``."""
     w, h = (max(1, n // OCCLUDER_DIVISOR) for n in resolution)
     return (
         "hiz-gpu(footprint=4)",
@@ -57,17 +57,17 @@ def extra_specs(resolution: tuple[int, int] = DISPLAY) -> tuple[str, ...]:
     )
 
 
-CPU_METHODS = ("masked", "hiz-cpu")  # issue 10's ">= 10x cheaper than queries" applies to them
-# Seed 000 / issue 10 reference: Intel's MOC (C++ AVX2, one thread) on the 2,114-object castle.
+CPU_METHODS = ("masked", "hiz-cpu")  # the ">= 10x cheaper than queries" target applies to them
+# Seed 000's reference: Intel's MOC (C++ AVX2, one thread) on the 2,114-object castle.
 MOC_MS, MOC_HIDDEN_KEPT = 1.40, 240
-# Issue 10's targets.
+# The culling targets.
 TARGET_QUERIES_RATIO_27K, TARGET_CPU_RATIO_27K = 50.0, 10.0
 TARGET_IDEAL_RATIO = 1.15
 TARGET_MOC_FACTOR, TARGET_QUERIES_RATIO_2114 = 2.0, 15.0
-# Issue 21's targets for gpu-driven on llvmpipe: cull + draw ÷ ideal (castle-2114; the 27k
+# The GPU-driven targets on llvmpipe: cull + draw ÷ ideal (castle-2114; the 27k
 # scenes), and triangles drawn ÷ the ideal's (castle-2114).
 TARGET_GPU_DRIVEN_2114, TARGET_GPU_DRIVEN_27K, TARGET_TRIANGLES_2114 = 1.00, 1.10, 0.7
-# hiz-2phase drawing clusters: judged by issue 21's bounds beside gpu-driven.
+# hiz-2phase drawing clusters: judged by the GPU-driven bounds beside gpu-driven.
 CLUSTER_2PHASE = "hiz-2phase(granularity='cluster')"
 PATH_WORDS = {
     "flight": "the seed-000 flight",
@@ -325,7 +325,7 @@ def floor_table(result: FloorResult) -> pd.DataFrame:
 
 
 def targets(result: FloorResult, summary: pd.DataFrame) -> pd.DataFrame:
-    """Issue 10's targets that apply to this scene, judged on the conservative occlusion methods
+    """The culling targets that apply to this scene, judged on the conservative occlusion methods
     (not the baselines), with the measured value and met / missed."""
     occ = summary[(summary["conservative"] == "yes") & ~summary["method"].isin(BASELINES)]
     if occ.empty:
@@ -355,12 +355,12 @@ def targets(result: FloorResult, summary: pd.DataFrame) -> pd.DataFrame:
         lean = occ[occ["hidden kept"] <= MOC_HIDDEN_KEPT]
         good = lean[(lean["cull ms"] <= limit) & (lean[q] >= TARGET_QUERIES_RATIO_2114)]
         # None meets all three: the fastest of those keeping no more hidden objects than MOC
-        # (the issue's pair of conditions), else the fastest.
+        # (the target's pair of conditions), else the fastest.
         pool = good if len(good) else lean if len(lean) else occ
         b = pool.loc[pool["cull ms"].idxmin()]
-        # MOC's time is the issue's, from another machine; BENCHMARKS.md records MOC run
-        # beside hiz-2phase on this one (a scratch harness: its code may not be committed).
-        moc = f"{TARGET_MOC_FACTOR:.0f}× MOC's {MOC_MS} ms in the issue's run"
+        # MOC's time is the target's, from another machine (docs/findings.md records MOC run
+        # beside hiz-2phase on this one).
+        moc = f"{TARGET_MOC_FACTOR:.0f}× MOC's {MOC_MS} ms in the target's run"
         rows += [
             bc.target_row(f"castle-2114: cull ≤ {limit:.2f} ms ({moc})", f"{b['cull ms']:.2f} ms",
                        b["cull ms"] <= limit, b["method"]),
@@ -373,8 +373,8 @@ def targets(result: FloorResult, summary: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def targets_21(result: FloorResult, summary: pd.DataFrame) -> pd.DataFrame:
-    """Issue 21's llvmpipe targets for ``gpu-driven`` (each granularity) on this scene, and
+def gpu_driven_targets(result: FloorResult, summary: pd.DataFrame) -> pd.DataFrame:
+    """The GPU-driven llvmpipe targets for ``gpu-driven`` (each granularity) on this scene, and
     the same bounds for ``hiz-2phase`` drawing clusters (its CPU-tested counterpart)."""
     limit = TARGET_GPU_DRIVEN_27K if result.objects >= LARGE_SCENE else TARGET_GPU_DRIVEN_2114
     methods = summary["method"]
@@ -399,8 +399,8 @@ def markdown(result: FloorResult, command: str, note: str = "") -> str:
     on = "" if result.path == "flight" else f", {result.path}"
     tables = {
         "The floor": floor_table(result),
-        "Issue 10 targets": targets(result, summary),
-        "Issue 21 targets (llvmpipe)": targets_21(result, summary),
+        "Culling targets": targets(result, summary),
+        "GPU-driven targets (llvmpipe)": gpu_driven_targets(result, summary),
         # Mean, not median: a stage some frames skip (adaptive's estimate every 10th frame)
         # counts 0 there, so the stages add up to the mean cull time.
         "Cull stages (mean ms per frame; a frame that skips a stage counts 0)": bc.stage_table(

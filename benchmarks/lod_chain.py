@@ -1,4 +1,4 @@
-"""Benchmark of LOD chain building (seed 001, LOD preprocessing; issue 24's chain target).
+"""Benchmark of LOD chain building (seed 001, LOD preprocessing; the chain target).
 
 1. A 6-level chain of a ≈1.3 M-triangle mesh (igea subdivided when ``VISLOD_DATA`` is set, else
    a noisy icosphere): ``build_chain`` cascading (each level from the previous) and restarting
@@ -23,14 +23,14 @@ import pandas as pd
 from benchmarks.common import clock
 from experiments.markdown import markdown_table
 
-RATIOS = (1.0, 0.5, 0.25, 0.125, 0.0625, 0.03125)  # 6 levels (issue 24)
+RATIOS = (1.0, 0.5, 0.25, 0.125, 0.0625, 0.03125)  # 6 levels
 ICOSPHERE_SUBDIVISIONS = 8  # the big mesh: 1,310,720 triangles
 NOISE = 0.002  # relative noise on the big mesh (so the simplifier has work to do)
 SMALL_SUBDIVISIONS = 5  # the Melax mesh, 5× the noise: 20,480 triangles
 MELAX_RATIOS = (0.5, 0.25, 0.125, 0.0625)
 SEED = 0
 REPEATS = 2  # the target ratio's two times are the best of this many runs each
-CHAIN_TARGET = 1.2  # issue 24: the 6-level chain costs at most this many one-call runs
+CHAIN_TARGET = 1.2  # the 6-level chain costs at most this many one-call runs
 ONE_PASS_AGG = 5.0  # the higher agg (agg 3 stops short of 1/16 on the big mesh)
 
 

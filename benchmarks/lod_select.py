@@ -1,5 +1,5 @@
 """``make bench`` section: screen-size estimates and LOD selection at 100,000 and at a million
-objects (seed 001; issue 24's scale targets).
+objects (seed 001; the scale targets).
 
 Per frame of a camera orbit over 100,000 boxes: exact and naive projected areas
 (:func:`lod.projected_area`), then an LOD instance from them (:mod:`lod.benefit`: benefit with
@@ -35,7 +35,7 @@ AREA_TARGET_MS = 20.0  # the targets of the task, for the table
 SELECT_TARGET_MS = 50.0
 SCALE_OBJECTS = 1_000_000  # the scale rows: objects, frames timed after one warm-up frame
 SCALE_FRAMES = 4
-SCALE_TARGET_MS = 100.0  # issue 24: areas of 10⁶ boxes, lod.select of 10⁶ × 6 levels
+SCALE_TARGET_MS = 100.0  # areas of 10⁶ boxes, lod.select of 10⁶ × 6 levels
 SMALL_INSTANCES = 200  # greedy vs exact optimum
 GL_BOXES, GL_CAMERAS = 30, 6  # exact area vs rasterized pixels
 AREA_MIN_PIXELS = 1000  # relative area error only over boxes this large (pixels)
@@ -171,6 +171,7 @@ def markdown(frames: dict[str, pd.DataFrame]) -> str:
     ]
     return "\n\n".join(
         [
+            "## LOD selection and screen size (seed 001)",
             f"{per_frame['objects'].iloc[0]:,} boxes (a city on a 600×600 ground), {N_LEVELS} "
             f"levels per object, {len(per_frame)} frames of a camera orbit at "
             f"{DISPLAY[0]}×{DISPLAY[1]} after {WARMUP} warm-up frames; "

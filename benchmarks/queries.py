@@ -1,5 +1,5 @@
 """``make bench`` section: occlusion queries from compiled loops against the Python loops they
-replaced, beside ``masked`` (issue 24, item 3).
+replaced, beside ``masked``.
 
     python -m benchmarks --only queries
 
@@ -235,7 +235,7 @@ def markdown(frames: dict[str, pd.DataFrame], command: str) -> str:
     renderer = soc.gl.context.default_context().renderer
     return "\n\n".join(
         [
-            "## Occlusion queries from compiled loops (issue 24, item 3)",
+            "## Occlusion queries from compiled loops",
             f"`{command}` on {time.strftime('%Y-%m-%d')}, {renderer}; "
             f"load average {setup['load_before']:.1f} before, {setup['load_after']:.1f} after "
             "(2 cores, shared).",

@@ -1,5 +1,5 @@
 """``make bench`` scale section: what culling costs as a scene grows from 10⁴ to 10⁶ objects
-(issue 24), with the object hierarchy (the default) and without it (every box tested).
+with the object hierarchy (the default) and without it (every box tested).
 
 1. Random boxes (``soc.scenes.random_boxes(n, occluders=0.02)``: the cube grows with ``n``)
    from a camera at the cube's centre at 1280×720, n = 10⁴, 10⁵, 10⁶, from two views: the
@@ -7,7 +7,7 @@
    (the far plane scaled with the cube). Every method culls the same frames, interleaved:
    cull ms, GL timer ms, the hierarchy walk's nodes visited and boxes tested.
 2. The city (``soc.scenes.city()``, 10⁶ objects): load time and memory, then the floor bench
-   (:func:`benchmarks.floor.run_floor`) for the issue's targets.
+   (:func:`benchmarks.floor.run_floor`) for the city's targets.
 
 Each size runs in a process of its own (its peak RSS is the scene's).
 
@@ -59,7 +59,7 @@ CITY_SPECS = (
     "hiz-2phase(occluders_first=True, cpu_threads=1)",
     "hiz-2phase(occluders_first=True, next_from='late', cpu_threads=1)",
 )
-# Issue 24's targets.
+# The scale targets.
 TARGET_FRUSTUM_MS = 2.0  # frustum culling of 10⁶ boxes, ≈ 1 % in view
 TARGET_GROWTH = 3.2  # cull time 10⁵ → 10⁶ at the same view (exponent 0.5)
 GROWTH_METHODS = ("frustum", "masked(cpu_threads=1)", "hiz-2phase(cpu_threads=1)")
@@ -218,7 +218,7 @@ def growth(s: pd.DataFrame) -> pd.DataFrame:
 
 
 def targets(s: pd.DataFrame, city: pd.DataFrame | None) -> pd.DataFrame:
-    """Issue 24's targets with the measured value and met / missed."""
+    """The scale targets with the measured value and met / missed."""
     ms = s.set_index(["view", "method", "objects"])["cull ms"].get
     rows = []
     f = ms(("1 % in view", "frustum", 1_000_000), math.nan)
@@ -231,7 +231,7 @@ def targets(s: pd.DataFrame, city: pd.DataFrame | None) -> pd.DataFrame:
             r = ms((view, m, 1_000_000), math.nan) / ms((view, m, 100_000), math.nan)
             if math.isnan(r):
                 continue
-            if view == "same view":  # the issue's target: the view fixed, the scene grows
+            if view == "same view":  # the target: the view fixed, the scene grows
                 rows.append(bc.target_row(f"{m}, {view}: cull time 10⁵ → 10⁶ ≤ {TARGET_GROWTH}×",
                                           f"{r:.2f}×", r <= TARGET_GROWTH))  # fmt: skip
                 continue
@@ -312,7 +312,7 @@ def markdown(result: dict[str, pd.DataFrame], command: str, figure: str | None =
     load_fmt = {"load s": ".1f", "load cpu s": ".1f", "hierarchy s": ".2f"}
     load_fmt |= {"rss scene MiB": ".0f", "peak rss MiB": ".0f"}
     parts = [
-        "## Culling cost against scene size (issue 24)",
+        "## Culling cost against scene size",
         f"`{command}` on {bc.now_utc()}: "
         f"{glctx.ctx.info['GL_RENDERER']} with {glctx.threads} threads; each size in a process "
         "of its own. Random boxes (`soc.scenes.random_boxes(n, occluders=0.02)`) from a camera "
@@ -357,7 +357,7 @@ def markdown(result: dict[str, pd.DataFrame], command: str, figure: str | None =
         ]
     t = targets(s, city)
     parts += [
-        "### Issue 24 targets",
+        "### Scale targets",
         markdown_table(t) if len(t) else "None applies to the sizes run.",
     ]
     return "\n\n".join(parts)

@@ -13,14 +13,11 @@ vertices and degenerate faces) → simplify each level (cascade: from the previo
 restart: every level as from the full mesh, all of them snapshots of one simplifier run,
 ``lod.replay``) → clean each level → measure errors → accumulate → cache on disk.
 
-Cost (bench_lod_chain, 6 levels, this process's CPU time, 2 shared cores, load 4-5; the
-issue's target is ≤ 1.2× one fast-simplification call to the coarsest level): the cascade
-costs 1.61-1.85× that call on igea subdivided (1.07 M triangles) and 1.34-1.63× on a noisy
-icosphere (1.3 M); its five simplifier calls alone 0.97-1.01× and 0.98-1.30×, the error
-measurement 0.42-0.48× and 0.29-0.33× (exact maxima streamed over point grids,
-``lod.mesh_error``; before, with k-d trees: 1.96× and 0.8×, the cascade 3.18× and 1.91×),
-welding and compaction ≈ 0.05×. So the simplifier calls alone nearly use up the target: a
-cascade within 1.2× would need the error measurement near 0.1× (results/BENCHMARKS.md).
+Cost: the chain's time against one fast-simplification call to the coarsest level, split
+into the simplifier calls, the error measurement (exact maxima streamed over point grids,
+``lod.mesh_error``) and welding, is measured by ``benchmarks/lod_chain.py``: results/
+BENCHMARKS.md, "LOD chain building". The simplifier calls alone nearly use up the target
+there, so the error measurement is what a faster chain must shrink (docs/findings.md).
 
 Triangle counts: each level holds ``round(ratio · m)`` triangles (m = input triangles) up to
 the simplifier's granularity (one pass may overshoot by a few triangles; measured within ±5 %
@@ -57,7 +54,7 @@ COUNT_TOLERANCE = 0.05
 AGG_STEP = 2.0
 AGG_MAX = 9.0
 # Cascade (level k from level k−1) rather than restart from the full mesh: on the 1.3 M
-# noisy icosphere (bench_lod_chain, 2 shared cores, best of 3) cascade builds the chain 2.7×
+# noisy icosphere (benchmarks/lod_chain.py, 2 shared cores, best of 3) cascade builds the chain 2.7×
 # faster (4.9 s vs 12.9 s, errors included) with a lower error at the two coarsest levels
 # (0.0070 vs 0.0098). Restart became one run and its snapshots (lod.replay: 6 levels 5.45× →
 # 2.24× one call, CPU, the same levels), still above the cascade's 1.91× (agg 3 stops short of

@@ -41,9 +41,9 @@ the viewport border the silhouette cut to the viewport) → for the few boxes cr
 plane, ``_near_crossing_area`` / ``_near_clipped_bbox_area`` (numpy, in one batch). The
 kernel repeats the operations of the numpy version it replaced in the same order, so the areas
 are the same bit for bit (``tests/lod_reference.py`` keeps that version as the reference).
-Performance (``experiments/bench_lod_select.py``, CPU time on a shared machine): a million
-boxes in 47–64 ms exact, 34–40 ms naive (the numpy version: 179–287 and 131–179 ms, a third
-of it converting the boxes to float64 rows).
+Performance: a million boxes, exact and naive, measured by ``benchmarks/lod_select.py``:
+results/BENCHMARKS.md, "LOD selection and screen size" (the numpy version it replaced spent a
+third of its time converting the boxes to float64 rows).
 """
 
 from __future__ import annotations

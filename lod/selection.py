@@ -73,10 +73,9 @@ Measuring: :func:`exact_select` (dynamic programming on integer costs, small ins
 :func:`lp_bound` (the LP relaxation's optimum, from the same hull increments: an upper bound on
 any selection) give the greedy's optimality gap.
 
-Performance (``experiments/bench_lod_select.py``, one core of a shared 2-core machine, CPU
-time): a million objects × 6 levels, the greedy in 77–113 ms and one incremental round in
-67–80 ms (numba kernels of :mod:`lod.knapsack`); the vectorized numpy version before them took
-740–971 ms and 450–516 ms on the same frames.
+Performance: a million objects × 6 levels with the numba kernels of :mod:`lod.knapsack`
+(about ten times faster than the vectorized numpy version before them), measured by
+``benchmarks/lod_select.py``: results/BENCHMARKS.md, "LOD selection and screen size".
 """
 
 from __future__ import annotations

@@ -1,10 +1,10 @@
-"""Packaging (issue 14): the wheel holds the code and the shaders and nothing else; every
+"""Packaging: the wheel holds the code and the shaders and nothing else; every
 command's optional dependencies are in one table (experiments/cli.py) that matches
 pyproject.toml; a missing extra is one line naming it, before any work; the core imports
 without any extra; caches live outside the package.
 
 The fresh-virtualenv check (the wheel alone, each command in --quick) is too heavy for the
-suite: it was done by hand for issue 14's report. Here: the wheel is built (≈ 3 s, no
+suite: it was done by hand once. Here: the wheel is built (≈ 3 s, no
 network: hatchling from the test extra) and its file list checked, and a subprocess with every
 extra's modules blocked stands in for an install without extras.
 """

@@ -144,8 +144,7 @@ def _far(a, b):  # pragma: no cover - compiled
 def _reduce_row(flat, src, dst, sw, sh, dw, y):  # pragma: no cover - compiled
     """Row ``y`` of a level from the level below (:func:`_reduce_levels`). The rows are
     taken as slices so that LLVM sees three separate unit-stride arrays and vectorizes the
-    loop: a 1080p pyramid, every level, one thread, 3.0 ms with indices into ``flat`` and
-    ``max``, 0.64 ms with slices and :func:`_far` (snippet in results/BENCHMARKS.md)."""
+    loop (several times faster than indices into ``flat`` and ``max``: docs/findings.md)."""
     out = flat[dst + y * dw : dst + (y + 1) * dw]
     pairs = sw // 2  # texels with both columns inside; an odd edge column comes after
     if 2 * y + 1 < sh:
@@ -273,8 +272,8 @@ def project_box(box, m, am, width, height):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def _project_boxes(boxes, m, width, height, rect, z_near):  # pragma: no cover - compiled
-    """:func:`project_boxes`' loop over boxes (numba: numpy's BLAS takes ~60 ms for the thin
-    (8K, 3) @ (3, 4) product of 24,000 boxes on this machine, this ~1 ms)."""
+    """:func:`project_boxes`' loop over boxes (numba: numpy's BLAS is far slower on the thin
+    (8K, 3) @ (3, 4) product of the boxes' corners, and its threads fight llvmpipe's)."""
     am = np.abs(m)
     for k in range(len(boxes)):
         x0, y0, x1, y1, z = project_box(boxes[k], m, am, width, height)
@@ -393,7 +392,7 @@ def _classify_objects(
 ):  # pragma: no cover - compiled  # fmt: skip
     """:func:`classify_objects`' loop over the objects of the blocks of :data:`OBJECT_BLOCK`
     ``band, band + bands, …`` (one thread's share; 0, 1: all). No defaults: numba compiles
-    omitted arguments into a version 7× slower here."""
+    omitted arguments into a version several times slower here."""
     am = np.abs(m)
     stack = np.empty((WALK_STACK, 3), np.int64)
     tested = 0

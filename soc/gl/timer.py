@@ -11,7 +11,7 @@ results during the frame; :meth:`TimedFrame.__exit__` reads them (by then the st
 query objects go back to a pool for the next frame.
 
 The GL's clock is only worth reading on a GPU: llvmpipe's timer queries read part of the work
-(measured on the market: 126–138 ms for a 225–253 ms draw, the first read 4,295 ms), so a
+(about half a draw's wall time, the first read far off; docs/findings.md, "Benchmarks"), so a
 context on llvmpipe times nothing unless told to (:attr:`soc.gl.context.GLContext.gpu_clock`).
 """
 

@@ -62,11 +62,11 @@ def test_summary_ratios(result):
     tris = result.frames.pivot(index="frame", columns="method", values="triangles_drawn")
     assert (tris["frustum"] <= tris["everything"]).all() and (tris["ideal"] > 0).all()
     # Methods drawing clusters count their own triangles, between nothing and everything, and
-    # are judged by issue 21's bounds.
+    # are judged by the GPU-driven bounds.
     clustered = [m for m in ("gpu-driven", bench_floor.CLUSTER_2PHASE) if m in tris]
     for m in clustered:
         assert ((tris[m] > 0) & (tris[m] <= tris["everything"])).all(), m
-    targets = bench_floor.targets_21(result, bench_floor.summarize(result))
+    targets = bench_floor.gpu_driven_targets(result, bench_floor.summarize(result))
     assert set(targets["method"]) == set(clustered)
 
 
@@ -89,7 +89,7 @@ def test_a_floor_run_on_the_walk(tmp_path):
 
 def test_markdown_section_written_between_markers(result, tmp_path):
     body = bench_floor.markdown(result, "python -m benchmarks --only floor")
-    for heading in ("### The floor", "### Issue 10 targets", "| hiz-gpu(footprint=4) |"):
+    for heading in ("### The floor", "### Culling targets", "| hiz-gpu(footprint=4) |"):
         assert heading in body
     path = tmp_path / "BENCHMARKS.md"
     path.write_text("# Benchmarks\n\n<!-- begin other -->\nkeep me\n<!-- end other -->\n")

@@ -1,4 +1,4 @@
-"""``vislod sweep`` (issue 6, part 5): keyed tasks on a Dask cluster, a table that stays
+"""``vislod sweep``: keyed tasks on a Dask cluster, a table that stays
 complete and duplicate-free when workers are killed, re-runs that skip, ``--force``."""
 
 from __future__ import annotations
