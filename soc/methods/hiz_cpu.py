@@ -20,35 +20,49 @@ possible pixel centre is behind that depth (see both modules' promises).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Literal
+
 import numpy as np
 
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
+from soc.methods.options import MethodOptions, option
 
 
-@register
-class HiZCpuCulling(CullMethod):
-    """Frustum + software occluder depth (numba, CPU) + max pyramid + AABB tests. Conservative.
+@dataclass(frozen=True)
+class HizCpuOptions(MethodOptions):
+    """Options of ``hiz-cpu`` (:class:`HizCpuCulling`).
 
-    Options
-    -------
-    backface : bool
-        Skip back-facing triangles of closed, consistently oriented occluder meshes (default
-        True; open meshes are always drawn two-sided).
-    footprint : int
+    Attributes
+    ----------
+    footprint : {2, 4}
         Texels per axis read per box at its pyramid level: 2 (default, the classic HiZ read
         of Intel's framework) or 4 (:func:`soc.culling.hiz_cpu.boxes_visible`).
     refine : int
         Levels finer than its own a box that is not behind its texels is judged at (default
         0; :data:`soc.culling.hiz_options.MAX_REFINE` judges it at the pixels), as hiz-gpu's.
-    threads : int or None
-        Threads of the transform, the raster, the pyramid's first level and the box tests,
-        flat or by the hierarchy's walk, whose subtrees are dealt to them (default None:
-        numba's thread count); the depth and the codes are the same for any number. Two
-        threads walk in 0.5-0.7× the time of one on the floor bench's scenes, castle-2114's
-        2,114 objects too (``results/BENCHMARKS.md``, "The hierarchy's walk on both cores").
+    cpu_threads : int or None
+        numba threads of the transform, the raster, the pyramid's first level and the box
+        tests, flat or by the hierarchy's walk, whose subtrees are dealt to them (default
+        None: numba's thread count); the depth and the codes are the same for any number
+        (``results/BENCHMARKS.md``, "The hierarchy's walk on both cores").
     hierarchy : bool
         Test the objects by a walk of the scene's BVH (default True) or every object's box
         (False: the reference; the same codes, tested in ``tests/soc/test_hierarchy.py``).
+    """
+
+    footprint: Literal[2, 4] = 2
+    refine: int = option(0, low=0)
+    cpu_threads: int | None = option(None, low=1)
+    hierarchy: bool = True
+
+
+@register
+class HizCpuCulling(CullMethod):
+    """Frustum + software occluder depth (numba, CPU) + max pyramid + AABB tests. Conservative.
+
+    Options: :class:`HizCpuOptions`. Back faces of closed, consistently oriented occluder
+    meshes are skipped (open meshes are drawn two-sided).
 
     After :meth:`cull`, :attr:`last_walk` holds the walk's
     :class:`~soc.culling.hierarchy.WalkStats` (None without the hierarchy),
@@ -60,39 +74,26 @@ class HiZCpuCulling(CullMethod):
     name = "hiz-cpu"
     conservative = True
     temporal = False
+    Options = HizCpuOptions
 
-    def __init__(
-        self,
-        geometry,
-        resolution,
-        config,
-        *,
-        backface: bool = True,
-        footprint: int = 2,
-        refine: int = 0,
-        threads: int | None = None,
-        hierarchy: bool = True,
-    ):
+    def __init__(self, geometry, resolution, config, options: HizCpuOptions | None = None):
         from soc.culling.hierarchy import Hierarchy
-        from soc.culling.hiz_options import check_test_options
+        from soc.culling.hiz_cpu import empty_pyramid
         from soc.culling.software_raster import RECORD, occluder_triangles, raster_threads
 
-        self.footprint, self.refine = check_test_options(footprint, refine)
-
-        super().__init__(geometry, resolution, config)
-        self._ids, self._triangles, self._offsets, closed = occluder_triangles(self.scene)
-        self._backface = closed & bool(backface)
+        super().__init__(geometry, resolution, config, options)
+        opts = self.options
+        self.footprint, self.refine = opts.footprint, opts.refine
+        self._ids, self._triangles, self._offsets, self._backface = occluder_triangles(self.scene)
         self._aabbs = np.asarray(self.scene.aabbs, np.float64)[self._ids]
         self._records = np.empty((2 * len(self._triangles), RECORD))
-        from soc.culling.hiz_cpu import empty_pyramid
-
-        self.threads = raster_threads(threads)
+        self.threads = raster_threads(opts.cpu_threads)
         width, height = self.resolution
         self._pyramid = empty_pyramid(height, width)  # one allocation, written every frame
         self.last_depth: np.ndarray | None = None
         self.last_stats: dict[str, int] = {}
-        self.use_hierarchy = bool(hierarchy)
-        self.hierarchy = Hierarchy.for_scene(self.scene) if hierarchy else None
+        self.use_hierarchy = opts.hierarchy
+        self.hierarchy = Hierarchy.for_scene(self.scene) if opts.hierarchy else None
         self.last_walk = None
 
     def cull(self, camera) -> MethodOutput:

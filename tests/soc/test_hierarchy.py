@@ -329,7 +329,7 @@ def test_node_bounds_hold_for_every_box_inside(seed, scale, resolution):
 WALKING_METHODS = [
     ("frustum", {}),
     ("masked", {"cpu_threads": 1}),
-    ("hiz-cpu", {"threads": 1}),
+    ("hiz-cpu", {"cpu_threads": 1}),
     ("hiz-cpu", {"footprint": 4, "refine": 23}),
     ("hiz-2phase", {"test": "cpu"}),
     ("hiz-2phase", {"test": "cpu", "next_from": "final"}),

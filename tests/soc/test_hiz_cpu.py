@@ -228,15 +228,15 @@ def test_threads_cull_the_same_objects_with_the_same_depth(clutter_scenes):
     res = (333, 197)
     cams = random_cameras(scene, 5, seed=12, width=res[0], height=res[1])
     with (
-        soc.Culler(scene, method="hiz-cpu", resolution=res, threads=1) as one,
-        soc.Culler(scene, method="hiz-cpu", resolution=res, threads=3) as three,
+        soc.Culler(scene, method="hiz-cpu", resolution=res, cpu_threads=1) as one,
+        soc.Culler(scene, method="hiz-cpu", resolution=res, cpu_threads=3) as three,
     ):
         for cam in cams:
             a, b = one.cull(cam), three.cull(cam)
             np.testing.assert_array_equal(a.visible, b.visible)
             np.testing.assert_array_equal(one.method.last_depth, three.method.last_depth)
-    with pytest.raises(ValueError, match="threads must be >= 1"):
-        soc.Culler(scene, method="hiz-cpu", resolution=res, threads=0)
+    with pytest.raises(ValueError, match="option cpu_threads=0 is out of range"):
+        soc.Culler(scene, method="hiz-cpu", resolution=res, cpu_threads=0)
 
 
 def test_parallel_box_tests_give_the_serial_codes(small_market):
@@ -244,7 +244,7 @@ def test_parallel_box_tests_give_the_serial_codes(small_market):
     gets several, one or none) give the serial codes and count of boxes tested."""
     scene, res = small_market, (320, 192)
     boxes = grown_aabbs(scene.aabbs, scene.diagonal)
-    with soc.Culler(scene, method="hiz-cpu", resolution=res, threads=1) as c:
+    with soc.Culler(scene, method="hiz-cpu", resolution=res, cpu_threads=1) as c:
         for cam in flight(scene, 40, width=res[0], height=res[1])[::8]:
             c.cull(cam)
             pyramid = build_pyramid(c.method.last_depth)

@@ -134,7 +134,7 @@ def test_culler_errors_say_how_to_pass_options(scene):
 
 # Methods not yet converted to an ``Options`` dataclass; until then they take keywords.
 KEYWORD_METHODS = {"adaptive", "hiz-2phase", "gpu-driven", "chc", "grid", "queries",
-                   "queries-batched", "hiz-gpu", "hiz-cpu", "frustum"}  # fmt: skip
+                   "queries-batched", "hiz-gpu", "frustum"}  # fmt: skip
 MAX_OPTIONS = 6
 
 
