@@ -3,27 +3,41 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register
+from soc.methods.options import MethodOptions
 
 
-@register
-class FrustumCulling(CullMethod):
-    """Keeps every object whose AABB may intersect the frustum. Conservative.
+@dataclass(frozen=True)
+class FrustumOptions(MethodOptions):
+    """Options of ``frustum`` (:class:`FrustumCulling`).
 
-    Options
-    -------
+    Attributes
+    ----------
     hierarchy : bool
         Walk the scene's BVH (default True: a subtree outside the frustum is dropped, one
         inside kept, without testing its objects; the cost follows what is in view) or test
         every box (False: the reference the walk is tested against; the same kept set).
     """
 
+    hierarchy: bool = True
+
+
+@register
+class FrustumCulling(CullMethod):
+    """Keeps every object whose AABB may intersect the frustum. Conservative.
+
+    Options: :class:`FrustumOptions`.
+    """
+
     name = "frustum"
     conservative = True
+    Options = FrustumOptions
 
-    def __init__(self, geometry, resolution, config, *, hierarchy: bool = True):
-        super().__init__(geometry, resolution, config)
-        self.use_hierarchy = bool(hierarchy)
+    def __init__(self, geometry, resolution, config, options: FrustumOptions | None = None):
+        super().__init__(geometry, resolution, config, options)
+        self.use_hierarchy = self.options.hierarchy
         if self.use_hierarchy:
             from soc.culling.hierarchy import Hierarchy
 

@@ -215,7 +215,7 @@ def test_hiz_gpu_coarse_conservative_on_the_small_market(small_market):
 
 
 def test_the_coarse_ordinary_raster_is_what_culls_visible_objects(clutter_scenes):
-    """Seed 000's coarse depth buffer (``conservative=False``) on the same cameras does cull
+    """Seed 000's coarse depth buffer (``conservative_raster=False``) on the same cameras does cull
     visible objects — the failure the conservative raster removes (so the oracle tests above
     can fail)."""
     scene = clutter_scenes[0]
@@ -223,8 +223,9 @@ def test_the_coarse_ordinary_raster_is_what_culls_visible_objects(clutter_scenes
     oracle = soc.Oracle(scene)
     false_culls = 0
     with soc.Culler(
-        scene, "hiz-gpu", display, occluder_resolution=(97, 53), conservative=False
+        scene, "hiz-gpu", display, occluder_resolution=(97, 53), conservative_raster=False
     ) as naive:
+        assert not naive.conservative  # the instance says so
         for cam in random_cameras(scene, 15, seed=10, width=333, height=197):
             truth = oracle.visible(cam, display)
             false_culls += int((truth & ~naive.cull(cam).visible).sum())
@@ -240,12 +241,13 @@ def test_occluder_resolution_above_the_display_is_refused(clutter_scenes):
 @pytest.mark.parametrize("depth", [(97, 53), (666, 394)])
 def test_culler_resolution_with_conservative_is_conservative_at_the_cameras(clutter_scenes, depth):
     """Seed 000's sweep form: the culler at a coarser (or finer) depth resolution, cameras
-    (and the oracle) at the display; ``conservative=True`` makes it safe for the display."""
+    (and the oracle) at the display; ``conservative_raster=True`` makes it safe for the
+    display."""
     scene = clutter_scenes[2]
     display = (333, 197)
     oracle = soc.Oracle(scene)
     try:
-        with soc.Culler(scene, "hiz-gpu", depth, conservative=True) as culler:
+        with soc.Culler(scene, "hiz-gpu", depth, conservative_raster=True) as culler:
             for i, cam in enumerate(random_cameras(scene, 15, seed=21, width=333, height=197)):
                 truth = oracle.visible(cam, display)
                 missed = np.flatnonzero(truth & ~culler.cull(cam).visible)

@@ -28,7 +28,7 @@ from soc.methods.spec import format_spec, parse, resolve
         ("hiz-2phase(test='gpu')", "hiz-2phase", {"test": "gpu"}),
         ('hiz-2phase(test="gpu")', "hiz-2phase", {"test": "gpu"}),
         ("hiz-cpu(footprint=4, refine=23)", "hiz-cpu", {"footprint": 4, "refine": 23}),
-        ("hiz-gpu(conservative=True)", "hiz-gpu", {"conservative": True}),
+        ("hiz-gpu(conservative_raster=True)", "hiz-gpu", {"conservative_raster": True}),
         ("grid(grid_size=32, query_cap=None)", "grid", {"grid_size": 32, "query_cap": None}),
         ("x(t=(1, 2.5), d={'a': -1})", "x", {"t": (1, 2.5), "d": {"a": -1}}),
         ("chc()", "chc", {}),
@@ -104,19 +104,37 @@ def scene():
 
 
 def test_culler_takes_the_printed_form_and_culls_as_with_keywords(scene):
-    """The options reach the method: conservative depth and one raster thread."""
+    """The options reach the method: the conservative raster and one raster thread."""
     cam = soc.scenes.paths.flight(scene, 2, width=160, height=90)[0]
-    with soc.Culler(scene, "hiz-gpu(conservative=True)", (160, 90)) as a:
-        assert a.method.conservative is True  # default at the display resolution: False
+    with soc.Culler(scene, "hiz-gpu(conservative_raster=True)", (160, 90)) as a:
+        assert a.method.raster is not None and a.conservative
         spec = a.cull(cam).visible
-    with soc.Culler(scene, "hiz-gpu", (160, 90), conservative=True) as b:
+    with soc.Culler(scene, "hiz-gpu", (160, 90), conservative_raster=True) as b:
         kw = b.cull(cam).visible
     np.testing.assert_array_equal(spec, kw)
-    with soc.Culler(scene, "hiz-gpu", (160, 90)) as d:
-        assert d.method.conservative is False
     with soc.Culler(scene, "masked(cpu_threads=1)", (160, 90)) as c:
         assert c.method.buffer.bands == 1
         assert c.cull(cam).visible.shape == (len(scene),)
+
+
+@pytest.mark.parametrize(
+    ("options", "raster", "conservative"),
+    [
+        ({}, False, True),  # the exact raster at the culler's resolution
+        ({"conservative_raster": True}, True, True),
+        ({"occluder_resolution": (80, 45)}, True, True),  # coarse: the inner raster
+        ({"occluder_resolution": (80, 45), "conservative_raster": False}, False, False),
+    ],
+)
+def test_culler_conservative_is_the_instances_truth_and_the_class_flag_stays(
+    scene, options, raster, conservative
+):
+    """hiz-gpu's raster option does not overwrite the method's flag: ``Culler.conservative``
+    is False only for seed 000's coarse ordinary raster, the class says True."""
+    with soc.Culler(scene, "hiz-gpu", (160, 90), **options) as c:
+        assert (c.method.raster is not None) is raster
+        assert c.conservative is conservative
+    assert METHODS["hiz-gpu"].conservative is True
 
 
 def test_culler_errors_say_how_to_pass_options(scene):
@@ -134,7 +152,7 @@ def test_culler_errors_say_how_to_pass_options(scene):
 
 # Methods not yet converted to an ``Options`` dataclass; until then they take keywords.
 KEYWORD_METHODS = {"adaptive", "hiz-2phase", "gpu-driven", "chc", "grid", "queries",
-                   "queries-batched", "hiz-gpu", "frustum"}  # fmt: skip
+                   "queries-batched"}  # fmt: skip
 MAX_OPTIONS = 6
 
 

@@ -20,11 +20,10 @@ import soc.testing
 from soc.methods import METHODS, CullMethod, MethodOutput, register
 
 # Options under which a method's own flag says conservative: temporal methods without reuse
-# between frames, hiz-gpu with conservative rasterization.
+# between frames.
 STRICT = {
     "grid": {"temporal": False},
     "adaptive": {"temporal": False},
-    "hiz-gpu": {"conservative": True},
 }
 # portals needs a scene of cells (tests/soc/test_portals.py checks it against the oracle).
 CONSERVATIVE = sorted(
@@ -127,10 +126,10 @@ def test_a_coarse_depth_buffer_loses_the_slits():
     """hiz-gpu with a 64×40 occluder buffer and no conservative rasterization (seed 000's
     coarse-buffer trade) closes the few-pixel slits: the slits case catches it."""
     slits = [c for c in soc.testing.hard_cases() if c.name == "slits"]
-    coarse = {"conservative": False, "occluder_resolution": (64, 40)}
+    coarse = {"conservative_raster": False, "occluder_resolution": (64, 40)}
     report = soc.testing.check_conservative("hiz-gpu", slits, **coarse)
     assert not report.ok and not report.conservative
-    assert soc.testing.check_conservative("hiz-gpu", slits, conservative=True).ok
+    assert soc.testing.check_conservative("hiz-gpu", slits, conservative_raster=True).ok
 
 
 def test_a_temporal_method_that_pops_fails_the_sequence():
