@@ -58,11 +58,13 @@ from __future__ import annotations
 import time
 from collections import deque
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
 from soc.culling.frustum import aabbs_in_frustum
 from soc.methods.base import CullMethod, MethodOutput, register, stage
+from soc.methods.options import MethodOptions, option
 from soc.models.adaptive import (
     DEFAULT_MARGIN,
     MODE_NAMES,
@@ -217,12 +219,12 @@ class _ShadedCanvas:
         self.fbo.color_mask = (on, on, on, on)
 
 
-@register
-class AdaptiveCulling(CullMethod):
-    """Seed 004's adaptive method: per frame mode 1, 2 or 3 (module docstring).
+@dataclass(frozen=True)
+class AdaptiveOptions(MethodOptions):
+    """Options of ``adaptive`` (:class:`AdaptiveCulling`).
 
-    Options (keyword arguments of ``soc.Culler(scene, method="adaptive", ...)``)
-    -----------------------------------------------------------------------------
+    Attributes
+    ----------
     rule : {"paper", "cost"}
         How the mode is chosen. ``"paper"`` (default): seed 004's conditions in its order —
         mode 1 while (5) holds, else mode 2 while (6) holds, else mode 3 — every frame
@@ -246,38 +248,34 @@ class AdaptiveCulling(CullMethod):
         Objects an octree leaf holds before it splits (:class:`soc.culling.octree.Octree`).
     """
 
+    rule: Literal["paper", "cost"] = "paper"
+    mode: Literal[1, 2, 3] | None = None
+    queries: Literal["auto", "all"] | int = option("auto", low=0)
+    temporal: bool = True
+    leaf_capacity: int = option(DEFAULT_LEAF_CAPACITY, low=1)
+
+
+@register
+class AdaptiveCulling(CullMethod):
+    """Seed 004's adaptive method: per frame mode 1, 2 or 3 (module docstring).
+
+    Options: :class:`AdaptiveOptions`. Every object of the scene exists at first (a static
+    scene); a dynamic scene's pool starts with :meth:`set_alive` (usually none alive) and
+    changes with :meth:`apply`.
+    """
+
     name = "adaptive"
     conservative = False  # temporal mode 3 pops; temporal=False (or modes 1, 2) says True
     temporal = True
+    Options = AdaptiveOptions
 
-    def __init__(
-        self,
-        geometry,
-        resolution,
-        config,
-        *,
-        rule: str = "paper",
-        mode: int | None = None,
-        queries: str | int = "auto",
-        temporal: bool = True,
-        alive: np.ndarray | None = None,
-        leaf_capacity: int = DEFAULT_LEAF_CAPACITY,
-    ):
-        super().__init__(geometry, resolution, config)
-        if rule not in RULES:
-            raise ValueError(f"rule must be one of {', '.join(map(repr, RULES))}, got {rule!r}")
-        if mode is not None and mode not in MODES:
-            raise ValueError(f"mode must be None, 1, 2 or 3, got {mode!r}")
-        if not (queries in ("auto", "all") or (isinstance(queries, int) and queries >= 0)):
-            raise ValueError(f"queries must be 'auto', 'all' or an int >= 0, got {queries!r}")
-        if int(leaf_capacity) < 1:
-            raise ValueError(f"leaf_capacity must be >= 1, got {leaf_capacity}")
-        n = len(self.scene)
-        if alive is None:
-            alive = np.ones(n, bool)
-        alive = np.asarray(alive, bool)
-        if alive.shape != (n,):
-            raise ValueError(f"alive must have shape ({n},), got {alive.shape}")
+    def __init__(self, geometry, resolution, config, options: AdaptiveOptions | None = None):
+        super().__init__(geometry, resolution, config, options)
+        opts = self.options
+        rule, mode, queries, temporal = opts.rule, opts.mode, opts.queries, opts.temporal
+        if rule not in RULES:  # the options' Literal and RULES must agree
+            raise ValueError(f"rule must be one of {RULES}, got {rule!r}")
+        self.leaf_capacity = opts.leaf_capacity
         self.rule = rule
         self.forced = mode
         self.temporal = bool(temporal)
@@ -288,7 +286,7 @@ class AdaptiveCulling(CullMethod):
         self.margin = DEFAULT_MARGIN if rule == "cost" else 0.0
         self.dwell = DWELL if rule == "cost" else 1
         self.initial_mode = mode or 1
-        self.alive = alive.copy()
+        self.alive = np.ones(len(self.scene), bool)
         self.costs = UnitCosts()
         self.planner = QueryPlanner()
         self.last: AdaptiveFrame | None = None
@@ -298,26 +296,71 @@ class AdaptiveCulling(CullMethod):
         # GL helpers, created on first use.
         self._flat = self._nodes = self._box_queries = self._estimator = None
         self._canvas_target = self._prepass = None
-        # Mode 1 alone needs no octree (the baseline pays nothing for one).
-        self.octree = None
-        if mode != 1:
-            from soc.culling.octree import Octree
-
-            # Node membership only: the commands are recorded by NodeCommands, per command.
-            self.octree = Octree(
-                self.scene.bounds, n, leaf_capacity=int(leaf_capacity), max_depth=MAX_DEPTH
-            )
-            ids = np.flatnonzero(self.alive)
-            self.octree.insert(ids, self.scene.aabbs[ids])
-        # The per-object frustum test is compiled: load it now, not inside the first frame
-        # (whose T_fc(S) would otherwise weigh on every later prediction of (5)).
-        aabbs_in_frustum(np.zeros((1, 2, 3), np.float32), np.zeros((6, 4)))
         self._changes = 0  # octree updates so far (invalidates the per-node triangle sums)
         self._node_tris_at = -1
         self._node_tris = np.zeros(0, np.int64)
+        self._build_octree()
+        # The per-object frustum test is compiled: load it now, not inside the first frame
+        # (whose T_fc(S) would otherwise weigh on every later prediction of (5)).
+        aabbs_in_frustum(np.zeros((1, 2, 3), np.float32), np.zeros((6, 4)))
+        self._warm_up()
         self.reset()
 
     # -- lifetime ------------------------------------------------------------------------------
+
+    def _build_octree(self) -> None:
+        """The octree of the alive objects (none for mode 1 alone: the baseline pays nothing
+        for one); node membership only, the commands are recorded by ``NodeCommands``."""
+        if self._nodes is not None:
+            self._nodes.release()
+            self._nodes = None
+        if self._estimator is not None:
+            self._estimator.release()
+            self._estimator = None
+        self.octree = None
+        if self.forced == 1:
+            return
+        from soc.culling.octree import Octree
+
+        self.octree = Octree(
+            self.scene.bounds, len(self.scene), leaf_capacity=self.leaf_capacity,
+            max_depth=MAX_DEPTH,
+        )  # fmt: skip
+        ids = np.flatnonzero(self.alive)
+        self.octree.insert(ids, self.scene.aabbs[ids])
+        self._changes += 1
+
+    def _warm_up(self) -> None:
+        """Create the GL helpers the mode(s) will use and compile their shaders now, so that no
+        frame pays for a one-time setup (the paper's renderer builds its pipelines at load)."""
+        if self.forced in (None, 1):
+            self._flat_buffer()
+        if self.octree is None:
+            return
+        self._node_buffers()
+        if self.forced in (None, 3) and self.config.depth_test:
+            self._queries()
+        if self.forced is None and self.config.depth_test:
+            from soc.scenes.camera import Camera
+
+            lo, hi = np.asarray(self.scene.bounds, np.float64)
+            eye = hi + (hi - lo)
+            cam = Camera.look_at(eye, 0.5 * (lo + hi), width=self.resolution[0],
+                                 height=self.resolution[1])  # fmt: skip
+            self._invisible_estimator().estimate(cam)
+
+    def set_alive(self, alive: np.ndarray) -> None:
+        """Start afresh from the objects ``alive`` ((N,) bool over the scene, a dynamic scene's
+        pool; usually none before its first frame): the octree is rebuilt over them and the
+        method :meth:`reset`. Raises ``ValueError`` for another shape."""
+        alive = np.asarray(alive)
+        n = len(self.scene)
+        if alive.shape != (n,) or alive.dtype != bool:
+            raise ValueError(f"alive must be a ({n},) bool array, got {alive.shape} {alive.dtype}")
+        self.alive = alive.copy()
+        self._build_octree()
+        self._warm_up()
+        self.reset()
 
     def reset(self) -> None:
         """Forget pending and known query results, the mode and the query statistics (the

@@ -1,7 +1,9 @@
 """``experiments.seed004_adaptive`` (Figs. 3-5) on a tiny run: one row per frame and method,
-the fixed methods in their modes, summaries that match the rows, the benchmark criterion and
-window means against brute force, claims that say why the modes differ from the paper's, and
-pictures that name the modes and q*; bad parameters are refused."""
+the fixed methods in their modes, the paper's adaptive method deciding by its rule at every
+frame and ours beside it, summaries that match the rows, the recorder's cost per command and
+the stage means, the benchmark criterion and window means against brute force, claims that say
+why the modes differ from the paper's, and pictures that name the modes, the stages and q*;
+bad parameters are refused."""
 
 from __future__ import annotations
 
@@ -66,25 +68,34 @@ def test_claims_give_causes_for_modes_and_quote_the_paper(tiny):
     for sc in params.scenes:
         row = c.set_index("item").loc[f"Figs. 3-5, {sc}: modes passed through"]
         assert "последовательно применяет" in row.document
+        assert "ours (cost rule)" in row.ours  # both adaptive methods shown
         visited = list(dict.fromkeys(ad[ad.scene == sc]["mode"]))
         if visited != [1, 2, 3]:
-            assert row.verdict == "differs" and "decisions" in row.why
+            assert row.verdict == "differs" and "the paper's rule" in row.why
+        # the paper's method decides by its rule, so its switches row holds
+        row = c.set_index("item").loc[f"Figs. 3-5, {sc}: switches by conditions (5) and (6)"]
+        assert row.verdict == "trend", row.ours
     assert set(c.verdict) <= set(harness.VERDICTS) and "reproduced" not in set(c.verdict)
 
 
 def test_modes_by_the_papers_conditions_on_a_constructed_run():
-    """Issue 23: the paper's rule stays in mode 1 while (5) holds (our ``condition5`` column is
-    its negation, the switch condition) and in mode 2 while (6) holds; a run that never leaves
-    mode 1 though (5) failed once disagrees with it at that decision."""
+    """The paper's rule: mode 1 while (5) holds, else 2 while (6) holds, else 3 — (5) first
+    (a frame where (5) holds and (6) fails is mode 1); a run that never leaves mode 1 though (5)
+    failed once disagrees with it at that decision. Frames written before ``holds5`` carry
+    ``condition5``, its negation, and give the same."""
     nan = np.nan
-    ad = pd.DataFrame({"frame": [0, 1, 2, 3], "mode": [1] * 4, "next_mode": [1] * 4,
-                       "pred_T1": [1.0, nan, 2.0, 3.0],
-                       "condition5": [0, nan, 0, 1], "condition6": [0, nan, 0, 0]})  # fmt: skip
+    ad = pd.DataFrame({"frame": [0, 1, 2, 3, 4], "mode": [1] * 5, "next_mode": [1] * 5,
+                       "pred_T1": [1.0, nan, 2.0, 3.0, 4.0],
+                       "holds5": [1, nan, 1, 0, 1], "holds6": [0, nan, 0, 1, 1]})  # fmt: skip
+    assert exp._paper_next(ad[ad.pred_T1.notna()]).tolist() == [1, 1, 2, 1]
     modes, at = exp.document_modes(ad)
-    assert modes == [1, 2] and at == {"5": 3, "6": None}
-    assert exp._disagreements(ad) == (1, 3)
-    ad.loc[3, "condition6"] = 1
-    assert exp.document_modes(ad) == ([1, 2, 3], {"5": 3, "6": 3})
+    assert modes == [1, 2] and at == {"5": 3, "6": 0}
+    assert exp._disagreements(ad) == (1, 4)
+    ad.loc[3, "holds6"] = 0
+    assert exp.document_modes(ad)[0] == [1, 3]
+    old = ad.assign(condition5=1 - ad.holds5, condition6=1 - ad.holds6).drop(
+        columns=["holds5", "holds6"])  # fmt: skip
+    assert exp._paper_next(old[old.pred_T1.notna()]).tolist() == [1, 1, 3, 1]
 
 
 def test_q_star_titles_say_what_minus_one_means():
@@ -98,11 +109,31 @@ def test_q_star_titles_say_what_minus_one_means():
     assert "no q*" in exp._q_title(pd.Series({**base, "q_star": np.nan}))
 
 
+def test_recording_and_stage_means_match_the_rows(tiny):
+    """The recorder's cost per command is its loop's ms over the commands it wrote; the stage
+    bars add up to at most the frame (the rest: clear, canvas, finish), bookkeeping only for
+    the adaptive methods."""
+    _, frames = tiny
+    f, rec, st = frames["frames"], frames["recording"], frames["stages"]
+    one = f[(f.method == "frustum") & (f.scene == f.scene.iloc[0]) & (f.recorded > 0)]
+    row = rec[(rec.method == "frustum") & (rec.scene == one.scene.iloc[0])].iloc[0]
+    assert row.ns_per_command == pytest.approx(1e6 * one.ms_record.sum() / one.recorded.sum())
+    assert 0 < row.ns_per_command < 1e5 and row.paper_ns_per_object == exp.PAPER_NS_PER_OBJECT
+    bars = st[list(exp.BARS)].sum(axis=1)
+    assert (bars <= st.ms * (1 + 1e-9)).all() and (bars > 0.5 * st.ms).all()
+    assert (st[st.method.isin(exp.FIXED)].bookkeeping == 0).all()
+    assert (st[~st.method.isin(exp.FIXED)].bookkeeping > 0).all()
+    assert 60 < exp.PAPER_NS_PER_OBJECT < 90  # Table 1's slope: 22.95 ms at 300,000 objects
+
+
 def test_pictures_have_a_mode_legend(tiny):
     params, frames = tiny
     fig = exp.plot_frametimes(frames, params)
     labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
     assert any(lab.startswith("mode 2") for lab in labels)
+    fig = exp.plot_stages(frames, params)
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert "bookkeeping" in labels and "record (T_buf)" in labels
     fig = exp.plot_regression(frames, params)
     assert len(fig.axes) == 4 * len(params.scenes)
 
