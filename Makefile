@@ -6,13 +6,13 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 # Every extra (pyproject.toml): the test suite exercises all of them.
-EXTRAS ?= test,fit,sweep,viz,notebooks
+EXTRAS ?= test,fit,sweep,viz,notebooks,docs
 comma := ,
 STAMP := $(VENV)/.installed-$(subst $(comma),-,$(EXTRAS))
 PYTEST_ARGS ?=
 ARGS ?=
 
-.PHONY: setup gl demo test bench figures notebooks lint format clean clean-cache
+.PHONY: setup gl demo test bench figures notebooks docs docs-quick docs-serve docs-pictures browser lint format clean clean-cache
 
 setup: gl $(STAMP)
 
@@ -31,7 +31,7 @@ $(STAMP): pyproject.toml constraints.txt
 DEMO_SCENE = $(shell test -d "$(VISLOD_DATA)/intel_castle/Asset" && echo castle || echo market)
 
 # pyvista (the `viz` extra) renders off-screen through EGL, like moderngl.
-demo test figures notebooks: export VTK_DEFAULT_OPENGL_WINDOW = vtkEGLRenderWindow
+demo test figures notebooks docs docs-quick docs-pictures: export VTK_DEFAULT_OPENGL_WINDOW = vtkEGLRenderWindow
 
 # A short run of seed 000 (13 frames, three depth resolutions) into results/demo/;
 # ARGS=--full flies the whole flight at all six (= vislod seed000, into results/).
@@ -55,6 +55,32 @@ notebooks: setup
 	@echo "opening notebooks/ in Jupyter Lab (or run: $(VENV)/bin/jupyter lab notebooks/)"
 	$(VENV)/bin/jupyter lab notebooks/
 
+# The documentation site into docs/_build/html (Sphinx, warnings are errors). Quick mode: the
+# notebooks as stored, the method pictures as stored (docs/gallery/methods; `make
+# docs-pictures` redraws them); DOCS_EXECUTE=1 runs the notebooks (in vislod's quick mode).
+# `make docs` also installs Debian's chromium when root, for tests/test_docs_browser.py.
+SPHINX = MPLBACKEND=Agg VISLOD_DOCS_EXECUTE=$(DOCS_EXECUTE) $(PY) -m sphinx -b html -W --keep-going -q
+docs: setup browser
+	$(SPHINX) docs docs/_build/html
+	@echo "built docs/_build/html/index.html; serve it with: make docs-serve"
+
+# CI's step (.ci/run): the same build without the browser install.
+docs-quick: setup
+	$(SPHINX) docs docs/_build/html
+
+docs-serve:
+	@echo "serving docs/_build/html on http://localhost:8000 (Ctrl-C stops)"
+	$(PYTHON) -m http.server 8000 --directory docs/_build/html
+
+docs-pictures: setup
+	MPLBACKEND=Agg $(PY) docs/tools/method_pictures.py $(ARGS)
+
+browser:
+	@command -v chromium >/dev/null || { [ "$$(id -u)" = 0 ] && \
+	  (apt-get install -y -q chromium >/dev/null 2>&1 || \
+	   (apt-get update -q >/dev/null && apt-get install -y -q chromium >/dev/null)) || \
+	  echo "no chromium: the browser test is skipped (as root: apt-get install chromium)"; }
+
 lint: setup
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .
 
@@ -62,7 +88,7 @@ format: setup
 	$(VENV)/bin/ruff format . && $(VENV)/bin/ruff check --fix .
 
 clean:
-	rm -rf $(VENV) .pytest_cache .ruff_cache
+	rm -rf $(VENV) .pytest_cache .ruff_cache docs/_build docs/generated
 
 # LOD chains and cost-model calibrations live in the user's cache folder ($$VISLOD_CACHE, else
 # platformdirs' user cache dir for "vislod"; see lod/cache.py), not in the checkout.

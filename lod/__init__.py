@@ -29,6 +29,11 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
+def __dir__() -> list[str]:
+    """The lazy names too, so that ``dir(lod)`` and tab completion show them."""
+    return sorted(set(globals()) | set(_EXPORTS))
+
+
 def __getattr__(name: str):
     if name in _EXPORTS:
         return getattr(importlib.import_module(_EXPORTS[name]), name)

@@ -144,6 +144,16 @@ class LodScene:
     errors: np.ndarray
     config: LodSceneConfig
 
+    def __repr__(self) -> str:
+        """One line: the sizes, not the arrays (a LodScene holds hundreds of thousands of
+        numbers)."""
+        lv0 = int(self.triangles[:, 0].sum()) if self.triangles.size else 0
+        return (
+            f"LodScene({self.instances:,} instances of {len(self.chains)} prototypes "
+            f"({', '.join(self.names)}), {self.levels} levels each, {lv0:,} triangles at level "
+            f"0, {len(self.scene):,} scene objects)"
+        )
+
     @property
     def instances(self) -> int:
         """Number of instances N."""

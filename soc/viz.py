@@ -46,6 +46,10 @@ CLASS_COLORS = np.array(
 ISO_UP, ISO_RIGHT = 1.5, 0.6
 # Legend labels (short: a 320-pixel-wide picture still shows them whole).
 LEGEND_LABELS = ("visible", "false keep", "occlusion-culled", "frustum-culled", "FALSE CULL")
+# The legend box: height per entry and widest box (fractions of the window), the width of a
+# glyph per unit of entry height, and the box's margin and symbol column.
+LEGEND_ENTRY_HEIGHT, LEGEND_MAX_WIDTH, LEGEND_GLYPH_ASPECT, LEGEND_MARGIN = 0.06, 0.9, 0.5, 0.07
+LEGEND_BORDER = 0.02  # from the picture's top right corner
 FRUSTUM_COLOR = (20, 20, 20)
 PATH_COLOR = (150, 40, 200)
 # Small windows keep off-screen llvmpipe renders fast; callers ask for more.
@@ -173,6 +177,23 @@ def scene_mesh(scene, cell_rgb: np.ndarray | None = None, mask: np.ndarray | Non
     return mesh
 
 
+def _legend_size(labels: Sequence[str], window_size) -> tuple[float, float]:
+    """(width, height) of the legend box as fractions of the window, wide enough for its
+    longest label: VTK sizes the text by the box's height per entry and lets a label run out
+    of a narrow box (and out of the picture at its right edge)."""
+    width_px, height_px = (int(v) for v in window_size)
+    entry = LEGEND_ENTRY_HEIGHT
+    longest = max(len(label) for label in labels)
+    # a glyph is about half as wide as the entry is tall; the box's margin and symbol column
+    # take about 0.06 of the window on top of the text
+    width = LEGEND_MARGIN + entry * LEGEND_GLYPH_ASPECT * longest * height_px / width_px
+    if width > LEGEND_MAX_WIDTH:  # a narrow window: smaller text rather than a clipped label
+        scale = (LEGEND_MAX_WIDTH - LEGEND_MARGIN) / (width - LEGEND_MARGIN)
+        entry *= scale
+        width = LEGEND_MAX_WIDTH
+    return float(width), float(entry * len(labels))
+
+
 def _window(window_size) -> tuple[int, int]:
     w, h = (int(v) for v in window_size)
     if w <= 0 or h <= 0:
@@ -263,7 +284,12 @@ def plot_cull(
             if counts[k]
         ]
         if entries:
-            pl.add_legend(entries, bcolor="white", size=(0.3, 0.06 * len(entries)), face=None)
+            size = _legend_size([e[0] for e in entries], pl.window_size)
+            actor = pl.add_legend(entries, bcolor="white", size=size, face=None)
+            # placed here: pyvista's loc="upper right" offsets the box by its height, not its
+            # width, so a wide box would run out of the picture
+            actor.SetPosition(1.0 - size[0] - LEGEND_BORDER, 1.0 - size[1] - LEGEND_BORDER)
+            actor.SetPosition2(*size)
     if view == "camera":
         pl.camera_position = [camera.eye, camera.target, tuple(camera.basis[1])]
         pl.camera.view_angle = camera.fov_y
