@@ -64,21 +64,27 @@ import numpy as np
 
 from soc.culling.hierarchy import LEAF_SIZE, Hierarchy
 from soc.errors import check_choice
+from soc.gl.shader_defines import (
+    COMPUTE_GROUP,
+    QUEUE_ARGS,
+    QUEUE_HEADER,
+    WALK_BOXES_BINDING,
+    WALK_NODES_BINDING,
+    WALK_ORDER_BINDING,
+    WALK_QUEUE_BINDING,
+    WALK_ROOTS_BINDING,
+)
 
 # Subtree roots the invocations share (a cut of the tree about this wide, :func:`cut`).
 ROOTS = 2048
 # Pyramid levels below its own that a node box is judged at, at most (the objects' refine
 # bounds it from above; any value keeps the kept set, fewer make node tests cheaper).
 NODE_REFINE = 2
-# First storage-buffer binding of the walk's buffers (bvh_walk.common.glsl: 8 to 12).
-WALK_BINDING = 8
 # How a pass walks (:meth:`GpuHierarchy.run`): one dispatch per tree level over a queue of
 # nodes, or each invocation whole subtrees of the cut.
 WALK_MODES = ("levels", "subtrees")
 # What methods accept: a mode, or "auto" (:attr:`GpuHierarchy.auto_mode`).
 WALK_OPTIONS = ("auto", *WALK_MODES)
-# Compute work-group size of the shaders that walk (their ``local_size_x``).
-GROUP = 64
 
 
 @numba.njit(cache=True)
@@ -154,10 +160,10 @@ class GpuHierarchy:
         self.roots = ctx.buffer(cut_roots)
         self.depth = int(_depths(np.asarray(h.skip, np.int64)).max()) + 1
         self.queue_capacity = len(h)
-        self.queue = ctx.buffer(reserve=4 * (256 + 2 * self.queue_capacity))
-        header = np.zeros(256, np.uint32)
-        header[64:256].reshape(-1, 3)[:, 1:] = 1
-        header[64] = 1  # level 0: one group (the root)
+        self.queue = ctx.buffer(reserve=4 * (QUEUE_HEADER + 2 * self.queue_capacity))
+        header = np.zeros(QUEUE_HEADER, np.uint32)
+        header[QUEUE_ARGS:].reshape(-1, 3)[:, 1:] = 1  # each level's dispatch: (x, 1, 1)
+        header[QUEUE_ARGS] = 1  # level 0: one group (the root)
         self._header = header.tobytes()
 
     @staticmethod
@@ -181,8 +187,14 @@ class GpuHierarchy:
     def bind(self, program, node_refine: int = NODE_REFINE, exact_outside: bool = True) -> None:
         """Bind the buffers to ``bvh_walk.common.glsl``'s bindings and set its uniforms in
         ``program``."""
-        for k, buf in enumerate((self.nodes, self.boxes, self.order, self.roots, self.queue)):
-            buf.bind_to_storage_buffer(WALK_BINDING + k)
+        for buf, binding in (
+            (self.nodes, WALK_NODES_BINDING),
+            (self.boxes, WALK_BOXES_BINDING),
+            (self.order, WALK_ORDER_BINDING),
+            (self.roots, WALK_ROOTS_BINDING),
+            (self.queue, WALK_QUEUE_BINDING),
+        ):
+            buf.bind_to_storage_buffer(binding)
         if "root_count" in program:
             program["root_count"].value = self.root_count
         if "queue_capacity" in program:
@@ -207,14 +219,14 @@ class GpuHierarchy:
         ctx = self.glctx.ctx
         program["levels_walk"].value = mode == "levels"
         if mode == "subtrees":
-            program.run(min(-(-self.root_count // GROUP), groups))
+            program.run(min(-(-self.root_count // COMPUTE_GROUP), groups))
             ctx.memory_barrier()
             return
         self.queue.write(self._header)
         program["max_groups"].value = groups
         for level in range(self.depth):
             program["walk_level"].value = level
-            program.run_indirect(self.queue, 4 * (64 + 3 * level))
+            program.run_indirect(self.queue, 4 * (QUEUE_ARGS + 3 * level))
             ctx.memory_barrier()
 
     def release(self) -> None:

@@ -66,6 +66,18 @@ from soc.constants import FRUSTUM_SLACK, NEAR_PLANE_MARGIN, QUERY_DEPTH_BIAS_NDC
 from soc.culling.hiz_options import MAX_REFINE, check_test_options
 from soc.gl.context import uses_gl
 from soc.gl.geometry import grown_aabbs
+from soc.gl.shader_defines import (
+    COMPUTE_GROUP,
+    TEST_BOXES_BINDING,
+    TEST_IDS_BINDING,
+    TEST_RESULT_BINDING,
+    WALK_HEADER,
+    WALK_NODES,
+    WALK_OBJECTS,
+    WALK_OUTSIDE,
+    WALK_RESULT_BINDING,
+    WALK_VISITS,
+)
 from soc.scenes.camera import Camera, _resolution
 
 # Pixels added on every side of a box's projected rectangle before choosing the pixel centres
@@ -74,11 +86,11 @@ from soc.scenes.camera import Camera, _resolution
 HIZ_PIXEL_MARGIN = 1.0 / 32.0
 
 
-# Compute work-group size of hiz_test.comp (must match its ``local_size``), and the most work
-# groups one test dispatches: beyond TEST_GROUP * TEST_GROUPS candidates each invocation
+# Compute work-group size of hiz_test.comp (its ``local_size``), and the most work groups one
+# test dispatches: beyond TEST_GROUP * TEST_GROUPS candidates each invocation
 # tests several boxes (27,025 market boxes: 9.1 ms against 11.1 with one invocation per box,
 # interleaved; starting an invocation of this shader costs llvmpipe about as much as a test).
-TEST_GROUP = 64  # boxes
+TEST_GROUP = COMPUTE_GROUP  # boxes
 TEST_GROUPS = 32
 
 # The test shader's uniform array of per-level (offset, width, height); 24 levels reach 2^23 px.
@@ -246,7 +258,7 @@ class DepthPyramid:
         if len(self.sizes) == 1:
             self.depth = depth_texture
             return
-        if depth_texture.depth:  # an R32F texture (soc.culling.reprojection) has no compare mode
+        if depth_texture.depth:  # an R32F texture has no compare mode
             depth_texture.compare_func = ""
         depth_texture.repeat_x = depth_texture.repeat_y = False  # textureGather clamps
         depth_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -392,7 +404,6 @@ class HizTest:
         ids: np.ndarray,
         frustum: bool = True,
         display=None,
-        octants=None,
     ) -> np.ndarray:
         """Frustum and occlusion test of the boxes ``ids`` in one dispatch.
 
@@ -418,10 +429,6 @@ class HizTest:
             the
             texels holding the pixel centres the box may cover at every one of these
             resolutions.
-        octants : moderngl.Buffer, optional
-            (N, 8, 6) float32 octant boxes of the objects of ``boxes`` (same rows;
-            :func:`soc.culling.octant_boxes.grown_octant_aabbs`): a box that may be visible is
-            judged again by its octant boxes and reported visible only if one of them may be.
 
         Returns
         -------
@@ -440,11 +447,9 @@ class HizTest:
         set_test_uniforms(prog, pyramid, camera, self.footprint, self.refine, display)
         prog["frustum"].value = bool(frustum)
         prog["count"].value = k
-        prog["use_octants"].value = octants is not None
-        boxes.bind_to_storage_buffer(0)
-        self._ids.bind_to_storage_buffer(1)
-        self._out.bind_to_storage_buffer(2)
-        (boxes if octants is None else octants).bind_to_storage_buffer(3)  # unread without
+        boxes.bind_to_storage_buffer(TEST_BOXES_BINDING)
+        self._ids.bind_to_storage_buffer(TEST_IDS_BINDING)
+        self._out.bind_to_storage_buffer(TEST_RESULT_BINDING)
         prog.run(min(-(-k // TEST_GROUP), TEST_GROUPS))
         self.glctx.ctx.memory_barrier()  # llvmpipe returns stale data without it
         return np.frombuffer(self._out.read(size=4 * k), np.uint32).copy()
@@ -456,13 +461,10 @@ class HizTest:
         boxes,
         ids: np.ndarray,
         display=None,
-        octants=None,
     ) -> np.ndarray:
         """Which of the boxes ``ids`` may be visible: (K,) bool, :meth:`classify` without the
         frustum test (False only for :data:`OCCLUDED`)."""
-        codes = self.classify(
-            pyramid, camera, boxes, ids, frustum=False, display=display, octants=octants
-        )
+        codes = self.classify(pyramid, camera, boxes, ids, frustum=False, display=display)
         return codes == VISIBLE
 
     def test_boxes(
@@ -535,8 +537,7 @@ class HizTest:
         from soc.culling.bvh_gpu import NODE_REFINE
 
         n = len(tree.hierarchy.order)
-        header = 4  # hiz_walk.comp's WALK_HEADER
-        words = header + (n + 31) // 32
+        words = WALK_HEADER + (n + 31) // 32
         if self._walk_program is None:
             self._walk_program = self.glctx.compute("hiz_walk.comp")
         if self._walk_out is None or self._walk_out.size < 4 * words:
@@ -550,11 +551,12 @@ class HizTest:
         prog["frustum"].value = bool(frustum)
         refine = NODE_REFINE if node_refine is None else int(node_refine)
         tree.bind(prog, min(refine, self.refine), exact_outside)
-        boxes.bind_to_storage_buffer(0)
-        out.bind_to_storage_buffer(1)
+        boxes.bind_to_storage_buffer(TEST_BOXES_BINDING)
+        out.bind_to_storage_buffer(WALK_RESULT_BINDING)
         tree.run(prog, mode, TEST_GROUPS)
         data = np.frombuffer(out.read(size=4 * words), np.uint32)
-        bits = np.unpackbits(data[header:].view(np.uint8), bitorder="little")
+        bits = np.unpackbits(data[WALK_HEADER:].view(np.uint8), bitorder="little")
         # Nodes visited, node boxes judged, object boxes judged.
-        self.last_walk = (int(data[3]), int(data[1]), int(data[2]))
-        return bits[:n].astype(bool), int(data[0]), int(data[1]) + int(data[2])
+        self.last_walk = (int(data[WALK_VISITS]), int(data[WALK_NODES]), int(data[WALK_OBJECTS]))
+        judged = int(data[WALK_NODES]) + int(data[WALK_OBJECTS])
+        return bits[:n].astype(bool), int(data[WALK_OUTSIDE]), judged

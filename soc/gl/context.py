@@ -416,13 +416,24 @@ def uses_gl(obj):
 
 def shader_source(name: str) -> str:
     """``soc/shaders/<name>.glsl``, each ``#include "<other>"`` line replaced by that file's
-    source (code shared by several shaders lives in ``<name>.common.glsl``)."""
+    source (code shared by several shaders lives in ``<name>.common.glsl``), and after its
+    ``#version`` line the ``#define`` of every number the shaders share with Python
+    (:mod:`soc.gl.shader_defines`: binding points, sizes, buffer layouts)."""
+    from soc.gl.shader_defines import preamble
+
+    lines = _included_source(name).split("\n")
+    at = next((i + 1 for i, line in enumerate(lines) if line.startswith("#version")), 0)
+    return "\n".join([*lines[:at], preamble() + f"#line {at + 1} 0", *lines[at:]])
+
+
+def _included_source(name: str) -> str:
+    """``soc/shaders/<name>.glsl`` with its ``#include`` lines replaced, recursively."""
     path = resources.files("soc.shaders").joinpath(f"{name}.glsl")
     if not path.is_file():
         raise FileNotFoundError(f"shader soc/shaders/{name}.glsl does not exist")
     lines = path.read_text().splitlines()
     return "\n".join(
-        shader_source(line.split('"')[1]) if line.startswith("#include ") else line
+        _included_source(line.split('"')[1]) if line.startswith("#include ") else line
         for line in lines
     )
 

@@ -19,22 +19,20 @@
 
 // (M) per node: skip (the node after its subtree), first position in walk_order, objects in
 // its range, objects counted (0: an empty node of a refitted tree, skipped).
-layout(std430, binding = 8) readonly buffer WalkNodes { uvec4 walk_nodes[]; };
+layout(std430, binding = WALK_NODES_BINDING) readonly buffer WalkNodes { uvec4 walk_nodes[]; };
 // (M, 6) per node: the union of its counted objects' grown boxes, lo then hi.
-layout(std430, binding = 9) readonly buffer WalkBoxes { float walk_boxes[]; };
+layout(std430, binding = WALK_BOXES_BINDING) readonly buffer WalkBoxes { float walk_boxes[]; };
 // (N) object ids in tree order.
-layout(std430, binding = 10) readonly buffer WalkOrder { uint walk_order[]; };
+layout(std430, binding = WALK_ORDER_BINDING) readonly buffer WalkOrder { uint walk_order[]; };
 // (R) the subtree roots the invocations share.
-layout(std430, binding = 11) readonly buffer WalkRoots { uint walk_roots[]; };
+layout(std430, binding = WALK_ROOTS_BINDING) readonly buffer WalkRoots { uint walk_roots[]; };
 // Level-synchronous walk: words [0, QUEUE_HEADER) count the entries each level appended (zeroed
-// before the walk), then two queues of queue_capacity entries (node | ENTRY_* flags), level L
+// before the walk; from QUEUE_ARGS, each level's indirect dispatch (x, 1, 1)), then two queues of queue_capacity entries (node | ENTRY_* flags), level L
 // reading queue L % 2 and appending to the other.
-layout(std430, binding = 12) buffer WalkQueue { uint walk_queue[]; };
+layout(std430, binding = WALK_QUEUE_BINDING) buffer WalkQueue { uint walk_queue[]; };
 uniform uint walk_level;
 uniform uint queue_capacity;
 uniform uint max_groups;
-const uint QUEUE_ARGS = 64u;     // per level: the (x, 1, 1) of its indirect dispatch
-const uint QUEUE_HEADER = 256u;
 const uint ENTRY_INSIDE = 0x80000000u;
 const uint ENTRY_HIDDEN = 0x40000000u;
 const uint ENTRY_NODE = 0x3fffffffu;

@@ -1,38 +1,37 @@
-// The state and output of gpu-driven's two compute passes (soc/methods/gpu_driven.py), included
-// by gpu_driven_early.comp and gpu_driven_late.comp after their #version line. One invocation
+// The state and output of gpu-driven's compute passes (soc/methods/gpu_driven.py), included
+// by gpu_driven_*.comp after their #version line. Binding points, sizes and the frame's
+// counters are soc/gl/shader_defines.py's #defines. One invocation
 // handles whole objects (every stride-th one): an object's clusters are all read and written
 // by one invocation, so their state needs no atomics; only the output does.
-layout(local_size_x = 64) in;
+layout(local_size_x = COMPUTE_GROUP) in;
 
 // (N) per object: first cluster, cluster count, base vertex, 0.
-layout(std430, binding = 0) readonly buffer Objects { uvec4 objects[]; };
+layout(std430, binding = OBJECTS_BINDING) readonly buffer Objects { uvec4 objects[]; };
 // (N, 6) the objects' grown AABBs, lo then hi.
-layout(std430, binding = 1) readonly buffer ObjectBoxes { float object_boxes[]; };
+layout(std430, binding = OBJECT_BOXES_BINDING) readonly buffer ObjectBoxes { float object_boxes[]; };
 // (C) per cluster: first index, index count (in the cluster-ordered index buffer), object, 0.
-layout(std430, binding = 2) readonly buffer Clusters { uvec4 clusters[]; };
+layout(std430, binding = CLUSTERS_BINDING) readonly buffer Clusters { uvec4 clusters[]; };
 // (C, 6) the clusters' grown AABBs.
-layout(std430, binding = 3) readonly buffer ClusterBoxes { float cluster_boxes[]; };
+layout(std430, binding = CLUSTER_BOXES_BINDING) readonly buffer ClusterBoxes { float cluster_boxes[]; };
 // (2N) per object: [0, N) the frame (frame_id) in which the early pass last drew a cluster of
 // the object, 0: never; [N, 2N) how many runs of its clusters passed its last late test
 // (`runs`).
-layout(std430, binding = 4) buffer ObjectState { uint object_state[]; };
-// (C) bit 0: passed the object's last late test (drawn early next frame if in the frustum);
-// bit 1: drawn early by the early pass's cluster loop (`early_runs` off; set by the early pass,
-// cleared by the late pass; it means this frame only where object_state is this frame);
-// bit 2: to be drawn late (between the two stages of gpu_driven_clusters.comp only). Valid
+layout(std430, binding = OBJECT_STATE_BINDING) buffer ObjectState { uint object_state[]; };
+// (C) bit 0: passed the object's last late test (drawn early next frame if in the frustum;
+// drawn early this frame where object_state is this frame); bit 2: to be drawn late (between the two stages of gpu_driven_clusters.comp only). Valid
 // for the objects of the passed lists: the late pass writes every cluster of an object it
 // lists.
-layout(std430, binding = 5) buffer ClusterState { uint cluster_state[]; };
+layout(std430, binding = CLUSTER_STATE_BINDING) buffer ClusterState { uint cluster_state[]; };
 // (2, cluster_count, 5) draw commands: count, instances, first index, base vertex, base
 // instance (= the object id), the early pass's then the late pass's, in the order they were
 // appended. With `sort_draws` the instance count holds the command's depth bucket instead
 // (depth_bucket()), and gpu_driven_order.comp writes the commands drawn, nearest first.
-layout(std430, binding = 6) buffer Commands { uint commands[]; };
-// The frame's output, zeroed before the frame: FRAME_* counters, the commands per depth
+layout(std430, binding = COMMANDS_BINDING) buffer Commands { uint commands[]; };
+// The frame's output, zeroed before the frame: the FRAME_* counters, the commands per depth
 // bucket (FRAME_BUCKETS) and gpu_driven_order.comp's cursors (FRAME_CURSORS), each per pass,
 // then the drawn objects' bits (from object_bits), then the drawn clusters' bits (from
 // cluster_bits).
-layout(std430, binding = 7) buffer Frame { uint frame[]; };
+layout(std430, binding = FRAME_BINDING) buffer Frame { uint frame[]; };
 // Two lists of objects with a cluster that passed a late test, list_words apart: a count, then
 // the ids. The early pass reads last frame's (list_in), the late pass appends to this frame's
 // (list_out, its count zeroed before). From split_at, the split lists of this frame (counts
@@ -40,40 +39,24 @@ layout(std430, binding = 7) buffer Frame { uint frame[]; };
 // number of objects the late pass left to gpu_driven_clusters.comp, then the clusters
 // (cluster_count words: the cluster id, bit 31 set when its object is inside the frustum),
 // then the objects.
-layout(std430, binding = 13) buffer Passed { uint passed[]; };
+layout(std430, binding = PASSED_BINDING) buffer Passed { uint passed[]; };
 // (C) the runs of clusters that passed an object's last late test, for next frame's early pass:
 // object o's at runs[objects[o].x + k], k < object_state[N + o]: first index, index count,
-// first cluster, cluster count (written where the states are written, read by the early pass
-// with `early_runs`).
-layout(std430, binding = 14) buffer Runs { uvec4 runs[]; };
+// first cluster, cluster count (written where the states are written, read by the early pass).
+layout(std430, binding = RUNS_BINDING) buffer Runs { uvec4 runs[]; };
 
-const uint EARLY = 0u;
-const uint LATE = 1u;
-// Counters in `frame` (soc/methods/gpu_driven.py reads them by these positions).
-const uint FRAME_COMMANDS = 0u;   // + pass: commands written
-const uint FRAME_TRIANGLES = 2u;  // + pass: triangles drawn
-const uint FRAME_OUTSIDE = 4u;    // objects outside the frustum
-const uint FRAME_JUDGED = 5u;     // boxes tested against the pyramid
 // Depth buckets of the draw order (`sort_draws`): pass p's commands of bucket b are counted at
-// FRAME_BUCKETS + ORDER_BUCKETS * p + b, gpu_driven_order.comp's cursor of it is
-// ORDER_BUCKETS * 2 words further.
-const uint ORDER_BUCKETS = 64u;
-const uint FRAME_BUCKETS = 8u;
-const uint FRAME_CURSORS = FRAME_BUCKETS + 2u * ORDER_BUCKETS;
+// FRAME_BUCKETS + ORDER_BUCKETS * p + b, gpu_driven_order.comp's cursor of it at
+// FRAME_CURSORS + ORDER_BUCKETS * p + b.
 
 uniform uint object_count;   // N
 uniform uint object_bits;    // first word of the drawn-object bits in `frame`
 uniform uint cluster_bits;   // first word of the drawn-cluster bits
-uniform bool merge;          // one command for consecutive drawn clusters of an object
 uniform uint frame_id;       // this frame's number (from 1; object_state)
 uniform uint list_in;        // first word of last frame's passed list
 uniform uint list_out;       // first word of this frame's passed list
 uniform uint split_at;       // first word of the split lists in `passed`
 uniform uint cluster_count;  // C (also the commands a pass's half of `commands` holds)
-// The early pass draws each listed object in the frustum (and, with `reproject`, not hidden by
-// last frame) by the runs of its clusters that passed last frame (`runs`, one command each, no
-// test per cluster, no cluster state written), instead of looping over its clusters.
-uniform bool early_runs;
 // Draw each pass nearest first (gpu_driven_order.comp): every command gets the depth bucket of
 // its first cluster, the distance from `eye` to the cluster's box on a log scale from
 // order_near (bucket 0) with order_scale buckets per doubling, clamped at the last.
@@ -81,10 +64,6 @@ uniform bool sort_draws;
 uniform vec3 eye;
 uniform float order_near;
 uniform float order_scale;
-
-// The cluster_state bit that says "drawn early" for an object drawn early this frame: bit 0
-// (passed last frame: all of those were drawn) with `early_runs`, else bit 1.
-uint drawn_early_bit() { return early_runs ? 1u : 2u; }
 
 vec3 object_lo(uint o) { return vec3(object_boxes[6u * o], object_boxes[6u * o + 1u], object_boxes[6u * o + 2u]); }
 vec3 object_hi(uint o) { return vec3(object_boxes[6u * o + 3u], object_boxes[6u * o + 4u], object_boxes[6u * o + 5u]); }
@@ -121,7 +100,7 @@ void emit(uint pass, uint first, uint count, uint base_vertex, uint o, uint c0) 
 }
 
 // A run of drawn clusters of one object, contiguous in the index buffer: flushed as one
-// command when it cannot grow (or, without `merge`, at every cluster). The drawn-cluster bits of
+// command when it cannot grow. The drawn-cluster bits of
 // the run's 32-cluster word are gathered in `bits` and set with one atomic when the run moves
 // to another word or is flushed (an object's clusters are consecutive: one atomic per word,
 // not per cluster).
@@ -134,7 +113,7 @@ void run_bits(inout Run run) {
 
 void run_add(inout Run run, uint pass, uint c, uint base_vertex, uint o) {
     uvec4 info = clusters[c];
-    if (run.count > 0u && (!merge || run.first + run.count != info.x)) {
+    if (run.count > 0u && run.first + run.count != info.x) {
         emit(pass, run.first, run.count, base_vertex, o, run.c0);
         run.count = 0u;
     }
@@ -163,7 +142,7 @@ void list_object(uint o) {
 
 // The runs of an object's clusters that pass, built as its clusters are visited in order
 // (passing_add for a cluster that passes, passing_break for one that does not) and closed
-// with passing_end: next frame's early commands (`runs`), merged as `merge` says.
+// with passing_end: next frame's early commands (`runs`), consecutive ones merged.
 struct Passing { uint slot; uint first; uint count; uint c0; uint n; };
 
 Passing passing_start(uint o) { return Passing(objects[o].x, 0u, 0u, 0u, 0u); }
@@ -176,7 +155,7 @@ void passing_break(inout Passing p) {
 
 void passing_add(inout Passing p, uint c) {
     uvec4 info = clusters[c];
-    if (p.n > 0u && (!merge || p.first + p.count != info.x)) passing_break(p);
+    if (p.n > 0u && p.first + p.count != info.x) passing_break(p);
     if (p.n == 0u) {
         p.first = info.x;
         p.c0 = c;
@@ -205,15 +184,15 @@ void visit(inout Visit v, uint c, bool pass, bool late, uint base_vertex, uint o
         passing_break(v.next);
     }
     if (late) {
-        run_add(v.run, LATE, c, base_vertex, o);
+        run_add(v.run, LATE_PASS, c, base_vertex, o);
         v.drawn = true;
     } else {
-        run_flush(v.run, LATE, base_vertex, o);
+        run_flush(v.run, LATE_PASS, base_vertex, o);
     }
 }
 
 void visit_end(inout Visit v, uint base_vertex, uint o) {
-    run_flush(v.run, LATE, base_vertex, o);
+    run_flush(v.run, LATE_PASS, base_vertex, o);
     passing_end(v.next, o);
     if (v.passed_any) list_object(o);
     if (v.drawn) mark_object(o);

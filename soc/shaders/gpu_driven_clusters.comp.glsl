@@ -37,7 +37,7 @@ void test_clusters() {
             pass = judge(lo, hi) == 1u;
         }
         uint o = clusters[c].z;
-        bool early = object_state[o] == frame_id && (cluster_state[c] & drawn_early_bit()) != 0u;
+        bool early = object_state[o] == frame_id && (cluster_state[c] & 1u) != 0u;
         cluster_state[c] = pass ? (early ? 1u : 5u) : 0u;
     }
     if (judged > 0u) atomicAdd(frame[FRAME_JUDGED], judged);

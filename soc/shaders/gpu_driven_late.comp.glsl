@@ -1,9 +1,8 @@
 #version 450
 // gpu-driven's late pass: the objects' boxes against the frustum and the pyramid of the early
-// depth — by a walk of the object hierarchy (bvh_walk.common: a node outside or hidden drops
+// depth, by a walk of the object hierarchy (bvh_walk.common: a node outside or hidden drops
 // its subtree, a node inside spares its objects' frustum tests; the same objects pass as when
-// every box is tested) or every box (`walk` off, the reference) — then the boxes of the
-// clusters of those that pass (with `test_clusters`; with `split`, those of objects of several
+// every box is tested), then the boxes of the clusters of those that pass (with `test_clusters`; with `split`, those of objects of several
 // clusters in gpu_driven_clusters.comp, which follows); a cluster that passes and was not drawn
 // early is appended to the late commands, every cluster of a passing object gets its state
 // ("passed" or not) for next frame's early pass, and the object joins this frame's passed list
@@ -20,16 +19,11 @@
 uniform bool frustum;        // frustum-test boxes
 uniform bool occlusion;      // test boxes against the pyramid (off: frustum culling only)
 uniform bool test_clusters;  // granularity "cluster": test each cluster's box too
-uniform bool walk;           // walk the hierarchy (else test every object box)
 uniform bool levels_walk;    // the walk one dispatch per level (else subtrees per invocation)
 // Leave the clusters of an object of several clusters to gpu_driven_clusters.comp (one
-// invocation per cluster) instead of testing them here in a loop (`split` off, the reference).
+// invocation per cluster) instead of testing them here in a loop (`split` off: granularity
+// "object", whose objects are one cluster each).
 uniform bool split;
-// Refresh instead (next_from="final", after the late draw, against the finished frame's
-// pyramid): only this frame's passed list is tested again, and what fails no longer counts as
-// passed; nothing is drawn. A cluster occluded by the finished depth was occluded by the
-// early one too had it been drawn: the finished depth is nearer everywhere.
-uniform bool refresh;
 
 uint judged = 0u;  // object and cluster boxes this invocation tested against the pyramid
 
@@ -57,7 +51,7 @@ void late_object(uint o, bool inside) {
     Visit v = visit_start(o);
     for (uint c = obj.x; c < obj.x + obj.y; ++c) {
         bool pass = !each || classify(cluster_lo(c), cluster_hi(c), inside) == 1u;
-        bool late = pass && !(early && (cluster_state[c] & drawn_early_bit()) != 0u);
+        bool late = pass && !(early && (cluster_state[c] & 1u) != 0u);
         cluster_state[c] = pass ? 1u : 0u;
         visit(v, c, pass, late, obj.z, o);
     }
@@ -74,39 +68,8 @@ void walk_object(uint o, bool inside, bool hidden) {
     if (code == 1u) late_object(o, inside);
 }
 
-// next_from="final": this frame's passed list against the finished frame's pyramid.
-void refresh_list() {
-    uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
-    uint count = passed[list_out];
-    for (uint k = gl_GlobalInvocationID.x; k < count; k += stride) {
-        uint o = passed[list_out + 1u + k];
-        uvec4 obj = objects[o];
-        bool pass_object = classify(object_lo(o), object_hi(o), false) == 1u;
-        Passing next = passing_start(o);
-        for (uint c = obj.x; c < obj.x + obj.y; ++c) {
-            bool pass = cluster_state[c] != 0u && pass_object &&
-                        (!test_clusters || obj.y == 1u ||
-                         classify(cluster_lo(c), cluster_hi(c), false) == 1u);
-            cluster_state[c] = pass ? 1u : 0u;
-            if (pass) {
-                passing_add(next, c);
-            } else {
-                passing_break(next);
-            }
-        }
-        passing_end(next, o);
-    }
-}
-
 void main() {
-    if (refresh) {
-        refresh_list();
-    } else if (!walk) {
-        uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
-        for (uint o = gl_GlobalInvocationID.x; o < object_count; o += stride) {
-            walk_object(o, false, false);
-        }
-    } else if (levels_walk) {
+    if (levels_walk) {
         walk_level_all(frustum, occlusion);
     } else {
         walk_all(frustum, occlusion);

@@ -8,9 +8,9 @@
 #include "gpu_driven.common"
 
 // (2, cluster_count, 5) the commands drawn, as `commands` (its instance count is 1 again).
-layout(std430, binding = 15) writeonly buffer Sorted { uint sorted[]; };
+layout(std430, binding = SORTED_BINDING) writeonly buffer Sorted { uint sorted[]; };
 
-uniform uint order_pass;  // EARLY or LATE
+uniform uint order_pass;  // EARLY_PASS or LATE_PASS
 
 void main() {
     uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;

@@ -7,18 +7,15 @@
 // pixel centre of the depth buffer, or is farther than the occluder depth at every pixel
 // centre it may cover. Conservative (proof in soc/culling/hiz_gpu.py): every mesh sample of the object
 // lies inside the box, so its pixel lies inside the box's projected rectangle and its depth
-// is at least the box's nearest corner depth. With `use_octants`, a box that may be visible
-// is judged again by the tight boxes of its object's octants, kept iff one of them may be.
-layout(local_size_x = 64) in;
+// is at least the box's nearest corner depth.
+layout(local_size_x = COMPUTE_GROUP) in;
 
-layout(std430, binding = 0) readonly buffer Boxes { float boxes[]; };  // (N, 6): lo, hi
-layout(std430, binding = 1) readonly buffer Ids { uint ids[]; };       // (K,) candidates
-layout(std430, binding = 2) writeonly buffer Visible { uint visible[]; };  // (K,) 0, 1, 2
-layout(std430, binding = 3) readonly buffer Octants { float octants[]; };  // (N, 8, 6): lo, hi
+layout(std430, binding = TEST_BOXES_BINDING) readonly buffer Boxes { float boxes[]; };  // (N, 6): lo, hi
+layout(std430, binding = TEST_IDS_BINDING) readonly buffer Ids { uint ids[]; };  // (K,) candidates
+layout(std430, binding = TEST_RESULT_BINDING) writeonly buffer Visible { uint visible[]; };  // (K,) 0, 1, 2
 
 uniform bool frustum;       // classify boxes outside the frustum as 2
 uniform uint count;         // K
-uniform bool use_octants;   // judge a box that may be visible again by its octant boxes
 
 #include "hiz_test.common"
 
@@ -32,21 +29,7 @@ uint classify(uint k) {
         return 2u;
     }
 
-    uint result = judge(lo, hi);
-    // A box that may be visible is judged again by its object's octant boxes: every mesh
-    // point lies in one of them (soc/culling/octant_boxes.py), so the object is kept iff one
-    // passes. Empty octants (lo > hi) hold no mesh point.
-    if (result == 1u && use_octants) {
-        result = 0u;
-        uint o = 48u * ids[k];
-        for (int i = 0; i < 8 && result == 0u; ++i, o += 6u) {
-            vec3 a = vec3(octants[o], octants[o + 1u], octants[o + 2u]);
-            vec3 b = vec3(octants[o + 3u], octants[o + 4u], octants[o + 5u]);
-            if (any(greaterThan(a, b))) continue;
-            result = judge(a, b);
-        }
-    }
-    return result;
+    return judge(lo, hi);
 }
 
 // A fixed number of invocations, each classifying every stride-th candidate: llvmpipe spends

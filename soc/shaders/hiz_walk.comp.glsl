@@ -3,20 +3,14 @@
 // object hierarchy (bvh_walk.common): a node outside the frustum or hidden behind the pyramid
 // drops its subtree, a node inside the frustum spares its objects' frustum tests. The same
 // kept set as testing every box (soc/culling/bvh_gpu.py), written as one bit per object.
-layout(local_size_x = 64) in;
+layout(local_size_x = COMPUTE_GROUP) in;
 
-layout(std430, binding = 0) readonly buffer Boxes { float boxes[]; };  // (N, 6): lo, hi
+layout(std430, binding = TEST_BOXES_BINDING) readonly buffer Boxes { float boxes[]; };  // (N, 6): lo, hi
 // WALK_* counters, then from word WALK_HEADER one bit per object: may be visible (judge 1).
-layout(std430, binding = 1) buffer Result { uint result[]; };
+layout(std430, binding = WALK_RESULT_BINDING) buffer Result { uint result[]; };
 
 uniform bool frustum;  // test the frustum (else every object box is judged)
 uniform bool levels_walk;  // one node per invocation and dispatch per level (else subtrees)
-
-const uint WALK_OUTSIDE = 0u;  // objects outside the frustum
-const uint WALK_NODES = 1u;    // node boxes judged
-const uint WALK_OBJECTS = 2u;  // object boxes judged
-const uint WALK_VISITS = 3u;   // nodes visited
-const uint WALK_HEADER = 4u;
 
 #include "hiz_test.common"
 #include "bvh_walk.common"

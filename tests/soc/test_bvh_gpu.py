@@ -5,7 +5,9 @@ outside the frustum, on random scenes and cameras — the camera inside a box, t
 through boxes, flat and point boxes, boxes larger than the view, 1×1 and odd resolutions,
 depths a hair either side of the boxes' own depths, display resolutions besides the pyramid's,
 refitted trees — for both walk modes, any leaf size, cut and node refinement; and
-``gpu-driven`` keeps, draws and remembers the same with its walk as with every box tested.
+``gpu-driven`` keeps, draws and remembers the same with either walk mode (and as with every box
+tested: ``tests/soc/test_two_phase_frames.py`` compares its frames with frames recorded from
+its flat late pass).
 
 Against the CPU's BVH walk (:meth:`soc.culling.hierarchy.Hierarchy.classify_pyramid`, itself
 the CPU flat test's answer, ``tests/soc/test_hierarchy.py``) of the same depth, the objects outside
@@ -286,11 +288,13 @@ def test_auto_walks_subtrees_only_when_the_cut_is_all_leaves(n, leaf_size, roots
             obj.release()
 
 
-def _driven_run(scene, cams, res, resets, options) -> list:
-    """Per frame of ``cams`` (reset before the frames in ``resets``): kept set, triangles
-    drawn, drawn clusters, objects outside the frustum, draw commands early and late."""
+def _driven_run(scene, cams, res, resets, options, mode) -> list:
+    """Per frame of ``cams`` (reset before the frames in ``resets``), the late pass walking
+    by ``mode``: kept set, triangles drawn, drawn clusters, objects outside the frustum, draw
+    commands early and late."""
     out = []
-    with soc.Culler(scene, "gpu-driven", res, **options) as c:
+    with soc.Culler(scene, "gpu-driven", res, **options) as c, pytest.MonkeyPatch.context() as mp:
+        mp.setattr(c.method.hierarchy, "auto_mode", mode)  # the geometry's, shared
         for i, cam in enumerate(cams):
             if i in resets:
                 c.reset()
@@ -300,29 +304,21 @@ def _driven_run(scene, cams, res, resets, options) -> list:
     return out
 
 
-@pytest.mark.parametrize("options", [{}, {"cluster_triangles": 4}, {"granularity": "object"},
-                                     {"next_from": "final", "cluster_triangles": 8}])  # fmt: skip
-def test_gpu_driven_walks_to_the_same_frames_as_testing_every_box(small_market, options):
+@pytest.mark.parametrize("options", [{}, {"cluster_triangles": 4}, {"granularity": "object"}])
+def test_gpu_driven_walks_to_the_same_frames_either_way(small_market, options):
     """A coherent stretch of the market flight, cut to random views and back, a reset, at an
-    odd resolution: with the walk (either mode) every frame keeps, draws and counts what the
-    flat late pass does, so next frames start from the same state too."""
+    odd resolution: walking by levels and by subtrees, every frame keeps, draws and counts the
+    same, so next frames start from the same state too."""
     res = (333, 197)
     walk = flight(small_market, frames=100, width=res[0], height=res[1])[30:40]
     cuts = random_cameras(small_market, 3, seed=9, width=res[0], height=res[1])
     cams = walk[:4] + cuts + walk[4:]
-    flat = _driven_run(small_market, cams, res, {8}, options | {"hierarchy": False})
-    for mode in WALK_MODES:
-        walked = _driven_run(small_market, cams, res, {8}, options | {"walk": mode})
-        for i, (a, b) in enumerate(zip(flat, walked, strict=True)):
-            np.testing.assert_array_equal(a[0], b[0], err_msg=f"{mode} frame {i}")
-            np.testing.assert_array_equal(a[2], b[2], err_msg=f"{mode} frame {i}")
-            assert a[1] == b[1] and a[3] == b[3] and a[4] == b[4], (mode, i)
-    assert sum(int((~f[0]).sum()) for f in flat) > 0  # something was culled
-
-
-def test_gpu_driven_options_are_checked(clutter_scenes):
-    with pytest.raises(ValueError, match="walk must be one of"):
-        soc.Culler(clutter_scenes[0], "gpu-driven", (64, 64), walk="sideways")
+    levels, subtrees = (_driven_run(small_market, cams, res, {8}, options, m) for m in WALK_MODES)
+    for i, (a, b) in enumerate(zip(levels, subtrees, strict=True)):
+        np.testing.assert_array_equal(a[0], b[0], err_msg=f"frame {i}")
+        np.testing.assert_array_equal(a[2], b[2], err_msg=f"frame {i}")
+        assert a[1] == b[1] and a[3] == b[3] and a[4] == b[4], i
+    assert sum(int((~f[0]).sum()) for f in levels) > 0  # something was culled
 
 
 @pytest.mark.parametrize("options", [{}, {"footprint": 4, "refine": 3},

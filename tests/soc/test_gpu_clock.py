@@ -192,7 +192,8 @@ def test_fly_carries_gl_time_columns_when_the_clock_is_on(scenes, forced):
 def test_bench_floor_shows_gl_time_beside_wall_time_and_triangles_over_the_ideal(on, forced):
     """The floor bench's rows carry the GL clock (NaN where it is off) and triangles drawn;
     its tables add triangles ÷ ideal, and GPU columns only where the clock was read."""
-    from experiments import bench, bench_floor
+    from benchmarks import cli as bench
+    from benchmarks import floor as bench_floor
 
     forced.gpu_clock = on
     scene = soc.scenes.clutter(0, objects=60)

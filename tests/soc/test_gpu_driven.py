@@ -19,29 +19,15 @@ from soc.scenes.clutter import box_mesh
 from soc.scenes.paths import flight, random_cameras
 from soc.scenes.primitives import icosphere, sheet, translate
 
-# Option sets: whole objects; clusters of 128 (most test objects are one cluster); clusters of
-# 4 triangles (every box is three clusters); the next set from the finished depth with one
-# command per cluster, the count read back and clusters tested in the late pass's loop; the
-# classic 2×2 HiZ read; the early set also tested against last frame's depth, reprojected; the
-# early pass looping over clusters instead of drawing last frame's runs.
+# Option sets: whole objects; clusters of 32 (most test objects are one cluster); clusters of
+# 4 triangles (every box is three clusters); clusters of 8 drawn as the passes append them.
 MODES = [
     {"granularity": "object"},
     {"granularity": "cluster"},
     {"granularity": "cluster", "cluster_triangles": 4},
-    {"cluster_triangles": 8, "next_from": "final", "merge": False, "count": "read", "split": False},
-    {"cluster_triangles": 4, "footprint": 2, "refine": 0},
-    {"cluster_triangles": 8, "reproject": True},
-    {"cluster_triangles": 8, "early_runs": False},
+    {"cluster_triangles": 8, "order": "unsorted"},
 ]
-MODE_IDS = [
-    "object",
-    "cluster",
-    "cluster-4",
-    "final-unmerged-read",
-    "classic",
-    "reproject",
-    "early-loop",
-]
+MODE_IDS = ["object", "cluster", "cluster-4", "cluster-8-unsorted"]
 
 
 @pytest.mark.parametrize("options", MODES, ids=MODE_IDS)
@@ -104,19 +90,11 @@ def _big_meshes() -> soc.Scene:
 
 @pytest.mark.parametrize(
     ("triangles", "options"),
-    [
-        (128, {}),
-        (16, {}),
-        (16, {"reproject": True}),
-        (16, {"early_runs": False}),
-        (16, {"early_runs": False, "reproject": True}),
-    ],
+    [(128, {}), (16, {}), (16, {"order": "unsorted"}), (16, {"granularity": "object"})],
 )
 def test_no_visible_cluster_is_culled_walking_past_a_wall(triangles, options):
     """A walk towards and along a wall, through a box, with the near plane cutting the sphere
-    and the ground; a cut to random views and back, a reset; at an odd resolution. With
-    ``reproject`` the early set is also tested against last frame's depth, reprojected; with
-    ``early_runs=False`` the early pass loops over the clusters."""
+    and the ground; a cut to random views and back, a reset; at an odd resolution."""
     scene = _big_meshes()
     res = (333, 197)
     walk = [
@@ -141,58 +119,20 @@ def test_no_visible_cluster_is_culled_in_the_hard_cases(triangles):
         _cluster_run(case.scene, case.cameras, case.resolution, cluster_triangles=triangles)
 
 
-@pytest.mark.parametrize("reproject", [False, True])
-def test_no_visible_cluster_is_culled_on_the_market_flight(small_market, reproject):
+def test_no_visible_cluster_is_culled_on_the_market_flight(small_market):
     """A coherent stretch of the market flight: its walls hold thousands of triangles."""
     res = (480, 270)
     cams = flight(small_market, frames=100, width=res[0], height=res[1])[30:42]
-    culled, drawn = _cluster_run(small_market, cams, res, reproject=reproject)
+    culled, drawn = _cluster_run(small_market, cams, res)
     assert culled > 3 * drawn
 
 
-def test_reprojected_depth_is_the_next_frames_depth(small_market):
-    """Last frame's pyramid carried to this frame's camera agrees with this frame's own
-    pyramid (same level) where both hold a surface, and leaves out fewer clusters than it
-    keeps wrongly: on a coherent stretch of the flight the early pass draws fewer clusters
-    with it, and the frames drawn are the same objects."""
-    res = (480, 270)
-    cams = flight(small_market, frames=100, width=res[0], height=res[1])[30:40]
-    early = {}
-    for reproject in (False, True):
-        with soc.Culler(small_market, "gpu-driven", res, reproject=reproject) as c:
-            m = c.method
-            counts, kept = [], []
-            for cam in cams:
-                kept.append(c.cull(cam).visible)
-                counts.append(m.last_commands)
-            early[reproject] = counts
-            if reproject:
-                r = m.reprojection
-                with m.glctx.current():
-                    carried = np.frombuffer(r.texture.read(), np.float32).reshape(r.size[::-1])
-                    r.build(cams[-1].view_proj, cams[-1].view_proj)  # onto itself
-                    itself = np.frombuffer(r.texture.read(), np.float32).reshape(r.size[::-1])
-                    own = m.pyramid.level(r.level)
-    both = (carried < 1) & (own < 1)
-    assert both.mean() > 0.3
-    # Window depths: a frame's move shifts surfaces by a texel or so, rarely by more.
-    assert np.median(np.abs(carried[both] - own[both])) < 1e-3
-    # Carried onto its own camera, the level comes back where it was written (max over the
-    # 2×2 splats of neighbours: never nearer than the texel's own value, up to rounding).
-    filled = own < 1
-    assert (itself[filled] >= own[filled] - 1e-5).mean() > 0.99
-    assert sum(e[0] for e in early[True]) < sum(e[0] for e in early[False])
-
-
-@pytest.mark.parametrize(
-    "options", [{}, {"early_runs": False}, {"split": False}, {"reproject": True}]
-)
+@pytest.mark.parametrize("options", [{}, {"order": "unsorted"}])
 def test_it_culls_and_draws_the_frame_of_everything(small_market, options):
     """Settled on a coherent stretch, the kept set is a small part of the scene and the
     triangles drawn fewer than the kept objects hold; the frame drawn with draw=True has
     exactly the depth of drawing every object and, but where two objects' depths tie (drawn
-    in another order), its colour; the early pass draws once there is a last frame (its runs,
-    or its cluster loop; the late pass's cluster loop or the cluster pass)."""
+    in another order), its colour; the early pass draws once there is a last frame."""
     res = (480, 270)
     cams = flight(small_market, frames=100, width=res[0], height=res[1])[20:30]
     n = len(small_market)
@@ -233,42 +173,43 @@ def test_depth_only_frames_leave_the_colour_alone(clutter_scenes):
         assert r.stats.timings_ms["draw"] > 0
 
 
-def test_count_read_back_merge_split_and_granularity_agree(small_market):
-    """The GL's count and the count read back draw the same; merging consecutive clusters
-    draws the same clusters in fewer commands; the clusters tested in the late pass's loop
-    (``split=False``) are the ones the cluster pass draws; whole objects keep what clusters
-    keep or more."""
+def test_the_draw_order_the_count_and_the_granularity_agree(small_market):
+    """Drawn nearest first or as appended, and with the command count read by the GL or read
+    back (:class:`soc.gl.indirect_count.CountedDraws`' fallback where the GL cannot read it),
+    the same clusters and commands; whole objects keep what clusters keep or more, and draw
+    every triangle of what they keep."""
+    from soc.gl.indirect_count import CountedDraws
+
     res = (480, 270)
     cams = flight(small_market, frames=100, width=res[0], height=res[1])[40:46]
     variants = {
         "auto": {},
-        "read": {"count": "read"},
-        "unmerged": {"merge": False},
-        "loop": {"split": False},
         "unsorted": {"order": "unsorted"},
+        "read": {},
         "object": {"granularity": "object"},
     }
     commands = dict.fromkeys(variants, 0)
     cullers = {k: soc.Culler(small_market, "gpu-driven", res, **o) for k, o in variants.items()}
+    read = cullers["read"].method
+    with read.glctx.current():
+        read.draws = CountedDraws(read.glctx, prefer_native=False)
+    assert not read.draws.native
     try:
-        if not cullers["auto"].method.draws.native:
-            pytest.skip("this GL has no glMultiDrawElementsIndirectCount")
-        assert not cullers["read"].method.draws.native
         for cam in cams:
-            r = {k: c.cull(cam) for k, c in cullers.items()}
-            for k in ("read", "unmerged", "loop", "unsorted"):
+            r = {k: c.cull(cam, draw=True) for k, c in cullers.items()}
+            drawn = cullers["auto"].method.drawn_clusters()
+            depth = cullers["auto"].method.renderer.depth_image()
+            for k in ("unsorted", "read"):
                 assert np.array_equal(r[k].visible, r["auto"].visible), k
                 assert r[k].stats.triangles_drawn == r["auto"].stats.triangles_drawn, k
-            drawn = cullers["auto"].method.drawn_clusters()
-            for k in ("loop", "unsorted"):
                 assert np.array_equal(cullers[k].method.drawn_clusters(), drawn), k
+                assert np.array_equal(cullers[k].method.renderer.depth_image(), depth), k
             assert not (r["auto"].visible & ~r["object"].visible).any()
             for k, c in cullers.items():
                 commands[k] += sum(c.method.last_commands)
             obj = r["object"].stats
             assert obj.triangles_drawn == obj.triangles_visible
-        assert commands["auto"] < commands["unmerged"]
-        assert commands["loop"] == commands["unsorted"] == commands["auto"]
+        assert commands["unsorted"] == commands["read"] == commands["auto"]
     finally:
         for c in cullers.values():
             c.close()
@@ -279,7 +220,7 @@ def test_each_pass_draws_its_commands_nearest_first(small_market):
     with one instance, by depth bucket nearest first; a command's bucket is the distance from
     the eye to its first cluster's box on gpu_driven.common.glsl's log scale (float64's bucket
     within one, for the float32 rounding at bucket borders)."""
-    from soc.methods.gpu_driven import ORDER_BUCKETS
+    from soc.gl.shader_defines import ORDER_BUCKETS
 
     res = (480, 270)
     cams = flight(small_market, frames=100, width=res[0], height=res[1])[40:46]
@@ -360,14 +301,15 @@ def test_bad_options_are_clear_errors(clutter_scenes):
     s = clutter_scenes[0]
     for options, match in (
         ({"granularity": "triangle"}, "granularity"),
-        ({"count": "guess"}, "count must be one of"),
-        ({"next_from": "late"}, "next_from"),
-        ({"footprint": 3}, "footprint"),
         ({"cluster_triangles": 0}, "max_triangles"),
-        ({"order": "id"}, "order must be one of"),
+        ({"order": "id"}, "order"),
     ):
         with pytest.raises(ValueError, match=match):
             soc.Culler(s, "gpu-driven", (64, 64), **options)
+    removed = ("count", "next_from", "footprint", "merge", "split", "early_runs", "reproject")
+    for name in (*removed, "reproject_level", "hierarchy", "walk"):
+        with pytest.raises(ValueError, match=name):
+            soc.Culler(s, "gpu-driven", (64, 64), **{name: 1})
 
 
 def test_cullers_of_other_granularities_do_not_disturb_each_other(small_market):

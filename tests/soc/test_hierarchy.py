@@ -331,9 +331,15 @@ WALKING_METHODS = [
     ("masked", {"cpu_threads": 1}),
     ("hiz-cpu", {"cpu_threads": 1}),
     ("hiz-cpu", {"footprint": 4, "refine": 23}),
-    ("hiz-2phase", {"test": "cpu"}),
-    ("hiz-2phase", {"test": "cpu", "next_from": "final"}),
 ]
+
+
+def _flat_two_phase(culler) -> None:
+    """Plug the flat reference test (every box tested) into a hiz-2phase culler."""
+    from soc.methods.two_phase import NumbaDepthTest
+
+    m = culler.method
+    m.depth_test = NumbaDepthTest(m.renderer.resolution, m.depth_test.threads, walk=False)
 
 
 @pytest.mark.parametrize(("method", "options"), WALKING_METHODS)
@@ -376,37 +382,40 @@ def test_two_phase_refits_the_hierarchy_to_the_objects_alive(clutter_scenes):
     cams = flight(scene, frames=8, width=160, height=96)
     with (
         soc.Culler(scene, "hiz-2phase", (160, 96), test="cpu") as walk,
-        soc.Culler(scene, "hiz-2phase", (160, 96), test="cpu", hierarchy=False) as flat,
+        soc.Culler(scene, "hiz-2phase", (160, 96), test="cpu") as flat,
     ):
+        _flat_two_phase(flat)
         for cam in cams:
             alive = rng.random(len(scene)) < 0.6
             walk.method.set_alive(alive)
             flat.method.set_alive(alive)
-            assert walk.method._tree.counts[0] == alive.sum()
+            assert walk.method.tree.counts[0] == alive.sum()
             a, b = walk.cull(cam), flat.cull(cam)
             np.testing.assert_array_equal(a.visible, b.visible)
+            assert a.stats.models_culled == b.stats.models_culled
             assert not (a.visible & ~alive).any()
         walk.method.set_alive(None)
-        assert walk.method._tree is Hierarchy.for_scene(scene)
+        assert walk.method.tree is Hierarchy.for_scene(scene)
 
 
-@pytest.mark.parametrize("options", [{"occluders_first": True}, {"next_from": "final"}])
+@pytest.mark.parametrize("options", [{"occluders_first": True}])
 def test_two_phase_subset_tests_by_the_walk_give_the_flat_codes(clutter_scenes, options,
                                                                 monkeypatch):  # fmt: skip
-    """The late and next sets' second tests: by a walk of the whole tree (without frustum)
-    from WALK_SUBSET objects on, here from 1; the same kept sets as testing the subset."""
-    from soc.methods import hiz_2phase
+    """The late set's second test: by a walk of the whole tree (without frustum) from
+    WALK_SUBSET objects on, here from 1; the same kept sets as testing every box."""
+    from soc.methods import hiz_2phase, two_phase
     from soc.scenes.paths import flight, random_cameras
 
-    monkeypatch.setattr(hiz_2phase, "WALK_SUBSET", 1)
+    monkeypatch.setattr(two_phase, "WALK_SUBSET", 1)
     monkeypatch.setattr(hiz_2phase, "RETEST_MIN", 1)
     scene = clutter_scenes[3]
     cams = flight(scene, frames=5, width=160, height=96)
     cams += random_cameras(scene, 4, seed=5, width=160, height=96)
     with (
         soc.Culler(scene, "hiz-2phase", (160, 96), test="cpu", **options) as walk,
-        soc.Culler(scene, "hiz-2phase", (160, 96), test="cpu", hierarchy=False, **options) as flat,
+        soc.Culler(scene, "hiz-2phase", (160, 96), test="cpu", **options) as flat,
     ):
+        _flat_two_phase(flat)
         stages = set()
         for cam in cams:
             a = walk.cull(cam)
