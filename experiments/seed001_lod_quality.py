@@ -16,6 +16,7 @@ the LOD half; it gives no numbers for either).
 
 from __future__ import annotations
 
+import itertools
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -26,11 +27,17 @@ import numpy as np
 import pandas as pd
 
 from experiments import harness
-from experiments.claims import MEASURED, TREND, Each, Row, Rule, alter, chain
+from experiments.claims import MEASURED, TREND, Each, Row, Rule, alter
 from experiments.common import UsageError, decode, encode, require
 from lod.testing import CATEGORIES, measure_screen_size, screen_size_cases
 
-FRAMES = ("simplifiers", "picture", "screen_size", "screen_summary")
+FRAMES = ("simplifiers", "picture", "screen_size", "screen_summary", "asymmetry", "geomorph")
+# Edges per mesh whose Melax cost is taken both ways (a seeded sample).
+ASYMMETRY_EDGES = 2000
+# Frames over which a geomorph spreads one level change (the pop does it in one).
+GEOMORPH_FRAMES = 8
+DOC_ASYM = "cost(U,V) ≠ cost(V,U)"
+DOC_GEOMORPH = "Progressive Meshes, a.k.a. Geomorph-LODs: erzeuge ein Mesh M' zwischen Mi und Mi+1"
 # Generated meshes: a sphere with 0.5 % radial noise (small bumps to remove) and a torus
 # (smooth, saddle regions), 20,480 triangles each (quick: 5,120 and 3,072).
 SPHERE_NOISE = 0.005
@@ -196,6 +203,59 @@ def render_picture(
     return images
 
 
+def melax_asymmetry(mesh: NamedMesh, edges: int, seed: int) -> dict[str, Any]:
+    """Melax's cost of collapsing U onto V and V onto U over a seeded sample of the mesh's
+    edges: how many differ (relative difference above 1e-9), the median ratio larger ÷
+    smaller over those with both costs positive. (A Python loop over a sample of edges, as
+    :mod:`lod.melax` itself runs: preprocessing, not a frame.)"""
+    from lod.melax import _Mesh  # the adjacency lod.melax's cost is defined on
+
+    f = np.asarray(mesh.faces, np.int64)
+    e = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1),
+                  axis=0)  # fmt: skip
+    pick = np.random.default_rng(seed).choice(len(e), min(edges, len(e)), replace=False)
+    m = _Mesh(np.asarray(mesh.vertices, np.float64), f)
+    uv = np.array([m.cost(int(a), int(b)) for a, b in e[pick]])
+    vu = np.array([m.cost(int(b), int(a)) for a, b in e[pick]])
+    both = np.isfinite(uv) & np.isfinite(vu)
+    hi, lo = np.maximum(uv, vu)[both], np.minimum(uv, vu)[both]
+    differ = np.abs(uv - vu)[both] > 1e-9 * np.maximum(hi, 1e-30)
+    pos = lo > 0
+    return {"mesh": mesh.name, "label": mesh.label, "edges": int(both.sum()),
+            "asymmetric": int(differ.sum()),
+            "one_way_zero": int(((lo == 0) & (hi > 0)).sum()),
+            "median_ratio": float(np.median(hi[pos] / lo[pos])) if pos.any() else np.nan,
+            }  # fmt: skip
+
+
+def geomorph_steps(mesh: NamedMesh, frames: int) -> dict[str, Any]:
+    """One level change of a progressive mesh (half the triangles) as a pop and as a
+    geomorph over ``frames`` frames: the largest vertex move per frame (% of the box
+    diagonal), and how far the geomorph's end points lie from the two levels (largest vertex
+    distance to the level's own vertices, % of the diagonal: 0 when it starts at the fine
+    mesh and ends on the coarse surface)."""
+    from scipy.spatial import cKDTree
+
+    from lod.progressive import ProgressiveMesh
+
+    pm = ProgressiveMesh.from_mesh(mesh.vertices, mesh.faces)
+    fine = pm.max_triangles
+    coarse = max(pm.min_triangles, fine // 2)
+    diag = float(np.linalg.norm(np.ptp(np.asarray(mesh.vertices, np.float64), axis=0)))
+    steps = [pm.geomorph(coarse, fine, k / frames)[0].astype(np.float64)
+             for k in range(frames + 1)]  # fmt: skip
+    move = [float(np.linalg.norm(b - a, axis=1).max()) for a, b in itertools.pairwise(steps)]
+    v_fine, _ = pm.at(fine)
+    v_coarse, _ = pm.at(coarse)
+    start = float(cKDTree(v_fine).query(steps[0])[0].max())
+    end = float(cKDTree(v_coarse).query(steps[-1])[0].max())
+    pop = float(np.linalg.norm(steps[-1] - steps[0], axis=1).max())
+    return {"mesh": mesh.name, "label": mesh.label, "fine_triangles": fine,
+            "coarse_triangles": len(pm.at(coarse)[1]), "frames": frames,
+            "pop_move_pct": 100 * pop / diag, "geomorph_move_pct": 100 * max(move) / diag,
+            "start_off_pct": 100 * start / diag, "end_off_pct": 100 * end / diag}  # fmt: skip
+
+
 # -- part 2: screen size ---------------------------------------------------------------------
 
 
@@ -234,6 +294,8 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
         if mesh.name == shown and kept:
             images = zip(("full", "quadric", "melax"), render_picture(mesh, kept), strict=True)
             pictures += [{"mesh": mesh.name, "panel": p, "png": encode(img)} for p, img in images]
+    asymmetry = [melax_asymmetry(m, ASYMMETRY_EDGES, params.seed) for m in meshes]
+    geomorph = [geomorph_steps(m, GEOMORPH_FRAMES) for m in meshes]
     cases = screen_size_cases(params.boxes, params.cams_per_box, params.resolution, params.seed)
     t0 = time.perf_counter()
     with tqdm(total=len(cases), desc="seed 001 screen size", unit="box",
@@ -244,6 +306,8 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
         "picture": pd.DataFrame(pictures, columns=["mesh", "panel", "png"]),
         "screen_size": pd.DataFrame(screen).assign(seconds_total=time.perf_counter() - t0),
         "screen_summary": pd.DataFrame(summarize_screen_size(screen)),
+        "asymmetry": pd.DataFrame(asymmetry),
+        "geomorph": pd.DataFrame(geomorph),
     }
 
 
@@ -364,14 +428,41 @@ def _categories(frames: dict[str, pd.DataFrame], params: Params):
             continue
         sel = ss if cat == "all" else ss[ss.category == cat]
         low = sel[sel.naive < sel.exact * (1 - 1e-9)]
-        yield {"cat": cat, "n": summ.loc[(cat, "naive")], "e": summ.loc[(cat, "exact")],
-               "sel": sel, "low": low, "measured": int(summ.loc[(cat, "exact"), "measured"]),
+        m = sel[sel.exact_rel_error.notna()]
+        band = 2.0 / np.sqrt(m.pixels.to_numpy(np.float64))
+        ea, na = m.exact_rel_error.abs().to_numpy(), m.naive_rel_error.abs().to_numpy()
+        yield {"within": float(np.mean(ea <= band)) if len(m) else np.nan,
+               "beyond": float(np.median(na - ea - band)) if len(m) else np.nan,
+               "band": float(np.median(band)) if len(m) else np.nan,
+               "inside": cat == "eye inside", "cat": cat,
+               "n": summ.loc[(cat, "naive")], "e": summ.loc[(cat, "exact")],
+               "sel": sel, "low": low, "low_n": len(low),
+               "measured": int(summ.loc[(cat, "exact"), "measured"]),
                "cases": int(summ.loc[(cat, "exact"), "cases"]),
                "gap": float(((low.exact - low.naive) / low.exact).max())
                if len(low) else 0.0}  # fmt: skip
 
 
+def _asym(frames: dict[str, pd.DataFrame], params: Params):
+    """Per mesh: Melax's cost both ways (``a``); nothing for runs without the frame."""
+    for _, a in frames.get("asymmetry", pd.DataFrame()).iterrows():
+        yield {"a": a, "label": a.label}
+
+
+def _geo(frames: dict[str, pd.DataFrame], params: Params):
+    """Per mesh: one level change as a pop and as a geomorph (``g``)."""
+    for _, g in frames.get("geomorph", pd.DataFrame()).iterrows():
+        yield {"g": g, "label": g.label}
+
+
 _DET = 0.0  # pixel counts of seeded boxes: deterministic
+_SCREEN_OURS = (
+    "|estimate − GL pixels| / pixels, median / p95: naive {n.median_abs_rel_error:.3f} / "
+    "{n.p95_abs_rel_error:.3f}, exact {e.median_abs_rel_error:.4f} / "
+    "{e.p95_abs_rel_error:.4f} ({measured} of {cases} cases ≥ " + f"{MIN_PIXELS} px); "
+    "exact within the sampling band on {within:.1%}; naive's extra error beyond the band: "
+    "median {beyond:+.3f} (band median {band:.3f}); naive below exact in {low_n} cases"
+)
 
 # The table is laid out by hand, one row per block (the formatter would spread it out).
 # fmt: off
@@ -386,24 +477,62 @@ CLAIMS = (
     ),)),
     Each(_categories, (Row(
         "screen size of a box, naive vs exact: {cat}",
-        f"«{DOC_NAIVE}» vs «{DOC_EXACT}» (no numbers)",
-        "|estimate − GL pixels| / pixels, median / p95: naive {n.median_abs_rel_error:.3f} / "
-        "{n.p95_abs_rel_error:.3f}, exact {e.median_abs_rel_error:.4f} / "
-        "{e.p95_abs_rel_error:.4f} ({measured} of {cases} cases ≥ " + f"{MIN_PIXELS} px)",
+        f"«{DOC_NAIVE}» vs «{DOC_EXACT}» (no numbers)", _SCREEN_OURS,
         TREND,
-        (Rule(lambda q: -q.gap, ">=", 0, "of the exact", name="never larger",
-              noise=_DET, flips=(alter("screen_size", "naive", 0.5),)),
-         Rule(lambda q: q.n.median_abs_rel_error - q.e.median_abs_rel_error, ">=", 0, "",
-              name="median error", noise=_DET, flips=(
-                  alter("screen_summary", "median_abs_rel_error", 10.0, "estimate == 'exact'"),
-                  chain(alter("screen_summary", "median_abs_rel_error", 0.0, "estimate == 'exact'"),
-                        alter("screen_size", "exact", 0.5))))),
-        basis="the exact estimate is never larger than the naive one, and its median error is at "
-        "most the naive's (pixel counts of seeded boxes: deterministic)",
-        why=lambda q: f"naive < exact in {len(q.low)} of {len(q.sel)} cases (by up to "
-        f"{q.gap:.1%} of the exact); median errors exact {q.e.median_abs_rel_error:.2g}, naive "
-        f"{q.n.median_abs_rel_error:.2g}",
+        (Rule(lambda q: q.within, ">=", 0.95, "of the cases", name="exact is the true area",
+              noise=_DET, flips=(alter("screen_size", "exact_rel_error", plus=0.5),)),
+         Rule(lambda q: q.beyond, ">", 0, "", name="naive's gap beyond sampling", noise=_DET,
+              flips=(alter("screen_size", "naive_rel_error", expr="exact_rel_error"),))),
+        basis="the exact estimate is within the sampling band 2/√pixels (half a pixel along the "
+        "perimeter of a square of the same area) of the GL's pixels in at least 95 % of the "
+        "cases, and the naive one errs by more than the exact plus that band in over half of "
+        "them (pixel counts of seeded boxes: deterministic); that the exact is never larger "
+        "than the naive is geometry (the silhouette lies inside the 2D box of its corners), "
+        "counted, not judged",
+        why=lambda q: f"exact within the band on {q.within:.1%}; the naive's extra error beyond "
+        f"the band has median {q.beyond:+.3f}",
+        when=lambda q: not q.inside,
+    ), Row(
+        "screen size of a box, naive vs exact: {cat}",
+        f"«{DOC_NAIVE}» vs «{DOC_EXACT}» (no numbers); «27-1 Einträge der LUT»", _SCREEN_OURS,
+        MEASURED,
+        basis="the lecture's claim does not cover it: its table has no silhouette for the "
+        "region inside all three slabs (26 of 27 entries); from inside, both estimates cover "
+        "the screen in most cases",
+        when=lambda q: q.inside,
+    ))),
+    Each(_asym, (Row(
+        "cost(U,V) ≠ cost(V,U), Melax's edge-collapse cost: {label}", f"«{DOC_ASYM}»",
+        "{a.asymmetric:.0f} of {a.edges:.0f} sampled edges cost differently the two ways "
+        "({a.one_way_zero:.0f} zero one way only); median larger ÷ smaller {a.median_ratio:.2f}",
+        TREND,
+        Rule(lambda q: q.a.asymmetric / max(q.a.edges, 1), ">", 0, "of the edges", noise=_DET,
+             flips=(alter("asymmetry", "asymmetric", to=0),)),
+        basis="some edges cost differently collapsed U→V than V→U (curv(U) looks at the "
+        "triangles around U only; deterministic)",
+        why="curv(U) and curv(V) agree on every sampled edge of this mesh",
     ),)),
+    Each(_geo, (Row(
+        "geomorphs between two levels: {label}", f"«{DOC_GEOMORPH}»; «Popping beim Umschalten»",
+        "halving the triangles ({g.fine_triangles:,.0f} → {g.coarse_triangles:,.0f}): largest "
+        "vertex move in one frame, pop {g.pop_move_pct:.2f} % of the diagonal, geomorph over "
+        "{g.frames:.0f} frames {g.geomorph_move_pct:.3f} %; ends off the levels by "
+        "{g.start_off_pct:.1g} / {g.end_off_pct:.1g} %",
+        MEASURED,
+        basis="true by construction, shown in numbers: the geomorph moves each fine vertex "
+        "linearly to the coarse vertex it collapses into (lod.progressive), so its largest "
+        "move per frame is the pop's divided by the frames, and it starts on the fine mesh and "
+        "ends on the coarse one; the lecture gives no numbers",
+    ),)),
+    Row(
+        "alpha-LODs and alpha blending of neighbouring levels",
+        "«Alpha-Blending der beiden benachbarten LOD-Stufen – Man kommt vom Regen in die "
+        "Traufe»; «Alpha-LODs: when beyond a certain range, fade out object until gone»",
+        "not implemented: vislod's renderer draws opaque levels only (no blended pass)",
+        MEASURED,
+        basis="not reproduced; the popping remedies measured are hysteresis (seed001-lod) and "
+        "geomorphs (the rows above)",
+    ),
 )
 # fmt: on
 

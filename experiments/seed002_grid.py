@@ -21,10 +21,11 @@ import numpy as np
 import pandas as pd
 
 from experiments import common, harness
-from experiments.claims import TREND, By, Each, Row, Rule, alter, holds_text
+from experiments.claims import MEASURED, TREND, By, Each, Row, Rule, alter, boot_std, holds_text
 from experiments.common import DISPLAY, require
 
-FRAMES = ("frames", "summary")
+FRAMES = ("frames", "summary", "density")
+DENSITY = 4  # the outdoor flight also on a market with 1/DENSITY of the occludees
 GRID_SIZES = (16, 32, 64)  # cells along the scene's longest axis: sparse, medium, tight
 DOC_CAPS = (4000, 3000, 2000)  # the thesis's query caps
 CAP_SCALES = (1.0, 0.75, 0.5)  # 4000 : 3000 : 2000, applied to our mean uncapped queries
@@ -92,7 +93,8 @@ class Run:
     method: str
     grid_size: int | None = None
     query_cap: int | None = None
-    cap_rule: str = "none"  # "none", "document" or "<scale>x mean"
+    cap_rule: str = "none"  # "none", "document", "<scale>x mean" or "waited"
+    temporal: bool = True  # False: this frame's results, waited for ("waited")
 
     @property
     def label(self) -> str:
@@ -101,6 +103,8 @@ class Run:
         cap = "no cap" if self.query_cap is None else f"cap {self.query_cap}"
         if self.cap_rule.endswith("mean"):
             cap += f" ({self.cap_rule})"
+        if not self.temporal:
+            cap += " (results waited for)"
         return f"grid {self.grid_size} {cap}"
 
 
@@ -113,7 +117,8 @@ def fly(segment: Segment, runs: Sequence[Run], params: Params, truths, progress:
         cullers = {}
         for r in runs:
             grid = r.method == "grid"
-            opts = {"grid_size": r.grid_size, "query_cap": r.query_cap} if grid else {}
+            opts = ({"grid_size": r.grid_size, "query_cap": r.query_cap,
+                     "temporal": r.temporal} if grid else {})  # fmt: skip
             c = soc.Culler(segment.scene, r.method, params.display, **opts)
             cullers[r.label] = stack.enter_context(c)
             c.cull(segment.cameras[0], draw=True)
@@ -130,6 +135,7 @@ def run_segment(segment: Segment, params: Params, progress: bool) -> pd.DataFram
     with soc.Oracle(segment.scene) as oracle:
         truths = [oracle.visible(cam) for cam in segment.cameras]
     first = [Run("frustum")] + [Run("grid", s) for s in params.grid_sizes]
+    first.append(Run("grid", params.cap_size, cap_rule="waited", temporal=False))
     flown = fly(segment, first, params, truths, progress)
     uncapped = flown[flown.method == Run("grid", params.cap_size).label].set_index("frame").queries
     caps = [(c, "document") for c in DOC_CAPS]
@@ -159,6 +165,7 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     statistics, means of the counts, frames slower than frustum only and where the cap binds."""
     segs = segments(params)
     df = pd.concat([run_segment(seg, params, progress) for seg in segs], ignore_index=True)
+    density = density_run(segs[0], params, progress)
     df["objects"] = df.segment.map({s.name: len(s.scene) for s in segs})
     # fmt: off
     summary = df.groupby(["segment", "run"], sort=False).agg(
@@ -176,7 +183,26 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     ).reset_index()
     # fmt: on
     summary["ms_cv"] = summary.ms_std / summary.ms_mean
-    return {"frames": df, "summary": summary}
+    return {"frames": df, "summary": summary, "density": density}
+
+
+def density_run(outdoor: Segment, params: Params, progress: bool) -> pd.DataFrame:
+    """The outdoor cameras on a market with 1/:data:`DENSITY` of the occludees (the same
+    town): frustum culling and the middle grid size, interleaved; per frame and run the frame
+    time and objects drawn (the thesis: with more objects, culling off would be worse)."""
+    import soc
+
+    occluders = int(outdoor.scene.occluder.sum())
+    scene = soc.scenes.market(
+        seed=params.seed, occludees=max(occluders + 1, len(outdoor.scene) // DENSITY)
+    )
+    sparse = Segment("outdoor sparse", scene, outdoor.cameras)
+    flown = fly(sparse, [Run("frustum"), Run("grid", params.cap_size)], params, None, progress)
+    out = flown.rename(columns={"method": "run", "models_visible": "drawn"})
+    out = out[["run", "frame", "drawn", "ms_cull", "ms_draw", "ms_total"]].copy()
+    out["method"] = np.where(out.run.str.startswith("grid"), "grid", "frustum")
+    out["objects"] = len(scene)
+    return out
 
 
 # -- plots ------------------------------------------------------------------------------------
@@ -286,7 +312,62 @@ def _segment_cases(frames, params: Params, need: int = 1, only: Sequence[str] = 
             "doc_binds": int(s[s.cap_rule == "document"].cap_binds_frames.sum()),
             "runs": len(same), "sd_mean": spread["ms_mean"], "sd_std": spread["ms_std"],
             "sd_pop": spread["popping_mean"], "rows": df[df.segment == seg],
+            "pop": lambda a, b, seg=seg: _paired_pop(df, seg, a, b),
+            "waited": _waited(df, seg, params.cap_size),
+            "density": _density(frames, df, params.cap_size) if seg == "outdoor" else None,
         }  # fmt: skip
+
+
+def _paired_pop(df: pd.DataFrame, seg: str, a: str, b: str) -> tuple[float, float | None]:
+    """Mean over frames of popping at cap rule ``b`` minus at ``a`` (the middle size, paired
+    by frame) and the frame-bootstrap standard error of that mean."""
+    s = df[(df.segment == seg) & (df.method == "grid")]
+    pa = s[s.cap_rule == a].set_index("frame").popping
+    pb = s[s.cap_rule == b].set_index("frame").popping
+    d = (pb - pa.reindex(pb.index)).dropna().to_numpy(np.float64)
+    return float(d.mean()) if len(d) else float("nan"), boot_std(np.mean, d)
+
+
+def _waited(df: pd.DataFrame, seg: str, size: int) -> dict[str, Any] | None:
+    """Cull ms per frame of the middle grid size reading this frame's queries (waited for)
+    against reading last frame's: paired mean difference and its frame-bootstrap error."""
+    s = df[(df.segment == seg) & (df.method == "grid") & (df.grid_size == size)]
+    w = s[s.cap_rule == "waited"].set_index("frame")
+    if not len(w):
+        return None
+    t = s[s.cap_rule == "none"].set_index("frame").reindex(w.index)
+    d = (w.ms_cull - t.ms_cull).dropna().to_numpy(np.float64)
+    return {"waited": float(w.ms_cull.mean()), "temporal": float(t.ms_cull.mean()),
+            "diff": float(d.mean()), "se": boot_std(np.mean, d),
+            "pop_w": float(w.popping.mean()), "pop_t": float(t.popping.mean())}  # fmt: skip
+
+
+def _gain(rows: pd.DataFrame) -> tuple[float, float | None]:
+    """Frustum-only mean frame ms over the grid's (interleaved runs of one flight) and the
+    frame-bootstrap standard error of that ratio."""
+    f = rows[rows.method == "frustum"].set_index("frame").ms_total
+    g = rows[rows.method == "grid"].set_index("frame").ms_total.reindex(f.index)
+    ok = g.notna().to_numpy()
+    fv, gv = f.to_numpy(np.float64)[ok], g.to_numpy(np.float64)[ok]
+    return float(fv.mean() / gv.mean()), boot_std(lambda a, b: a.mean() / b.mean(), fv, gv)
+
+
+def _density(frames, df: pd.DataFrame, size: int) -> dict[str, Any] | None:
+    """The culling's gain (frustum ms ÷ grid ms, middle size uncapped) on the outdoor market
+    and on the sparse one (:data:`DENSITY`), each from its own interleaved flight."""
+    sparse = frames.get("density")
+    if sparse is None or not len(sparse):
+        return None
+    out = df[
+        (df.segment == "outdoor")
+        & ((df.method == "frustum") | ((df.grid_size == size) & (df.cap_rule == "none")))
+    ]
+    (g_full, se_full), (g_sparse, se_sparse) = _gain(out), _gain(sparse)
+    noise = None if se_full is None or se_sparse is None else float(np.hypot(se_full, se_sparse))
+    return {"full": g_full, "sparse": g_sparse, "noise": noise,
+            "n_full": int(out.objects.iloc[0]), "n_sparse": int(sparse.objects.iloc[0]),
+            "drawn_full": float(out[out.method == "frustum"].drawn.mean()),
+            "drawn_sparse": float(sparse[sparse.method == "frustum"].drawn.mean())}  # fmt: skip
 
 
 def _even_why(q) -> str:
@@ -318,10 +399,31 @@ def _alike(q) -> float:
     return 2 * np.sqrt(2) * q.sd_mean if q.sd_mean is not None else 0.0
 
 
-def _pops(rule: str) -> tuple:
-    """No popping at the cap ``rule``, or a lot."""
-    return (alter("summary", "popping_mean", 0.0, f"cap_rule == '{rule}'"),
-            alter("summary", "popping_mean", plus=100, where=f"cap_rule == '{rule}'"))  # fmt: skip
+def _pop_rule(a: str, b: str) -> Rule:
+    """Popping per frame grows from cap rule ``a`` to ``b``: the paired mean difference
+    exceeds twice its frame-bootstrap standard error."""
+    return Rule(
+        lambda q: q.pop(a, b)[0],
+        ">",
+        lambda q: 2 * (q.pop(a, b)[1] or 0.0),
+        "objects",
+        noise=lambda q: q.pop(a, b)[1],
+        flips=(
+            alter("frames", "popping", 0.0, f"cap_rule == '{b}'"),
+            alter("frames", "popping", plus=100, where=f"cap_rule == '{b}'"),
+        ),
+    )
+
+
+_POP_BASIS = ("popping per frame grows: the mean over frames of the paired difference exceeds "
+              "twice its frame-bootstrap standard error (the runs themselves repeat exactly: "
+              "a seeded flight, the same queries)")  # fmt: skip
+
+
+def _pop_why(q, a: str, b: str) -> str:
+    d, se = q.pop(a, b)
+    return (f"; the paired difference {d:+.2f} objects per frame is within twice its standard "
+            f"error ({se or float('nan'):.2f})" if d > 0 else _CAP_WHY)  # fmt: skip
 
 
 _CAP_WHY = (": a cell over the cap keeps its last query result (never queried: drawn), so a "
@@ -393,15 +495,22 @@ CLAIMS = (
             "and fluctuate much more noticeably.",
             "std ms frustum only {f.ms_std:.1f}; grid {by.ms_std:.1f}",
             TREND,
-            Rule(lambda q: q.f.ms_std - max(g.ms_std for g in q.gs), ">", 0, "ms",
+            Rule(lambda q: q.f.ms_std - max(g.ms_std for g in q.gs), ">",
+                 lambda q: 2 * np.sqrt(2) * (q.sd_std or 0.0), "ms",
                  noise=lambda q: q.sd_std, flips=(
                      alter("summary", "ms_std", 0.1, "method == 'frustum'"),
                      alter("summary", "ms_std", 10.0, "method == 'frustum'"))),
-            basis=f"frustum culling's frame-time std exceeds every grid size's ({_NOISE})",
-            why="objects drawn: frustum only {f.drawn_mean:.0f} ± {f.drawn_std:.0f}, grid "
-            "{by.drawn_mean:.0f} (std {by.drawn_std:.0f}); the grid's queries add cull time that "
-            "varies with the cells in view (std {by.ms_cull_std:.1f} ms), more than the objects "
-            "it removes take off the variation",
+            basis=lambda q: "frustum culling's frame-time std exceeds every grid size's by more "
+            "than twice the spread of the difference of two identical runs' stds (√2 × the std "
+            f"over {q.runs} identical runs' stds; {_NOISE}): " + holds_text(q.holds),
+            why=lambda q: (
+                f"the gap, {q.f.ms_std - max(g.ms_std for g in q.gs):+.0f} ms, lies within the "
+                "noise of repeated identical runs" if q.f.ms_std > max(g.ms_std for g in q.gs)
+                else "the grid's queries add cull time that varies with the cells in view, "
+                "more than the objects it removes take off the variation") + "; objects drawn: "
+            f"frustum only {q.f.drawn_mean:.0f} ± {q.f.drawn_std:.0f}, grid "
+            f"{q.by.drawn_mean:.0f} (std {q.by.drawn_std:.0f}); cull ms std grid "
+            f"{q.by.ms_cull_std:.1f}",
         ),
         Row(
             "without occlusion culling frame time rises with objects drawn ({seg})",
@@ -438,24 +547,84 @@ CLAIMS = (
         ),
         Row(
             "cap 0.75x (as 3000) pops more than 1x (as 4000) ({seg})", DOC_CAPS_TEXT,
-            "popping per frame {c1.popping_mean:.2f} → {c75.popping_mean:.2f}",
+            lambda q: f"popping per frame {q.c1.popping_mean:.2f} → {q.c75.popping_mean:.2f} "
+            f"(paired by frame {q.pop('1x mean', '0.75x mean')[0]:+.2f} ± "
+            f"{q.pop('1x mean', '0.75x mean')[1] or float('nan'):.2f})",
             TREND,
-            Rule(lambda q: q.c75.popping_mean - q.c1.popping_mean, ">", 0, "objects",
-                 noise=lambda q: q.sd_pop, flips=_pops("0.75x mean")),
-            basis=f"mean popping per frame grows ({_NOISE})",
-            why="objects drawn {c1.drawn_mean:.0f} → {c75.drawn_mean:.0f}" + _CAP_WHY,
+            _pop_rule("1x mean", "0.75x mean"),
+            basis=_POP_BASIS,
+            why=lambda q: f"objects drawn {q.c1.drawn_mean:.0f} → {q.c75.drawn_mean:.0f}"
+            + _pop_why(q, "1x mean", "0.75x mean"),
         ),
         Row(
             "cap 0.5x (as 2000) pops more than 0.75x ({seg})",
             "The scene was also tried with a query cap of 2000 but the popping artifacts were too "
             "noticeable leading to unacceptable compromises in visual quality.",
-            "popping per frame {c75.popping_mean:.2f} → {c50.popping_mean:.2f} "
-            "(max {c50.popping_max:.0f})",
+            lambda q: f"popping per frame {q.c75.popping_mean:.2f} → {q.c50.popping_mean:.2f} "
+            f"(max {q.c50.popping_max:.0f}; paired by frame "
+            f"{q.pop('0.75x mean', '0.5x mean')[0]:+.2f} ± "
+            f"{q.pop('0.75x mean', '0.5x mean')[1] or float('nan'):.2f})",
             TREND,
-            Rule(lambda q: q.c50.popping_mean - q.c75.popping_mean, ">", 0, "objects",
-                 noise=lambda q: q.sd_pop, flips=_pops("0.5x mean")),
-            basis=f"mean popping per frame grows ({_NOISE})",
-            why="objects drawn {c75.drawn_mean:.0f} → {c50.drawn_mean:.0f}" + _CAP_WHY,
+            _pop_rule("0.75x mean", "0.5x mean"),
+            basis=_POP_BASIS,
+            why=lambda q: f"objects drawn {q.c75.drawn_mean:.0f} → {q.c50.drawn_mean:.0f}"
+            + _pop_why(q, "0.75x mean", "0.5x mean"),
+        ),
+        Row(
+            "reading query results stalls the CPU ({seg})",
+            "Although hardware occlusion queries can cause CPU stalls, using them wisely can be "
+            "very beneficial. … The CPU stall from gathering query results from last frame "
+            "mentioned earlier would be less impactful since the engine has more work to do.",
+            lambda q: f"grid {q.mid}, cull ms per frame: this frame's results waited for "
+            f"{q.waited['waited']:.1f}, last frame's read (the thesis's way) "
+            f"{q.waited['temporal']:.1f} (paired {q.waited['diff']:+.1f} ± "
+            f"{q.waited['se'] or float('nan'):.1f}); popping {q.waited['pop_w']:.2f} vs "
+            f"{q.waited['pop_t']:.2f} per frame",
+            TREND,
+            Rule(lambda q: q.waited["diff"], ">", lambda q: 2 * (q.waited["se"] or 0.0), "ms",
+                 noise=lambda q: q.waited["se"], flips=(
+                     alter("frames", "ms_cull", 0.1, "cap_rule == 'waited'"),
+                     alter("frames", "ms_cull", 10.0, "cap_rule == 'waited'"))),
+            basis="waiting for this frame's query results costs more cull time than reading "
+            "last frame's, by more than twice the frame-bootstrap standard error of the paired "
+            "mean",
+            why="on llvmpipe a query is rasterized on the CPU when it is issued and finished "
+            "before the frame is timed: there is no GPU running ahead whose results the CPU "
+            "would wait for, so reading them now or a frame later costs the same",
+            when=lambda q: q.waited is not None,
+        ),
+        Row(
+            "with more objects, culling off would be even worse ({seg})",
+            "If the scene had more objects to add even more detail, occlusion culling being off "
+            "would produce even worse performance.",
+            lambda q: f"frustum-only ÷ grid {q.mid} mean frame time: {q.density['sparse']:.2f} "
+            f"with {q.density['n_sparse']:,} objects ({q.density['drawn_sparse']:.0f} in view), "
+            f"{q.density['full']:.2f} with {q.density['n_full']:,} "
+            f"({q.density['drawn_full']:.0f} in view)",
+            TREND,
+            Rule(lambda q: q.density["full"] - q.density["sparse"], ">",
+                 lambda q: 2 * (q.density["noise"] or 0.0), "",
+                 noise=lambda q: q.density["noise"], flips=(
+                     alter("density", "ms_total", 10.0, "method == 'frustum'"),
+                     alter("density", "ms_total", 0.1, "method == 'frustum'"))),
+            basis=f"the culling's gain (frustum-only frame time ÷ the grid's, each pair from one "
+            f"interleaved flight) is larger on the market than on the same town with 1/{DENSITY} "
+            "of its objects, by more than twice the gains' frame-bootstrap errors",
+            why="the grid's own cost grows with the objects about as fast as the drawing it "
+            "saves",
+            when=lambda q: q.density is not None,
+        ),
+        Row(
+            "the frustum traversal visits cells front to back ({seg})",
+            "The approximate front to back frustum traversal algorithm would work great for "
+            "sorting alpha blended objects in the correct order since only occlusion order is "
+            "needed, not true depth order.",
+            lambda q: f"grid {q.mid}: {q.g[q.mid].queries_mean:.0f} cells queried per frame, "
+            "in the order of their box's nearest point along the view direction",
+            MEASURED,
+            basis="true by construction, not a finding: soc.culling.grid gathers the cells the "
+            "frustum's corner box touches and sorts them by depth (exactly front to back by "
+            "centres), not by the thesis's 3D rasterization of the frustum's edge list",
         ),
         Row(
             "culling sometimes makes a frame slower than frustum only ({seg})",

@@ -17,6 +17,12 @@ lecture, seed 001). We do the same on this process's GL context (Mesa llvmpipe):
     as make ``target_ms`` (≥ a few ms, so that ``ctx.finish()`` timing is meaningful), and
     its time per draw is the median over ``repeats`` of ``(t − t_empty) / k``, ``t_empty`` the
     time of a frame that draws nothing (clear + finish: :attr:`Calibration.per_frame_ms`).
+    Cheap levels get up to :data:`MAX_COPIES` copies so that their batch too lasts
+    ``target_ms``. The empty frame's own spread is measured (its floor: :data:`FLOOR_SIGMAS`
+    robust standard deviations of the empty frames, per draw of the batch): a sample whose
+    time does not rise above it is *below the floor*, kept with its raw value and flagged
+    (:attr:`Samples.resolved`), and left out of the fit and of the errors — never clipped to
+    0 ms, which made a relative error infinite.
     Pixels are the exact projected area of the copy's AABB (:func:`lod.projected_area`) —
     what the selection knows at run time, so the fitted C3 converts *that* into time.
 ``fit`` — least squares on the relative residuals ``(model − t) / t`` (times span three
@@ -27,11 +33,12 @@ lecture, seed 001). We do the same on this process's GL context (Mesa llvmpipe):
     lecture's max() model, and the same with an edge term ``C4·sqrt(Poly·Pixels)`` on the
     fill side combined by max or by sum — on llvmpipe the same CPU cores transform vertices
     and shade pixels (so the two costs need not overlap), and small triangles cost extra
-    per pixel along their edges. Measured at 1080p on a shared 2-core machine: held-out RMS
-    16–23 % with the edge term (sum), 36–41 % for the lecture's model.
-``calibrate`` — measure, fit every variant on 3/4 of the samples, report the error on the
-    held-out 1/4 (relative RMS and maximum), keep the best variant, and cache the result as
-    JSON keyed by the GL renderer string, llvmpipe's thread count and the resolution, so
+    per pixel along their edges (the held-out errors of all three are in the seed-001
+    experiment's calibration table).
+``calibrate`` — measure, fit every variant on 3/4 of the samples above the floor, report the
+    error on the held-out 1/4 of them (relative RMS and maximum), keep the best variant, and
+    cache the result as JSON keyed by the GL renderer string, llvmpipe's thread count and the
+    resolution, so
     experiments do not re-measure every run (``force=True`` re-measures: the constants are
     only as good as the machine was quiet while they were measured).
 ``frame_factor`` — isolated draws run warmer than the frames of a whole scene; the median
@@ -61,7 +68,7 @@ from soc.gl.context import uses_gl
 # -- configuration --------------------------------------------------------------------------
 
 # Bump when the measurement or the fit changes: cached calibrations are then ignored.
-VERSION = "lod-calibration-1"
+VERSION = "lod-calibration-2"
 # Camera distances, in bounding radii of the object: from filling the screen's height to a
 # few dozen pixels across at 1080p (60° field of view).
 DISTANCES = (1.8, 2.6, 4.0, 7.0, 13.0, 30.0, 70.0)
@@ -69,9 +76,11 @@ QUICK_DISTANCES = (2.0, 5.0, 15.0, 50.0)
 # View direction onto every stack (object to eye), a little from above and the side.
 VIEW_DIRECTION = (0.3, 0.35, 1.0)
 FOV_Y = 60.0
-# Copies per stack: enough for about this many triangles, within [MIN_COPIES, MAX_COPIES].
+# Copies per stack: enough for about this many triangles, within [MIN_COPIES, MAX_COPIES]. The
+# cap is high so that a batch of a level of a few hundred triangles, seen from afar, still lasts
+# about ``target_ms`` (at 64 copies such batches at 1080p stayed under the empty frame's noise).
 STACK_TRIANGLES = 120_000
-MIN_COPIES, MAX_COPIES = 4, 64
+MIN_COPIES, MAX_COPIES = 4, 1024
 # Gap between consecutive copies of a stack, in bounding radii: far above the depth buffer's
 # resolution (near/far planes hug the stack) and far below a pixel.
 STACK_GAP = 1e-4
@@ -81,6 +90,11 @@ SOUP_EVERY = 2
 # the clear subtracted from it are small against it.
 TARGET_MS = 12.0
 REPEATS = 5
+# Empty frames timed per round (their median is subtracted, their spread is the floor).
+EMPTY_FRAMES = 7
+# A sample is resolved when its time per batch exceeds this many robust standard deviations
+# (1.4826 · median absolute deviation) of the empty frames: below, it is the clock's noise.
+FLOOR_SIGMAS = 2.0
 # Share of samples held out of the fit to report its error (every HOLDOUT_EVERY-th sample).
 HOLDOUT_EVERY = 4
 # Models fitted: name → (combine, with the edge term). "lecture" is Funkhouser–Séquin's
@@ -110,7 +124,11 @@ class Samples:
     batch : int64
         Draws per timed call (copies of the stack).
     ms : float64
-        Time per draw, ms (median over repeats, empty frame subtracted).
+        Time per draw, ms (median over repeats, empty frame subtracted; may be <= 0 for a
+        sample below the floor).
+    floor_ms : float64, optional
+        Per draw, the measured noise floor of the sample's batch (:data:`FLOOR_SIGMAS` robust
+        standard deviations of the empty frames ÷ ``batch``); None: 0 (synthetic samples).
     """
 
     prototype: np.ndarray
@@ -122,13 +140,28 @@ class Samples:
     pixels: np.ndarray
     batch: np.ndarray
     ms: np.ndarray
+    floor_ms: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.ms)
 
+    @property
+    def floor(self) -> np.ndarray:
+        """(S,) float64: :attr:`floor_ms`, zeros when not measured."""
+        if self.floor_ms is None:
+            return np.zeros(len(self))
+        return np.asarray(self.floor_ms, np.float64)
+
+    @property
+    def resolved(self) -> np.ndarray:
+        """(S,) bool: the sample's time per draw lies above its floor (finite, > 0): the
+        samples the fit and its errors use."""
+        ms = np.asarray(self.ms, np.float64)
+        return np.isfinite(ms) & (ms > 0) & (ms > self.floor)
+
     def rows(self) -> list[dict[str, Any]]:
-        """One dict per sample (for CSV files)."""
-        cols = asdict(self)
+        """One dict per sample (for CSV files), with ``resolved``."""
+        cols = {**asdict(self), "floor_ms": self.floor, "resolved": self.resolved}
         return [{k: v[i].item() for k, v in cols.items()} for i in range(len(self))]
 
     @classmethod
@@ -137,7 +170,7 @@ class Samples:
         types = {"prototype": np.int64, "level": np.int64, "soup": bool, "batch": np.int64}
         return cls(
             **{
-                k: np.array([r[k] for r in rows], dtype=types.get(k, np.float64))
+                k: np.array([r.get(k, 0.0) for r in rows], dtype=types.get(k, np.float64))
                 for k in cls.__dataclass_fields__
             }
         )
@@ -145,11 +178,15 @@ class Samples:
 
 @dataclass(frozen=True)
 class FitError:
-    """Relative error ``|model − measured| / measured`` of a cost model on samples."""
+    """Relative error ``|model − measured| / measured`` of a cost model on samples.
+
+    ``samples``: the resolved samples it is over; ``below_floor``: those of the same side
+    (fitted or held out) left out because their time did not rise above the floor."""
 
     rms: float
     max: float
     samples: int
+    below_floor: int = 0
 
 
 @dataclass(frozen=True)
@@ -308,14 +345,27 @@ def fit_and_validate(
     seconds: float = 0.0,
 ) -> Calibration:
     """Fit every variant on the training samples, measure it on the held-out ones (every
-    :data:`HOLDOUT_EVERY`-th sample) and return the chosen one (``variant``, or the lowest
-    held-out relative RMS) as a :class:`Calibration`."""
+    :data:`HOLDOUT_EVERY`-th sample; both only the samples above their floor,
+    :attr:`Samples.resolved`) and return the chosen one (``variant``, or the lowest held-out
+    relative RMS) as a :class:`Calibration`. ValueError when the held-out error is not finite
+    (nothing to choose by)."""
     test = holdout_mask(len(samples))
+    ok = samples.resolved
     fits = {}
     for name in VARIANTS:
-        model = fit(samples, ~test, variant=name)
-        fits[name] = (model, fit_error(model, samples, ~test), fit_error(model, samples, test))
-    chosen = variant or min(VARIANTS, key=lambda name: fits[name][2].rms)
+        model = fit(samples, ~test & ok, variant=name)
+        fits[name] = (
+            model,
+            _side_error(model, samples, ~test, ok),
+            _side_error(model, samples, test, ok),
+        )
+    held = {name: fits[name][2].rms for name in VARIANTS}
+    if variant is None and not all(math.isfinite(e) for e in held.values()):
+        raise ValueError(
+            f"held-out errors {held} are not all finite: too few resolved samples "
+            f"({int((test & ok).sum())} held out); measure with longer batches (target_ms)"
+        )
+    chosen = variant or min(VARIANTS, key=held.__getitem__)
     model, train, held = fits[chosen]
     alternatives = {
         name: {"model": asdict(m), "train": asdict(tr), "held_out": asdict(te)}
@@ -333,6 +383,12 @@ def fit_and_validate(
         resolution,
         seconds,
     )
+
+
+def _side_error(model: CostModel, samples: Samples, side: np.ndarray, ok: np.ndarray) -> FitError:
+    """:func:`fit_error` over the resolved samples of ``side``, counting the others."""
+    e = fit_error(model, samples, side & ok)
+    return FitError(e.rms, e.max, e.samples, int((side & ~ok).sum()))
 
 
 def frame_factor(predicted_ms, measured_ms) -> float:
@@ -435,7 +491,9 @@ def measure(
     A pilot pass sizes each sample's batch; then ``repeats`` rounds each time every sample
     once (in a different order per round), so that a burst of load from other processes on
     a shared machine spoils one round of many samples rather than every round of one; the
-    median over rounds is kept.
+    median over rounds is kept. Each round also times :data:`EMPTY_FRAMES` empty frames: their
+    median is subtracted, their robust spread (over all rounds) is the floor
+    (:attr:`Samples.floor_ms`) under which a sample is not resolved.
     """
     from tqdm.auto import tqdm
 
@@ -478,14 +536,18 @@ def measure(
     empties = []
     order = np.arange(len(jobs))
     for k in range(repeats):
-        t_empty = float(np.median([renderer.draw(cams[0], empty) for _ in range(3)]))
-        empties.append(t_empty)
+        round_empty = [renderer.draw(cams[0], empty) for _ in range(EMPTY_FRAMES)]
+        empties += round_empty
+        t_empty = float(np.median(round_empty))
         for j in np.roll(order, -k * len(jobs) // repeats)[:: 1 if k % 2 == 0 else -1]:
             s = jobs[j][0]
             t = renderer.draw(cams[j], stacks.ids[s][: batch[j]])
-            ms[k, j] = max(t - t_empty, 0.0) / batch[j]
+            ms[k, j] = (t - t_empty) / batch[j]  # raw: below the floor it may be <= 0
             bar.update(1)
     bar.close()
+    e = np.asarray(empties)
+    spread = 1.4826 * float(np.median(np.abs(e - np.median(e))))
+    floor = FLOOR_SIGMAS * spread / batch
     info = np.array([stacks.info[s] for s, _ in jobs], dtype=np.int64)
     samples = Samples(
         info[:, 0],
@@ -497,6 +559,7 @@ def measure(
         pixels,
         batch,
         np.median(ms, axis=0),
+        floor.astype(np.float64),
     )
     return float(np.median(empties)), samples
 
@@ -510,8 +573,11 @@ def predict(model: CostModel, samples: Samples) -> np.ndarray:
 
 
 def fit_error(model: CostModel, samples: Samples, mask: np.ndarray | None = None) -> FitError:
-    """Relative RMS and maximum of ``(predicted − measured) / measured`` over ``mask``."""
+    """Relative RMS and maximum of ``(predicted − measured) / measured`` over ``mask`` (NaN
+    over no sample)."""
     m = np.ones(len(samples), bool) if mask is None else np.asarray(mask, bool)
+    if not m.any():
+        return FitError(math.nan, math.nan, 0)
     t = samples.ms[m]
     rel = (predict(model, samples)[m] - t) / t
     return FitError(float(np.sqrt(np.mean(rel**2))), float(np.abs(rel).max()), int(m.sum()))

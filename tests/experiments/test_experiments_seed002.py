@@ -30,9 +30,12 @@ def test_frames_have_every_run_and_frame(grid_run):
         assert col in df, col
     for seg in ("outdoor", "indoor"):
         s = df[df.segment == seg]
-        assert s.run.nunique() == 1 + 3 + 3 + 3
+        # frustum, 3 sizes, the middle size waiting for its results, 3 + 3 caps
+        assert s.run.nunique() == 1 + 3 + 1 + 3 + 3
         assert len(s) == s.run.nunique() * FRAMES
-        assert set(s.cap_rule) >= {"none", "document", "1x mean", "0.5x mean"}
+        assert set(s.cap_rule) >= {"none", "document", "1x mean", "0.5x mean", "waited"}
+        waited = s[s.cap_rule == "waited"]
+        assert (waited.popping == 0).all()  # this frame's results: conservative, no popping
     assert (df.popping >= 0).all() and (df.ms_total >= df.ms_draw).all()
     assert (df[df.method == "frustum"].popping == 0).all()  # frustum culling is conservative
 
@@ -53,8 +56,15 @@ def test_document_caps_do_not_bind_but_scaled_caps_do(grid_run):
 def test_claims_have_harness_verdicts_and_quote_the_thesis(grid_run):
     c = grid_run.claims
     assert list(c.columns) == list(harness.CLAIM_COLUMNS)
-    assert set(c.verdict) <= {harness.TREND, harness.DIFFERS}
+    assert set(c.verdict) <= {harness.TREND, harness.DIFFERS, harness.MEASURED}
     assert (c[c.verdict == harness.DIFFERS].why.str.len() > 0).all()
+    # only the traversal order, true by construction, is measured
+    assert c[c.verdict == harness.MEASURED].item.str.startswith("the frustum traversal").all()
+    pops = c[c.item.str.contains("pops more")]
+    # the frame bootstrap's noise, zero only where every frame's paired difference is zero
+    assert len(pops) == 4
+    assert (pops.margin.str.contains("noise") | pops.margin.str.startswith("+0 objects")).all()
+    assert (grid_run.frames["density"].objects < grid_run.frames["frames"].objects.max()).all()
     topics = " ".join(c.item)
     for word in ("sparsest", "tightest", "even", "fluctuates", "pops", "slower"):
         assert word in topics, word

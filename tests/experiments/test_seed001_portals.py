@@ -43,9 +43,17 @@ def test_claims_and_picture(run):
     c = exp.claims(frames, params)
     assert list(c.columns) == list(harness.CLAIM_COLUMNS)
     assert set(c.verdict) <= set(harness.VERDICTS)
-    assert (c.verdict[:2] == harness.TREND).all(), c
-    assert c.document.iloc[0].startswith("«Beobachtung: viele Räume")
-    assert "0 false culls" in c.ours.iloc[2]
+    c = c.set_index("item")
+    rooms = c.loc["portal culling: rooms in the frustum that are not visible"]
+    assert rooms.document.startswith("«Beobachtung: viele Räume")
+    assert rooms.verdict in (harness.TREND, harness.DIFFERS) and "rooms" in rooms.ours
+    assert "noise" in rooms.margin and "deterministic" not in rooms.margin
+    # portals only narrow the frustum: culling more is construction, not a finding
+    assert c.loc["portal culling culls more than the frustum alone"].verdict == harness.MEASURED
+    assert c.loc["portal culling from a viewpoint (portal narrowing)"].verdict == harness.TREND
+    assert "0 false culls" in c.loc["portal culling is conservative"].ours
+    f = frames["frames"]
+    assert (f.rooms_hidden <= f.rooms_in_frustum).all() and (f.rooms_visible >= 0).all()
     fig = exp.plot_rooms(frames, params)
     assert len(fig.axes) == 2
 

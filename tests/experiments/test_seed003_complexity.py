@@ -169,3 +169,34 @@ def test_notebook_computes_and_draws_no_png_files():
     assert code and all(c["outputs"] == [] and c["execution_count"] is None for c in code)
     text = json.dumps(nb)
     assert "Image(filename" not in text and "seed003_complexity.plot_lights" in text
+
+
+_SQUARE = np.array([[1, 0, 0, 1], [-1, 0, 0, 1], [0, 1, 0, 1], [0, -1, 0, 1]], float)
+
+
+@pytest.mark.parametrize(
+    "corners, vertices",
+    [
+        (((0, 0), (0.5, 0), (0, 0.5)), 3),  # inside: untouched
+        (((-2, 0), (0.5, 0), (0, 0.5)), 4),  # one corner cut off by x >= -1: a quad
+        (((-2, 0), (-3, 0), (-2, 1)), 0),  # outside one plane: nothing left
+        (((-3, -1.5), (3, -1.5), (0, 3)), 4),  # covers the square: the square
+        (((-2.2, -1.3), (2.2, -1.3), (0, 2)), 6),  # cuts two of its corners
+        (((-2.2, -0.5), (2.2, -1.6), (0, 2)), 7),  # cuts three: 3 + 4 planes' vertices
+    ],
+)
+def test_clip_polygons_counts_the_vertices_left_against_the_square(corners, vertices):
+    """Clipping a triangle in the plane z = 0, w = 1 against x, y in [-1, 1] (four planes):
+    hand-checked vertex counts; the last exceeds what «bis zu vier Dreiecke» allows per plane
+    count (7 vertices = 5 triangles from four planes)."""
+    tri = np.array([[[x, y, 0.0, 1.0] for x, y in corners]])
+    assert s3.clip_polygons(tri, _SQUARE).tolist() == [vertices]
+
+
+def test_clipping_frame_counts_every_triangle_once():
+    c = s3.clipping(2_000, seed=1)
+    for _, g in c.groupby("case"):
+        assert g["count"].sum() == 2_000
+        assert g.max_triangles.iloc[0] == g[g["count"] > 0].triangles_after.max()
+    near_far = c[c.case.str.startswith("near")]
+    assert near_far.max_triangles.iloc[0] <= 3  # two planes: at most 3 + 2 vertices

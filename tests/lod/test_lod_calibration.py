@@ -66,6 +66,41 @@ def test_fit_and_validate_picks_the_model_that_generated_the_data():
     assert c.alternatives["lecture"]["held_out"]["rms"] > 2 * c.held_out.rms
 
 
+def _with_floor(s: Samples, below: np.ndarray, floor: float) -> Samples:
+    """``s`` with the ``below`` samples at or under a measured ``floor`` (ms per draw) and
+    every other sample above it, as :func:`lod.calibration.measure` records them."""
+    ms = np.where(below, np.linspace(-0.5, 1.0, len(s)) * floor, s.ms)
+    fields = {k: getattr(s, k) for k in Samples.__dataclass_fields__}
+    return Samples(**{**fields, "ms": ms, "floor_ms": np.where(below, floor, 0.0)})
+
+
+def test_samples_below_the_floor_leave_the_held_out_error_finite_and_the_choice_working():
+    """Draws that measure under the empty frame (ms <= 0, the old clip's 0 ms) are flagged,
+    left out of the fit and both errors and counted; the held-out error is finite and picks
+    the model that generated the data — with them kept, every variant's held-out error was
+    inf and the first variant won by default."""
+    truth = CostModel(1.2e-4, 8e-6, 4e-6, 1e-3, 8e-5, "sum")
+    s = synthetic_samples(truth, noise=0.03, seed=2)
+    below = np.zeros(len(s), bool)
+    below[[1, 5, 9, 13, 20]] = True  # 4 held out (index % 4 == 1), 1 fitted
+    s = _with_floor(s, below, floor=float(s.ms.min()) / 2)
+    assert (s.resolved == ~below).all()
+    c = cal.fit_and_validate(s, per_frame_ms=1.5)
+    assert np.isfinite(c.held_out.rms) and c.held_out.rms < 0.06
+    assert (c.held_out.below_floor, c.train.below_floor) == (4, 1)
+    assert c.held_out.samples == int((cal.holdout_mask(len(s)) & ~below).sum())
+    assert c.variant == "sum+edge" != next(iter(cal.VARIANTS))
+    errors = {k: v["held_out"]["rms"] for k, v in c.alternatives.items()}
+    assert c.variant == min(errors, key=errors.get) and len(set(errors.values())) == 3
+
+
+def test_a_calibration_without_resolved_held_out_samples_is_refused():
+    s = synthetic_samples(CostModel(), noise=0.0)
+    s = _with_floor(s, cal.holdout_mask(len(s)), floor=float(s.ms.max()))
+    with pytest.raises(ValueError, match="not all finite"):
+        cal.fit_and_validate(s, per_frame_ms=1.0)
+
+
 def test_fit_error_by_hand():
     s = synthetic_samples(CostModel(), noise=0.0)
     m = CostModel(2e-5 * 1.1, 1e-5 * 1.1, 2e-6 * 1.1)  # every prediction 10 % high
@@ -103,7 +138,7 @@ def test_bad_input_raises():
     with pytest.raises(ValueError, match="at least 4"):
         cal.fit(s, np.arange(len(s)) < 3)
     bad = Samples(
-        *(getattr(s, k) for k in Samples.__dataclass_fields__ if k != "ms"), ms=np.zeros(len(s))
+        **{k: getattr(s, k) for k in Samples.__dataclass_fields__} | {"ms": np.zeros(len(s))}
     )
     with pytest.raises(ValueError, match="positive"):
         cal.fit(bad)
@@ -148,10 +183,15 @@ def measured(chains, tmp_path_factory):
 def test_gl_fit_predicts_held_out_draws(measured):
     c, _ = measured
     assert not c.cached and c.seconds > 0
-    assert len(c.samples) == c.train.samples + c.held_out.samples
-    assert c.held_out.rms <= GL_HELD_OUT_RMS, c.alternatives
+    below = c.train.below_floor + c.held_out.below_floor
+    assert len(c.samples) == c.train.samples + c.held_out.samples + below
+    assert below == int((~c.samples.resolved).sum()) and below <= len(c.samples) // 10
+    assert np.isfinite(c.held_out.rms) and c.held_out.rms <= GL_HELD_OUT_RMS, c.alternatives
+    held = {k: v["held_out"]["rms"] for k, v in c.alternatives.items()}
+    assert c.variant == min(held, key=held.get)  # the choice is the held-out error's
     # the data are informative: time grows with polygons and with pixels
     s = c.samples
+    assert (s.floor > 0).all()  # measured, per sample
     assert c.model.per_polygon > 0 and (c.model.per_pixel > 0 or c.model.per_edge > 0)
     far = s.distance == s.distance.max()
     big, small = far & (s.level == 0) & ~s.soup, far & (s.level == s.level.max())
