@@ -45,6 +45,7 @@ from __future__ import annotations
 import ctypes
 import heapq
 from collections import deque
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -52,6 +53,8 @@ from soc.culling import chc_traversal
 from soc.culling.bvh import box_distance, build
 from soc.gl import compiled as compiled_gl
 from soc.methods.base import MethodOutput, register, stage
+from soc.methods.options import MethodOptions, option
+from soc.methods.options import build as build_options
 from soc.methods.prepass_queries import PrepassQueryMethod
 
 # Nodes per query batch (CHC++ "multiqueries"/i-queue). Larger batches mean fewer depth
@@ -70,12 +73,12 @@ DEFAULT_LEAF_SIZE = 8
 REVISIT_SEED = 0
 
 
-@register
-class CoherentHierarchicalCulling(PrepassQueryMethod):
-    """CHC/CHC++ over a BVH of the objects, depth from the objects it finds visible.
+@dataclass(frozen=True)
+class CoherentHierarchicalOptions(MethodOptions):
+    """Options of ``chc`` (:class:`CoherentHierarchicalCulling`).
 
-    Options
-    -------
+    Attributes
+    ----------
     temporal : bool
         Reuse last frame's visible nodes (default True). False: every node is queried every
         frame (strictly per-frame; used by the oracle tests).
@@ -85,8 +88,6 @@ class CoherentHierarchicalCulling(PrepassQueryMethod):
         Nodes per query batch, default :data:`DEFAULT_BATCH_SIZE`.
     leaf_size : int
         Objects per BVH leaf, default :data:`DEFAULT_LEAF_SIZE`.
-    prepass : bool
-        Seed the depth with the frustum-surviving occluders first (default True).
     compiled : bool
         Run the traversal — heap, queues, draws, queries, polls, read-backs — as one numba
         loop calling GL (:mod:`soc.culling.chc_traversal`, default); False: the Python
@@ -95,42 +96,44 @@ class CoherentHierarchicalCulling(PrepassQueryMethod):
         Consume query results as soon as GL has them (default, CHC's behaviour). False:
         only when the traversal has nothing else to do, which makes a frame independent of
         the GL's timing (used to compare the two traversals command for command).
+    """
+
+    temporal: bool = True
+    revisit_interval: int = option(DEFAULT_REVISIT_INTERVAL, low=1)
+    batch_size: int = option(DEFAULT_BATCH_SIZE, low=1)
+    leaf_size: int = option(DEFAULT_LEAF_SIZE, low=1)
+    compiled: bool = True
+    poll: bool = True
+
+
+@register
+class CoherentHierarchicalCulling(PrepassQueryMethod):
+    """CHC/CHC++ over a BVH of the objects, depth from the objects it finds visible.
+
+    Options: :class:`CoherentHierarchicalOptions`. The depth starts from the frustum-surviving
+    occluders (seed 000's prepass) every frame.
 
     Conservative (see the module docstring); ``temporal`` reuse trades extra draws, not misses.
-    Timings: ``"frustum"``, ``"prepass"`` (when on) and ``"traverse"`` (queries and depth
-    rendering of visible leaves, interleaved).
+    Timings: ``"frustum"``, ``"prepass"`` and ``"traverse"`` (queries and depth rendering of
+    visible leaves, interleaved).
     """
 
     name = "chc"
     conservative = True
     temporal = True
+    Options = CoherentHierarchicalOptions
 
     def __init__(
-        self,
-        geometry,
-        resolution,
-        config,
-        *,
-        temporal: bool = True,
-        revisit_interval: int = DEFAULT_REVISIT_INTERVAL,
-        batch_size: int = DEFAULT_BATCH_SIZE,
-        leaf_size: int = DEFAULT_LEAF_SIZE,
-        prepass: bool = True,
-        compiled: bool = True,
-        poll: bool = True,
+        self, geometry, resolution, config, options: CoherentHierarchicalOptions | None = None
     ):
-        super().__init__(geometry, resolution, config, compiled=compiled)
-        if revisit_interval < 1 or batch_size < 1 or leaf_size < 1:
-            raise ValueError(
-                "revisit_interval, batch_size and leaf_size must be >= 1, got "
-                f"{revisit_interval}, {batch_size}, {leaf_size}"
-            )
-        self.temporal = bool(temporal)
-        self.revisit_interval = int(revisit_interval)
-        self.batch_size = int(batch_size)
-        self.prepass = bool(prepass)
-        self.poll = bool(poll)
-        self.bvh = build(self.scene.aabbs, leaf_size)
+        options = build_options(type(self), options)
+        super().__init__(geometry, resolution, config, compiled=options.compiled)
+        self.options = options
+        self.temporal = options.temporal
+        self.revisit_interval = options.revisit_interval
+        self.batch_size = options.batch_size
+        self.poll = options.poll
+        self.bvh = build(self.scene.aabbs, options.leaf_size)
         rng = np.random.default_rng(REVISIT_SEED)
         self.phase = rng.integers(0, self.revisit_interval, len(self.bvh))
         self.program = self.glctx.program("mesh.vert", "depth_only.frag")
@@ -155,7 +158,7 @@ class CoherentHierarchicalCulling(PrepassQueryMethod):
 
     def cull(self, camera) -> MethodOutput:
         timings: dict[str, float] = {}
-        in_frustum, frustum_culled, test = self.start_frame(camera, timings, prepass=self.prepass)
+        in_frustum, frustum_culled, test = self.start_frame(camera, timings)
         if not test:
             return MethodOutput(in_frustum, frustum_culled, 0, timings)
         with stage(timings, "frustum"):

@@ -34,63 +34,71 @@ anyway.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from soc.culling.frustum import aabbs_in_frustum
 from soc.culling.grid import DEFAULT_GRID_SIZE, build_grid
 from soc.methods.base import MethodOutput, frustum_stage, prepass_stage, register, stage
+from soc.methods.options import MethodOptions, option
+from soc.methods.options import build as build_options
 from soc.methods.prepass_queries import PrepassQueryMethod
 
 UNKNOWN, OCCLUDED, VISIBLE = -1, 0, 1  # a cell's last known query result
+
+
+@dataclass(frozen=True)
+class GridOptions(MethodOptions):
+    """Options of ``grid`` (:class:`GridCulling`).
+
+    Attributes
+    ----------
+    grid_size : int or (3,) int
+        Cells along the scene's longest axis (cubic cells), or cells per axis. Default
+        :data:`soc.culling.grid.DEFAULT_GRID_SIZE`.
+    temporal : bool
+        True (default): decide with the results of earlier frames, never wait (popping; the
+        instance is not conservative). False: wait for this frame's results (conservative;
+        used by the oracle tests).
+    query_cap : int or None
+        At most this many cell queries per frame, nearest cells first; None = no cap.
+    min_fill : float
+        Skip occlusion culling for a frame when fewer than this fraction of the grid cells
+        the frustum touches are non-empty (0 = never skip; seed 002's proposal).
+    compiled : bool
+        Issue and read the cell queries from numba loops over the GL entry points (default);
+        False: one Python call chain per query (the tested reference).
+    """
+
+    grid_size: int | tuple[int, int, int] = option(DEFAULT_GRID_SIZE, low=1)
+    temporal: bool = True
+    query_cap: int | None = option(None, low=0)
+    min_fill: float = option(0.0, low=0.0, high=1.0)
+    compiled: bool = True
 
 
 @register
 class GridCulling(PrepassQueryMethod):
     """Occlusion queries on uniform-grid cells, front to back, with temporal coherence.
 
-    Options (keyword arguments of ``soc.Culler(scene, method="grid", ...)``)
-    -------------------------------------------------------------------------
-    grid_size : int or (3,) int
-        Cells along the scene's longest axis (cubic cells), or cells per axis. Default 32.
-    temporal : bool
-        True (default): decide with the results of earlier frames, never wait (popping).
-        False: wait for this frame's results (conservative; used by the oracle tests).
-    query_cap : int or None
-        At most this many cell queries per frame, nearest cells first; None = no cap.
-    min_fill : float
-        Skip occlusion culling for a frame when fewer than this fraction of the grid cells
-        the frustum touches are non-empty (0 = never skip).
-    compiled : bool
-        Issue and read the cell queries from numba loops over the GL entry points (default);
-        False: one Python call chain per query (the tested reference).
+    Options: :class:`GridOptions`.
     """
 
     name = "grid"
     conservative = False  # the default temporal=True pops; temporal=False instances say True
     temporal = True
+    Options = GridOptions
 
-    def __init__(
-        self,
-        geometry,
-        resolution,
-        config,
-        *,
-        grid_size: int | tuple[int, int, int] = DEFAULT_GRID_SIZE,
-        temporal: bool = True,
-        query_cap: int | None = None,
-        min_fill: float = 0.0,
-        compiled: bool = True,
-    ):
-        super().__init__(geometry, resolution, config, compiled=compiled)
-        if query_cap is not None and int(query_cap) < 0:
-            raise ValueError(f"query_cap must be >= 0 or None, got {query_cap}")
-        if not 0.0 <= float(min_fill) <= 1.0:
-            raise ValueError(f"min_fill must lie in [0, 1], got {min_fill}")
-        self.temporal = bool(temporal)
+    def __init__(self, geometry, resolution, config, options: GridOptions | None = None):
+        options = build_options(type(self), options)
+        super().__init__(geometry, resolution, config, compiled=options.compiled)
+        self.options = options
+        self.temporal = options.temporal
         self.conservative = not self.temporal
-        self.query_cap = None if query_cap is None else int(query_cap)
-        self.min_fill = float(min_fill)
-        self.grid = build_grid(self.scene.aabbs, grid_size, include=~self.scene.occluder)
+        self.query_cap = options.query_cap
+        self.min_fill = options.min_fill
+        self.grid = build_grid(self.scene.aabbs, options.grid_size, include=~self.scene.occluder)
         self._known = np.full(len(self.grid.cells), UNKNOWN, np.int8)
         self._pending = None  # (QueryBatch, (K,) cell slots) issued last frame
         self.last_fill = 1.0  # non-empty / traversed grid cells in the last frame

@@ -13,9 +13,9 @@ Packets are the nodes of a BVH over the object AABBs (:mod:`soc.culling.bvh`) ho
    round's node queries, so each round costs one read-back stall). A node left with a single
    surviving member has that member's AABB as its box, so its result is the object's result
    and needs no second query. Packets enter nearest first, ``wave_size`` per round, and the
-   meshes of the objects found visible are rendered into the depth before the next round
-   (``render_visible``): later, farther queries are then tested against occludees too, not
-   only against the 115 occluders.
+   meshes of the objects found visible are rendered into the depth before the next round:
+   later, farther queries are then tested against occludees too, not only against the
+   occluders.
 
 Conservative, by this argument. Let object O have a pixel p in the exact id render, and let O be
 a frustum survivor in node P (objects outside the frustum are culled by the conservative
@@ -35,10 +35,14 @@ so straddlers always reach refinement and are kept, as in ``queries``.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from soc.culling.bvh import box_distance, build
 from soc.methods.base import MethodOutput, register, stage
+from soc.methods.options import MethodOptions, option
+from soc.methods.options import build as build_options
 from soc.methods.prepass_queries import PrepassQueryMethod
 
 # Objects per packet (the first query level). Larger packets: fewer top-level queries but
@@ -55,25 +59,36 @@ DEFAULT_LEAF_SIZE = 4
 DEFAULT_WAVE_SIZE = 32
 
 
-@register
-class BatchedQueryCulling(PrepassQueryMethod):
-    """Frustum + occluder prepass + hierarchical queries: packets, their sub-nodes, objects.
+@dataclass(frozen=True)
+class BatchedQueryOptions(MethodOptions):
+    """Options of ``queries-batched`` (:class:`BatchedQueryCulling`).
 
-    Options
-    -------
+    Attributes
+    ----------
     packet_size : int
         Objects per top-level packet (a BVH cut), default :data:`DEFAULT_PACKET_SIZE`.
     leaf_size : int
         Objects per BVH leaf, default :data:`DEFAULT_LEAF_SIZE`.
     wave_size : int
         Packets entering per round, nearest first, default :data:`DEFAULT_WAVE_SIZE`.
-    render_visible : bool
-        Render the meshes of objects found visible into the depth before the next round
-        (default True); False tests everything against the occluders only.
     compiled : bool
         Issue and read each round's queries from numba loops over the GL entry points
         (default); False: one Python call chain per query (the tested reference). Python runs
         once per round either way.
+    """
+
+    packet_size: int = option(DEFAULT_PACKET_SIZE, low=1)
+    leaf_size: int = option(DEFAULT_LEAF_SIZE, low=1)
+    wave_size: int = option(DEFAULT_WAVE_SIZE, low=1)
+    compiled: bool = True
+
+
+@register
+class BatchedQueryCulling(PrepassQueryMethod):
+    """Frustum + occluder prepass + hierarchical queries: packets, their sub-nodes, objects.
+
+    Options: :class:`BatchedQueryOptions`. The meshes of the objects found visible are drawn
+    into the depth before the next round.
 
     Conservative at the depth resolution it runs at (see the module docstring). ``queries``
     in the output counts every query issued (packets, nodes and objects).
@@ -81,29 +96,15 @@ class BatchedQueryCulling(PrepassQueryMethod):
 
     name = "queries-batched"
     conservative = True
+    Options = BatchedQueryOptions
 
-    def __init__(
-        self,
-        geometry,
-        resolution,
-        config,
-        *,
-        packet_size: int = DEFAULT_PACKET_SIZE,
-        leaf_size: int = DEFAULT_LEAF_SIZE,
-        wave_size: int = DEFAULT_WAVE_SIZE,
-        render_visible: bool = True,
-        compiled: bool = True,
-    ):
-        super().__init__(geometry, resolution, config, compiled=compiled)
-        if min(packet_size, leaf_size, wave_size) < 1:
-            raise ValueError(
-                "packet_size, leaf_size, wave_size must be >= 1, got "
-                f"{packet_size}, {leaf_size}, {wave_size}"
-            )
-        self.bvh = build(self.scene.aabbs, leaf_size)
-        self.packets = self.bvh.cut(packet_size)
-        self.wave_size = int(wave_size)
-        self.render_visible = bool(render_visible)
+    def __init__(self, geometry, resolution, config, options: BatchedQueryOptions | None = None):
+        options = build_options(type(self), options)
+        super().__init__(geometry, resolution, config, compiled=options.compiled)
+        self.options = options
+        self.bvh = build(self.scene.aabbs, options.leaf_size)
+        self.packets = self.bvh.cut(options.packet_size)
+        self.wave_size = options.wave_size
 
     def cull(self, camera) -> MethodOutput:
         timings: dict[str, float] = {}
@@ -131,7 +132,7 @@ class BatchedQueryCulling(PrepassQueryMethod):
             if round_ < len(waves):  # the next-nearest packets join this round
                 nodes = np.concatenate([nodes, waves[round_]])
             round_ += 1
-            if self.render_visible and found:
+            if found:
                 # Objects found visible so far write depth: real meshes only, so later
                 # queries stay conservative (module docstring) and cull much more.
                 self._render(camera, np.concatenate(found))

@@ -151,8 +151,7 @@ def test_culler_errors_say_how_to_pass_options(scene):
 # -- the options as one typed, documented dataclass per method ---------------------------------
 
 # Methods not yet converted to an ``Options`` dataclass; until then they take keywords.
-KEYWORD_METHODS = {"adaptive", "hiz-2phase", "gpu-driven", "chc", "grid", "queries",
-                   "queries-batched"}  # fmt: skip
+KEYWORD_METHODS = {"adaptive", "hiz-2phase", "gpu-driven", "queries"}
 MAX_OPTIONS = 6
 
 
