@@ -35,6 +35,20 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from soc.scenes.instanced import Instances, check_similarity, make_instances
+
+__all__ = [
+    "DagFrame",
+    "DagRenderer",
+    "DagTables",
+    "Instances",
+    "check_similarity",
+    "make_instances",
+    "select_brute",
+    "select_cpu",
+    "within",
+]
+
 # Relative slack of the node test (see the module): the node is skipped only when within by
 # this much more than the exact test asks, against float32 errors of about 1e-7 of the terms.
 NODE_SLACK = 1e-5
@@ -173,63 +187,6 @@ def _tree_depth(first, count, leaf) -> int:
         if not leaf[i]:
             depth[first[i] : first[i] + count[i]] = depth[i] + 1
     return int(depth.max())
-
-
-@dataclass(frozen=True)
-class Instances:
-    """Placements of meshes: a similarity transform per instance.
-
-    Attributes
-    ----------
-    matrices : (I, 3, 4) float32
-        Object → world: rotation times a uniform scale, then translation.
-    scale : (I,) float32
-        Each transform's scale (the norm of its first column, rounded up).
-    mesh : (I,) int32
-        The mesh each instance places.
-    """
-
-    matrices: np.ndarray
-    scale: np.ndarray
-    mesh: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.mesh)
-
-
-def check_similarity(matrices: np.ndarray, tol: float = 1e-4) -> np.ndarray:
-    """(I,) float32 the uniform scale of each transform ``matrices`` (I, 3, 4) or (I, 4, 4);
-    raises ValueError when one is not a rotation times a uniform scale (within ``tol``)."""
-    m = np.asarray(matrices, np.float64)
-    if m.ndim != 3 or m.shape[1:] not in ((3, 4), (4, 4)):
-        raise ValueError(f"transforms must have shape (I, 3, 4) or (I, 4, 4), got {m.shape}")
-    if not np.isfinite(m).all():
-        raise ValueError("transforms must be finite")
-    r = m[:, :3, :3]
-    gram = np.einsum("iaj,iak->ijk", r, r)
-    s2 = np.einsum("ijj->i", gram) / 3.0
-    bad = np.abs(gram - s2[:, None, None] * np.eye(3)).max(axis=(1, 2)) > tol * np.maximum(
-        s2, 1e-30
-    )
-    if bad.any() or (s2 <= 0).any():
-        i = int(np.flatnonzero(bad | (s2 <= 0))[0])
-        raise ValueError(
-            f"transform {i} is not a rotation times a uniform scale (shear or non-uniform "
-            f"scale): {m[i, :3].tolist()}; split such instances into their own meshes"
-        )
-    s = np.sqrt(np.einsum("iaj,iaj->ij", r, r).max(axis=1))
-    return np.nextafter(s.astype(np.float32), np.float32(np.inf))
-
-
-def make_instances(matrices: np.ndarray, mesh: np.ndarray) -> Instances:
-    """:class:`Instances` from ``matrices`` (I, 3, 4) or (I, 4, 4) similarity transforms and
-    ``mesh`` (I,) int."""
-    scale = check_similarity(matrices)
-    m = np.ascontiguousarray(np.asarray(matrices, np.float32)[:, :3, :4])
-    mesh = np.asarray(mesh, np.int32).reshape(-1)
-    if mesh.shape != (len(m),):
-        raise ValueError(f"mesh must have shape ({len(m)},), got {mesh.shape}")
-    return Instances(matrices=m, scale=scale, mesh=mesh)
 
 
 # -- the decision ----------------------------------------------------------------------------------
@@ -380,3 +337,462 @@ def select_brute(tables: DagTables, instances: Instances, eye, pixel_scale, thre
         sel = np.flatnonzero(own & ~par) + c0
         out.append(np.stack([np.full(len(sel), i), sel], 1))
     return np.concatenate(out).astype(np.int64)
+
+
+# -- the GPU passes --------------------------------------------------------------------------------
+
+# Counters at the start of the work buffer (dag.common.glsl's DAG_COUNT_*).
+DAG_COUNT_GROUPS = 0  # (instance, group) pairs reached by the walk
+DAG_COUNT_SELECTED = 1  # (instance, cluster) pairs of the cut
+DAG_COUNT_EARLY = 2  # + phase: commands drawn by the early (2) and late (3) phase
+DAG_COUNT_RETEST = 4  # pairs the early phase left to the late test
+DAG_COUNT_TRIANGLES = 5  # + phase: triangles drawn by each phase (5, 6)
+DAG_COUNT_CULLED = 7  # pairs outside the frustum or back-facing
+DAG_COUNT_OCCLUDED = 8  # pairs the late test culled
+DAG_COUNT_NODES = 16  # + depth: (instance, node) pairs of each tree depth
+DAG_MAX_DEPTH = 64
+DAG_HEADER = DAG_COUNT_NODES + DAG_MAX_DEPTH + 1
+# Most pairs a list holds (nodes of one depth, groups, the cut, each phase's commands).
+DEFAULT_CAPACITY = 1 << 21
+# Invocations per work group of the DAG's compute passes (the shaders' COMPUTE_GROUP).
+DAG_GROUP = 64
+# Work groups of a dispatch (each invocation strides through its list).
+DISPATCH_GROUPS = 256
+# Relative growth of a cluster's world box for the transform's float32 rounding.
+DAG_BOX_GROW = 4e-6
+
+
+def _defines(capacity: int) -> dict[str, object]:
+    """The numbers of this module the DAG shaders are compiled with."""
+    lists = {}
+    at = DAG_HEADER
+    for name, pairs in (("NODES", 2), ("GROUPS", 1), ("SELECTED", 1), ("RETEST", 1)):
+        lists[f"DAG_LIST_{name}"] = at
+        at += 2 * pairs * capacity
+    return {
+        "DAG_INSTANCES_BINDING": 0,
+        "DAG_INSTANCE_MESH_BINDING": 1,
+        "DAG_MESH_ROOT_BINDING": 2,
+        "DAG_NODES_BINDING": 3,
+        "DAG_GROUPS_BINDING": 4,
+        "DAG_LOD_BINDING": 5,
+        "DAG_WORK_BINDING": 6,
+        "DAG_CULL_BINDING": 7,
+        "DAG_COMMANDS_BINDING": 8,
+        "DAG_PAIRS_BINDING": 9,
+        "DAG_CAPACITY": f"{capacity}u",
+        "DAG_NODE_SLACK": repr(float(NODE_SLACK)),
+        "DAG_BOX_GROW": repr(float(DAG_BOX_GROW)),
+        **{k: f"{v}u" for k, v in globals().items() if k.startswith("DAG_COUNT_")},
+        **{k: f"{v}u" for k, v in lists.items()},
+        "DAG_WORK_WORDS": at,
+    }
+
+
+def _source(name: str, defines: dict) -> str:
+    """``soc/shaders/<name>.glsl`` as :func:`soc.gl.context.shader_source` gives it, with this
+    module's defines after the ``#version`` line."""
+    from soc.gl.context import shader_source
+
+    lines = shader_source(name).split("\n")
+    extra = ["#ifndef COMPUTE_GROUP", f"#define COMPUTE_GROUP {DAG_GROUP}", "#endif"]
+    extra += [f"#define {k} {v}" for k, v in defines.items() if k != "DAG_WORK_WORDS"]
+    return "\n".join([lines[0], *extra, *lines[1:]])
+
+
+@dataclass(frozen=True)
+class DagFrame:
+    """What one frame of :meth:`DagRenderer.frame` did.
+
+    Attributes
+    ----------
+    selected : int
+        (instance, cluster) pairs of the cut (in the frustum).
+    drawn_early, drawn_late : int
+        Pairs drawn by each phase.
+    culled : int
+        Pairs outside the frustum or back-facing.
+    occluded : int
+        Pairs the late hierarchical-z test culled.
+    triangles : int
+        Triangles drawn, both phases.
+    nodes : int
+        Tree nodes visited, all instances.
+    timings_ms : dict
+        Milliseconds per stage (``select``, ``cull_early``, ``draw_early``, ``pyramid``,
+        ``cull_late``, ``draw_late``, ``total``), each after a ``finish``.
+    """
+
+    selected: int
+    drawn_early: int
+    drawn_late: int
+    culled: int
+    occluded: int
+    triangles: int
+    nodes: int
+    timings_ms: dict
+
+
+def _set(program, name: str, value) -> None:
+    """Set a uniform the compiler kept (unused ones are optimized out)."""
+    if name in program:
+        program[name].value = value
+
+
+def _instance_rows(instances: Instances) -> np.ndarray:
+    rows = np.zeros((len(instances), 4, 4), np.float32)
+    rows[:, :3, :] = instances.matrices
+    rows[:, 3, 0] = instances.scale
+    return rows
+
+
+from soc.gl.context import uses_gl  # noqa: E402  (the GL half of the module)
+
+
+@uses_gl
+class DagRenderer:
+    """The cut of DAG meshes placed by instances, selected, culled and drawn on the GPU.
+
+    Parameters
+    ----------
+    tables : DagTables
+    instances : Instances
+    resolution : (int, int)
+        Width and height of the render targets (colour, instance or slot id, depth).
+    glctx : GLContext, optional
+        Default: the process's context.
+    capacity : int
+        Most pairs a work list holds (:data:`DEFAULT_CAPACITY`); a frame that needs more
+        raises ``RuntimeError`` naming the list.
+
+    Notes
+    -----
+    :meth:`select` is the selection pass alone: inputs the instance transforms and the DAG
+    buffers (uploaded here), the camera and the threshold in pixels; output the selected
+    (instance, cluster) pairs in a GPU buffer (the work buffer's selected list) and their
+    count. :meth:`frame` runs it, then the two-phase culling and the draws.
+    """
+
+    def __init__(self, tables: DagTables, instances: Instances, resolution=(1920, 1080),
+                 glctx=None, *, capacity: int = DEFAULT_CAPACITY):  # fmt: skip
+        from soc.gl.context import default_context
+
+        self.glctx = glctx or default_context()
+        ctx = self.glctx.ctx
+        if tables.depth > DAG_MAX_DEPTH:
+            raise ValueError(f"trees deeper than {DAG_MAX_DEPTH} levels: {tables.depth}")
+        if int(instances.mesh.max()) >= len(tables.mesh_root):
+            raise ValueError(
+                f"an instance places mesh {int(instances.mesh.max())} but the tables hold "
+                f"{len(tables.mesh_root)} meshes"
+            )
+        self.tables, self.instances = tables, instances
+        self.capacity = int(capacity)
+        self.defines = _defines(self.capacity)
+        self.resolution = (int(resolution[0]), int(resolution[1]))
+        self._walk = ctx.compute_shader(_source("dag_walk.comp", self.defines))
+        self._cull = ctx.compute_shader(_source("dag_cull.comp", self.defines))
+        self.program = ctx.program(
+            vertex_shader=_source("dag_draw.vert", self.defines),
+            fragment_shader=_source("dag_draw.frag", self.defines),
+        )
+        t = tables
+        nodes = np.zeros((len(t.node_first), 2, 4), np.float32)
+        nodes[:, 0] = t.node_sphere
+        info = nodes[:, 1].view(np.uint32)
+        info[:, 0], info[:, 1] = t.node_first, t.node_count
+        info[:, 2] = t.node_leaf
+        info[:, 3] = t.node_error.view(np.uint32)
+        lod = np.zeros((len(t), 3, 4), np.float32)
+        lod[:, 0], lod[:, 1] = t.lod_sphere, t.parent_sphere
+        lod[:, 2, 0], lod[:, 2, 1] = t.lod_error, t.parent_error
+        cull = np.zeros((len(t), 5, 4), np.float32)
+        cull[:, 0, :3], cull[:, 1, :3] = t.aabbs[:, 0], t.aabbs[:, 1]
+        cull[:, 0, 3] = t.cone_cutoff
+        cull[:, 2, :3], cull[:, 3, :3] = t.cone_axis, t.cone_apex
+        draw = cull[:, 4].view(np.uint32)
+        draw[:, 0], draw[:, 1] = 3 * t.first, 3 * t.count
+        draw[:, 2] = t.mesh_vertex[t.cluster_mesh]
+        draw[:, 3] = t.level
+        self._buffers = {
+            0: ctx.buffer(_instance_rows(instances)),
+            1: ctx.buffer(instances.mesh.astype(np.uint32)),
+            2: ctx.buffer(t.mesh_root.astype(np.uint32)),
+            3: ctx.buffer(nodes),
+            4: ctx.buffer(t.group_first.astype(np.uint32)),
+            5: ctx.buffer(lod),
+            6: ctx.buffer(reserve=4 * int(self.defines["DAG_WORK_WORDS"])),
+            7: ctx.buffer(cull),
+            8: ctx.buffer(reserve=2 * self.capacity * 20),
+            9: ctx.buffer(reserve=2 * self.capacity * 8),
+        }
+        self.work = self._buffers[6]
+        self.commands = self._buffers[8]
+        self.vbo = ctx.buffer(t.vertices)
+        self.ibo = ctx.buffer(t.faces.astype(np.uint32))
+        self.slots = ctx.buffer(np.arange(2 * self.capacity, dtype=np.uint32))
+        self.vao = ctx.vertex_array(
+            self.program,
+            [(self.vbo, "3f", "in_position"), (self.slots, "u/i", "in_slot")],
+            index_buffer=self.ibo,
+            index_element_size=4,
+        )
+        self._targets = [self._target() for _ in range(2)]
+        self._pyramids = None
+        self._frame = 0
+        self._last_camera = None
+
+    def _target(self):
+        ctx = self.glctx.ctx
+        depth = ctx.depth_texture(self.resolution)
+        self.glctx.raw.float_depth(depth)
+        colour = ctx.renderbuffer(self.resolution, components=4)
+        ids = ctx.renderbuffer(self.resolution, components=1, dtype="u4")
+        return ctx.framebuffer(color_attachments=[colour, ids], depth_attachment=depth)
+
+    def release(self) -> None:
+        """Free every GL object of this renderer."""
+        for b in (*self._buffers.values(), self.vbo, self.ibo, self.slots):
+            b.release()
+        self.vao.release()
+        for fbo in self._targets:
+            self.glctx.release_framebuffer(fbo, *fbo.color_attachments, fbo.depth_attachment)
+        for p in self._pyramids or ():
+            p.release()
+        self._walk.release()
+        self._cull.release()
+        self.program.release()
+
+    def __enter__(self) -> DagRenderer:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+    # -- selection ---------------------------------------------------------------------------
+
+    def _bind(self) -> None:
+        for binding, buf in self._buffers.items():
+            buf.bind_to_storage_buffer(binding)
+
+    def _counters(self, first: int = 0, n: int = DAG_HEADER) -> np.ndarray:
+        return np.frombuffer(self.work.read(size=4 * n, offset=4 * first), np.uint32).copy()
+
+    def _run_select(self, camera, threshold: float, frustum: bool) -> int:
+        """The walk's dispatches (selection into the work buffer); returns the nodes visited."""
+        from soc.culling.hiz_gpu import set_frustum_uniforms
+
+        if not threshold > 0:
+            raise ValueError(f"threshold must be > 0 pixels, got {threshold!r}")
+        ctx = self.glctx.ctx
+        self._bind()
+        self.work.write(np.zeros(DAG_HEADER, np.uint32))
+        prog = self._walk
+        k = float(camera.resolution[1]) * 0.5 * float(camera.projection[1, 1])
+        prog["eye"].value = tuple(float(x) for x in camera.eye)
+        prog["pixel_scale"].value = k
+        prog["threshold"].value = float(threshold)
+        prog["frustum"].value = bool(frustum)
+        set_frustum_uniforms(prog, camera)
+        prog["stage"].value = 0
+        prog.run(DISPATCH_GROUPS)
+        prog["stage"].value = 1
+        for d in range(self.tables.depth):
+            ctx.memory_barrier()
+            prog["depth"].value = d
+            prog.run(DISPATCH_GROUPS)
+        ctx.memory_barrier()
+        prog["stage"].value = 2
+        prog.run(DISPATCH_GROUPS)
+        ctx.memory_barrier()
+        counts = self._counters()
+        self._check(counts)
+        return int(counts[DAG_COUNT_NODES : DAG_COUNT_NODES + self.tables.depth + 1].sum())
+
+    def _check(self, counts: np.ndarray) -> None:
+        names = {
+            DAG_COUNT_GROUPS: "groups reached",
+            DAG_COUNT_SELECTED: "selected clusters",
+            DAG_COUNT_RETEST: "late retests",
+            DAG_COUNT_EARLY: "early draws",
+            DAG_COUNT_EARLY + 1: "late draws",
+        }
+        names.update({DAG_COUNT_NODES + d: f"nodes at depth {d}" for d in range(DAG_MAX_DEPTH)})
+        for at, name in names.items():
+            if counts[at] > self.capacity:
+                raise RuntimeError(
+                    f"the DAG's work list of {name} needs {int(counts[at]):,} pairs, more than "
+                    f"its capacity {self.capacity:,}: pass a larger capacity to DagRenderer"
+                )
+
+    def select(self, camera, threshold: float = 1.0, *, frustum: bool = False) -> np.ndarray:
+        """The cut selected on the GPU, read back: (K, 2) int64 (instance, global cluster),
+        sorted. ``frustum`` drops instances' subtrees outside the frustum (the CPU
+        reference, :func:`select_cpu`, does not)."""
+        self._run_select(camera, threshold, frustum)
+        n = int(self._counters()[DAG_COUNT_SELECTED])
+        if n == 0:
+            return np.zeros((0, 2), np.int64)
+        at = int(self.defines["DAG_LIST_SELECTED"].rstrip("u"))
+        data = np.frombuffer(self.work.read(size=8 * n, offset=4 * at), np.uint32)
+        pairs = data.reshape(-1, 2).astype(np.int64)
+        return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+    # -- the frame -----------------------------------------------------------------------------
+
+    def frame(self, camera, threshold: float = 1.0, *, occlusion: bool = True,
+              cones: bool = True, frustum: bool = True, color_kind: int = 0,
+              id_kind: int = 0) -> DagFrame:  # fmt: skip
+        """Select, cull and draw one frame into this renderer's targets (read them with
+        :meth:`read`).
+
+        Parameters
+        ----------
+        camera : Camera
+            Its resolution must be the renderer's.
+        threshold : float
+            Largest projected error of a drawn cluster, pixels.
+        occlusion : bool
+            Two-phase hierarchical-z culling (the early phase against last frame's depth
+            pyramid and camera; without a last frame every frustum-passing pair is drawn
+            early).
+        cones : bool
+            Cull back-facing clusters by their normal cones (vislod's oracle draws back
+            faces: see :mod:`soc.culling.clusters`).
+        frustum : bool
+            Cull subtrees and clusters outside the frustum.
+        color_kind : int
+            0 a colour per instance, 1 per cluster level, 2 per cluster.
+        id_kind : int
+            What the id target holds: 0 the instance, 1 the pair's slot (:meth:`drawn`).
+        """
+        import time
+
+        import moderngl
+
+        from soc.culling.hiz_gpu import DepthPyramid, set_frustum_uniforms, set_test_uniforms
+
+        if tuple(camera.resolution) != self.resolution:
+            raise ValueError(f"camera resolution {camera.resolution} is not {self.resolution}")
+        ctx = self.glctx.ctx
+        if self._pyramids is None:
+            self._pyramids = [DepthPyramid(self.glctx, self.resolution) for _ in range(2)]
+        times = {}
+        t0 = time.perf_counter()
+
+        def lap(name):
+            ctx.finish()
+            times[name] = 1000.0 * (time.perf_counter() - sum(times.values()) / 1000.0 - t0)
+
+        cur = self._frame % 2
+        fbo, pyr = self._targets[cur], self._pyramids[cur]
+        nodes = self._run_select(camera, threshold, frustum)
+        lap("select")
+        cull = self._cull
+        k = float(camera.resolution[1]) * 0.5 * float(camera.projection[1, 1])
+        _set(cull, "eye", tuple(float(x) for x in camera.eye))
+        _set(cull, "pixel_scale", k)
+        _set(cull, "threshold", float(threshold))
+        cull["cones"].value = bool(cones)
+        cull["frustum"].value = bool(frustum)
+        have_last = occlusion and self._last_camera is not None
+        if have_last:
+            last = self._pyramids[1 - cur]
+            set_test_uniforms(cull, last, self._last_camera, 2, 0, None)
+        set_frustum_uniforms(cull, camera)
+        cull["occlusion"].value = have_last
+        cull["stage"].value = 0
+        self._bind()
+        cull.run(DISPATCH_GROUPS)
+        ctx.memory_barrier()
+        lap("cull_early")
+
+        prog = self.program
+        prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
+        _set(prog, "eye", tuple(float(x) for x in camera.eye))
+        _set(prog, "light_dir", (0.4, 0.8, 0.45))
+        prog["id_kind"].value = int(id_kind)
+        prog["color_kind"].value = int(color_kind)
+        fbo.use()
+        fbo.depth_mask = True
+        ctx.enable_only(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        fbo.clear(0.06, 0.07, 0.09, 1.0, depth=1.0)
+        self.glctx.raw.clear_uint_color(0xFFFFFFFF, draw_buffer=1)
+        counts = self._counters()
+        self._check(counts)
+        n_early = int(counts[DAG_COUNT_EARLY])
+        if n_early:
+            self.vao.render_indirect(self.commands, count=n_early)
+        lap("draw_early")
+        if occlusion:
+            pyr.build(fbo.depth_attachment)
+            lap("pyramid")
+            fbo.use()
+            set_test_uniforms(cull, pyr, camera, 2, 0, None)
+            set_frustum_uniforms(cull, camera)
+            cull["stage"].value = 1
+            self._bind()
+            cull.run(DISPATCH_GROUPS)
+            ctx.memory_barrier()
+            lap("cull_late")
+            counts = self._counters()
+            self._check(counts)
+            n_late = int(counts[DAG_COUNT_EARLY + 1])
+            if n_late:
+                fbo.use()
+                prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
+                ctx.enable_only(moderngl.DEPTH_TEST)
+                self.vao.render_indirect(self.commands, count=n_late, first=self.capacity)
+            lap("draw_late")
+            pyr.build(fbo.depth_attachment)  # for next frame's early test
+            lap("pyramid_next")
+        times["total"] = sum(times.values())
+        self._last_camera = camera if occlusion else None
+        self._frame += 1
+        self.glctx.check("dag frame")
+        return DagFrame(
+            selected=int(counts[DAG_COUNT_SELECTED]),
+            drawn_early=int(counts[DAG_COUNT_EARLY]),
+            drawn_late=int(counts[DAG_COUNT_EARLY + 1]),
+            culled=int(counts[DAG_COUNT_CULLED]),
+            occluded=int(counts[DAG_COUNT_OCCLUDED]),
+            triangles=int(counts[DAG_COUNT_TRIANGLES] + counts[DAG_COUNT_TRIANGLES + 1]),
+            nodes=nodes,
+            timings_ms=times,
+        )
+
+    def drawn(self) -> np.ndarray:
+        """(K, 2) int64 the (instance, cluster) pairs the last frame drew, sorted."""
+        counts = self._counters()
+        out = []
+        for phase in (0, 1):
+            n = min(int(counts[DAG_COUNT_EARLY + phase]), self.capacity)
+            if n == 0:
+                continue
+            data = self._buffers[9].read(size=8 * n, offset=8 * phase * self.capacity)
+            out.append(np.frombuffer(data, np.uint32).reshape(-1, 2))
+        pairs = np.concatenate(out).astype(np.int64) if out else np.zeros((0, 2), np.int64)
+        return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+    def read(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The last frame's targets: colour (H, W, 3) uint8, ids (H, W) uint32 (0xFFFFFFFF
+        where empty) and window depth (H, W) float32; row 0 at the bottom."""
+        fbo = self._targets[(self._frame - 1) % 2]
+        w, h = self.resolution
+        rgb = np.frombuffer(fbo.read(components=3, attachment=0), np.uint8).reshape(h, w, 3)
+        ids = np.frombuffer(fbo.read(components=1, attachment=1, dtype="u4"), np.uint32)
+        depth = np.frombuffer(fbo.depth_attachment.read(), np.float32)
+        return rgb.copy(), ids.reshape(h, w).copy(), depth.reshape(h, w).copy()
+
+    def visible_pairs(self) -> np.ndarray:
+        """(K, 2) int64 the (instance, cluster) pairs with a pixel in the last frame, which must
+        have been drawn with ``id_kind=1``: the oracle of the cut when that frame culled
+        nothing (``occlusion``, ``cones`` and ``frustum`` off). Sorted."""
+        _, ids, _ = self.read()
+        slots = np.unique(ids[ids != 0xFFFFFFFF]).astype(np.int64)
+        if len(slots) == 0:
+            return np.zeros((0, 2), np.int64)
+        table = np.frombuffer(self._buffers[9].read(), np.uint32).reshape(-1, 2)
+        pairs = table[slots].astype(np.int64)
+        return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]

@@ -39,6 +39,14 @@ from soc.scenes.camera import Camera, _resolution
 NO_OBJECT = 0xFFFFFFFF
 
 
+def _is_instanced(scene) -> bool:
+    """Whether ``scene`` is an :class:`~soc.scenes.instanced.InstancedScene` (drawn by
+    :class:`~soc.gl.geometry.InstancedGeometry`: its instances are the objects)."""
+    from soc.scenes.instanced import InstancedScene
+
+    return isinstance(scene, InstancedScene)
+
+
 @uses_gl
 class Oracle:
     """Reusable exact-visibility renderer for one scene on one GL context.
@@ -62,8 +70,15 @@ class Oracle:
 
         self.scene = scene
         self.glctx = glctx or default_context()
-        self.geometry = self.glctx.geometry(scene)
-        self.program = self.glctx.program("mesh.vert", "object_id.frag")
+        self._instanced = _is_instanced(scene)
+        if self._instanced:  # instances are the objects: meshes once, a transform each
+            from soc.gl.geometry import InstancedGeometry
+
+            self.geometry = InstancedGeometry(self.glctx, scene)
+            self.program = self.glctx.program("instanced.vert", "object_id.frag")
+        else:
+            self.geometry = self.glctx.geometry(scene)
+            self.program = self.glctx.program("mesh.vert", "object_id.frag")
         self._fbo = None
         self._size: tuple[int, int] | None = None
         self._all = np.arange(len(scene))
@@ -80,6 +95,8 @@ class Oracle:
 
     def __exit__(self, *exc) -> None:
         self.close()
+        if self._instanced:
+            self.geometry.release()
 
     def _target(self, size: tuple[int, int]):
         if self._size != size:

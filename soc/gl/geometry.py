@@ -289,3 +289,80 @@ class ClusterBuffers:
         bufs = [self.info, self.boxes, self.cones, self.objects]
         for b in bufs + ([self.ibo] if self._own_ibo else []):
             b.release()
+
+
+@uses_gl
+class InstancedGeometry:
+    """GPU copy of an :class:`~soc.scenes.instanced.InstancedScene`: its meshes once (one vertex
+    and one index buffer) and per-instance attributes (id, object-to-world rows, colour), drawn
+    by ``instanced.vert`` with one indirect command per instance (``baseInstance`` = the
+    instance id, which selects its attributes). Offers :class:`SceneGeometry`'s
+    :meth:`draw_objects` for the oracle.
+
+    Attributes
+    ----------
+    commands : (I, 5) uint32
+        One indirect draw command per instance.
+    """
+
+    def __init__(self, glctx, scene):
+        ctx = glctx.ctx
+        self.glctx = glctx
+        n = len(scene)
+        nv = np.array([len(v) for v in scene.mesh_vertices], np.int64)
+        nf = np.array([len(f) for f in scene.mesh_faces], np.int64)
+        v_off = np.concatenate([[0], np.cumsum(nv)[:-1]])
+        f_off = np.concatenate([[0], np.cumsum(nf)[:-1]])
+        mesh = np.asarray(scene.mesh, np.int64)
+        self.commands = np.stack(
+            [
+                (3 * nf[mesh]).astype(np.uint32),
+                np.ones(n, np.uint32),
+                (3 * f_off[mesh]).astype(np.uint32),
+                v_off[mesh].astype(np.uint32),
+                np.arange(n, dtype=np.uint32),
+            ],
+            axis=1,
+        )
+        self.vbo = ctx.buffer(np.concatenate(scene.mesh_vertices).astype(np.float32))
+        self.ibo = ctx.buffer(np.concatenate(scene.mesh_faces).astype(np.uint32))
+        self.ids = ctx.buffer(np.arange(n, dtype=np.uint32))
+        self.rows = ctx.buffer(np.ascontiguousarray(scene.matrices, np.float32))
+        self.colors = ctx.buffer(object_colors(n, scene.occluder))
+        self.indirect = ctx.buffer(reserve=max(n, 1) * 20, dynamic=True)
+        self._vaos: dict = {}
+
+    def release(self) -> None:
+        for vao in self._vaos.values():
+            vao.release()
+        self._vaos.clear()
+        for b in (self.vbo, self.ibo, self.ids, self.rows, self.colors, self.indirect):
+            b.release()
+
+    def mesh_vao(self, program):
+        """Vertex array drawing instances with ``program`` (instanced.vert inputs)."""
+        key = program.glo
+        if key not in self._vaos:
+            attrs = [
+                (self.vbo, "3f", "in_position"),
+                (self.ids, "u/i", "in_object"),
+                (self.rows, "4f 4f 4f/i", "in_row0", "in_row1", "in_row2"),
+                (self.colors, "3f/i", "in_color"),
+            ]
+            attrs = [a for a in attrs if a[2] in program]
+            self._vaos[key] = self.glctx.ctx.vertex_array(
+                program, attrs, index_buffer=self.ibo, index_element_size=4
+            )
+        return self._vaos[key]
+
+    def draw_objects(self, program, ids: np.ndarray) -> int:
+        """Draw the full meshes of instances ``ids`` (K,) with one multi-draw-indirect call;
+        returns K."""
+        cmds = np.ascontiguousarray(self.commands[np.asarray(ids, np.int64)])
+        if len(cmds) == 0:
+            return 0
+        if cmds.nbytes > self.indirect.size:
+            self.indirect.orphan(cmds.nbytes)
+        self.indirect.write(cmds)
+        self.mesh_vao(program).render_indirect(self.indirect, count=len(cmds))
+        return len(cmds)

@@ -5,14 +5,16 @@ and inside cameras), and the scene sources: the generated default town (``market
 files through trimesh (``load``), indoor rooms joined by portals (``rooms``) and a small scene
 of culling's hard cases for tests (``clutter``), scenes that change over time
 (``dynamic_scene``: seed 004's growing scenes), a stack of spheres of constant depth
-complexity (``sphere_stack``: seed 003's), and a city of a million objects (``city``:
-market streets between blocks of buildings, seed 000's object mix at scale)."""
+complexity (``sphere_stack``: seed 003's), a city of a million objects (``city``:
+market streets between blocks of buildings, seed 000's object mix at scale), and instanced
+scenes (``InstancedScene``: a mesh once, a transform per instance; ``rock_field``)."""
 
 from soc.scenes.castle import castle
 from soc.scenes.city import city
 from soc.scenes.clutter import clutter
 from soc.scenes.dynamic import DynamicScene, dynamic_scene
 from soc.scenes.files import load
+from soc.scenes.instanced import InstancedScene, rock_field
 from soc.scenes.market import market
 from soc.scenes.random_boxes import random_boxes
 from soc.scenes.rooms import rooms, rooms_walk
@@ -20,6 +22,7 @@ from soc.scenes.sphere_stack import sphere_stack, sphere_stack_camera
 
 __all__ = [
     "DynamicScene",
+    "InstancedScene",
     "castle",
     "city",
     "clutter",
@@ -27,6 +30,7 @@ __all__ = [
     "load",
     "market",
     "random_boxes",
+    "rock_field",
     "rooms",
     "rooms_walk",
     "sphere_stack",

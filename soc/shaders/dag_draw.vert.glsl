@@ -1,0 +1,35 @@
+#version 450
+// The cut's clusters drawn by multi-draw-indirect (soc/culling/dag_select.py): each command's
+// baseInstance is a slot, fetched through in_slot (divisor 1), whose (instance, cluster) pair
+// gives the instance's transform and the cluster's level.
+in vec3 in_position;
+in uint in_slot;
+
+layout(std430, binding = DAG_INSTANCES_BINDING) readonly buffer Instances { vec4 instances[]; };
+layout(std430, binding = DAG_PAIRS_BINDING) readonly buffer Pairs { uvec2 pairs[]; };
+layout(std430, binding = DAG_CULL_BINDING) readonly buffer Cull { vec4 cluster_cull[]; };
+
+uniform mat4 view_proj;
+uniform int id_kind;     // what v_object holds: 0 the instance, 1 the slot
+uniform int color_kind;  // 0 a colour per instance, 1 per cluster level, 2 per cluster
+
+out vec3 v_world;
+flat out uint v_object;
+flat out vec3 v_color;
+
+vec3 palette(float t) { return 0.55 + 0.25 * cos(6.2831853 * t + vec3(0.0, 2.1, 4.2)); }
+
+void main() {
+    uvec2 pair = pairs[in_slot];
+    vec4 r0 = instances[4u * pair.x], r1 = instances[4u * pair.x + 1u], r2 = instances[4u * pair.x + 2u];
+    vec4 p = vec4(in_position, 1.0);
+    v_world = vec3(dot(r0, p), dot(r1, p), dot(r2, p));
+    v_object = id_kind == 0 ? pair.x : in_slot;
+    uint level = floatBitsToUint(cluster_cull[5u * pair.y + 4u]).w;
+    if (color_kind == 1) {
+        v_color = vec3(0.25, 0.45, 0.95) + float(level) * vec3(0.09, 0.05, -0.09);
+    } else {
+        v_color = palette(fract(float(color_kind == 0 ? pair.x : pair.y) * 0.6180339887));
+    }
+    gl_Position = view_proj * vec4(v_world, 1.0);
+}

@@ -1,0 +1,85 @@
+#version 450
+// The cut's selection (soc/culling/dag_select.py, DagSelect): a breadth-first walk of every
+// instance's group tree, one dispatch per tree depth, then the clusters of the groups reached.
+//   stage 0: one instance per invocation: its root node (skipped when its sphere is outside
+//            the frustum) appended to the depth-0 node list;
+//   stage 1: the node list of depth `depth`: a node outside the frustum or within the
+//            threshold (with the node slack) is dropped, a leaf's groups are appended to the
+//            group list, an inner node's children to the node list of depth + 1;
+//   stage 2: the group list: each group's clusters whose own error is within and whose
+//            parent's is not are appended to the selected list (the cut), with their count.
+// Node spheres hold every cluster under them (lod.dag), so the frustum test is conservative.
+#include "dag.common"
+
+uniform int stage;
+uniform uint depth;          // stage 1: the node list read (DAG_LIST_NODES + depth % 2)
+uniform vec4 planes[6];      // inward frustum planes, unit normals
+uniform float plane_slack;
+uniform float plane_rounding;
+uniform bool frustum;
+
+// The sphere (object units) under the instance lies entirely outside one frustum plane,
+// beyond the slack and a float32 rounding allowance.
+bool sphere_outside(vec4 sphere, mat4x3 m, float s) {
+    if (!frustum) return false;
+    vec3 c = m * vec4(sphere.xyz, 1.0);
+    float r = s * sphere.w;
+    for (int i = 0; i < 6; ++i) {
+        vec3 n = planes[i].xyz;
+        float d = dot(c, n) + planes[i].w;
+        float rounding = plane_rounding * (dot(abs(c), abs(n)) + abs(planes[i].w) + r);
+        if (d < -(r + plane_slack * (1.0 + r) + rounding)) return true;
+    }
+    return false;
+}
+
+void main() {
+    uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    uint me = gl_GlobalInvocationID.x;
+    if (stage == 0) {
+        uint n = instance_mesh.length();
+        for (uint i = me; i < n; i += stride) {
+            uint root = mesh_root[instance_mesh[i]];
+            if (!sphere_outside(node_sphere_info[2u * root], instance_matrix(i), instance_scale(i))) {
+                append(DAG_COUNT_NODES, DAG_LIST_NODES, i, root);
+            }
+        }
+    } else if (stage == 1) {
+        uint parity = depth & 1u;
+        uint list_in = DAG_LIST_NODES + parity * 2u * DAG_CAPACITY;
+        uint list_out = DAG_LIST_NODES + (1u - parity) * 2u * DAG_CAPACITY;
+        uint count = min(work[DAG_COUNT_NODES + depth], DAG_CAPACITY);
+        for (uint k = me; k < count; k += stride) {
+            uint i = work[list_in + 2u * k], node = work[list_in + 2u * k + 1u];
+            mat4x3 m = instance_matrix(i);
+            float s = instance_scale(i);
+            vec4 sphere = node_sphere_info[2u * node];
+            uvec4 info = floatBitsToUint(node_sphere_info[2u * node + 1u]);
+            if (within(sphere, uintBitsToFloat(info.w), m, s, DAG_NODE_SLACK)) continue;
+            if (sphere_outside(sphere, m, s)) continue;
+            if (info.z != 0u) {
+                for (uint g = info.x; g < info.x + info.y; ++g) {
+                    append(DAG_COUNT_GROUPS, DAG_LIST_GROUPS, i, g);
+                }
+            } else {
+                for (uint c = info.x; c < info.x + info.y; ++c) {
+                    append(DAG_COUNT_NODES + depth + 1u, list_out, i, c);
+                }
+            }
+        }
+    } else {
+        uint count = min(work[DAG_COUNT_GROUPS], DAG_CAPACITY);
+        for (uint k = me; k < count; k += stride) {
+            uint i = work[DAG_LIST_GROUPS + 2u * k], g = work[DAG_LIST_GROUPS + 2u * k + 1u];
+            mat4x3 m = instance_matrix(i);
+            float s = instance_scale(i);
+            for (uint c = group_first[g]; c < group_first[g + 1u]; ++c) {
+                vec4 err = cluster_lod[3u * c + 2u];
+                if (within(cluster_lod[3u * c], err.x, m, s, 0.0) &&
+                    !within(cluster_lod[3u * c + 1u], err.y, m, s, 0.0)) {
+                    append(DAG_COUNT_SELECTED, DAG_LIST_SELECTED, i, c);
+                }
+            }
+        }
+    }
+}
