@@ -172,6 +172,38 @@ def method_page(name: str, cls, bench_text: str, frames: dict) -> str:
         f"**Class:** `{module}.{cls.__qualname__}`",
     ]
     out += [f"- {f}" for f in facts]
+    out += ["", "## One frame", ""]
+    picture = PICTURES / f"{name}.png"
+    if picture.exists():
+        info = frames.get(name, {})
+        where = (
+            "a walk through the generated rooms (`soc.scenes.rooms()`)"
+            if info.get("scene") == "rooms"
+            else "the camera flight of work 000 (Sellenthin et al.) over the generated market "
+            "(`soc.scenes.market()`)"
+        )
+        caption = (
+            f"Frame {info.get('frame', '?')} of {where} at 640×360, culled after "
+            f"{info.get('warmup', '?')} warm-up frames and judged against the exact oracle: "
+            f"{info.get('kept', '?')} objects kept of {info.get('objects', '?')}, "
+            f"{info.get('visible', '?')} of them visible; {info.get('false_keeps', '?')} "
+            f"false keeps (hidden, yet kept: orange) and {info.get('false_culls', '?')} false "
+            "culls (visible, yet culled: red). Green: visible and kept; blue: culled by "
+            "occlusion; grey: culled by the frustum; the camera's frustum in black, the path "
+            "in purple. Drawn by `docs/tools/method_pictures.py` with "
+            "{func}`soc.viz.plot_cull`."
+        )
+        out += [
+            f"```{{figure}} /gallery/methods/{name}.png",
+            f":alt: one frame culled by {name}",
+            "",
+            caption,
+            "```",
+        ]
+    else:
+        logger.warning(
+            "method %r has no picture: run python docs/tools/method_pictures.py %s", name, name
+        )
     out += [
         "",
         "## What it does",
@@ -200,37 +232,6 @@ def method_page(name: str, cls, bench_text: str, frames: dict) -> str:
             )
     else:
         out.append("None.")
-    out += ["", "## One frame", ""]
-    picture = PICTURES / f"{name}.png"
-    if picture.exists():
-        info = frames.get(name, {})
-        where = (
-            "a walk through the generated rooms (`soc.scenes.rooms()`)"
-            if info.get("scene") == "rooms"
-            else "the seed-000 flight over the generated market (`soc.scenes.market()`)"
-        )
-        caption = (
-            f"Frame {info.get('frame', '?')} of {where} at 640×360, culled after "
-            f"{info.get('warmup', '?')} warm-up frames and judged against the exact oracle: "
-            f"{info.get('kept', '?')} objects kept of {info.get('objects', '?')}, "
-            f"{info.get('visible', '?')} of them visible; {info.get('false_keeps', '?')} "
-            f"false keeps (hidden, yet kept: orange) and {info.get('false_culls', '?')} false "
-            "culls (visible, yet culled: red). Green: visible and kept; blue: culled by "
-            "occlusion; grey: culled by the frustum; the camera's frustum in black, the path "
-            "in purple. Drawn by `docs/tools/method_pictures.py` with "
-            "{func}`soc.viz.plot_cull`."
-        )
-        out += [
-            f"```{{figure}} /gallery/methods/{name}.png",
-            f":alt: one frame culled by {name}",
-            "",
-            caption,
-            "```",
-        ]
-    else:
-        logger.warning(
-            "method %r has no picture: run python docs/tools/method_pictures.py %s", name, name
-        )
     out += ["", "## In the current benchmark", ""]
     intro, table = benchmark_rows(name, bench_text)
     if table:
