@@ -501,6 +501,9 @@ class MaskedBuffer:
         Working-layer coverage per subtile (bit ``8 r + c``: row ``r``, column ``c``).
     z0, z1 : (TY, TX, 8) float64
         Reference and working depth per subtile (window depth, larger = farther).
+    backface : (M,) bool
+        Per occluder, whether its back faces are skipped: the closed, consistently oriented
+        meshes (open ones are drawn two-sided).
     """
 
     def __init__(
@@ -508,7 +511,6 @@ class MaskedBuffer:
         scene,
         resolution: tuple[int, int],
         *,
-        backface: bool = True,
         threads: int | None = None,
     ):
         self.resolution = (int(resolution[0]), int(resolution[1]))
@@ -518,7 +520,7 @@ class MaskedBuffer:
         self.z0 = np.full(shape, Z_FAR)
         self.z1 = np.full(shape, Z_EMPTY)
         self.ids, self.triangles, self.offsets, closed = occluder_triangles(scene)
-        self.backface = closed & bool(backface)
+        self.backface = closed
         self.aabbs = np.asarray(scene.aabbs, np.float64)[self.ids]
         self._records = np.empty((2 * len(self.triangles), RECORD))
         self.last_stats = MaskedStats(0, 0, 0)

@@ -238,7 +238,6 @@ def test_back_faces_of_closed_meshes_only_are_skipped():
     scene = soc.Scene.from_meshes([(vertices, faces), open_], occluder=[True, True])
     buf = MaskedBuffer(scene, (32, 8))
     assert buf.backface.tolist() == [True, False]
-    assert MaskedBuffer(scene, (32, 8), backface=False).backface.tolist() == [False, False]
 
 
 @pytest.mark.parametrize("resolution", [(320, 192), (333, 197)])
