@@ -151,7 +151,7 @@ def test_culler_errors_say_how_to_pass_options(scene):
 # -- the options as one typed, documented dataclass per method ---------------------------------
 
 # Methods not yet converted to an ``Options`` dataclass; until then they take keywords.
-KEYWORD_METHODS = {"adaptive", "hiz-2phase", "gpu-driven", "queries"}
+KEYWORD_METHODS = {"adaptive", "queries"}
 MAX_OPTIONS = 6
 
 
@@ -214,6 +214,15 @@ def test_an_undocumented_or_extra_option_is_caught():
     problems = _problems(MineCulling)
     assert any("7 options" in p for p in problems), problems
     assert sum("has no Attributes entry" in p for p in problems) == 6, problems
+
+
+def test_the_hiz_footprints_are_the_tests_own():
+    """hiz-cpu's and hiz-gpu's ``footprint`` allows what the box tests read."""
+    from soc.culling.hiz_options import FOOTPRINTS
+
+    for name in ("hiz-cpu", "hiz-gpu"):
+        hint = typing.get_type_hints(METHODS[name].Options)["footprint"]
+        assert typing.get_args(hint) == FOOTPRINTS, name
 
 
 def test_one_meaning_per_option_name_across_methods():
