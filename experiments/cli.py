@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -139,7 +140,10 @@ def build_parser() -> argparse.ArgumentParser:
     cull = sub.add_parser("cull", help="cull the flight with one method, print per-frame stats")
     scenes = "|".join(SCENES)
     cull.add_argument(
-        "--scene", default="market", metavar=scenes, help="scene to fly over (default: market)"
+        "--scene",
+        default="market",
+        metavar=scenes + "|FILE",
+        help="scene to fly over, or a mesh file (.glb, .gltf, .obj, .ply; default: market)",
     )
     cull.add_argument("--frames", type=int, help="frames of the flight (default 100; quick 6)")
     cull.add_argument("--seed", type=int, default=0, help="scene generator seed (default 0)")
@@ -210,10 +214,38 @@ def check_inputs(args: argparse.Namespace) -> None:
     if out is not None:
         check_writable(out)
     if hasattr(args, "scene"):  # cull
-        if args.scene not in SCENES:
-            raise UsageError(f"unknown scene {args.scene!r}; available: {', '.join(SCENES)}")
+        if args.scene not in SCENES and not _scene_file(args.scene):
+            raise UsageError(
+                f"unknown scene {args.scene!r}: neither a generated scene "
+                f"({', '.join(SCENES)}) nor a mesh file ({', '.join(MESH_SUFFIXES)})"
+            )
         if args.scene == "castle":
             castle_path(args.data)
+    view = getattr(args, "view", None)
+    if view:
+        folder = Path(view).resolve().parent
+        if not folder.is_dir() or not os.access(folder, os.W_OK):
+            raise UsageError(
+                f"--view {view}: cannot write a picture into {folder} (no such "
+                "writable folder); give a path in an existing folder"
+            )
+    if "VISLOD_GL" in os.environ and getattr(args, "command", None) in ("cull", "sweep"):
+        from soc.gl.display import resolve
+
+        try:
+            resolve()
+        except ValueError as e:
+            raise UsageError(f"VISLOD_GL: {e}") from None
+
+
+# Mesh files `vislod cull --scene FILE` reads (soc.scenes.load, through trimesh).
+MESH_SUFFIXES = (".glb", ".gltf", ".obj", ".ply")
+
+
+def _scene_file(name: str) -> bool:
+    """Whether ``name`` is a mesh file that :func:`soc.scenes.load` reads."""
+    path = Path(name)
+    return path.suffix.lower() in MESH_SUFFIXES and path.is_file()
 
 
 def _check_method_culls(method: str, scene_name: str, scene=None) -> None:
@@ -222,12 +254,22 @@ def _check_method_culls(method: str, scene_name: str, scene=None) -> None:
     import soc
     from soc.methods.spec import parse
 
+    spec = method
     try:
-        method, _ = parse(method)  # "masked(cpu_threads=1)": the options go to soc.Culler
+        method, options = parse(method)  # "masked(cpu_threads=1)": the options go to soc.Culler
     except ValueError as e:
         raise UsageError(str(e)) from None
     if method not in soc.method_names():
         raise UsageError(f"unknown method {method!r}; available: {', '.join(soc.method_names())}")
+    try:
+        from soc.methods import METHODS
+        from soc.methods.options import build
+
+        build(METHODS[method], options)
+    except ImportError:  # a soc without typed options: soc.Culler checks them
+        pass
+    except (ValueError, TypeError) as e:
+        raise UsageError(f"method {spec!r}: {e}") from None
     scene = scene if scene is not None else soc.scenes.clutter(0)
     if method not in soc.method_names(scene):
         needs = METHOD_NEEDS.get(method, "another kind of scene")
@@ -248,7 +290,15 @@ def cmd_cull(args: argparse.Namespace) -> int:
         raise UsageError(f"--frames must be at least 2, got {frames}")
     display = args.display or (scaled(DISPLAY, 0.25) if args.quick else DISPLAY)
     resolution = args.resolution or display
-    scene = load_scene(args.scene, seed=args.seed, quick=args.quick, data=args.data)
+    if args.scene in SCENES:
+        scene = load_scene(args.scene, seed=args.seed, quick=args.quick, data=args.data)
+    else:  # a mesh file (check_inputs made sure)
+        from soc.errors import SceneError
+
+        try:
+            scene = soc.scenes.load(args.scene)
+        except (SceneError, ValueError, OSError) as e:
+            raise UsageError(f"cannot load scene {args.scene!r}: {e}") from None
     _check_method_culls(args.method, args.scene, scene)
     cams = soc.scenes.paths.flight(scene, frames=frames, width=display[0], height=display[1])
     with soc.Culler(scene, method=args.method, resolution=resolution) as culler:
@@ -263,9 +313,20 @@ def cmd_cull(args: argparse.Namespace) -> int:
             )
             print(f"wrote {args.view}")
     cols = [c for c in CULL_HEADERS if args.oracle or not c.startswith("false_")]
-    table = df.set_index("frame")[cols].astype(float)
-    table.loc["mean"] = table.mean()
-    table.index = table.index.map(str)
+    import pandas as pd
+
+    per_frame = df.set_index("frame")[cols].astype(float)
+    per_frame.loc["mean"] = per_frame.mean()
+    per_frame.index = per_frame.index.map(str)
+    # counts as integers (the mean row, and the % and ms columns, with decimals)
+    table = per_frame.astype(object)
+    for c in cols:
+        if c not in ("triangles_culled_pct", "ms_cull"):
+            values = [
+                v if v != v or (label == "mean") else int(v)
+                for label, v in zip(per_frame.index, per_frame[c], strict=True)
+            ]
+            table[c] = pd.Series(values, index=table.index, dtype=object)
     print(
         terminal.paragraph(
             f"{args.method!r} on {args.scene} ({len(scene):,} objects), depth buffer "
@@ -326,9 +387,33 @@ COMMANDS = {
 }
 
 
+# Options whose value may start with "-" (a mistyped "-320x240"): argparse would read the value
+# as an option and say only "expected one argument".
+VALUE_OPTIONS = ("--resolution", "--display", "--resolutions")
+
+
+def _glue_values(argv: Sequence[str]) -> list[str]:
+    """``--resolution -320x240`` → ``--resolution=-320x240``, so the value reaches its check
+    (which names what is wrong with it)."""
+    out: list[str] = []
+    it = iter(argv)
+    for token in it:
+        if token in VALUE_OPTIONS:
+            value = next(it, None)
+            if value is not None and value[:1] == "-" and value[1:2].isdigit():
+                out.append(f"{token}={value}")
+                continue
+            out.append(token)
+            if value is not None:
+                out.append(value)
+            continue
+        out.append(token)
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``vislod`` console script; returns the exit status."""
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_args(_glue_values(sys.argv[1:] if argv is None else argv))
     if env_quick() and not args.quick:
         args.quick = True
         print("VISLOD_QUICK is set: quick mode", file=sys.stderr)
