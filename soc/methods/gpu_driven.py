@@ -57,6 +57,7 @@ passes and the read back. Static scenes only (no ``set_alive``).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -69,7 +70,6 @@ from soc.culling.hiz_gpu import (
     set_frustum_uniforms,
     set_test_uniforms,
 )
-from soc.errors import check_choice
 from soc.gl.indirect_count import COMMAND_BYTES, CountedDraws
 from soc.gl.shader_defines import (
     CLUSTER_BOXES_BINDING,
@@ -91,12 +91,14 @@ from soc.gl.shader_defines import (
     SORTED_BINDING,
 )
 from soc.methods.base import MethodOutput, register, stage
+from soc.methods.options import MethodOptions, option
 from soc.methods.two_phase import (
     CLUSTER_TRIANGLES,
     FOOTPRINT,
-    GRANULARITIES,
     REFINE,
     Frame,
+    Granularity,
+    Order,
     SceneClusters,
     TwoPhase,
 )
@@ -104,14 +106,13 @@ from soc.methods.two_phase import (
 _ZERO = bytes(4)
 
 
-@register
-class GpuDriven(TwoPhase):
-    """Two-phase culling of objects and their clusters on the GPU, drawing the frame itself
-    (:class:`~soc.methods.two_phase.TwoPhase`: early pass, pyramid, test, late pass).
+@dataclass(frozen=True)
+class GpuDrivenOptions(MethodOptions):
+    """Options of ``gpu-driven`` (:class:`GpuDrivenCulling`).
 
-    Options
-    -------
-    granularity : {"cluster", "object"}
+    Attributes
+    ----------
+    granularity : {"object", "cluster"}
         Cull and draw clusters of at most ``cluster_triangles`` triangles (default;
         :func:`soc.culling.clusters.scene_clusters`, built once per scene and cached), or
         whole objects.
@@ -125,11 +126,25 @@ class GpuDriven(TwoPhase):
         them. Drawn nearest first, the depth test rejects hidden fragments before they are
         shaded (``results/BENCHMARKS.md``, "`gpu-driven` draws each pass nearest first"). The
         same clusters are drawn either way.
-    sync : bool, optional
+    sync : bool or None
         Finish the GL at the end of every stage, so that the stage's wall time holds its GL
-        work (default :attr:`soc.gl.context.GLContext.stage_sync`: on llvmpipe, not on a GPU,
-        where the frame's passes are queued back to back and only the read back of the bits
-        waits). The same frames either way.
+        work (default None: :attr:`soc.gl.context.GLContext.stage_sync`, on llvmpipe, not on
+        a GPU, where the frame's passes are queued back to back and only the read back of the
+        bits waits). The same frames either way.
+    """
+
+    granularity: Granularity = "cluster"
+    cluster_triangles: int = option(CLUSTER_TRIANGLES, low=1)
+    order: Order = "front-to-back"
+    sync: bool | None = None
+
+
+@register
+class GpuDrivenCulling(TwoPhase):
+    """Two-phase culling of objects and their clusters on the GPU, drawing the frame itself
+    (:class:`~soc.methods.two_phase.TwoPhase`: early pass, pyramid, test, late pass).
+
+    Options: :class:`GpuDrivenOptions`.
 
     Attributes
     ----------
@@ -141,27 +156,17 @@ class GpuDriven(TwoPhase):
     """
 
     name = "gpu-driven"
+    Options = GpuDrivenOptions
 
-    def __init__(
-        self,
-        geometry,
-        resolution,
-        config,
-        *,
-        granularity: str = "cluster",
-        cluster_triangles: int = CLUSTER_TRIANGLES,
-        order: str = "front-to-back",
-        sync: bool | None = None,
-    ):
-        check_choice("granularity", granularity, GRANULARITIES)
-        super().__init__(geometry, resolution, config, order=order, sync=sync)
+    def __init__(self, geometry, resolution, config, options: GpuDrivenOptions | None = None):
+        super().__init__(geometry, resolution, config, options)
         scene = self.scene
-        self.granularity = granularity
+        granularity = self.granularity = self.options.granularity
         # Clusters of objects of several clusters are tested one per invocation in a pass of
         # their own (the late pass's loop keeps one SIMD lane busy while the others wait).
         self.split = granularity == "cluster"
         if granularity == "cluster":
-            self.clusters = SceneClusters(scene, cluster_triangles).clusters
+            self.clusters = SceneClusters(scene, self.options.cluster_triangles).clusters
         else:
             self.clusters = whole_objects(scene)
         self.gpu = geometry.clusters(self.clusters)

@@ -37,6 +37,9 @@ shrink to theirs, empty subtrees are skipped).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Literal
+
 import numpy as np
 
 from soc.culling.cluster_draws import cluster_commands, clusters_of
@@ -44,33 +47,32 @@ from soc.culling.draw_order import front_to_back
 from soc.culling.frustum import ids_in_frustum
 from soc.culling.hierarchy import Hierarchy
 from soc.culling.hiz_gpu import OUTSIDE, VISIBLE
-from soc.errors import check_choice
 from soc.gl.geometry import grown_aabbs
 from soc.methods.base import MethodOutput, register, stage
+from soc.methods.options import MethodOptions, option
 from soc.methods.two_phase import (
     CLUSTER_TRIANGLES,
-    GRANULARITIES,
     Frame,
     GlDepthTest,
+    Granularity,
     NumbaDepthTest,
+    Order,
     SceneClusters,
     TwoPhase,
 )
 
-TESTS = ("auto", "gpu", "cpu")
 # Late objects besides the occluders from which ``occluders_first`` tests them again: a read
 # back, a pyramid and a test (~5 ms on the city) cost more than drawing a few hundred small
 # objects that may be hidden.
 RETEST_MIN = 256
 
 
-@register
-class TwoPhaseCulling(TwoPhase):
-    """Two-phase HiZ culling with its sets decided on the CPU, drawing the frame itself
-    (:class:`~soc.methods.two_phase.TwoPhase`: early pass, pyramid, test, late pass).
+@dataclass(frozen=True)
+class TwoPhaseOptions(MethodOptions):
+    """Options of ``hiz-2phase`` (:class:`TwoPhaseCulling`).
 
-    Options
-    -------
+    Attributes
+    ----------
     test : {"auto", "gpu", "cpu"}
         Where the pyramid is built and the boxes are tested: in GL (a fragment pass per level,
         one compute dispatch) or on the CPU after reading the depth back (numba, ``threads``
@@ -97,17 +99,48 @@ class TwoPhaseCulling(TwoPhase):
         test; the second test costs a read back, a pyramid and a test of the late objects,
         only in frames where occluders are drawn late and at least :data:`RETEST_MIN` other
         objects would be.
-    threads : int or None
-        numba threads of the pyramid and of the CPU test (default: numba's thread count;
+    cpu_threads : int or None
+        numba threads of the pyramid and of the CPU test (default None: numba's thread count;
         the hierarchy's walk deals its subtrees to them, the same codes for any count).
-    sync : bool, optional
+    sync : bool or None
         Finish the GL at the end of every stage, so that the stage's wall time holds its GL
-        work (default :attr:`soc.gl.context.GLContext.stage_sync`: on llvmpipe, not on a GPU,
-        where the passes are queued and only the read back of the test's result waits). The
-        same frames either way.
+        work (default None: :attr:`soc.gl.context.GLContext.stage_sync`, on llvmpipe, not on
+        a GPU, where the passes are queued and only the read back of the test's result
+        waits). The same frames either way.
+    """
+
+    test: Literal["auto", "gpu", "cpu"] = "auto"
+    granularity: Granularity = "object"
+    order: Order = "front-to-back"
+    occluders_first: bool = False
+    cpu_threads: int | None = option(None, low=1)
+    sync: bool | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.granularity == "cluster" and self.occluders_first:
+            raise ValueError(
+                "hiz-2phase: granularity='cluster' cannot be combined with occluders_first "
+                "(the late occluders are drawn and tested again as whole objects); drop one"
+            )
+
+
+@register
+class TwoPhaseCulling(TwoPhase):
+    """Two-phase HiZ culling with its sets decided on the CPU, drawing the frame itself
+    (:class:`~soc.methods.two_phase.TwoPhase`: early pass, pyramid, test, late pass).
+
+    Options: :class:`TwoPhaseOptions`.
 
     Attributes
     ----------
+    tested_on : {"cpu", "gpu"}
+        Where the pyramid is built and the boxes tested (``test``, "auto" resolved).
+    depth_test : soc.methods.two_phase.DepthTest
+        That pyramid and test (:class:`~soc.methods.two_phase.NumbaDepthTest` or
+        :class:`~soc.methods.two_phase.GlDepthTest`), a plug of the pipeline.
+    tree : soc.culling.hierarchy.Hierarchy
+        The scene's object hierarchy, refitted to the objects alive, that the numba test walks.
     next_set : (N,) bool
         Objects to draw in next frame's early pass (empty after construction and reset()).
     alive : (N,) bool
@@ -125,37 +158,21 @@ class TwoPhaseCulling(TwoPhase):
     """
 
     name = "hiz-2phase"
+    Options = TwoPhaseOptions
 
-    def __init__(
-        self,
-        geometry,
-        resolution,
-        config,
-        *,
-        test: str = "auto",
-        granularity: str = "object",
-        order: str = "front-to-back",
-        occluders_first: bool = False,
-        threads: int | None = None,
-        sync: bool | None = None,
-    ):
-        check_choice("test", test, TESTS)
-        check_choice("granularity", granularity, GRANULARITIES)
-        if granularity == "cluster" and occluders_first:
-            raise ValueError(
-                "granularity='cluster' cannot be combined with occluders_first: the late "
-                "occluders are drawn and tested again as whole objects"
-            )
-        super().__init__(geometry, resolution, config, order=order, sync=sync)
+    def __init__(self, geometry, resolution, config, options: TwoPhaseOptions | None = None):
+        super().__init__(geometry, resolution, config, options)
+        opts = self.options
+        test = opts.test
         if test == "auto":
             test = "cpu" if self.glctx.software else "gpu"
         self.tested_on = test
-        self.occluders_first = bool(occluders_first)
-        self.granularity = granularity
+        self.occluders_first = opts.occluders_first
+        self.granularity = opts.granularity
         self.depth_test = (
             GlDepthTest(self.glctx, self.renderer.resolution)
             if test == "gpu"
-            else NumbaDepthTest(self.renderer.resolution, threads)
+            else NumbaDepthTest(self.renderer.resolution, opts.cpu_threads)
         )
         n = len(self.scene)
         self.alive = np.ones(n, bool)
@@ -167,7 +184,7 @@ class TwoPhaseCulling(TwoPhase):
         self._hierarchy = Hierarchy.for_scene(self.scene)
         self.tree = self._hierarchy  # refitted to the objects alive (set_alive)
         self.last_walk = None
-        self.sets = ClusterSets(self) if granularity == "cluster" else ObjectSets(self)
+        self.sets = ClusterSets(self) if self.granularity == "cluster" else ObjectSets(self)
         self.clusters = getattr(self.sets, "clusters", None)
 
     def release(self) -> None:

@@ -36,12 +36,11 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, Literal, Protocol, get_args
 
 import numpy as np
 
 from soc.culling.hiz_options import MAX_REFINE
-from soc.errors import check_choice
 from soc.methods.base import CullMethod, MethodOutput
 from soc.metrics import gpu_stage, stage
 
@@ -49,8 +48,11 @@ from soc.metrics import gpu_stage, stage
 # of what is behind before they are shaded) or as the pass's set comes (by object id on the
 # CPU, as the compute passes appended them on the GPU). The depth, the kept set and so
 # conservativeness do not depend on it.
-ORDERS = ("front-to-back", "unsorted")
-GRANULARITIES = ("object", "cluster")
+Order = Literal["front-to-back", "unsorted"]
+ORDERS = get_args(Order)
+# What is culled and drawn: whole objects, or their clusters (:class:`ClusterSource`).
+Granularity = Literal["object", "cluster"]
+GRANULARITIES = get_args(Granularity)
 
 # The clusters' size: 32 triangles, a quarter of the clusters module's usual size. With
 # clusters tested one per invocation and drawn early by runs, smaller clusters cost little more
@@ -114,15 +116,9 @@ class TwoPhase(CullMethod):
     (:attr:`sync`, the default on llvmpipe) or only queued (the default on a GPU, whose clock
     times the stages; :class:`soc.Culler` waits at the frame's end).
 
-    Parameters
-    ----------
-    geometry, resolution, config
-        As every :class:`~soc.methods.base.CullMethod`.
-    order : {"front-to-back", "unsorted"}
-        :data:`ORDERS`.
-    sync : bool or None
-        Finish the GL at the end of every stage (None:
-        :attr:`soc.gl.context.GLContext.stage_sync`).
+    A configuration's options (its ``Options`` dataclass) have ``order`` (:data:`ORDERS`) and
+    ``sync`` (finish the GL at the end of every stage; None:
+    :attr:`soc.gl.context.GLContext.stage_sync`).
 
     Attributes
     ----------
@@ -135,13 +131,13 @@ class TwoPhase(CullMethod):
     temporal = True
     draws_frame = True
 
-    def __init__(self, geometry, resolution, config, *, order: str, sync: bool | None):
-        check_choice("order", order, ORDERS)
-        super().__init__(geometry, resolution, config)
+    def __init__(self, geometry, resolution, config, options=None):
+        super().__init__(geometry, resolution, config, options)
         from soc.rendering.renderer import Renderer
 
-        self.order = order
-        self.sync = self.glctx.stage_sync if sync is None else bool(sync)
+        opts = self.options
+        self.order = opts.order
+        self.sync = self.glctx.stage_sync if opts.sync is None else opts.sync
         self.renderer = Renderer(geometry, resolution)
         self.last_draws_ms: dict[str, float] = {}
 

@@ -301,7 +301,7 @@ def test_bad_options_are_clear_errors(clutter_scenes):
     s = clutter_scenes[0]
     for options, match in (
         ({"granularity": "triangle"}, "granularity"),
-        ({"cluster_triangles": 0}, "max_triangles"),
+        ({"cluster_triangles": 0}, "cluster_triangles"),
         ({"order": "id"}, "order"),
     ):
         with pytest.raises(ValueError, match=match):
