@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from experiments import harness
-from experiments.claims import MEASURED, NUMBERS, TREND, Each, Row, Rule, alter
+from experiments.claims import MEASURED, NUMBERS, TREND, Each, Row, Rule, alter, chain
 from experiments.common import UsageError, loglog_slope, require, res_str
 
 # Seed 004, Table 1 (SPEC.md "Seed 004"): objects, measured ms, model ms, model error %.
@@ -372,18 +372,25 @@ CLAIMS = (
         "error {r.error_paper_form_pct:+.1f} % (measured {r.ms_measured:.3f} ms, the paper's "
         "form {r.ms_paper_form:.3f} ms)",
         NUMBERS,
-        Rule(lambda q: abs(q.r.error_paper_form_pct), "<=", ERROR_TOLERANCE_PCT, "pp",
+        Rule(lambda q: abs(q.r.error_paper_form_pct) + q.noise, "<=", ERROR_TOLERANCE_PCT, "pp",
              noise=lambda q: q.noise, flips=(
                  alter("table1", "error_paper_form_pct", plus=50.0),
-                 alter("table1", "error_paper_form_pct", 0.0))),
+                 chain(alter("table1", "error_paper_form_pct", 0.0),
+                       alter("table1", "ms_p75", expr="ms_p25")))),
         basis=lambda q: f"|error| within {ERROR_TOLERANCE_PCT:g} %, the document's largest (its "
-        "max of the stages, T_vert = N_Δ·T_Δ, T_frag = f·T_frag from the full-screen triangle); "
-        "noise: the error's change if the measured ms moved by half its rounds' interquartile "
-        "range" + (f"; absolute ms not compared: llvmpipe on CPU cores vs the paper's GTX 1070, "
+        "max of the stages, T_vert = N_Δ·T_Δ, T_frag = f·T_frag from the full-screen triangle), "
+        "with its noise: |error| + noise, the error's change if the measured ms moved by half "
+        "its rounds' interquartile range, so that a row whose noise exceeds the tolerance "
+        "cannot match"
+        + (f"; absolute ms not compared: llvmpipe on CPU cores vs the paper's GTX 1070, "
                    f"ours {q.r.ms_measured / q.r.doc_ms_measured:.0f}× theirs"
                    if np.isfinite(q.r.doc_ms_measured) else ""),
-        why="the paper's form prices a frame by its largest stage; llvmpipe runs the stages one "
-        "after another (the same constants summed are our reading)",
+        why=lambda q: (f"the measured ms spread so much over the rounds that the error is not "
+                       f"resolved: noise {q.noise:.0f} pp against a tolerance of "
+                       f"{ERROR_TOLERANCE_PCT:g}"
+                       if abs(q.r.error_paper_form_pct) <= ERROR_TOLERANCE_PCT else
+                       "the paper's form prices a frame by its largest stage; llvmpipe runs the "
+                       "stages one after another (the same constants summed are our reading)"),
         note=_reading,
     ),)),
     Each(_table1, (

@@ -451,8 +451,15 @@ def _table2(frames: dict[str, pd.DataFrame], params: Params):
     later = frames["frames"][frames["frames"].frame > 0]
     cols = ["ms_buf_h", "ms_buf_s", "dirty_nodes", "commands_recorded", "objects_in_frustum"]
     info = frames["table2_scene"].iloc[0]
+    n = int(info.objects)
+    share = per_cam.groupby("nodes_checked_budget").estimate.agg(["mean", "std"]) / n
+    top = d.iloc[-1]
+    doc_first = next(b for b, e in zip(DOC_NODES_CHECKED, DOC_ESTIMATE, strict=True) if e > 0)
     yield {
-        "t2": t2, "d": d, "info": info, "n": int(info.objects),
+        "t2": t2, "d": d, "info": info, "n": n, "share": share,
+        "top_ours": float(top.estimate / n), "top_doc": float(top.doc_estimate / DOC_OBJECTS),
+        "top_noise": float(share["std"].iloc[-1]) if per_cam.camera.nunique() >= 3 else None,
+        "first_budget": float(first.iloc[0]) if len(first) else np.inf, "doc_first": doc_first,
         "false": int(t2.false_invisible.sum()),
         "over": int((t2.estimate > t2.true_invisible).sum()),
         "least_step": float(steps.min()) if len(steps) else 0.0,  # < 0: the estimate fell
@@ -468,19 +475,32 @@ def _table2(frames: dict[str, pd.DataFrame], params: Params):
 
 
 def _budgets(frames: dict[str, pd.DataFrame], params: Params):
-    """One case per budget of Table 2's document row (``r``)."""
+    """One case per budget of Table 2's document row (``r``), with our share's spread over
+    the cameras (``f_noise``)."""
     for case in _table2(frames, params):
-        before = 0.0
+        cams = case["t2"].camera.nunique()
         for r in case["d"].itertuples():
             if np.isfinite(r.doc_estimate):
-                yield {**case, "r": r, "ours_f": r.estimate / case["n"], "before": before,
-                       "doc_f": r.doc_estimate / DOC_OBJECTS}  # fmt: skip
-            before = max(before, r.estimate)
+                std = case["share"]["std"].get(r.nodes_checked_budget, np.nan)
+                noise = float(std) if cams >= 3 and np.isfinite(std) else None
+                yield {**case, "r": r, "ours_f": r.estimate / case["n"],
+                       "doc_f": r.doc_estimate / DOC_OBJECTS, "f_noise": noise}  # fmt: skip
 
 
-_BUDGET = "nodes_checked_budget >= 1000"  # the larger budgets, where our estimate is nonzero
 _SEES = (alter("table2", "false_invisible", plus=1),)  # an object the oracle sees counted
-_FALLS = (alter("table2", "estimate", -1.0, _BUDGET),)  # the estimate falls at large budgets
+
+
+def _as_doc(frames):
+    """table2.estimate = the document's row as a share of our objects, every camera alike."""
+    t = frames["table2"].copy()
+    n = float(frames["table2_scene"].objects.iloc[0])
+    t["estimate"] = t.doc_estimate / DOC_OBJECTS * n
+    return {**frames, "table2": t}
+
+
+# The estimate set to the document's row (its share of our objects), or to nothing.
+_AS_DOC = (_as_doc,)
+_NONE = (alter("table2", "estimate", to=0),)
 _DET = 0.0  # counts of seeded scenes and the exact oracle: deterministic
 
 
@@ -507,14 +527,22 @@ CLAIMS = (
             "nodes (first nonzero at 20; up to 70 % of the objects)",
             lambda q: " / ".join(f"{v:,.0f}" for v in q.d.estimate)
             + f" for {', '.join(f'{b:,}' for b in q.d.nodes_checked_budget)} nodes (first "
-            f"nonzero at {q.first}; up to {q.d.estimate.max() / q.n:.0%} of the objects)",
+            f"nonzero at {q.first}; up to {q.top_ours:.0%} of the objects)",
             TREND,
-            Rule(lambda q: q.least_step, ">=", 0, "objects", noise=_DET, flips=_FALLS),
-            basis="the estimate never falls as the budget grows, for every camera",
-            note="a trend at another scale, not the document's numbers: our octree "
-            "({info.octree_nodes:,.0f} non-empty nodes, {info.expensive_nodes:,.0f} expensive, "
-            f"leaves of {LEAF_CAPACITY}) on our city finds its first hidden node only at "
-            "{first} nodes checked",
+            (Rule(lambda q: q.doc_first - q.first_budget, ">=", 0, "nodes", name="first nonzero",
+                  noise=_DET, flips=_NONE + _AS_DOC),
+             Rule(lambda q: q.top_ours - q.top_doc + (q.top_noise or 0.0), ">=", 0, "of objects",
+                  name="largest budget", noise=lambda q: q.top_noise, flips=_NONE + _AS_DOC)),
+            basis="the estimate's first hidden objects come at the document's budget ({doc_first}"
+            " nodes) or sooner, and at the largest budget it finds the document's share of the "
+            "objects ({top_doc:.0%}) within our share's spread over the cameras (the same "
+            "object count, 70,000; monotone growth is by construction — a larger budget checks "
+            "a superset — and not judged)",
+            why=lambda q: f"our octree ({q.info.octree_nodes:,.0f} non-empty nodes, "
+            f"{q.info.expensive_nodes:,.0f} expensive, leaves of {LEAF_CAPACITY}) checks its "
+            "largest boxes first (top-down) and finds its first hidden node only at "
+            f"{q.first} nodes checked; at the largest budget {q.top_ours:.0%} against "
+            f"{q.top_doc:.0%}",
         ),
     )),
     Each(_budgets, (Row(
@@ -522,18 +550,21 @@ CLAIMS = (
         "estimate {r.doc_estimate:,.0f} of 70,000 ({doc_f:.0%}), {r.doc_ms:g} ms",
         "estimate {r.estimate:,.0f} of {n:,} ({ours_f:.0%}; oracle {r.true_invisible:,.0f} "
         "invisible), {r.occluded_nodes:.0f} nodes found occluded, {r.ms:.1f} ms",
-        TREND,
+        NUMBERS,
         (Rule(lambda q: q.r.false_invisible, "==", 0, "objects", name="false invisible",
               noise=_DET, flips=_SEES),
-         Rule(lambda q: q.r.estimate - q.before, ">=", 0, "objects", name="not below",
-              noise=_DET, flips=_FALLS)),
-        basis="conservative at this budget (0 false invisible) and not below the smaller "
-        "budgets' (means over the cameras)",
-        why="the estimate counts objects the oracle sees, or falls with a larger budget",
-        note=lambda q: "numbers not compared: another scene at another scale (ours "
-        f"{q.ours_f - q.doc_f:+.0%} of the objects against the document's); ms are llvmpipe's, "
-        f"{q.r.ms / q.r.doc_ms:.0f}× the paper's GPU's, with {q.r.nodes_checked:,.0f} nodes "
-        "actually checked",
+         Rule(lambda q: (q.f_noise or 0.0) - abs(q.ours_f - q.doc_f), ">=", 0, "of objects",
+              name="share", noise=lambda q: q.f_noise, flips=_AS_DOC + _NONE)),
+        basis="conservative at this budget (0 false invisible), and the share of the objects "
+        "estimated invisible (both scenes hold 70,000 objects) equals the document's within "
+        "our share's spread over the cameras (means over the cameras)",
+        why=lambda q: f"ours {q.ours_f:.0%} against the document's {q.doc_f:.0%} "
+        f"({q.ours_f - q.doc_f:+.0%}): {q.r.occluded_nodes:.0f} of the {q.r.nodes_checked:,.0f} "
+        "nodes checked found occluded (top-down: the octree's largest boxes first); another "
+        "scene than the paper's, whose layout it does not give"
+        + ("" if q.r.false_invisible == 0 else f"; {q.r.false_invisible:.0f} false invisible"),
+        note=lambda q: f"ms are llvmpipe's, {q.r.ms / q.r.doc_ms:.0f}× the paper's GPU's, with "
+        f"{q.r.nodes_checked:,.0f} nodes actually checked",
     ),)),
     Each(_table2, (
         Row(
