@@ -202,6 +202,12 @@ class Culler:
                 out: MethodOutput = self.method.cull(camera, draw=draw)
             else:
                 out = self.method.cull(camera)
+            if not isinstance(out, MethodOutput):
+                raise TypeError(
+                    f"culling method {self.method.name!r} ({type(self.method).__name__}.cull) "
+                    f"returned {type(out).__name__}, not a soc.methods.MethodOutput: return "
+                    "MethodOutput(visible) with the (N,) bool mask as visible"
+                )
             timings = dict(out.timings_ms)
             if not getattr(self.method, "sync", True):
                 # The method queued its stages without waiting: its frame ends when the GL's
