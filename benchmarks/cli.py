@@ -256,7 +256,7 @@ def floor_sections(args: argparse.Namespace, scene_name: str, path: str, frames:
         targets = pd.concat(both, ignore_index=True)
         body = bench_floor.markdown(result, command, note=note)
         sections.append(Section(f"floor-{scene_name}{on}", body, targets))
-    if args.only in (None, "methods") and not on:  # the methods and foundation are the flight's
+    if args.only in (None, "methods") and not on and scene_name == args.scene:  # the flight's
         sections.append(Section(f"methods-{scene_name}", methods_markdown(result, command)))
     if args.only in (None, "foundation") and not on and scene_name == args.scene:
         body = foundation_markdown(result, command, load_s, rss_mb)
@@ -265,25 +265,28 @@ def floor_sections(args: argparse.Namespace, scene_name: str, path: str, frames:
 
 
 def other_sections(args: argparse.Namespace, out: Path) -> list[Section]:
-    """The LOD, adaptive, queries and scale sections that ``args`` asks for."""
-    quick = " --quick" if args.quick else ""
+    """The LOD, adaptive, queries and scale sections that ``args`` asks for (each small where
+    ``--quick`` or ``--quick-sections`` names it)."""
+    small = set(SECTIONS) if args.quick else set(filter(None, args.quick_sections.split(",")))
+    flag = {name: " --quick" if name in small else "" for name in SECTIONS}
     sections = []
     if args.only in (None, "lod"):
-        sections += lod_sections(out, args.quick)
+        sections += lod_sections(out, "lod" in small)
     if args.only in (None, "adaptive"):
-        sections.append(Section(ADAPTIVE, adaptive_markdown(out, quick=args.quick)))
+        sections.append(Section(ADAPTIVE, adaptive_markdown(out, quick="adaptive" in small)))
     if args.only in (None, "queries"):
-        frames = 2 if args.quick else bench_queries.FRAMES
-        body = bench_queries.section(out, frames, f"python -m benchmarks --only queries{quick}")
-        sections.append(Section("queries-compiled", body))
+        frames = 2 if "queries" in small else bench_queries.FRAMES
+        command = f"python -m benchmarks --only queries{flag['queries']}"
+        sections.append(Section("queries-compiled", bench_queries.section(out, frames, command)))
     if args.only in (None, "scale"):
         from benchmarks import scale as bench_scale
 
-        small = QUICK_SCALE if args.quick else {}
-        if not args.quick and args.city_frames is not None:
-            small = {"city_frames": args.city_frames}
-        result = bench_scale.run(**small)
-        command = f"python -m benchmarks --only scale{quick}"
+        options = dict(QUICK_SCALE) if "scale" in small else {}
+        if args.city_frames is not None:
+            options["city_frames"] = args.city_frames
+        result = bench_scale.run(**options)
+        command = f"python -m benchmarks --only scale{flag['scale']}"
+        command += f" --city-frames {args.city_frames}" if args.city_frames is not None else ""
         body = bench_scale.write(result, out, command)
         s = bench_scale.summary(result["frames"])
         t = bench_scale.targets(s, result.get("city"))
@@ -344,6 +347,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default="results")
     ap.add_argument("--quick", action="store_true", help="a few frames of everything (checking)")
     ap.add_argument(
+        "--quick-sections", default="", help="comma-separated sections to run small, as "
+        f"--quick does (of {', '.join(SECTIONS)}; floor runs: --frames)"
+    )  # fmt: skip
+    ap.add_argument(
         "--only", choices=SECTIONS, default=None, help="run one benchmark section (default: all)"
     )
     ap.add_argument(
@@ -364,6 +371,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.path != "flight" and args.only not in (None, "floor"):
         ap.error(f"--path {args.path} is for the floor section only (--only floor)")
     frames = args.frames or (QUICK_FRAMES if args.quick else 100)
+    unknown = set(filter(None, args.quick_sections.split(","))) - set(SECTIONS)
+    if unknown:
+        ap.error(f"--quick-sections: no section {', '.join(sorted(unknown))}; of {SECTIONS}")
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -386,7 +396,12 @@ def main(argv: list[str] | None = None) -> int:
         order = ["foundation", "methods-", "floor-", "queries", "scale", "lod", ADAPTIVE]
         sections.sort(key=lambda s: next(i for i, p in enumerate(order) if s.name.startswith(p)))
         command = "python -m benchmarks " + " ".join(argv if argv is not None else sys.argv[1:])
-        settings = "quick mode" if args.quick else f"floor runs of {frames} frames"
+        settings = (
+            "quick mode"
+            if args.quick
+            else f"floor runs of {frames} frames"
+            + (f", {args.quick_sections} in quick mode" if args.quick_sections else "")
+        )
         text = whole_file(sections, command.strip(), settings)
         md.write_text(text)
     else:

@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from benchmarks import common as bc
-from experiments.markdown import markdown_table
+from experiments.markdown import markdown_table, replace_section
 
 SIZES = (10_000, 100_000, 1_000_000)
 RESOLUTION = (1280, 720)
@@ -373,17 +373,16 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     result = run(args.frames, [int(n) for n in args.sizes.split(",")], args.city_frames)
-    write(result, out, f"python -m benchmarks.scale --sizes {args.sizes} "
-                       f"--frames {args.frames} --city-frames {args.city_frames}")  # fmt: skip
+    command = (f"python -m benchmarks.scale --sizes {args.sizes} --frames {args.frames} "
+               f"--city-frames {args.city_frames}")  # fmt: skip
+    print(replace_section(out / "BENCHMARKS.md", "scale", write(result, out, command)))
     return 0
 
 
 def write(result: dict[str, pd.DataFrame], out: Path, command: str) -> str:
-    """CSVs, ``scale.png`` and the ``scale`` section of ``out/BENCHMARKS.md`` (and, when
-    ``out`` is the checkout's ``results/``, a small copy of the figure in ``docs/gallery/``);
-    returns the file's text."""
+    """CSVs and ``scale.png`` in ``out`` (and, when ``out`` is the checkout's ``results/``, a
+    small copy of the figure in ``docs/gallery/``); returns the ``scale`` section's body."""
     from experiments.common import GALLERY
-    from experiments.markdown import replace_section
 
     bc.write_csvs(result, out, "scale")
     plot(result["frames"]).savefig(out / "scale.png", dpi=110)
@@ -393,9 +392,7 @@ def write(result: dict[str, pd.DataFrame], out: Path, command: str) -> str:
 
         shrink(out / "scale.png", GALLERY / "scale.png")
         link = "../docs/gallery/scale.png"
-    text = replace_section(out / "BENCHMARKS.md", "scale", markdown(result, command, link))
-    print(text.split("<!-- begin scale -->")[1].split("<!-- end scale -->")[0])
-    return text
+    return markdown(result, command, link)
 
 
 if __name__ == "__main__":

@@ -63,7 +63,7 @@ def test_same_view_keeps_the_frustum_and_scaled_view_keeps_the_fraction():
 def test_markdown_figure_and_targets(result, tmp_path):
     text = bench_scale.write(result, tmp_path, "python -m benchmarks --only scale")
     assert (tmp_path / "scale.png").stat().st_size > 1000
-    assert "<!-- begin scale -->" in text and "### Scale targets" in text
+    assert text.startswith("## Culling cost against scene size") and "### Scale targets" in text
     assert "### The city" in text and "hiz-2phase" in text
     for key in ("frames", "sizes", "city", "city_floor", "city_info"):
         assert (tmp_path / f"scale-{key}.csv").exists()
