@@ -62,7 +62,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from soc.culling.bvh_gpu import NODE_REFINE, gpu_hierarchy
-from soc.culling.clusters import whole_objects
 from soc.culling.hiz_gpu import (
     TEST_GROUP,
     TEST_GROUPS,
@@ -101,6 +100,7 @@ from soc.methods.two_phase import (
     Order,
     SceneClusters,
     TwoPhase,
+    WholeObjects,
 )
 
 _ZERO = bytes(4)
@@ -148,6 +148,9 @@ class GpuDrivenCulling(TwoPhase):
 
     Attributes
     ----------
+    source : soc.methods.two_phase.ClusterSource
+        Where the clusters come from (:class:`~soc.methods.two_phase.SceneClusters`, or
+        :class:`~soc.methods.two_phase.WholeObjects` with ``granularity="object"``).
     clusters : soc.culling.clusters.Clusters
     last_draws_ms : dict
         ``{"early draw": ms, "late draw": ms}`` of the last frame.
@@ -166,9 +169,10 @@ class GpuDrivenCulling(TwoPhase):
         # their own (the late pass's loop keeps one SIMD lane busy while the others wait).
         self.split = granularity == "cluster"
         if granularity == "cluster":
-            self.clusters = SceneClusters(scene, self.options.cluster_triangles).clusters
+            self.source = SceneClusters(scene, self.options.cluster_triangles)
         else:
-            self.clusters = whole_objects(scene)
+            self.source = WholeObjects(scene)
+        self.clusters = self.source.clusters
         self.gpu = geometry.clusters(self.clusters)
         self.hierarchy = gpu_hierarchy(geometry)
         self.pyramid = DepthPyramid(self.glctx, self.renderer.resolution)

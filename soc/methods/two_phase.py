@@ -54,13 +54,10 @@ ORDERS = get_args(Order)
 Granularity = Literal["object", "cluster"]
 GRANULARITIES = get_args(Granularity)
 
-# The clusters' size: 32 triangles, a quarter of the clusters module's usual size. With
-# clusters tested one per invocation and drawn early by runs, smaller clusters cost little more
-# to cull and draw fewer hidden triangles: on llvmpipe 64 beat 128 on every bench path
-# (castle-2114, market and the refilled castle, flight and walk), and 32 beat 64 on
-# castle-2114; 24 and 16 cost about as much as 32: castle-2114's flight, paired, 1.03 with 0.68
-# of the ideal's triangles against 1.00 with 0.71 (results/BENCHMARKS.md, "Cheaper passes and
-# smaller clusters", "`gpu-driven`: clusters of 24 triangles against 32").
+# The clusters' size (triangles), a quarter of the clusters module's usual size. With clusters
+# tested one per invocation and drawn early by runs, smaller clusters cost little more to cull
+# and draw fewer hidden triangles; below 32 they cost about the same (results/BENCHMARKS.md,
+# "Cheaper passes and smaller clusters", "`gpu-driven`: clusters of 24 triangles against 32").
 CLUSTER_TRIANGLES = 32
 
 # The HiZ test of both configurations: 4×4 texels read per box at its level, refined down to
@@ -376,6 +373,15 @@ class ClusterSource(Protocol):
     DAG, the cut chosen for this view). A candidate is what the test judges and the passes
     draw: the candidates of one object must hold, together, a surface that covers every
     pixel the object covers (conservativeness is judged against that surface).
+
+    Where it plugs in: ``hiz-2phase``'s :class:`~soc.methods.hiz_2phase.ClusterSets` (its
+    ``source``) asks :meth:`candidates` for the objects that passed, tests their boxes and
+    draws those that pass; ``gpu-driven`` uploads :attr:`clusters` once
+    (:meth:`soc.gl.geometry.SceneGeometry.clusters`) and its late and cluster passes visit
+    every cluster of a passing object (``late_object`` in ``gpu_driven_late.comp.glsl``,
+    ``test_clusters`` in ``gpu_driven_clusters.comp.glsl``): a source that chooses on the GPU
+    marks its candidates where those loops read a cluster. The early pass draws last frame's
+    passing runs whatever this frame's candidates are (any early subset is conservative).
     """
 
     clusters: Any  # soc.culling.clusters.Clusters
@@ -384,6 +390,19 @@ class ClusterSource(Protocol):
         """(M,) int64: the candidate clusters of ``objects`` (K,) int for ``camera``, each
         object's in cluster order, objects in the order given."""
         ...
+
+
+class WholeObjects:
+    """Every object one cluster (:func:`soc.culling.clusters.whole_objects`): the object
+    granularity of a configuration that draws clusters (``gpu-driven(granularity='object')``)."""
+
+    def __init__(self, scene):
+        from soc.culling.clusters import whole_objects
+
+        self.clusters = whole_objects(scene)
+
+    def candidates(self, camera, objects: np.ndarray) -> np.ndarray:
+        return np.asarray(objects, np.int64)
 
 
 class SceneClusters:
