@@ -5,13 +5,16 @@ invisible-object estimate of Table 2.
 We measure (1) each scene's objects and triangles beside the paper's scaled counts
 (:mod:`soc.scenes.dynamic`) and the time to draw its last frame; (2) its animation replayed
 through the octree: per frame T_buf(H) (record + upload of the dirty nodes only) beside
-T_buf(S) (the frustum's objects recorded afresh, mode 1), T_fc(H) (node frustum test) and
-T_fc(S) (per-object test), and at the last frame both GPU layouts of the node buffers; (3)
-Table 2: the estimate on scene 3's layout with 70,000 objects from elevated cameras, per budget
-of nodes checked and two thresholds of the expensive nodes, beside the exact oracle's counts
-and the paper's row (0 … 48,782 objects, 0.031 … 23.42 ms for 10 … 10,000 nodes). Judged: the
-estimate is conservative and never falls with the budget, and its time grows at most in
-proportion to the nodes checked. Times are medians on llvmpipe: compare growth, not level.
+T_buf(S) (the frustum's objects recorded afresh, mode 1) — both recorded one command at a time
+on one thread (:mod:`soc.rendering.command_recording`), the octree's upkeep timed apart —,
+T_fc(H) (node frustum test) and T_fc(S) (per-object test), and at the last frame both GPU
+layouts of the node buffers; (3) Table 2: the estimate on scene 3's layout with 70,000 objects
+from elevated cameras, per budget of nodes checked and two thresholds of the expensive nodes,
+beside the exact oracle's counts and the paper's row (0 … 48,782 objects, 0.031 … 23.42 ms for
+10 … 10,000 nodes). Judged: the estimate is conservative, its share of the objects against the
+document's per budget (its growth with the budget is monotone by construction), and its time
+grows at most in proportion to the nodes checked. Times are medians on llvmpipe: compare
+growth, not level.
 """
 
 from __future__ import annotations
@@ -110,13 +113,15 @@ def replay(dyn, glctx, renderer, bar) -> tuple[list[dict], list[dict]]:
     """Every frame's events applied to an octree, its command buffers and frustum tests timed
     (module docstring): rows per frame, and the last frame's layout rows."""
     from soc.culling.frustum import aabbs_in_frustum
-    from soc.culling.octree import NodeBuffers, ObjectCommands, Octree
+    from soc.culling.octree import Octree
+    from soc.rendering.command_recording import FlatCommands, NodeCommands
 
     scene = dyn.scene
     geom = glctx.geometry(scene)
     octree = Octree.for_scene(scene, max_depth=MAX_DEPTH, leaf_capacity=LEAF_CAPACITY)
-    nodes_gl = NodeBuffers(octree, geom, layout="shared")
-    flat = ObjectCommands(geom)
+    # Commands recorded one at a time on one thread, as the adaptive method records them.
+    nodes_gl = NodeCommands(octree, geom)
+    flat = FlatCommands(geom)
     cams = dyn.cameras(*renderer.resolution)
     rows: list[dict] = []
     try:
@@ -125,6 +130,7 @@ def replay(dyn, glctx, renderer, bar) -> tuple[list[dict], list[dict]]:
             octree.remove(state.removed)
             octree.replace(state.moved_from, state.moved_to, scene.aabbs[state.moved_to])
             octree.insert(state.added, scene.aabbs[state.added])
+            octree.rebuild_dirty()  # the changed nodes' membership and bounds: upkeep
             ms_update = 1e3 * (time.perf_counter() - t0)
             st = nodes_gl.sync()
             t1 = time.perf_counter()
@@ -142,26 +148,32 @@ def replay(dyn, glctx, renderer, bar) -> tuple[list[dict], list[dict]]:
                 "commands_recorded": st.commands, "ms_update": ms_update,
                 "ms_buf_h_record": st.ms_record, "ms_buf_h_upload": st.ms_upload,
                 "ms_buf_h": st.ms, "ms_fc_h": ms_fc_h, "visible_nodes": len(visible_nodes),
-                "objects_in_frustum": len(kept), "ms_buf_s": flat.sync(kept), "ms_fc_s": ms_fc_s,
+                "objects_in_frustum": len(kept), "ms_fc_s": ms_fc_s,
             })  # fmt: skip
+            fs = flat.sync(kept)
+            rows[-1].update(ms_buf_s=fs.ms, ms_buf_s_record=fs.ms_record)
             bar.update(1)
-        layouts = compare_layouts(dyn.name, octree, geom, renderer, cams[-1], nodes_gl, flat)
+        layouts = compare_layouts(dyn.name, octree, geom, renderer, cams[-1], flat)
     finally:
         nodes_gl.release()
         flat.release()
     return rows, layouts
 
 
-def compare_layouts(name, octree, geom, renderer, cam, shared, flat) -> list[dict]:
-    """At the last frame: re-record every node into both GPU layouts and draw the frustum's
-    nodes from each, beside the frustum's objects as one flat multi-draw (medians of 3)."""
+def compare_layouts(name, octree, geom, renderer, cam, flat) -> list[dict]:
+    """At the last frame: re-record every node into both GPU layouts (the commands gathered
+    with numpy, :class:`soc.culling.octree.NodeBuffers`) and draw the frustum's nodes from
+    each, beside the frustum's objects recorded one at a time into one flat multi-draw
+    (medians of 3)."""
     from soc.culling.frustum import aabbs_in_frustum
     from soc.culling.octree import NodeBuffers
 
     base = {"scene": name, "nodes": int((octree.own_counts > 0).sum())}
+    shared = NodeBuffers(octree, geom, layout="shared")
     per_node = NodeBuffers(octree, geom, layout="per-node")
     rows = []
     try:
+        shared.sync()
         per_node.sync()
         visible = octree.visible_nodes(cam)
         alive = np.flatnonzero(octree.alive)
@@ -183,11 +195,12 @@ def compare_layouts(name, octree, geom, renderer, cam, shared, flat) -> list[dic
         renderer.draw(cam, kept)
         rows.append({
             **base, "layout": "flat (mode 1)", "record_ms": np.nan, "upload_ms": np.nan,
-            "record_upload_ms": float(np.median([flat.sync(kept) for _ in range(3)])),
+            "record_upload_ms": float(np.median([flat.sync(kept).ms for _ in range(3)])),
             "draw_ms": float(np.median([renderer.draw(cam, kept) for _ in range(3)])),
             "drawn": len(kept),
         })  # fmt: skip
     finally:
+        shared.release()
         per_node.release()
     return rows
 
