@@ -17,6 +17,20 @@ from soc.viz import _pyvista, _window
 
 # Each panel's pixels when no window size is given: small, so an off-screen render is fast.
 PANEL_SIZE = (240, 240)
+# The error's colour bar, inside the last panel (fractions of it) with short labels: pyvista's
+# default place (from 0.35 to 0.95 of the panel) lets its last label run out of the picture.
+SCALAR_BAR = {
+    "title": "error",
+    "color": "black",
+    "n_labels": 3,
+    "fmt": "%.2g",
+    "position_x": 0.12,
+    "position_y": 0.03,
+    "width": 0.76,
+    "height": 0.1,
+    "title_font_size": 12,
+    "label_font_size": 11,
+}
 
 
 def plot_chain(
@@ -74,7 +88,7 @@ def plot_chain(
             show_edges=show_edges,
             edge_color="black",
             show_scalar_bar=k == n - 1,
-            scalar_bar_args={"title": "error", "color": "black", "n_labels": 3},
+            scalar_bar_args=SCALAR_BAR,
         )
         pl.add_text(f"L{k}: {lv.triangles} tris\nerr {lv.error:.3g}", font_size=8, color="black")
         pl.view_isometric()

@@ -78,3 +78,18 @@ def test_plot_cull_legend_stays_in_the_picture():
         ).screenshot(return_img=True)
         edge = img[: img.shape[0] // 3, -3:, :3].astype(int)
         assert (edge.min(axis=2) > 200).all(), f"legend text at the right edge at {window}"
+
+
+def test_plot_chain_colour_bar_stays_in_the_picture():
+    """The error bar's last label ends inside the picture (pyvista's default place cut it)."""
+    pytest.importorskip("pyvista")
+    import trimesh
+
+    import lod
+    import lod.viz
+
+    mesh = trimesh.creation.icosphere(3)
+    chain = lod.build_chain(mesh.vertices, mesh.faces, ratios=(1.0, 0.25, 0.0625), cache_dir=False)
+    img = lod.viz.plot_chain(chain, screenshot=None, off_screen=True).screenshot(return_img=True)
+    bottom_right = img[-img.shape[0] // 4 :, -4:, :3].astype(int)
+    assert (bottom_right.min(axis=2) > 200).all(), "the colour bar's labels reach the edge"
