@@ -62,9 +62,10 @@ def fly(
     truth : None, "oracle", sequence of (N,) bool, or callable camera -> (N,) bool
         What the method is judged against: nothing (no ``false_culls``/``false_keeps``
         columns), the exact oracle at each culler's depth resolution (``"oracle"``: computed
-        once per frame and resolution, shared by every culler, its wall time in the ideal
-        row's ``oracle_ms``), one precomputed visible set per camera, or a function of the
-        camera.
+        once per frame and resolution, shared by every culler), one precomputed visible set
+        per camera, or a function of the camera (called once per frame, e.g. an oracle at
+        the display resolution for cullers of several depth resolutions). Its wall time per
+        frame is the ideal row's ``oracle_ms``.
     draw : bool or collection of labels
         Also draw each frame's kept set (``ms_draw`` column); see :meth:`soc.Culler.cull`. A
         collection draws only the cullers of those labels.
@@ -142,8 +143,9 @@ def fly(
     labels = list(cullers)
     rows = []
     oracle = getattr(truth_of, "oracle", None)
+    per_resolution = oracle is not None  # a given truth is the same at every resolution
     try:
-        _warm_up(cullers, drawn, cameras, warmup, truth_of)
+        _warm_up(cullers, drawn, cameras, warmup, truth_of, per_resolution)
         desc = f"fly {', '.join(labels) if len(labels) < 4 else f'{len(labels)} methods'}"
         total = repeats * len(cameras)
         bar = tqdm(total=total, desc=desc, unit="frame", disable=not progress)
@@ -157,7 +159,7 @@ def fly(
                     if before_frame is not None:
                         before_frame(i, cam)
                     judged = truth_of is not None and i % truth_every == 0
-                    known_at: dict = {}  # visible set per resolution, computed once per frame
+                    known_at: dict = {}  # the truth per resolution (the oracle's) or one
                     oracle_ms = 0.0
                     if order == "rotate":
                         k = (i + rep) % len(labels)
@@ -167,11 +169,12 @@ def fly(
                     for label in ordered:
                         c = cullers[label]
                         res = tuple(c.resolution)
-                        if judged and res not in known_at:
+                        key = res if per_resolution else None
+                        if judged and key not in known_at:
                             t0 = time.perf_counter()
-                            known_at[res] = truth_of(i, cam, res)
+                            known_at[key] = truth_of(i, cam, res)
                             oracle_ms += 1e3 * (time.perf_counter() - t0)
-                        known = known_at.get(res)
+                        known = known_at.get(key)
                         result = c.cull(cam, truth=known, draw=label in drawn)
                         row = {"frame": i, "method": label}
                         if repeats > 1:
@@ -182,7 +185,7 @@ def fly(
                             row["false_culls"] = row["false_keeps"] = None
                         else:
                             row["oracle_visible"] = int(known.sum())
-                        if label == IDEAL and oracle is not None:
+                        if label == IDEAL:
                             row["oracle_ms"] = oracle_ms  # not a stage of the frame
                         if extra is not None and label not in references:
                             row.update(extra(label, c, result))
@@ -206,7 +209,7 @@ def fly(
     return frame
 
 
-def _warm_up(cullers: Mapping, drawn: set, cameras: list, warmup, truth_of) -> None:
+def _warm_up(cullers: Mapping, drawn: set, cameras: list, warmup, truth_of, per_resolution) -> None:
     """Cull the warm-up frames with every culler (and the oracle once), untimed."""
     if isinstance(warmup, int | np.integer):
         if warmup < 0:
@@ -220,9 +223,10 @@ def _warm_up(cullers: Mapping, drawn: set, cameras: list, warmup, truth_of) -> N
         known_at: dict = {}  # the oracle warms up too; the ideal frame draws its set
         for label, c in cullers.items():
             res = tuple(c.resolution)
-            if truth_of is not None and res not in known_at:
-                known_at[res] = truth_of(0, cam, res)
-            c.cull(cam, truth=known_at.get(res), draw=label in drawn)
+            key = res if per_resolution else None
+            if truth_of is not None and key not in known_at:
+                known_at[key] = truth_of(0, cam, res)
+            c.cull(cam, truth=known_at.get(key), draw=label in drawn)
     if reset:
         for c in cullers.values():
             c.reset()

@@ -162,3 +162,20 @@ def test_repeats_truth_every_shuffled_order_and_drawing_some(scene):
     assert (df.loc[df.method == "a", "ms_draw"] == 0).all()
     one, two = (df[(df.method == "a") & (df.repeat == r)] for r in (0, 1))
     assert list(one.models_visible) == list(two.models_visible)
+
+
+def test_a_given_truth_is_computed_once_per_frame_for_every_resolution(scene):
+    """A callable truth (e.g. the oracle at the display resolution) serves cullers of several
+    depth resolutions with one call a frame (and one for the warm-up)."""
+    cams = random_cameras(scene, 3, seed=8, width=160, height=96)
+    calls = []
+
+    def truth(cam):
+        calls.append(cam)
+        return soc.exact_visibility(scene, cam)
+
+    with soc.Culler(scene, "queries", (160, 96)) as a, soc.Culler(scene, "queries", (80, 48)) as b:
+        df = soc.fly({"a": a, "b": b}, cams, truth=truth, ideal=True, progress=False)
+    assert len(calls) == 3 + 1
+    assert (df.false_culls[df.method == "a"] == 0).all()
+    assert (df.oracle_ms[df.method == "ideal"] > 0).all()
