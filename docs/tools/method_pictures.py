@@ -8,7 +8,8 @@ culls the same :data:`WARMUP` frames before the pictured one, so the picture sho
 method's steady state rather than its first frame (which, for two-phase methods, keeps
 everything in the frustum).
 
-Run ``python docs/tools/method_pictures.py [NAME ...]`` (``make docs-pictures``); the quick
+Each picture is cut to what it shows (:func:`crop`). Run
+``python docs/tools/method_pictures.py [NAME ...]`` (``make docs-pictures``); the quick
 documentation build reuses the stored pictures and only draws the missing ones.
 """
 
@@ -56,8 +57,15 @@ def draw(name: str) -> dict:
         result = culler.cull(cam, truth=truth)
     OUT.mkdir(parents=True, exist_ok=True)
     soc.viz.plot_cull(
-        scene, cam, result, truth, path=path, screenshot=OUT / f"{name}.png", window_size=(800, 500)
+        scene,
+        cam,
+        result,
+        truth,
+        path=path,
+        screenshot=OUT / f"{name}.png",
+        window_size=(1200, 750),
     )
+    crop(OUT / f"{name}.png")
     stats = result.stats
     return {
         "kept": int(stats.models_visible),
@@ -69,6 +77,24 @@ def draw(name: str) -> dict:
         "frame": 20 if name == "portals" else FRAME,
         "warmup": WARMUP,
     }
+
+
+def crop(path: Path, margin: int = 12) -> None:
+    """Cut the white border off the PNG at ``path`` (the overview leaves much of it), keeping
+    ``margin`` pixels around the picture and its legend."""
+    import matplotlib.image as mpimg
+
+    img = mpimg.imread(path)
+    dark = (img[..., :3] < 0.97).any(axis=2)
+    rows, cols = np.flatnonzero(dark.any(axis=1)), np.flatnonzero(dark.any(axis=0))
+    if rows.size == 0:
+        return
+    top, bottom = max(rows[0] - margin, 0), min(rows[-1] + margin + 1, img.shape[0])
+    left, right = max(cols[0] - margin, 0), min(cols[-1] + margin + 1, img.shape[1])
+    from PIL import Image
+
+    rgb = np.round(img[top:bottom, left:right, :3] * 255).astype(np.uint8)
+    Image.fromarray(rgb).save(path, optimize=True)
 
 
 def main(names: list[str]) -> None:
