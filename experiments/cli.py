@@ -40,6 +40,7 @@ EXTRA_MODULES: dict[str, tuple[str, ...]] = {
     "sweep": ("dask", "distributed"),
     "viz": ("pyvista", "vtk"),
     "notebooks": ("nbformat", "nbclient", "ipywidgets"),
+    "dag": ("pymetis", "meshoptimizer", "flip_evaluator"),
 }
 # Command → the extras it always needs (every command is listed; () = the core only).
 COMMAND_EXTRAS: dict[str, tuple[str, ...]] = {

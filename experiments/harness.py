@@ -48,6 +48,7 @@ MODULES: tuple[str, ...] = (
     "experiments.seed004_model",
     "experiments.seed004_octree",
     "experiments.seed004_adaptive",
+    "experiments.dag_lod",
 )
 
 # -- verdicts (claims as data: experiments.claims) ----------------------------------------------

@@ -12,8 +12,8 @@ Stages (:func:`build_dag` runs them in order, one round per level):
 1. **weld** — vertices merged by exact position (:func:`weld`): adjacency and the locked border
    are topological, so a seam must not look like a border.
 2. **cluster** — the mesh split into clusters of at most :data:`MAX_TRIANGLES` triangles by
-   vislod's clusterizer (:func:`soc.culling.clusters.build_clusters`), which also gives every
-   cluster its culling bounds (box, sphere, normal cone).
+   vislod's clusterizer (the growth and bounds stages of :mod:`soc.culling.clusters`), which
+   also gives every cluster its culling bounds (box, sphere, normal cone).
 3. **group** — the clusters of the level partitioned by adjacency (shared edges, weighted by
    their number) into groups of about :data:`GROUP_SIZE` (METIS through ``pymetis``).
 4. **simplify** — each group's triangles simplified to half with the group's outer border
@@ -250,38 +250,35 @@ def weld(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 def _cluster(vertices, pieces, max_triangles):
-    """Split each of ``pieces`` (list of (m_i, 3) int64 faces into ``vertices``) into clusters
-    with the clusterizer (one scene object per piece, its vertices compacted). Returns faces
-    (F, 3) int64 in cluster order, the clusters' first (C,), count (C,), piece (C,) and their
-    bounds (aabbs, spheres, cone axis, cutoff, apex)."""
-    from soc.culling.clusters import build_clusters
-    from soc.scenes.scene import Scene
+    """Split each of ``pieces`` (list of (m_i, 3) int64 faces into ``vertices``, welded) into
+    clusters with the clusterizer's stages 2-3 (:mod:`soc.culling.clusters`; its stage 1, the
+    weld, is not needed: the DAG's vertices are welded). Returns faces (F, 3) int64 in cluster
+    order, the clusters' first (C,), count (C,), piece (C,) and their bounds (aabbs, spheres,
+    cone axis, cutoff, apex)."""
+    from soc.culling import clusters as cz
 
     faces = np.concatenate(pieces)
     sizes = np.array([len(p) for p in pieces], np.int64)
-    owner = np.repeat(np.arange(len(pieces)), sizes)
-    # Compact each piece's vertices (object-local indices, as a scene wants them).
-    key = owner.repeat(3) * (len(vertices) + 1) + faces.reshape(-1)
-    uniq, inv = np.unique(key, return_inverse=True)
-    local_vertex = uniq % (len(vertices) + 1)
-    vertex_owner = uniq // (len(vertices) + 1)
-    vcounts = np.bincount(vertex_owner, minlength=len(pieces))
-    voffs = np.concatenate([[0], np.cumsum(vcounts)])
-    local = (inv.reshape(-1) - voffs[owner.repeat(3)]).reshape(-1, 3)
-    scene = Scene(vertices[local_vertex], local, vcounts, sizes, np.zeros(len(pieces), bool))
-    cl = build_clusters(scene, max_triangles)
-    ordered = faces[cl.order]
-    return (
-        ordered,
-        cl.first.copy(),
-        cl.count.copy(),
-        cl.object.astype(np.int64),
-        cl.aabbs.copy(),
-        cl.spheres.copy(),
-        cl.cone_axis.copy(),
-        cl.cone_cutoff.copy(),
-        cl.cone_apex.copy(),
-    )
+    face_offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+    owner = np.repeat(np.arange(len(pieces), dtype=np.int64), sizes)
+    # Vertex ids of their own per piece (the growth walks one piece's adjacency at a time).
+    key = np.repeat(owner, 3) * (len(vertices) + 1) + faces.reshape(-1)
+    _, tri_w = np.unique(key, return_inverse=True)
+    tri_w = np.ascontiguousarray(tri_w.reshape(-1, 3).astype(np.int64))
+    n_w = int(tri_w.max()) + 1
+    centroids, normals, areas = cz._triangle_data(vertices, faces)
+    adj_start, adj_tris = cz._adjacency(tri_w, n_w)
+    lo = np.minimum.reduceat(centroids, face_offsets[:-1], axis=0)
+    size = np.maximum(np.maximum.reduceat(centroids, face_offsets[:-1], axis=0) - lo, 1e-30)
+    by_rank, codes = cz._morton_ranks(owner, centroids, lo, size)
+    order, starts = cz._grow(
+        face_offsets, tri_w, centroids, normals, areas, adj_start, adj_tris, by_rank, codes,
+        lo, size, n_w, int(max_triangles), float(cz.CONE_WEIGHT),
+    )  # fmt: skip
+    first = np.flatnonzero(starts).astype(np.int64)
+    count = np.diff(np.append(first, len(order))).astype(np.int32)
+    aabbs, spheres, axes, cutoffs, apexes = cz._bounds(vertices, faces, order, first, count)
+    return faces[order], first, count, owner[order[first]], aabbs, spheres, axes, cutoffs, apexes
 
 
 # -- stage 3: group --------------------------------------------------------------------------------

@@ -796,3 +796,66 @@ class DagRenderer:
         table = np.frombuffer(self._buffers[9].read(), np.uint32).reshape(-1, 2)
         pairs = table[slots].astype(np.int64)
         return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+
+@uses_gl
+def render_instances(
+    scene, camera, color_ids=None, glctx=None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Draw every instance of ``scene`` (an :class:`~soc.scenes.instanced.InstancedScene`) with
+    its whole mesh, shaded as :class:`DagRenderer` shades (the same colour per instance), no
+    culling: the image of object LOD (a scene whose meshes are LOD levels) or of the full
+    detail. ``color_ids`` (I,) int: the instance number each instance takes its colour from
+    (default its own; a subset of another scene's instances keeps their colours).
+
+    Returns
+    -------
+    rgb : (H, W, 3) uint8
+    ids : (H, W) uint32
+        Instance per pixel, 0xFFFFFFFF where empty.
+    depth : (H, W) float32
+        Window depth. Row 0 at the bottom, as :meth:`DagRenderer.read`.
+    """
+    import moderngl
+
+    from soc.gl.context import default_context
+    from soc.gl.geometry import InstancedGeometry
+
+    glctx = glctx or default_context()
+    ctx = glctx.ctx
+    w, h = camera.resolution
+    geometry = InstancedGeometry(glctx, scene)
+    if color_ids is not None:
+        from soc.gl.geometry import object_colors
+
+        color_ids = np.asarray(color_ids, np.int64)
+        n = int(color_ids.max()) + 1
+        geometry.colors.write(object_colors(n, np.zeros(n, bool))[color_ids])
+    program = glctx.program("instanced.vert", "dag_draw.frag")
+    depth = ctx.depth_texture((w, h))
+    glctx.raw.float_depth(depth)
+    fbo = ctx.framebuffer(
+        color_attachments=[
+            ctx.renderbuffer((w, h), components=4),
+            ctx.renderbuffer((w, h), components=1, dtype="u4"),
+        ],
+        depth_attachment=depth,
+    )
+    try:
+        fbo.use()
+        ctx.enable_only(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        fbo.clear(0.06, 0.07, 0.09, 1.0, depth=1.0)
+        glctx.raw.clear_uint_color(0xFFFFFFFF, draw_buffer=1)
+        program["view_proj"].write(camera.gl_bytes(camera.view_proj))
+        _set(program, "eye", tuple(float(x) for x in camera.eye))
+        _set(program, "light_dir", (0.4, 0.8, 0.45))
+        geometry.draw_objects(program, np.arange(len(scene)))
+        rgb = np.frombuffer(fbo.read(components=3, attachment=0), np.uint8).reshape(h, w, 3)
+        ids = np.frombuffer(fbo.read(components=1, attachment=1, dtype="u4"), np.uint32)
+        z = np.frombuffer(depth.read(), np.float32)
+        glctx.check("render_instances")
+        return rgb.copy(), ids.reshape(h, w).copy(), z.reshape(h, w).copy()
+    finally:
+        glctx.release_framebuffer(fbo, *fbo.color_attachments, depth)
+        geometry.release()

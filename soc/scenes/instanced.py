@@ -268,6 +268,7 @@ def rock_field(
     *,
     kinds: int = 4,
     extent: float = 200.0,
+    sizes: tuple[float, float] = (0.8, 3.0),
     meshes: str = "generated",
     seed: int = 0,
 ) -> InstancedScene:
@@ -285,6 +286,8 @@ def rock_field(
         Distinct meshes (alternately rocks and statues).
     extent : float
         Half-width of the square the instances stand in, world units.
+    sizes : (float, float)
+        Smallest and largest scale of an instance (log-uniform; the meshes are about 2 wide).
     meshes : {"generated", "data"}
         ``"data"`` uses the scans of :func:`data_meshes` (``triangles`` and ``kinds`` are
         then ignored); raises :class:`~soc.errors.SceneError` when none is found.
@@ -314,7 +317,10 @@ def rock_field(
     r = extent * np.sqrt(rng.uniform(0.0, 1.0, n))
     a = rng.uniform(0, 2 * np.pi, n)
     pos = np.stack([r * np.cos(a), np.zeros(n), r * np.sin(a)], 1)
-    size = np.exp(rng.uniform(np.log(0.8), np.log(3.0), n))
+    lo, hi = (float(x) for x in sizes)
+    if not 0 < lo <= hi:
+        raise ValueError(f"sizes must be 0 < smallest <= largest, got {sizes!r}")
+    size = np.exp(rng.uniform(np.log(lo), np.log(hi), n))
     mats = np.zeros((n, 3, 4))
     for_axis = rng.normal(size=(n, 3)) * 0.15 + np.array([0.0, 1.0, 0.0])
     heading = rng.uniform(0, 2 * np.pi, n)
