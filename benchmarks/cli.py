@@ -36,8 +36,8 @@ import soc
 import soc.gl.context
 from benchmarks import floor as bench_floor
 from benchmarks import queries as bench_queries
-from benchmarks.common import now_utc, per_frame_ratio, rss_mib, write_csvs
-from experiments.markdown import markdown_table, replace_section
+from benchmarks.common import now_utc, per_frame_ratio, replace_section, rss_mib, write_csvs
+from experiments.markdown import markdown_table
 
 SCENES = ("market", "castle", "castle-2114", "clutter", "city")
 BASELINE_METHODS = ("frustum", "queries")  # seed 000's pipeline: the foundation section

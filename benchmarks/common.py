@@ -1,5 +1,6 @@
-"""What the ``make bench`` modules share: clocks, culler sets run interleaved frame by frame,
-paired per-frame ratios, target rows, stage tables and CSVs."""
+"""What the benchmarks share: CPU clocks, the cullers of a set of method specs (flown by
+:func:`soc.fly`), paired per-frame ratios, target rows, stage tables, CSVs and sections of
+BENCHMARKS.md."""
 
 from __future__ import annotations
 
@@ -53,21 +54,6 @@ def open_cullers(scene, methods: Mapping[str, tuple[str, dict]], resolution) -> 
             c.close()
 
 
-def warm_up(cullers: Mapping, camera, draw: bool = False) -> None:
-    """Cull ``camera`` once with each culler (compile kernels, allocate), then forget it."""
-    for c in cullers.values():
-        c.cull(camera, draw=draw and getattr(c.method, "draws_frame", False))
-        c.reset()
-
-
-def rotated(names: Mapping | list, frame: int) -> list:
-    """``names`` starting at the ``frame``-th: the order rotates from frame to frame, so that no
-    method always runs right after another (caches, llvmpipe's threads) or always last."""
-    names = list(names)
-    k = frame % len(names)
-    return names[k:] + names[:k]
-
-
 def per_frame_ratio(df: pd.DataFrame, column: str, to: str) -> pd.Series:
     """Per method: the median over frames of ``column`` ÷ method ``to``'s ``column`` (paired,
     so load that slows one frame cancels)."""
@@ -98,3 +84,22 @@ def write_csvs(frames: Mapping[str, pd.DataFrame], out: str | Path, prefix: str)
     """Each frame as ``out/<prefix>-<name>.csv``."""
     for name, df in frames.items():
         df.to_csv(Path(out) / f"{prefix}-{name}.csv", index=False)
+
+
+def replace_section(path: str | Path, name: str, body: str) -> str:
+    """Write ``body`` between ``<!-- begin NAME -->``/``<!-- end NAME -->`` in ``path``, keeping
+    every other section, atomically; returns the text. A section not there yet is appended
+    (``python -m benchmarks --only``; a whole run writes the file whole)."""
+    path = Path(path)
+    begin, end = f"<!-- begin {name} -->", f"<!-- end {name} -->"
+    old = path.read_text() if path.exists() else "# Benchmarks\n"
+    block = f"{begin}\n{body}\n{end}"
+    if begin in old and end in old:
+        head, rest = old.split(begin, 1)
+        text = head + block + rest.split(end, 1)[1]
+    else:
+        text = old.rstrip("\n") + "\n\n" + block + "\n"
+    from experiments.common import atomic_write
+
+    atomic_write(path, lambda p: p.write_text(text))
+    return text

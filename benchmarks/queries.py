@@ -78,34 +78,48 @@ def run(
     """Both runs: ``methods`` (frame × method: cull and call ms, thread and process CPU ms,
     queries, visible), ``loop`` (frame × loop × resolution: queries and ms) and ``setup`` (one
     row: objects, in view, load average before and after)."""
-    from tqdm import tqdm
-
     load0 = os.getloadavg()[0]
     scene = soc.scenes.random_boxes(objects, occluders=OCCLUDERS)
     cams = cameras(scene, WARMUP + frames)
-    rows = []
-    with bc.open_cullers(scene, {label: (m, o) for label, m, o in METHODS}, RESOLUTION) as cullers:
-        for f, cam in enumerate(tqdm(cams, desc="queries bench: methods", disable=not progress)):
-            for label, culler in cullers.items():
-                threads = numba.get_num_threads()
-                if label == SERIAL:
-                    numba.set_num_threads(1)
-                try:
-                    r, (wall, thread, process) = bc.timed(culler.cull, cam)
-                finally:
-                    numba.set_num_threads(threads)
-                if f >= WARMUP:
-                    rows.append(
-                        {"frame": f - WARMUP, "method": label, "cull_ms": r.stats.cull_ms,
-                         "call_ms": wall, "thread_ms": thread, "process_ms": process,
-                         "queries": r.stats.queries, "visible": int(r.visible.sum())}
-                    )  # fmt: skip
+    methods = {label: (m, o) for label, m, o in METHODS}
+    with bc.open_cullers(scene, methods, RESOLUTION) as cullers:
+        clocked = {k: _Clocked(c, 1 if k == SERIAL else None) for k, c in cullers.items()}
+        flown = soc.fly(
+            clocked, cams[WARMUP:], warmup=cams[:WARMUP], progress=progress,
+            extra=lambda _label, c, _r: dict(zip(CLOCKS, c.last, strict=True)),
+        )  # fmt: skip
+    flown = flown.rename(columns={"ms_cull": "cull_ms", "models_visible": "visible"})
+    rows = flown[["frame", "method", "cull_ms", *CLOCKS, "queries", "visible"]]
     loop_rows = _loop_run(scene, cams, progress) + _dry_run(objects, frames)
     in_view = int(soc.aabbs_in_frustum(scene.aabbs, cams[0]).sum())
     setup = {"objects": objects, "in_view": in_view, "load_before": load0}
     setup["load_after"] = os.getloadavg()[0]
-    return {"methods": pd.DataFrame(rows), "loop": pd.DataFrame(loop_rows),
+    return {"methods": rows.reset_index(drop=True), "loop": pd.DataFrame(loop_rows),
             "setup": pd.DataFrame([setup])}  # fmt: skip
+
+
+CLOCKS = ("call_ms", "thread_ms", "process_ms")  # around each cull: wall, thread and process CPU
+
+
+class _Clocked:
+    """A culler whose culls also read the calling thread's and the process's CPU clocks
+    (:attr:`last`, ms, as :data:`CLOCKS`), on ``threads`` numba threads if given."""
+
+    def __init__(self, culler, threads: int | None = None):
+        self.culler, self.threads, self.last = culler, threads, (0.0, 0.0, 0.0)
+
+    def __getattr__(self, name):
+        return getattr(self.culler, name)
+
+    def cull(self, camera, **kwargs):
+        n = numba.get_num_threads()
+        if self.threads:
+            numba.set_num_threads(self.threads)
+        try:
+            result, self.last = bc.timed(self.culler.cull, camera, **kwargs)
+        finally:
+            numba.set_num_threads(n)
+        return result
 
 
 def _loop_run(scene, cams, progress: bool) -> list[dict]:

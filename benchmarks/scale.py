@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from benchmarks import common as bc
-from experiments.markdown import markdown_table, replace_section
+from experiments.markdown import markdown_table
 
 SIZES = (10_000, 100_000, 1_000_000)
 RESOLUTION = (1280, 720)
@@ -375,7 +375,7 @@ def main(argv: list[str] | None = None) -> int:
     result = run(args.frames, [int(n) for n in args.sizes.split(",")], args.city_frames)
     command = (f"python -m benchmarks.scale --sizes {args.sizes} --frames {args.frames} "
                f"--city-frames {args.city_frames}")  # fmt: skip
-    print(replace_section(out / "BENCHMARKS.md", "scale", write(result, out, command)))
+    print(bc.replace_section(out / "BENCHMARKS.md", "scale", write(result, out, command)))
     return 0
 
 

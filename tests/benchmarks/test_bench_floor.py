@@ -12,7 +12,8 @@ from benchmarks import cli as bench
 from benchmarks import floor as bench_floor
 from benchmarks import lod_chain as bench_lod_chain
 from benchmarks import lod_select as bench_lod_select
-from experiments.markdown import markdown_table, replace_section
+from benchmarks.common import replace_section
+from experiments.markdown import markdown_table
 
 # methods that draw the frame itself (draws_frame) too, when registered
 SPECS = ["frustum", "queries", "hiz-gpu", "hiz-gpu(footprint=4)"] + [
