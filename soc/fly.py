@@ -15,7 +15,6 @@ frames drawn beside the methods ('ideal': exactly the oracle's set, nearest firs
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Collection, Mapping, Sequence
 from typing import TYPE_CHECKING
 
@@ -120,6 +119,8 @@ def fly(
     import pandas as pd
     from tqdm.auto import tqdm
 
+    from soc.metrics import stage
+
     cullers = dict(culler) if isinstance(culler, Mapping) else {culler.method.name: culler}
     if not cullers:
         raise ValueError("fly needs at least one culler")
@@ -160,7 +161,7 @@ def fly(
                         before_frame(i, cam)
                     judged = truth_of is not None and i % truth_every == 0
                     known_at: dict = {}  # the truth per resolution (the oracle's) or one
-                    oracle_ms = 0.0
+                    truth_ms: dict[str, float] = {}  # the truth's wall time this frame
                     if order == "rotate":
                         k = (i + rep) % len(labels)
                         ordered = labels[k:] + labels[:k]
@@ -171,9 +172,8 @@ def fly(
                         res = tuple(c.resolution)
                         key = res if per_resolution else None
                         if judged and key not in known_at:
-                            t0 = time.perf_counter()
-                            known_at[key] = truth_of(i, cam, res)
-                            oracle_ms += 1e3 * (time.perf_counter() - t0)
+                            with stage(truth_ms, "oracle"):
+                                known_at[key] = truth_of(i, cam, res)
                         known = known_at.get(key)
                         result = c.cull(cam, truth=known, draw=label in drawn)
                         row = {"frame": i, "method": label}
@@ -186,7 +186,7 @@ def fly(
                         else:
                             row["oracle_visible"] = int(known.sum())
                         if label == IDEAL:
-                            row["oracle_ms"] = oracle_ms  # not a stage of the frame
+                            row["oracle_ms"] = truth_ms.get("oracle", 0.0)  # not the frame's
                         if extra is not None and label not in references:
                             row.update(extra(label, c, result))
                         rows.append(row)
