@@ -203,7 +203,7 @@ def lod_sections(out: Path, quick: bool = False) -> list[Section]:
                                 ("lod-select", bench_lod_select, QUICK_LOD_SELECT)):  # fmt: skip
         frames = module.run(**small) if quick else module.run()
         write_csvs(frames, out, name)
-        sections.append(Section(name, module.markdown(frames)))
+        sections.append(Section(name, module.markdown(frames), module.targets(frames)))
     return sections
 
 
@@ -277,7 +277,8 @@ def other_sections(args: argparse.Namespace, out: Path) -> list[Section]:
     if args.only in (None, "queries"):
         frames = 2 if "queries" in small else bench_queries.FRAMES
         command = f"python -m benchmarks --only queries{flag['queries']}"
-        sections.append(Section("queries-compiled", bench_queries.section(out, frames, command)))
+        body, targets = bench_queries.section(out, frames, command)
+        sections.append(Section("queries-compiled", body, targets))
     if args.only in (None, "scale"):
         from benchmarks import scale as bench_scale
 

@@ -206,5 +206,17 @@ def markdown(frames: dict[str, pd.DataFrame]) -> str:
     return "\n\n".join(parts) + "\n"  # the section ends in a blank line
 
 
+def targets(frames: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """The chain target: the cascade's 6-level chain against one simplifier call (CPU)."""
+    from benchmarks.common import target_row
+
+    steps = frames["steps"]
+    r = float(
+        steps.loc[steps["step"].str.startswith("build_chain cascade"), "cpu_times_one_call"].iloc[0]
+    )
+    what = f"6-level chain ≤ {CHAIN_TARGET}× one simplify call (CPU)"
+    return pd.DataFrame([target_row(what, f"{r:.2f}×", r <= CHAIN_TARGET, "lod.build_chain")])
+
+
 if __name__ == "__main__":
     print(markdown(run()))

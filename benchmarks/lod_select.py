@@ -271,5 +271,21 @@ def _area_against_pixels(rng, n_boxes: int, n_cameras: int) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def targets(frames: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """The scale targets of the LOD steps at :data:`SCALE_OBJECTS` (median CPU ms a frame)."""
+    from benchmarks.common import target_row
+
+    scale = frames.get("scale")
+    if scale is None or not len(scale):
+        return pd.DataFrame()
+    n = int(frames["scale_frames"]["objects"].iloc[0])
+    cpu = scale.groupby("step")["cpu_ms"].median()
+    names = {"exact": "lod.projected_area(exact=True)", "naive": "lod.projected_area",
+             "funkhouser-sequin": f"lod.select of {n:,} × {N_LEVELS}"}  # fmt: skip
+    return pd.DataFrame([target_row(f"{what} ≤ {SCALE_TARGET_MS:.0f} ms ({n:,} objects, CPU)",
+                                    f"{cpu[k]:.0f} ms", cpu[k] <= SCALE_TARGET_MS, k)
+                         for k, what in names.items() if k in cpu])  # fmt: skip
+
+
 if __name__ == "__main__":
     print(markdown(run()))

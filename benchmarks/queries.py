@@ -291,5 +291,20 @@ def section(out, frames: int = FRAMES, command: str = "python -m benchmarks --on
     return markdown(result, command)
 
 
+def targets(frames: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """The queries target: ``queries``' cull time ÷ ``masked``'s (medians of per-frame
+    ratios, against masked as configured and on one thread; the better counts)."""
+    methods = frames["methods"]
+    rows = []
+    for label in ("queries", "queries (Python)"):
+        r = min(
+            float(bc.per_frame_ratio(methods, "cull_ms", base)[label])
+            for base in (BASELINE, SERIAL)
+        )
+        what = f"{label} ≤ {RATIO_TARGET:.0f}× masked's cull ({N_OBJECTS:,} boxes)"
+        rows.append(bc.target_row(what, f"{r:.1f}×", r <= RATIO_TARGET, label))
+    return pd.DataFrame(rows)
+
+
 if __name__ == "__main__":
     print(markdown(run(), "python -m benchmarks.queries"))

@@ -160,7 +160,12 @@ def test_lod_sections_store_frames_and_draw_tables(monkeypatch, tmp_path):
     monkeypatch.setattr(bench_lod_select, "run", functools.partial(
         select, objects=500, frames=2, small_instances=3, gl_boxes=2, scale_objects=800,
         scale_frames=1))  # fmt: skip
-    sections = {s.name: s.body for s in bench.lod_sections(tmp_path)}
+    run = bench.lod_sections(tmp_path)
+    sections = {s.name: s.body for s in run}
+    targets = {s.name: s.targets for s in run}
+    assert list(targets["lod-chain"]["method"]) == ["lod.build_chain"]
+    assert set(targets["lod-select"]["method"]) == {"exact", "naive", "funkhouser-sequin"}
+    assert targets["lod-select"]["target"].str.contains("800 objects").all()
 
     levels = pd.read_csv(tmp_path / "lod-chain-levels.csv")
     assert set(levels["strategy"]) == {"cascade", "restart", "one pass"}

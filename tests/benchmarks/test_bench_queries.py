@@ -40,3 +40,7 @@ def test_markdown_states_the_targets_and_where_the_time_goes(frames):
         assert f"| {label} |" in text
     assert not re.search(r"\bnan\b", text.lower()), "a figure is missing"
     assert np.isfinite(frames["loop"]["thread_ms"]).all()
+    t = bench_queries.targets(frames).set_index("method")
+    assert list(t.index) == ["queries", "queries (Python)"] and set(t["met"]) <= {"yes", "no"}
+    ratio = float(t.loc["queries", "measured"].rstrip("×"))
+    assert (t.loc["queries", "met"] == "yes") == (ratio <= bench_queries.RATIO_TARGET)
