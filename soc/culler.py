@@ -214,8 +214,17 @@ class Culler:
                 # work does.
                 with stage(timings, FINISH_STAGE):
                     self.glctx.finish()
-            wall_ms = 1e3 * (time.perf_counter() - t0)
             visible = np.asarray(out.visible, bool)
+            size = self.config.size_test
+            if size is not None and size.occludee > 0:  # Intel's IsTooSmall, after the method
+                from soc.culling.size_test import too_small
+
+                with stage(timings, "size test"):
+                    small = too_small(self.scene, camera, size.occludee)
+                    visible = visible & ~small
+                    if truth is not None:  # its culls are not false culls: counted apart
+                        truth = np.asarray(truth, bool) & ~small
+            wall_ms = 1e3 * (time.perf_counter() - t0)
             # The method's work between its timed stages (Python, numpy passes over the
             # objects) is part of its frame too: the stages alone would hide it.
             timings[OTHER_STAGE] = max(wall_ms - sum(timings.values()), 0.0)

@@ -7,6 +7,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from soc.culling.size_test import SizeTest
 from soc.methods.options import MethodOptions, NoOptions
 from soc.methods.options import build as build_options
 from soc.metrics import stage
@@ -26,11 +27,17 @@ class CullConfig:
         llvmpipe's rasterizer threads ("MT"); None = Mesa's default (one per core). Fixed per
         process by the first GL context; nothing on a GPU. (The threads of a method's numba
         kernels are its own option, ``cpu_threads``.)
+    size_test : SizeTest or None
+        Intel's screen-size test (:mod:`soc.culling.size_test`): occludees too small are
+        culled by :class:`soc.Culler` after the method (not conservative; not counted as
+        false culls), occluders too small are left out of the query methods' depth prepass.
+        None (default): off.
     """
 
     frustum: bool = True
     depth_test: bool = True
     gl_threads: int | None = None
+    size_test: SizeTest | None = None
 
 
 @dataclass

@@ -25,6 +25,7 @@ from typing import Literal
 
 import numpy as np
 
+from soc.culling.size_test import occluders_kept
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
 from soc.methods.options import MethodOptions, option
 
@@ -116,6 +117,8 @@ class HizCpuCulling(CullMethod):
             order = np.arange(len(self._ids))
             if self.config.frustum:
                 order = np.flatnonzero(aabbs_in_frustum(self._aabbs, camera.planes))
+            kept = occluders_kept(self.config, self.scene, camera, self._ids)  # Intel's size test
+            order = order[kept[order]]
         with stage(timings, "transform"):
             vp = np.ascontiguousarray(camera.view_proj, np.float64)
             n = setup_occluders(

@@ -24,6 +24,7 @@ import numpy as np
 from soc.culling.frustum import aabbs_in_frustum
 from soc.culling.hierarchy import Hierarchy
 from soc.culling.masked import OCCLUDED, VIEW_CULLED, VISIBLE, MaskedBuffer
+from soc.culling.size_test import occluders_kept
 from soc.methods.base import CullMethod, MethodOutput, frustum_stage, register, stage
 from soc.methods.options import MethodOptions, option
 
@@ -88,6 +89,7 @@ class MaskedCulling(CullMethod):
             occluders_in = np.ones(len(buffer.ids), bool)
             if self.config.frustum:
                 occluders_in = aabbs_in_frustum(buffer.aabbs, camera.planes)
+            occluders_in &= occluders_kept(self.config, self.scene, camera, buffer.ids)  # size
         buffer.render(camera, occluders_in, timings)
         with stage(timings, "test"):
             if self.hierarchy is not None:

@@ -1,6 +1,11 @@
 """``queries``: seed 000's method — frustum test, occluder depth prepass, one GL occlusion query
 per surviving occludee AABB, results read after all queries are issued. Conservative at the
-depth resolution it runs at (a coarser depth buffer than the display is not: see SPEC)."""
+depth resolution it runs at (a coarser depth buffer than the display is not: see SPEC).
+
+``previous_frame=True`` is what the thesis' own code does (``AABBoxRasterizerOGLST.cpp``:
+``StartOcclusionQueries`` issues this frame's queries into one of two query pools and reads
+the *other* pool's, and the frame draws those): the visible set of frame k is frame k − 1's
+results. Not conservative then."""
 
 from __future__ import annotations
 
@@ -20,14 +25,39 @@ class QueryCulling(PrepassQueryMethod):
     compiled : bool
         Issue and read the queries from a numba loop over the GL entry points (default);
         False: one Python call chain per object (seed 000's loop, the tested reference).
+    boxes : {"aabb", "oriented"}
+        Query the grown world AABBs (default, conservative) or each object's model-space box
+        carried by its model matrix, as the thesis and Intel's framework do
+        (``scene.meta["oriented_boxes"]``, the castle's; not conservative where a stated box
+        does not hold its mesh).
+    previous_frame : bool
+        Draw the previous frame's results, as the thesis' OGL method does (default False);
+        the first frame after :meth:`reset` uses its own (the sample's unrecorded frame 0
+        primes the pool from the same camera). Not conservative.
     """
 
     name = "queries"
     conservative = True
 
-    def __init__(self, geometry, resolution, config, *, compiled: bool = True):
+    def __init__(
+        self,
+        geometry,
+        resolution,
+        config,
+        *,
+        compiled: bool = True,
+        boxes: str = "aabb",
+        previous_frame: bool = False,
+    ):
         super().__init__(geometry, resolution, config, compiled=compiled)
-        self.queries = OcclusionQueries(geometry, compiled=compiled)
+        self.queries = OcclusionQueries(geometry, compiled=compiled, boxes=boxes)
+        self.previous_frame = bool(previous_frame)
+        self.conservative = not self.previous_frame and boxes == "aabb"
+        self.temporal = self.previous_frame
+        self._last: np.ndarray | None = None
+
+    def reset(self) -> None:
+        self._last = None
 
     def release(self) -> None:
         self.queries.release()
@@ -48,4 +78,7 @@ class QueryCulling(PrepassQueryMethod):
         visible = np.zeros(len(self.scene), bool)
         visible[candidates[at_near]] = True
         visible[queried[passed]] = True
+        if self.previous_frame:
+            last = visible if self._last is None else self._last
+            self._last, visible = visible, last
         return MethodOutput(visible, frustum_culled, len(queried), timings)

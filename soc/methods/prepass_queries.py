@@ -9,8 +9,9 @@ import numpy as np
 
 from soc.culling.box_queries import BoxQueries
 from soc.culling.depth_prepass import DepthTarget
+from soc.culling.size_test import too_small
 from soc.gl import compiled as compiled_gl
-from soc.methods.base import CullConfig, CullMethod, frustum_stage, prepass_stage
+from soc.methods.base import CullConfig, CullMethod, frustum_stage, prepass_stage, stage
 
 
 class PrepassQueryMethod(CullMethod):
@@ -45,15 +46,21 @@ class PrepassQueryMethod(CullMethod):
     def start_frame(
         self, camera, timings: dict[str, float], *, prepass: bool = True
     ) -> tuple[np.ndarray, int, bool]:
-        """The frustum test, then (when the depth test is on) the occluder prepass, or a
-        cleared depth with ``prepass=False``. Returns the (N,) bool frustum survivors, how
+        """The frustum test, then (when the depth test is on) the occluder prepass — without
+        the occluders too small by ``config.size_test`` when it is set — or a cleared depth
+        with ``prepass=False``. Returns the (N,) bool frustum survivors, how
         many the frustum culled, and whether to go on querying (the depth test is on)."""
         in_frustum = frustum_stage(self, camera, timings)
         frustum_culled = int((~in_frustum).sum())
         if not self.config.depth_test:
             return in_frustum, frustum_culled, False
         if prepass:
-            prepass_stage(self, camera, in_frustum, self.target, timings)
+            occluders = in_frustum
+            size = self.config.size_test
+            if size is not None and size.occluder > 0:  # Intel's IsTooSmall for occluders
+                with stage(timings, "size test"):
+                    occluders = in_frustum & ~too_small(self.scene, camera, size.occluder)
+            prepass_stage(self, camera, occluders, self.target, timings)
         else:
             self.target.clear()
         return in_frustum, frustum_culled, True

@@ -521,10 +521,15 @@ class _Objects:
     local_boxes: list[np.ndarray]
     matrices: list[np.ndarray]
     aabbs: list[np.ndarray]  # (2, 3) world box (our world) of each object
+    # the sample's size test (IsTooSmall): model-space box centre placed in our world, |half|²
+    size_centres: list[np.ndarray]
+    size_half_sq: list[float]
+    # the same box as the sample draws it (TransformedAABBox): (4, 3) corner + 3 edges, our world
+    oriented: list[np.ndarray]
 
     @classmethod
     def empty(cls) -> _Objects:
-        return cls([], [], [], [], [], [], [], [], [])
+        return cls([], [], [], [], [], [], [], [], [], [], [], [])
 
     def __len__(self) -> int:
         return len(self.names)
@@ -574,6 +579,16 @@ def _model_objects(
         out.names.append(n.name)
         out.local_boxes.append(np.stack([local.min(0), local.max(0)]))
         out.matrices.append(world[i])
+        # the sample's model-space box is the node's stated one (CPUTModel reads it from the
+        # .set), the merged mesh's where a node states none
+        lo, hi = local.min(0), local.max(0)
+        centre = (0.5 * (lo + hi)) if n.bbox_center is None else n.bbox_center
+        half = (0.5 * (hi - lo)) if n.bbox_half is None else n.bbox_half
+        out.size_centres.append(_to_world(np.asarray(centre, np.float64)[None], world[i])[0])
+        out.size_half_sq.append(float(np.dot(half, half)))
+        corner = _to_world((np.asarray(centre) - np.asarray(half))[None], world[i])
+        edges = 2.0 * np.asarray(half)[:, None] * world[i][:3, :3] * MIRROR
+        out.oriented.append(np.concatenate([corner, edges]))
 
 
 # -- stage 5: the synthetic market ----------------------------------------------------------
@@ -653,7 +668,13 @@ def _stall_templates(
             bad = names[int(np.flatnonzero(fcounts == 0)[0])]
             raise SceneError(f"stall part {bad}.mdl has no triangles: every object needs one")
         verts = np.concatenate([v for v, _ in merged]) * MIRROR
+        lo = np.stack([(v * MIRROR).min(0) for v, _ in merged])  # per part, mirrored
+        hi = np.stack([(v * MIRROR).max(0) for v, _ in merged])
         out[t] = dict(
+            part_lo=lo,  # (P, 3) each part's box, local frame
+            part_hi=hi,
+            part_centres=0.5 * (lo + hi),  # (P, 3) each part's box centre, local frame
+            part_half_sq=(0.25 * (hi - lo) ** 2).sum(1),  # (P,) its |half|²
             names=names,
             vertices=verts,  # (V, 3) float64, the stall's local frame, mirrored
             faces=np.concatenate([f[:, [0, 2, 1]] for _, f in merged]),  # part-local indices
@@ -770,6 +791,12 @@ def _refill_market(
         objs.face_counts.append(tpl["face_counts"][:take])
         objs.mesh_counts.append(tpl["mesh_counts"][:take])
         objs.names.extend(f"market{s:03d}/{n}" for n in tpl["names"][:take])
+        objs.size_centres.extend(tpl["part_centres"][:take] @ turn + [x, ground[r, c], z])
+        objs.size_half_sq.extend(tpl["part_half_sq"][:take].tolist())
+        plo, phi = tpl["part_lo"][:take], tpl["part_hi"][:take]
+        edges = (phi - plo)[:, :, None] * turn[None]  # (k, 3 edges, 3)
+        corners = (plo @ turn + [x, ground[r, c], z])[:, None]
+        objs.oriented.extend(np.concatenate([corners, edges], axis=1))
     return need
 
 
@@ -860,7 +887,10 @@ def castle(
         then ``castleSmallDecorations``, ``marketStallsDebug``, then synthetic stalls), its
         mesh records merged (``mesh_counts`` = records). ``meta`` holds ``"source"``,
         ``"synthetic"``, ``"synthetic_objects"``, ``"synthetic_mask"`` ((N,) bool, read-only),
-        ``"sets"`` ({set name: (first, stop) object range}), ``"focus"`` (centre of the main
+        ``"sets"`` ({set name: (first, stop) object range}), ``"size_boxes"`` (each object's
+        model-space box for Intel's size test, :mod:`soc.culling.size_test`),
+        ``"oriented_boxes"`` ((N, 4, 3): that box in our world as a corner and three edge
+        vectors, the box the sample's occlusion tests draw), ``"focus"`` (centre of the main
         gate, our world), ``"focus_outward"`` (unit xz vector from the castle's centre out
         through the gate) and ``"view_camera"`` (``eye``, ``direction``, ``fov_y_deg``).
 
@@ -901,6 +931,11 @@ def castle(
         ranges["synthetic_market"] = (n_plain, n_plain + synthetic)
         meta["seed"] = int(seed)
     meta.update(
+        oriented_boxes=_readonly(np.stack(objs.oriented)),
+        size_boxes={
+            "centres": _readonly(np.stack(objs.size_centres)),
+            "half_sq": _readonly(np.asarray(objs.size_half_sq, np.float64)),
+        },
         sets=ranges,
         synthetic=bool(synthetic),
         synthetic_objects=int(synthetic),

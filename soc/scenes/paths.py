@@ -1,5 +1,6 @@
-"""Camera paths: the seed-000 flight (Abb. 7), a walk through the streets at eye height, and
-random cameras for tests.
+"""Camera paths: the seed-000 flight (Abb. 7), the camera tours of seed 000's own evaluation
+runs (:func:`tour`, Intel's castle only), a walk through the streets at eye height, and random
+cameras for tests.
 
 The flight starts far away looking at the town, approaches the gate on a circular arc, turns
 towards the ground in front of the gate at mid-flight, and leaves on the same arc. It is
@@ -61,6 +62,67 @@ def town_bounds(scene) -> tuple[np.ndarray, np.ndarray]:
         lo = np.array([c[0] - r, lo[1], c[2] - r])
         hi = np.array([c[0] + r, hi[1], c[2] + r])
     return lo, hi
+
+
+# The camera tours of seed 000's evaluation (the thesis' fork of Intel's sample,
+# ``OcclusionCulling.cpp``: ``MySample`` constructor and the evaluation branch of its per-frame
+# update), in the sample's left-handed Direct3D world: start eye, look-at point, and the circle
+# the eye moves on (centre x, centre z, radius); height and look-at stay those of the start.
+TOURS: dict[int, dict[str, tuple[float, ...]]] = {
+    1: {"eye": (38.6, 52.5, 166.6), "target": (73.5, 5.0, 55.0),
+        "circle": (38.6, 166.6, 100.0)},
+    2: {"eye": (55.0, 35.0, 47.0), "target": (168.0, 7.0, -5.0),
+        "circle": (168.0, -5.0, 1.5 * (168.0 - 55.0))},
+}  # fmt: skip
+# The sample's camera: SetFov(60°), which CPUT's float4x4PerspectiveFovLH takes as the
+# *horizontal* field of view (tan(fov/2) is the half width; the height is width / aspect).
+TOUR_FOV_X = 60.0
+TOUR_NEAR = 1.0  # CPUTCamera's default near plane (the sample never sets it)
+TOUR_FAR = 2000.0  # gFarClipDistance
+
+
+def tour(
+    number: int = 1, frames: int = 100, *, width: int = 1920, height: int = 1080
+) -> list[Camera]:
+    """Camera tour 1 or 2 of seed 000's evaluation runs, as ``frames`` cameras in our world.
+
+    The sample records frames 1 … ``frames`` (its frame 0 is not recorded) and moves the eye
+    after recording frame k to step k of ``frames + 1`` round a circle: so recorded frame 1 is
+    seen from the start eye (the circle's centre for tour 1) and frame k ≥ 2 from the circle
+    at angle ``2π (k − 1) / (frames + 1)`` (x + r·sin, z + r·cos, D3D world), always looking at
+    the start's look-at point, with a horizontal field of view of 60° (:data:`TOUR_FOV_X`).
+    Our world is the sample's with z negated
+    (:mod:`soc.scenes.castle`), so the cameras are mirrored the same way.
+
+    Parameters
+    ----------
+    number : {1, 2}
+        The tour (command line ``-cameraTour``).
+    frames : int
+        Recorded frames (``-framesForEvaluation``), >= 2; camera ``i`` of the list is the
+        sample's recorded frame ``i + 1``.
+    width, height : int
+        Display resolution, pixels (the sample's window is its depth buffer's size).
+    """
+    if number not in TOURS:
+        raise ValueError(f"tour must be one of {sorted(TOURS)}, got {number!r}")
+    if frames < 2:
+        raise ValueError(f"a tour needs at least 2 frames, got {frames}")
+    t = TOURS[number]
+    cx, cz, r = t["circle"]
+    angle = 2.0 * np.pi * np.arange(1, frames) / (frames + 1)
+    eyes = np.empty((frames, 3))
+    eyes[0] = t["eye"]
+    eyes[1:] = np.stack([cx + r * np.sin(angle), np.full_like(angle, t["eye"][1]),
+                         cz + r * np.cos(angle)], axis=1)  # fmt: skip
+    mirror = np.array([1.0, 1.0, -1.0])
+    target = np.asarray(t["target"]) * mirror
+    fov_y = 2.0 * np.degrees(np.arctan(np.tan(np.radians(TOUR_FOV_X) / 2.0) * height / width))
+    return [
+        Camera.look_at(e * mirror, target, fov_y=fov_y, width=width, height=height,
+                       near=TOUR_NEAR, far=TOUR_FAR)
+        for e in eyes
+    ]  # fmt: skip
 
 
 def flight(
