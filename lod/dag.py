@@ -61,6 +61,10 @@ MAX_TRIANGLES = 128
 # Clusters per group that METIS aims for (meshoptimizer's demo and Nanite use 8 to 32): more
 # clusters share a border and lock less of it, fewer keep the groups' error local.
 GROUP_SIZE = 8
+# A group's simplification stops before an error above this share of its largest cluster's
+# LOD radius: a group whose locked border leaves only long collapses is left for the next round
+# rather than given an error that every group above it would inherit.
+ERROR_CAP = 0.25
 # A group simplified to more than this share of its triangles is left for the next round.
 MAX_KEEP = 0.85
 # The parent error of clusters that nothing replaces: larger than any projected test passes.
@@ -68,7 +72,7 @@ ROOT_ERROR = np.float32(3.0e38)
 # Children per node of the group hierarchy.
 NODE_WIDTH = 8
 # Bump when the layout or the algorithm changes: cached DAGs of older versions are ignored.
-FORMAT_VERSION = "dag-1"
+FORMAT_VERSION = "dag-2"
 
 
 @dataclass(frozen=True)
@@ -275,7 +279,20 @@ def _cluster(vertices, pieces, max_triangles):
         face_offsets, tri_w, centroids, normals, areas, adj_start, adj_tris, by_rank, codes,
         lo, size, n_w, int(max_triangles), float(cz.CONE_WEIGHT),
     )  # fmt: skip
-    first = np.flatnonzero(starts).astype(np.int64)
+    # A cluster in several pieces (the growth's leftovers, taken by distance) is split into
+    # its connected pieces: its LOD sphere would otherwise span them, and every group above it
+    # would inherit that sphere (projected errors too large, cuts too fine far away).
+    cluster = np.cumsum(starts) - 1  # per position in `order`
+    w = tri_w[order]
+    key = np.repeat(cluster, 3) * (n_w + 1) + w.reshape(-1)
+    _, local = np.unique(key, return_inverse=True)
+    piece = cz._pieces(local.reshape(-1, 3).astype(np.int64), int(local.max()) + 1)
+    resort = np.lexsort((piece, cluster))  # stable inside a piece
+    order = order[resort]
+    piece, cluster = piece[resort], cluster[resort]
+    new = np.ones(len(order), bool)
+    new[1:] = (piece[1:] != piece[:-1]) | (cluster[1:] != cluster[:-1])
+    first = np.flatnonzero(new).astype(np.int64)
     count = np.diff(np.append(first, len(order))).astype(np.int32)
     aabbs, spheres, axes, cutoffs, apexes = cz._bounds(vertices, faces, order, first, count)
     return faces[order], first, count, owner[order[first]], aabbs, spheres, axes, cutoffs, apexes
@@ -320,19 +337,27 @@ def _group(faces, first, count, n_vertices, group_size):
     import pymetis
 
     opts = pymetis.Options(seed=1)
-    _, membership = pymetis.part_graph(
-        parts, pymetis.CSRAdjacency(xadj, adjncy), eweights=weights, options=opts
-    )
+    graph = pymetis.CSRAdjacency(xadj, adjncy)
+    try:  # contiguous groups: a group in two pieces would simplify two borders, not one
+        _, membership = pymetis.part_graph(
+            parts, graph, eweights=weights, options=opts, contiguous=True
+        )
+    except Exception:  # METIS refuses contiguity on a disconnected graph
+        _, membership = pymetis.part_graph(parts, graph, eweights=weights, options=opts)
     _, labels = np.unique(np.asarray(membership), return_inverse=True)
     return labels.reshape(-1).astype(np.int64)
+
+
+_NO_CAP = float(np.finfo(np.float32).max)
 
 
 # -- stage 4: simplify -----------------------------------------------------------------------------
 
 
-def _simplify(vertices, tri):
-    """``tri`` (m, 3) int64 faces into ``vertices`` simplified to half with the border locked:
-    (k, 3) int64 faces and the error in object units."""
+def _simplify(vertices, tri, max_error=_NO_CAP):
+    """``tri`` (m, 3) int64 faces into ``vertices`` simplified to half with the border locked,
+    stopping before an error above ``max_error`` (object units): (k, 3) int64 faces and the
+    error in object units."""
     import meshoptimizer
 
     used, inv = np.unique(tri.reshape(-1), return_inverse=True)
@@ -346,7 +371,7 @@ def _simplify(vertices, tri):
         local,
         pos,
         target_index_count=target,
-        target_error=float(np.finfo(np.float32).max),
+        target_error=float(max_error),
         options=meshoptimizer.SIMPLIFY_LOCK_BORDER | meshoptimizer.SIMPLIFY_ERROR_ABSOLUTE,
         result_error=err,
     )
@@ -354,15 +379,25 @@ def _simplify(vertices, tri):
 
 
 def _merge_spheres(spheres: np.ndarray) -> np.ndarray:
-    """(4,) float32 a sphere holding every sphere of ``spheres`` (k, 4), its radius rounded up
-    in float32 against the stored centre."""
+    """(4,) float32 a sphere holding every sphere of ``spheres`` (k, 4): Ritter's growth over
+    the spheres from the largest (two passes), its radius then the largest reach from the
+    stored centre, rounded up in float32."""
     s = spheres.astype(np.float64)
-    lo = (s[:, :3] - s[:, 3:]).min(0)
-    hi = (s[:, :3] + s[:, 3:]).max(0)
-    centre = (0.5 * (lo + hi)).astype(np.float32).astype(np.float64)
-    r = (np.linalg.norm(s[:, :3] - centre, axis=1) + s[:, 3]).max()
-    r32 = np.float32(r)
-    while np.float64(r32) < r:
+    k = int(np.argmax(s[:, 3]))
+    c, r = s[k, :3].copy(), s[k, 3]
+    for _ in range(2):
+        for i in range(len(s)):  # build time, a group's clusters (about 8)
+            v = s[i, :3] - c
+            d = float(np.sqrt(v @ v))
+            if d + s[i, 3] > r:  # grow to hold sphere i: the new sphere touches both far ends
+                new_r = 0.5 * (r + d + s[i, 3])
+                if d > 0:
+                    c = c + v / d * (new_r - r)
+                r = new_r
+    centre = c.astype(np.float32).astype(np.float64)
+    reach = (np.linalg.norm(s[:, :3] - centre, axis=1) + s[:, 3]).max()
+    r32 = np.float32(reach)
+    while np.float64(r32) < reach:
         r32 = np.nextafter(r32, np.float32(np.inf))
     return np.array([*centre, np.nextafter(r32, np.float32(np.inf))], np.float32)
 
@@ -422,7 +457,8 @@ def build_dag(
         for g in range(len(bounds) - 1):
             members = active[order[bounds[g] : bounds[g + 1]]]
             tri = a_faces[_ranges(store.first_of(members), store.count_of(members))]
-            simple, err = _simplify(v, tri)
+            cap = ERROR_CAP * float(store.lod_sphere[members, 3].max())
+            simple, err = _simplify(v, tri, cap)
             if len(simple) == 0 or len(simple) > MAX_KEEP * len(tri):
                 retry.append(members)
                 continue

@@ -1,0 +1,210 @@
+"""The cluster LOD DAG's targets on llvmpipe: an instanced field of 10⁸ source triangles drawn at
+1 px error at 1920×1080, the same instances with denser meshes, the cut against object LOD at
+the same FLIP error, the share of selection and culling in the frame, false culls against the
+cut's own id render, the DAG build's time and index memory.
+
+    python -m benchmarks.dag [--quick] [--out results]
+
+Writes ``<out>/dag/targets.csv`` and prints the targets table (markdown), each row with its
+measured figure and whether it is met. The DAGs are cached by content (``<cache>/dag``): the
+first run builds them (the 100× denser meshes take long), later runs read them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+# The 10⁸-triangle field: instances × triangles per mesh (two meshes: a rock and a statue).
+INSTANCES = 1000
+TRIANGLES = 100_000
+DENSER = (10, 100)
+RESOLUTION = (1920, 1080)
+THRESHOLD = 1.0  # pixels
+FRAMES = 4  # frames per measurement (the first warms up)
+QUICK = dict(instances=60, triangles=5_000, denser=(10,), resolution=(640, 360), frames=2)
+
+
+def _field(instances, triangles, seed=0, extent=200.0, sizes=(0.8, 3.0)):
+    from soc.scenes.instanced import rock_field
+
+    return rock_field(instances, triangles, kinds=2, extent=extent, sizes=sizes, seed=seed)
+
+
+def _camera(extent, resolution):
+    from soc.scenes.camera import Camera
+
+    w, h = resolution
+    return Camera.look_at((0.0, 2.5, -1.02 * extent), (0.0, 1.0, 0.0), width=w, height=h,
+                          near=0.1, far=4.0 * extent)  # fmt: skip
+
+
+def _tables(scene):
+    from lod.dag import mesh_dag
+    from soc.culling.dag_select import DagTables
+
+    dags = [mesh_dag(v, f) for v, f in zip(scene.mesh_vertices, scene.mesh_faces, strict=True)]
+    return DagTables.from_dags(dags), dags
+
+
+def _frames(renderer, cam, frames, **kw):
+    out = [renderer.frame(cam, THRESHOLD, **kw) for _ in range(frames)]
+    ms = pd.DataFrame([f.timings_ms for f in out[1:]]).median()
+    return out[-1], ms
+
+
+def field_targets(instances, triangles, denser, resolution, frames) -> list[dict]:
+    """The 10⁸ field's rows: triangles per covered pixel, growth with denser meshes, the
+    selection and culling's share, false culls, index memory."""
+    from soc.culling.dag_select import DagRenderer
+
+    rows = []
+    extent = 200.0
+    cam = _camera(extent, resolution)
+    drawn = {}
+    for factor in (1, *denser):
+        scene = _field(instances, triangles * factor, extent=extent)
+        tables, dags = _tables(scene)
+        cap = 1 << 22
+        with DagRenderer(tables, scene.instances(), resolution, capacity=cap) as r:
+            f, ms = _frames(r, cam, frames, occlusion=False)
+            _, ids, _ = r.read()
+            covered = int((ids != 0xFFFFFFFF).sum())
+            fo, mso = _frames(r, cam, frames, occlusion=True)
+            del ms
+            drawn[factor] = (f.triangles, fo.triangles)
+            if factor == 1:
+                share = sum(
+                    mso.get(k, 0.0)
+                    for k in ("select", "cull_early", "pyramid", "cull_late", "pyramid_next")
+                ) / float(mso["total"])
+                rows += [
+                    _row("triangles per covered pixel at 1 px (frustum only)", "<= 2",
+                         f.triangles / covered, f.triangles / covered <= 2,
+                         f"{f.triangles:,} triangles, {covered:,} px, "
+                         f"{scene.source_triangles:,} source triangles"),
+                    _row("triangles per covered pixel at 1 px (two-phase HiZ)", "<= 2",
+                         fo.triangles / covered, fo.triangles / covered <= 2,
+                         f"{fo.triangles:,} triangles"),
+                    _row("selection + culling share of the frame (two-phase)", "<= 25 %",
+                         share, share <= 0.25,
+                         f"frame {mso['total']:.1f} ms: " + ", ".join(
+                             f"{k} {v:.1f}" for k, v in mso.items() if k != "total")),
+                    _row("DAG index memory / source's", "<= 2.2",
+                         sum(len(d.faces) for d in dags) / sum(d.source_triangles for d in dags),
+                         sum(len(d.faces) for d in dags)
+                         <= 2.2 * sum(d.source_triangles for d in dags),
+                         f"{len(tables):,} clusters, {sum(d.levels for d in dags)} levels"),
+                ]  # fmt: skip
+                rows.append(_false_culls(r, tables, scene, cam, resolution))
+            else:
+                g = f.triangles / drawn[1][0]
+                rows.append(_row(f"triangles drawn, {factor}x denser meshes / 1x", "<= 1.3", g,
+                                 g <= 1.3, f"{f.triangles:,} vs {drawn[1][0]:,}; source "
+                                 f"{scene.source_triangles:,}"))  # fmt: skip
+    return rows
+
+
+def _false_culls(r, tables, scene, cam, resolution) -> dict:
+    """Pairs of the cut with a pixel in its own id render (no culling) that two-phase culling
+    did not draw, over a short walk into the field (the early phase uses the last camera)."""
+    from soc.culling.dag_select import DagRenderer
+    from soc.scenes.camera import Camera
+
+    false = checked = 0
+    cams = [Camera.look_at((x, 2.0, -150.0 + 20 * k), (x * 0.5, 1.0, 0.0), width=resolution[0],
+                           height=resolution[1], near=0.1, far=800.0)
+            for k, x in enumerate(np.linspace(-10, 10, 4))]  # fmt: skip
+    with DagRenderer(tables, scene.instances(), resolution, capacity=1 << 22) as cut:
+        for c in cams:
+            cut.frame(c, THRESHOLD, occlusion=False, cones=False, frustum=False, id_kind=1)
+            visible = set(map(tuple, cut.visible_pairs()))
+            r.frame(c, THRESHOLD, occlusion=True, cones=False)
+            false += len(visible - set(map(tuple, r.drawn())))
+            checked += len(visible)
+    return _row("false culls (instance, cluster) against the cut's id render", "0", false,
+                false == 0, f"{checked:,} visible pairs over {len(cams)} frames")  # fmt: skip
+
+
+def object_lod_target(quick: bool) -> dict:
+    """Object LOD's triangles over the DAG's at the DAG's FLIP at 1 px, on the experiment's
+    field of large instances spanning near to far (frustum culling only)."""
+    from experiments.dag_lod import Params, compute, equal_flip_ratio
+
+    params = Params()
+    if quick:
+        from experiments import harness
+
+        params = dataclasses.replace(params, **harness.get("dag-lod").quick)
+    else:
+        params = dataclasses.replace(params, resolution=RESOLUTION, thresholds=(0.5, 1.0, 2.0),
+                                     repeats=1)  # fmt: skip
+    frames = compute(params, progress=False)
+    ratio = equal_flip_ratio(frames)
+    d = frames["dag"]
+    row = d[(d.threshold == 1.0) & ~d.occlusion].iloc[0]
+    return _row("object LOD (Funkhouser-Sequin) / DAG triangles at the same FLIP", ">= 3",
+                ratio, ratio >= 3, f"DAG {row.triangles:,} triangles at FLIP {row.flip:.4f}; "
+                f"{params.instances} instances of {params.triangles:,} triangles, sizes "
+                f"{params.sizes}")  # fmt: skip
+
+
+def build_target(triangles: int) -> dict:
+    """Seconds per million source triangles of one DAG build (no cache), after a warm-up."""
+    from lod.dag import build_dag
+    from soc.scenes.dense import rock
+
+    build_dag(*rock(20_000, seed=5))  # compile and load the kernels
+    v, f = rock(triangles, seed=7)
+    t = time.perf_counter()
+    build_dag(v, f)
+    s = (time.perf_counter() - t) / len(f) * 1e6
+    return _row("DAG build, s per million source triangles", "<= 5", s, s <= 5,
+                f"{len(f):,} triangles, numba threads {_threads()}")  # fmt: skip
+
+
+def _threads() -> int:
+    import numba
+
+    return numba.get_num_threads()
+
+
+def _row(target, bound, value, met, detail) -> dict:
+    return {"target": target, "bound": bound, "measured": value, "met": bool(met),
+            "detail": detail}  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m benchmarks.dag", description=__doc__)
+    ap.add_argument("--quick", action="store_true", help="a small field, a few frames")
+    ap.add_argument("--out", default="results", help="folder of dag/targets.csv")
+    ap.add_argument("--only", choices=("field", "object-lod", "build"), default=None)
+    args = ap.parse_args(argv)
+    q = QUICK if args.quick else dict(instances=INSTANCES, triangles=TRIANGLES, denser=DENSER,
+                                      resolution=RESOLUTION, frames=FRAMES)  # fmt: skip
+    rows = []
+    if args.only in (None, "build"):
+        rows.append(build_target(200_000 if args.quick else 1_000_000))
+    if args.only in (None, "field"):
+        rows += field_targets(**q)
+    if args.only in (None, "object-lod"):
+        rows.append(object_lod_target(args.quick))
+    df = pd.DataFrame(rows)
+    folder = Path(args.out) / "dag"
+    folder.mkdir(parents=True, exist_ok=True)
+    name = "targets.csv" if args.only is None else f"targets-{args.only}.csv"
+    df.to_csv(folder / name, index=False)
+    from experiments.markdown import markdown_table
+
+    print(markdown_table(df))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
