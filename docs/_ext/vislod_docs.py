@@ -402,7 +402,7 @@ def generate_results() -> None:
 # ---------------------------------------------------------------------------------------------
 
 
-def _generate(app) -> None:
+def _generate(app, config=None) -> None:
     generate_methods()
     generate_api()
     generate_results()
@@ -427,7 +427,8 @@ def _source_read(app, docname: str, source: list[str]) -> None:
 
 
 def setup(app):
-    # before autosummary's own builder-inited handler, which reads the generated API page
-    app.connect("builder-inited", _generate, priority=100)
+    # at config-inited, before Sphinx lists the source files: the generated pages must be
+    # among them (autosummary reads the API page's entries from that list at builder-inited)
+    app.connect("config-inited", _generate)
     app.connect("source-read", _source_read)
     return {"version": "1.0", "parallel_read_safe": True, "parallel_write_safe": True}
