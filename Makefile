@@ -60,12 +60,19 @@ notebooks: setup
 # docs-pictures` redraws them); DOCS_EXECUTE=1 runs the notebooks (in vislod's quick mode).
 # `make docs` also installs Debian's chromium when root, for tests/test_docs_browser.py.
 SPHINX = MPLBACKEND=Agg VISLOD_DOCS_EXECUTE=$(DOCS_EXECUTE) $(PY) -m sphinx -b html -W --keep-going -q
-docs: setup browser
+# The site needs only the core and the `docs` extra (a fresh clone builds it in minutes).
+DOCS_STAMP := $(VENV)/.installed-docs
+$(DOCS_STAMP): pyproject.toml constraints.txt
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --disable-pip-version-check -c constraints.txt -e '.[docs]'
+	@touch $@
+
+docs: gl $(DOCS_STAMP) browser
 	$(SPHINX) docs docs/_build/html
 	@echo "built docs/_build/html/index.html; serve it with: make docs-serve"
 
 # CI's step (.ci/run): the same build without the browser install.
-docs-quick: setup
+docs-quick: gl $(DOCS_STAMP)
 	$(SPHINX) docs docs/_build/html
 
 docs-serve:
