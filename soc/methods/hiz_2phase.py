@@ -52,6 +52,7 @@ from soc.methods.base import MethodOutput, register, stage
 from soc.methods.options import MethodOptions, option
 from soc.methods.two_phase import (
     CLUSTER_TRIANGLES,
+    ClusterSource,
     Frame,
     GlDepthTest,
     Granularity,
@@ -185,11 +186,15 @@ class TwoPhaseCulling(TwoPhase):
         self.tree = self._hierarchy  # refitted to the objects alive (set_alive)
         self.last_walk = None
         self.sets = ClusterSets(self) if self.granularity == "cluster" else ObjectSets(self)
-        self.clusters = getattr(self.sets, "clusters", None)
 
     def release(self) -> None:
         self.depth_test.release()
         super().release()
+
+    @property
+    def clusters(self):
+        """The clusters drawn (``granularity="cluster"``: its source's), else None."""
+        return getattr(self.sets, "clusters", None)
 
     @property
     def last_clusters(self) -> np.ndarray:
@@ -363,18 +368,25 @@ class ClusterSets:
     object sets are (an object the oracle sees has a cluster with a visible sample, whose box
     passes the same test against the same early depth), at the level of clusters.
 
+    Parameters
+    ----------
+    method : TwoPhaseCulling
+    source : soc.methods.two_phase.ClusterSource, optional
+        Where the clusters and each frame's candidates come from (default
+        :class:`~soc.methods.two_phase.SceneClusters` of :data:`CLUSTER_TRIANGLES`); plug
+        another one in with ``method.sets = ClusterSets(method, source)``.
+
     Attributes
     ----------
     source : soc.methods.two_phase.ClusterSource
-        Where the clusters and each frame's candidates come from.
     clusters : soc.culling.clusters.Clusters
     last_clusters : (C,) bool
         The clusters the last frame drew.
     """
 
-    def __init__(self, method: TwoPhaseCulling):
+    def __init__(self, method: TwoPhaseCulling, source: ClusterSource | None = None):
         self.m = m = method
-        self.source = SceneClusters(m.scene, CLUSTER_TRIANGLES)
+        self.source = SceneClusters(m.scene, CLUSTER_TRIANGLES) if source is None else source
         cl = self.clusters = self.source.clusters
         self.gpu = m.geometry.clusters(cl)
         self.boxes = np.ascontiguousarray(cl.aabbs, np.float32)

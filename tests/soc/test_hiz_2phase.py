@@ -242,6 +242,41 @@ def test_no_visible_cluster_is_culled_with_clusters(small_market, clutter_scenes
     assert fewer > 0
 
 
+def test_another_cluster_source_plugs_into_the_cluster_granularity(small_market):
+    """A ClusterSource plugged in (``ClusterSets(method, source)``): the method culls and
+    draws its clusters, asks it once a frame for the candidates of the objects that passed,
+    and a source of every cluster of another size gives the frames that size gives."""
+    from soc.methods.hiz_2phase import ClusterSets
+    from soc.methods.two_phase import SceneClusters
+
+    class Counting(SceneClusters):
+        asked: list
+
+        def candidates(self, camera, objects):
+            self.asked.append(np.array(objects))
+            return super().candidates(camera, objects)
+
+    res = (333, 197)
+    cams = flight(small_market, frames=100, width=res[0], height=res[1])[30:36]
+    source = Counting(small_market, 8)
+    source.asked = []
+    with (
+        _clusters_of({"granularity": "cluster", "cluster_triangles": 8}) as opts,
+        soc.Culler(small_market, "hiz-2phase", res, **opts) as eight,
+        soc.Culler(small_market, "hiz-2phase", res, granularity="cluster") as plugged,
+    ):
+        plugged.method.sets = ClusterSets(plugged.method, source)
+        assert plugged.method.clusters is source.clusters
+        for cam in cams:
+            a, b = eight.cull(cam), plugged.cull(cam)
+            np.testing.assert_array_equal(a.visible, b.visible)
+            np.testing.assert_array_equal(eight.method.last_clusters, plugged.method.last_clusters)
+            assert a.stats.triangles_drawn == b.stats.triangles_drawn
+    # Once a frame, for the objects that passed (ids, ascending), never for none of them.
+    assert len(source.asked) == len(cams)
+    assert all(len(ids) and (np.diff(ids) > 0).all() for ids in source.asked)
+
+
 def test_auto_tests_on_the_cpu_where_gl_runs_on_it_and_both_sides_judge_alike(small_market):
     """ "auto" picks numba on llvmpipe (GL on the CPU) and GL otherwise; with one early set
     (the same frames before), the GL and numba tests keep nearly the same objects, both
