@@ -224,6 +224,11 @@ class DepthTest(Protocol):
         ``pyramid`` and ``test`` (and ``read back``), each name after ``prefix``."""
         ...
 
+    def classify_boxes(self, camera, buffer, boxes, query, ids, frustum: bool) -> np.ndarray:
+        """Codes of other boxes (clusters) ``ids`` against the last pyramid, from their grown
+        boxes in GL (``buffer``) or on the CPU (``boxes`` and grown ``query``)."""
+        ...
+
     def release(self) -> None: ...
 
 
