@@ -27,10 +27,16 @@ def method_names(scene=None) -> list[str]:
     return sorted(m for m, cls in METHODS.items() if scene is None or cls.supports(scene))
 
 
-def _keyword_options(cls: type[CullMethod]) -> bool:
-    """Whether ``cls`` still takes its options as ``__init__`` keywords (a method not yet
-    converted to an ``Options`` dataclass): its constructor has no ``options`` parameter."""
-    return "options" not in inspect.signature(cls.__init__).parameters
+def _check_takes_options(cls: type[CullMethod]) -> None:
+    """A method's constructor receives its options: ``(geometry, resolution, config,
+    options)``, or it is the base class's."""
+    if "options" not in inspect.signature(cls.__init__).parameters:
+        raise TypeError(
+            f"{cls.__qualname__}.__init__ takes no 'options': a culling method receives its "
+            "options as one dataclass; write __init__(self, geometry, resolution, config, "
+            "options=None), pass options to super().__init__ and read self.options (its "
+            "fields: the class's Options, a soc.methods.options.MethodOptions dataclass)"
+        )
 
 
 class Culler:
@@ -95,9 +101,9 @@ class Culler:
                 f"unknown culling method {method!r}; available: {method_names()} "
                 "(options: NAME(option=value, ...) or keywords)"
             )
-        legacy = _keyword_options(cls)
+        _check_takes_options(cls)
         # The options are checked before any GL work: a wrong one costs nothing.
-        typed = None if legacy else build_options(cls, options)
+        typed = build_options(cls, options)
         self.resolution = _resolution(*resolution)
         self.config = config or CullConfig()
         from soc.gl.context import _default_context
@@ -109,17 +115,7 @@ class Culler:
             self.scene = scene
             self.geometry = self.glctx.geometry(scene)
             try:
-                if legacy:
-                    self.method = cls(self.geometry, self.resolution, self.config, **options)
-                else:
-                    self.method = cls(self.geometry, self.resolution, self.config, typed)
-            except TypeError as e:
-                self.glctx.pop_errors()
-                if legacy and options and "argument" in str(e):
-                    raise ValueError(
-                        f"method {method!r} does not take options {options}: {e}"
-                    ) from e
-                raise
+                self.method = cls(self.geometry, self.resolution, self.config, typed)
             except BaseException:
                 self.glctx.pop_errors()  # a failed constructor leaves no GL error behind
                 raise

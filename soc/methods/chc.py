@@ -54,7 +54,6 @@ from soc.culling.bvh import box_distance, build
 from soc.gl import compiled as compiled_gl
 from soc.methods.base import MethodOutput, register, stage
 from soc.methods.options import MethodOptions, option
-from soc.methods.options import build as build_options
 from soc.methods.prepass_queries import PrepassQueryMethod
 
 # Nodes per query batch (CHC++ "multiqueries"/i-queue). Larger batches mean fewer depth
@@ -126,9 +125,8 @@ class CoherentHierarchicalCulling(PrepassQueryMethod):
     def __init__(
         self, geometry, resolution, config, options: CoherentHierarchicalOptions | None = None
     ):
-        options = build_options(type(self), options)
-        super().__init__(geometry, resolution, config, compiled=options.compiled)
-        self.options = options
+        super().__init__(geometry, resolution, config, options)
+        options = self.options
         self.temporal = options.temporal
         self.revisit_interval = options.revisit_interval
         self.batch_size = options.batch_size

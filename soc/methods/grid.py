@@ -42,7 +42,6 @@ from soc.culling.frustum import aabbs_in_frustum
 from soc.culling.grid import DEFAULT_GRID_SIZE, build_grid
 from soc.methods.base import MethodOutput, frustum_stage, prepass_stage, register, stage
 from soc.methods.options import MethodOptions, option
-from soc.methods.options import build as build_options
 from soc.methods.prepass_queries import PrepassQueryMethod
 
 UNKNOWN, OCCLUDED, VISIBLE = -1, 0, 1  # a cell's last known query result
@@ -91,9 +90,8 @@ class GridCulling(PrepassQueryMethod):
     Options = GridOptions
 
     def __init__(self, geometry, resolution, config, options: GridOptions | None = None):
-        options = build_options(type(self), options)
-        super().__init__(geometry, resolution, config, compiled=options.compiled)
-        self.options = options
+        super().__init__(geometry, resolution, config, options)
+        options = self.options
         self.temporal = options.temporal
         self.conservative = not self.temporal
         self.query_cap = options.query_cap

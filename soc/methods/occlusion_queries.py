@@ -9,19 +9,23 @@ results. Not conservative then."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Literal
+
 import numpy as np
 
 from soc.culling.queries import OcclusionQueries, near_plane_straddlers
 from soc.methods.base import MethodOutput, register, stage
+from soc.methods.options import MethodOptions
 from soc.methods.prepass_queries import PrepassQueryMethod
 
 
-@register
-class QueryCulling(PrepassQueryMethod):
-    """Frustum + occluder depth prepass + per-object ``GL_ANY_SAMPLES_PASSED`` queries.
+@dataclass(frozen=True)
+class QueryOptions(MethodOptions):
+    """Options of ``queries`` (:class:`QueryCulling`).
 
-    Options
-    -------
+    Attributes
+    ----------
     compiled : bool
         Issue and read the queries from a numba loop over the GL entry points (default);
         False: one Python call chain per object (seed 000's loop, the tested reference).
@@ -36,23 +40,29 @@ class QueryCulling(PrepassQueryMethod):
         primes the pool from the same camera). Not conservative.
     """
 
+    compiled: bool = True
+    boxes: Literal["aabb", "oriented"] = "aabb"
+    previous_frame: bool = False
+
+
+@register
+class QueryCulling(PrepassQueryMethod):
+    """Frustum + occluder depth prepass + per-object ``GL_ANY_SAMPLES_PASSED`` queries.
+
+    Options: :class:`QueryOptions`; with ``boxes="oriented"`` or ``previous_frame=True`` the
+    instance is not conservative (its ``conservative`` says so).
+    """
+
     name = "queries"
     conservative = True
+    Options = QueryOptions
 
-    def __init__(
-        self,
-        geometry,
-        resolution,
-        config,
-        *,
-        compiled: bool = True,
-        boxes: str = "aabb",
-        previous_frame: bool = False,
-    ):
-        super().__init__(geometry, resolution, config, compiled=compiled)
-        self.queries = OcclusionQueries(geometry, compiled=compiled, boxes=boxes)
-        self.previous_frame = bool(previous_frame)
-        self.conservative = not self.previous_frame and boxes == "aabb"
+    def __init__(self, geometry, resolution, config, options: QueryOptions | None = None):
+        super().__init__(geometry, resolution, config, options)
+        opts = self.options
+        self.queries = OcclusionQueries(geometry, compiled=opts.compiled, boxes=opts.boxes)
+        self.previous_frame = opts.previous_frame
+        self.conservative = not self.previous_frame and opts.boxes == "aabb"
         self.temporal = self.previous_frame
         self._last: np.ndarray | None = None
 

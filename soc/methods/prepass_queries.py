@@ -12,10 +12,12 @@ from soc.culling.depth_prepass import DepthTarget
 from soc.culling.size_test import too_small
 from soc.gl import compiled as compiled_gl
 from soc.methods.base import CullConfig, CullMethod, frustum_stage, prepass_stage, stage
+from soc.methods.options import MethodOptions
 
 
 class PrepassQueryMethod(CullMethod):
-    """Base of the methods that query boxes against an occluder depth prepass.
+    """Base of the methods that query boxes against an occluder depth prepass; their
+    ``Options`` have a ``compiled`` field.
 
     Attributes
     ----------
@@ -29,10 +31,14 @@ class PrepassQueryMethod(CullMethod):
     """
 
     def __init__(
-        self, geometry, resolution: tuple[int, int], config: CullConfig, *, compiled: bool = True
+        self,
+        geometry,
+        resolution: tuple[int, int],
+        config: CullConfig,
+        options: MethodOptions | None = None,
     ):
-        super().__init__(geometry, resolution, config)
-        self.compiled = bool(compiled) and compiled_gl.available()
+        super().__init__(geometry, resolution, config, options)
+        self.compiled = self.options.compiled and compiled_gl.available()
         self.target = DepthTarget(self.glctx, resolution)
         lo, hi = self.scene.bounds
         self.box_queries = BoxQueries(
@@ -43,24 +49,19 @@ class PrepassQueryMethod(CullMethod):
         self.box_queries.release()
         self.target.release()
 
-    def start_frame(
-        self, camera, timings: dict[str, float], *, prepass: bool = True
-    ) -> tuple[np.ndarray, int, bool]:
+    def start_frame(self, camera, timings: dict[str, float]) -> tuple[np.ndarray, int, bool]:
         """The frustum test, then (when the depth test is on) the occluder prepass — without
-        the occluders too small by ``config.size_test`` when it is set — or a cleared depth
-        with ``prepass=False``. Returns the (N,) bool frustum survivors, how
-        many the frustum culled, and whether to go on querying (the depth test is on)."""
+        the occluders too small by ``config.size_test`` when it is set. Returns the (N,) bool
+        frustum survivors, how many the frustum culled, and whether to go on querying (the
+        depth test is on)."""
         in_frustum = frustum_stage(self, camera, timings)
         frustum_culled = int((~in_frustum).sum())
         if not self.config.depth_test:
             return in_frustum, frustum_culled, False
-        if prepass:
-            occluders = in_frustum
-            size = self.config.size_test
-            if size is not None and size.occluder > 0:  # Intel's IsTooSmall for occluders
-                with stage(timings, "size test"):
-                    occluders = in_frustum & ~too_small(self.scene, camera, size.occluder)
-            prepass_stage(self, camera, occluders, self.target, timings)
-        else:
-            self.target.clear()
+        occluders = in_frustum
+        size = self.config.size_test
+        if size is not None and size.occluder > 0:  # Intel's IsTooSmall for occluders
+            with stage(timings, "size test"):
+                occluders = in_frustum & ~too_small(self.scene, camera, size.occluder)
+        prepass_stage(self, camera, occluders, self.target, timings)
         return in_frustum, frustum_culled, True

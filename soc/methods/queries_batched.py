@@ -42,7 +42,6 @@ import numpy as np
 from soc.culling.bvh import box_distance, build
 from soc.methods.base import MethodOutput, register, stage
 from soc.methods.options import MethodOptions, option
-from soc.methods.options import build as build_options
 from soc.methods.prepass_queries import PrepassQueryMethod
 
 # Objects per packet (the first query level). Larger packets: fewer top-level queries but
@@ -99,9 +98,8 @@ class BatchedQueryCulling(PrepassQueryMethod):
     Options = BatchedQueryOptions
 
     def __init__(self, geometry, resolution, config, options: BatchedQueryOptions | None = None):
-        options = build_options(type(self), options)
-        super().__init__(geometry, resolution, config, compiled=options.compiled)
-        self.options = options
+        super().__init__(geometry, resolution, config, options)
+        options = self.options
         self.bvh = build(self.scene.aabbs, options.leaf_size)
         self.packets = self.bvh.cut(options.packet_size)
         self.wave_size = options.wave_size

@@ -150,8 +150,6 @@ def test_culler_errors_say_how_to_pass_options(scene):
 
 # -- the options as one typed, documented dataclass per method ---------------------------------
 
-# Methods not yet converted to an ``Options`` dataclass; until then they take keywords.
-KEYWORD_METHODS = {"adaptive", "queries"}
 MAX_OPTIONS = 6
 
 
@@ -181,8 +179,6 @@ def _problems(method: type) -> list[str]:
 def test_every_method_has_a_typed_documented_dataclass_of_few_options(name):
     method = METHODS[name]
     typed = "options" in inspect.signature(method.__init__).parameters
-    if name in KEYWORD_METHODS and not typed:
-        pytest.skip(f"{name} still takes keyword options (being converted)")
     assert typed, f"{name}: its constructor takes no options (a MethodOptions dataclass)"
     assert _problems(method) == []
 
@@ -305,6 +301,17 @@ def test_the_dataclass_checks_itself_and_normalizes():
             Shapes(**bad)
         assert e.value.allowed.startswith(allowed), (bad, str(e.value))
         assert e.value.option in bad
+
+
+def test_a_method_whose_constructor_takes_no_options_is_told_how(scene):
+    class KeywordsCulling(soc.methods.CullMethod):
+        name = "keywords"
+
+        def __init__(self, geometry, resolution, config, *, leaf_size=4):
+            super().__init__(geometry, resolution, config)
+
+    with pytest.raises(TypeError, match=r"takes no 'options'.*options=None"):
+        soc.Culler(scene, KeywordsCulling, (64, 36))
 
 
 def test_a_method_gets_its_options_class_only():
