@@ -25,6 +25,8 @@ from experiments import harness
 from experiments.claims import MEASURED, Row
 from experiments.common import decode, encode
 
+# The DataFrames a notebook shows (the picture is drawn by plot_levels).
+FRAMES = ("dag", "objects", "info", "levels")
 # A pixel's depth differs when the linear depths differ by more than this share.
 DEPTH_TOLERANCE = 0.01
 

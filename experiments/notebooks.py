@@ -162,6 +162,17 @@ estimate of the invisible objects (**Table 2**, `seed004-octree`) and the adapti
 model errors, ratios and slopes are what compare. `VISLOD_QUICK=1`: small scenes, few frames
 (about a minute in all); the full runs take a few minutes each."""
 
+DAG_INTRO = """\
+# Cluster LOD DAG (Nanite's) on instanced scenes
+
+A field of rocks and statues, each mesh held once and placed many times
+(`soc.scenes.rock_field`); each mesh's cluster DAG (`lod.dag`: clusters grouped, simplified with
+the group border locked, split again, level by level) and its cut selected per instance on the
+GPU by error threshold in pixels (`soc.culling.dag_select.DagRenderer`), culled by frustum,
+normal cone and two-phase hierarchical z, drawn. `VISLOD_QUICK=1`: a small field (about a
+minute); the full run takes a few minutes. The targets at 10⁸ source triangles are
+`python -m benchmarks.dag`."""
+
 NOTEBOOKS = {  # file name → its builder (no arguments)
     "seed000_methods.ipynb": functools.partial(
         build, "seed000-methods", METHODS_INTRO, ("seed000",), {"methods": ("all",)}, "masked"
@@ -188,6 +199,7 @@ NOTEBOOKS = {  # file name → its builder (no arguments)
         SEED004_INTRO,
         ("seed004-model", "seed004-octree", "seed004-adaptive"),
     ),
+    "dag_lod.ipynb": functools.partial(build, "dag-lod", DAG_INTRO, ("dag-lod",)),
 }
 
 
