@@ -283,12 +283,14 @@ def markdown(frames: dict[str, pd.DataFrame], command: str) -> str:
     )
 
 
-def section(out, frames: int = FRAMES, command: str = "python -m benchmarks --only queries") -> str:
+def section(
+    out, frames: int = FRAMES, command: str = "python -m benchmarks --only queries"
+) -> tuple[str, pd.DataFrame]:
     """Run the benchmark, write its frames to ``out/queries-compiled-<name>.csv`` and return
-    the ``queries-compiled`` section of BENCHMARKS.md (made by ``command``)."""
+    the ``queries-compiled`` section of BENCHMARKS.md (made by ``command``) and its targets."""
     result = run(frames=frames)
     bc.write_csvs(result, out, "queries-compiled")
-    return markdown(result, command)
+    return markdown(result, command), targets(result)
 
 
 def targets(frames: dict[str, pd.DataFrame]) -> pd.DataFrame:

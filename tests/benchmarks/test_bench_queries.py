@@ -44,3 +44,11 @@ def test_markdown_states_the_targets_and_where_the_time_goes(frames):
     assert list(t.index) == ["queries", "queries (Python)"] and set(t["met"]) <= {"yes", "no"}
     ratio = float(t.loc["queries", "measured"].rstrip("×"))
     assert (t.loc["queries", "met"] == "yes") == (ratio <= bench_queries.RATIO_TARGET)
+
+
+def test_the_section_writes_its_frames_and_gives_its_targets(frames, monkeypatch, tmp_path):
+    monkeypatch.setattr(bench_queries, "run", lambda frames: frames_)
+    frames_ = frames
+    body, targets = bench_queries.section(tmp_path, 1, "cmd")
+    assert body.startswith("## Occlusion queries from compiled loops") and "`cmd`" in body
+    assert len(targets) == 2 and (tmp_path / "queries-compiled-methods.csv").exists()
