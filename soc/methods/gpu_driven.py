@@ -150,7 +150,12 @@ class GpuDrivenCulling(TwoPhase):
     ----------
     source : soc.methods.two_phase.ClusterSource
         Where the clusters come from (:class:`~soc.methods.two_phase.SceneClusters`, or
-        :class:`~soc.methods.two_phase.WholeObjects` with ``granularity="object"``).
+        :class:`~soc.methods.two_phase.WholeObjects` with ``granularity="object"``). Another
+        one over the same table of clusters plugs in as ``method.source``: a source with a
+        ``mark_candidates(camera, frame, offset)`` method writes each frame's candidate bits
+        into the GPU buffer ``frame`` from byte ``offset`` (one bit per cluster, the buffer
+        zeroed before) ahead of the early pass, and the late stage tests and draws only
+        those.
     clusters : soc.culling.clusters.Clusters
     last_draws_ms : dict
         ``{"early draw": ms, "late draw": ms}`` of the last frame.
@@ -188,7 +193,8 @@ class GpuDrivenCulling(TwoPhase):
         n, c = len(scene), self.gpu.count
         self._object_bits = FRAME_HEADER
         self._cluster_bits = FRAME_HEADER + (n + 31) // 32
-        words = self._cluster_bits + (c + 31) // 32
+        self._candidate_bits = self._cluster_bits + (c + 31) // 32
+        words = self._candidate_bits + (c + 31) // 32
         self.object_state = ctx.buffer(reserve=4 * 2 * n)
         self.runs = ctx.buffer(reserve=16 * c)
         self.cluster_state = ctx.buffer(reserve=4 * c)
@@ -209,6 +215,7 @@ class GpuDrivenCulling(TwoPhase):
             "cluster_bits": self._cluster_bits,
             "cluster_count": c,
             "split_at": self._split_at,
+            "candidate_bits": self._candidate_bits,
         }
         self.last_commands = (0, 0)
 
@@ -269,6 +276,7 @@ class GpuDrivenCulling(TwoPhase):
         """Stage 1: the frame's uniforms, then the early pass's commands (none with the depth
         test off: frustum culling only), sorted."""
         camera, timings = f.camera, f.timings
+        marks = hasattr(self.source, "mark_candidates")  # a source that chooses per frame
         self._frame_id += 1
         words = self._list_words
         list_in, list_out = (1 - self._list) * words, self._list * words
@@ -280,6 +288,7 @@ class GpuDrivenCulling(TwoPhase):
             "frustum": bool(self.config.frustum),
             "test_clusters": self.granularity == "cluster",
             "sort_draws": self.sort_draws,
+            "every_candidate": not marks,
             "eye": tuple(float(v) for v in camera.eye),
             "order_near": float(camera.near),
             "order_scale": (ORDER_BUCKETS - 1) / math.log2(camera.far / camera.near),
@@ -294,6 +303,8 @@ class GpuDrivenCulling(TwoPhase):
             self.frame.clear()
             self.passed.write(_ZERO, offset=4 * list_out)
             self.passed.write(_ZERO + _ZERO, offset=4 * self._split_at)
+            if marks:
+                self.source.mark_candidates(camera, self.frame, 4 * self._candidate_bits)
             if f.occlusion:
                 self._run(self.early_pass)
         if f.occlusion and self.sort_draws:

@@ -382,11 +382,13 @@ class ClusterSource(Protocol):
     Where it plugs in: ``hiz-2phase``'s :class:`~soc.methods.hiz_2phase.ClusterSets` (its
     ``source``) asks :meth:`candidates` for the objects that passed, tests their boxes and
     draws those that pass; ``gpu-driven`` uploads :attr:`clusters` once
-    (:meth:`soc.gl.geometry.SceneGeometry.clusters`) and its late and cluster passes visit
-    every cluster of a passing object (``late_object`` in ``gpu_driven_late.comp.glsl``,
-    ``test_clusters`` in ``gpu_driven_clusters.comp.glsl``): a source that chooses on the GPU
-    marks its candidates where those loops read a cluster. The early pass draws last frame's
-    passing runs whatever this frame's candidates are (any early subset is conservative).
+    (:meth:`soc.gl.geometry.SceneGeometry.clusters`), and a source that chooses on the GPU has
+    a ``mark_candidates(camera, frame, offset)`` method that writes this frame's candidates
+    as bits (one per cluster) into gpu-driven's frame buffer from byte ``offset``, before the
+    early pass; its late and cluster passes test and draw only those (``candidate()`` in
+    ``gpu_driven.common.glsl``; without the method every cluster is one). The early pass draws
+    last frame's passing runs whatever this frame's candidates are (any early subset is
+    conservative).
     """
 
     clusters: Any  # soc.culling.clusters.Clusters

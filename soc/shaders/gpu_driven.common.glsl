@@ -30,7 +30,8 @@ layout(std430, binding = COMMANDS_BINDING) buffer Commands { uint commands[]; };
 // The frame's output, zeroed before the frame: the FRAME_* counters, the commands per depth
 // bucket (FRAME_BUCKETS) and gpu_driven_order.comp's cursors (FRAME_CURSORS), each per pass,
 // then the drawn objects' bits (from object_bits), then the drawn clusters' bits (from
-// cluster_bits).
+// cluster_bits), then this frame's candidate clusters' bits (from candidate_bits, written by a
+// cluster source that chooses per frame before the early pass).
 layout(std430, binding = FRAME_BINDING) buffer Frame { uint frame[]; };
 // Two lists of objects with a cluster that passed a late test, list_words apart: a count, then
 // the ids. The early pass reads last frame's (list_in), the late pass appends to this frame's
@@ -57,6 +58,10 @@ uniform uint list_in;        // first word of last frame's passed list
 uniform uint list_out;       // first word of this frame's passed list
 uniform uint split_at;       // first word of the split lists in `passed`
 uniform uint cluster_count;  // C (also the commands a pass's half of `commands` holds)
+uniform uint candidate_bits; // first word of the candidate clusters' bits
+// Every cluster of an object is a candidate (fixed clusters); else only those whose bit is set
+// (a cluster LOD DAG's cut: soc.methods.two_phase.ClusterSource).
+uniform bool every_candidate;
 // Draw each pass nearest first (gpu_driven_order.comp): every command gets the depth bucket of
 // its first cluster, the distance from `eye` to the cluster's box on a log scale from
 // order_near (bucket 0) with order_scale buckets per doubling, clamped at the last.
@@ -64,6 +69,11 @@ uniform bool sort_draws;
 uniform vec3 eye;
 uniform float order_near;
 uniform float order_scale;
+
+// Whether cluster c is one of this frame's candidates: the late stage tests and draws only them.
+bool candidate(uint c) {
+    return every_candidate || (frame[candidate_bits + (c >> 5)] & (1u << (c & 31u))) != 0u;
+}
 
 vec3 object_lo(uint o) { return vec3(object_boxes[6u * o], object_boxes[6u * o + 1u], object_boxes[6u * o + 2u]); }
 vec3 object_hi(uint o) { return vec3(object_boxes[6u * o + 3u], object_boxes[6u * o + 4u], object_boxes[6u * o + 5u]); }

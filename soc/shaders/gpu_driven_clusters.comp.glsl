@@ -2,8 +2,8 @@
 // gpu-driven's cluster pass, after the late pass with `split`: the clusters of the objects of
 // several clusters that passed the late test, which the late pass listed (the split lists of
 // gpu_driven.common) instead of looping over them. Two stages, one dispatch each:
-//   stage 0: one cluster per invocation (every stride-th of the list): its box against the
-//            frustum (unless its object is inside) and the pyramid; its state for next frame
+//   stage 0: one cluster per invocation (every stride-th of the list): a candidate's box
+//            against the frustum (unless its object is inside) and the pyramid; its state for next frame
 //            (bit 0: passed), with bit 2 set when it is to be drawn late (it passed and was
 //            not drawn early);
 //   stage 1: one object per invocation: its late runs appended as commands (merged as the late
@@ -29,10 +29,10 @@ void test_clusters() {
         uint c = entry & 0x7FFFFFFFu;
         bool inside = (entry >> 31) != 0u;
         vec3 lo = cluster_lo(c), hi = cluster_hi(c);
-        bool pass = true;
-        if (frustum && !inside && outside_frustum(lo, hi)) {
+        bool pass = candidate(c);
+        if (pass && frustum && !inside && outside_frustum(lo, hi)) {
             pass = false;
-        } else if (occlusion) {
+        } else if (pass && occlusion) {
             ++judged;
             pass = judge(lo, hi) == 1u;
         }

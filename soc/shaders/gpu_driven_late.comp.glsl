@@ -50,7 +50,7 @@ void late_object(uint o, bool inside) {
     bool each = test_clusters && obj.y > 1u;
     Visit v = visit_start(o);
     for (uint c = obj.x; c < obj.x + obj.y; ++c) {
-        bool pass = !each || classify(cluster_lo(c), cluster_hi(c), inside) == 1u;
+        bool pass = candidate(c) && (!each || classify(cluster_lo(c), cluster_hi(c), inside) == 1u);
         bool late = pass && !(early && (cluster_state[c] & 1u) != 0u);
         cluster_state[c] = pass ? 1u : 0u;
         visit(v, c, pass, late, obj.z, o);
