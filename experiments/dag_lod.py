@@ -131,6 +131,7 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     from lod.dag import mesh_dag, pixel_scale
     from soc.culling.dag_select import DagRenderer, DagTables, render_instances
     from soc.culling.oracle import may_draw
+    from soc.scenes.camera import Camera
 
     scene, cam = field_and_view(params)
     dags = [mesh_dag(v, f) for v, f in zip(scene.mesh_vertices, scene.mesh_faces, strict=True)]
@@ -157,7 +158,11 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
                     **image_errors(ref, img, near, far),
                 })  # fmt: skip
                 bar.update()
-        r.frame(cam, 1.0, occlusion=False, color_kind=1)
+        # The picture: the cut at 1 px seen from above the field's edge, coloured by level.
+        e = params.extent
+        above = Camera.look_at((0.0, 0.5 * e, -1.2 * e), (0.0, 0.0, 0.0), width=cam.width,
+                               height=cam.height, near=0.1, far=4.0 * e)  # fmt: skip
+        r.frame(above, 1.0, occlusion=False, color_kind=1)
         levels_img = r.read()[0][::-1]
         level_counts = np.bincount(tables.level[r.drawn()[:, 1]], minlength=tables.level.max() + 1)
     bar.close()
@@ -275,7 +280,8 @@ def plot_threshold(frames, params):
 
 
 def plot_levels(frames, params):
-    """The cut at 1 px coloured by level (blue: source clusters; warmer: coarser levels)."""
+    """The cut at 1 px seen from above the field's edge, coloured by level: blue the source's
+    clusters, then cyan, green, yellow, orange, red, pink and purple for coarser levels."""
     from matplotlib.figure import Figure
 
     img = decode(frames["picture"].png.iloc[0])

@@ -17,6 +17,12 @@ out vec3 v_world;
 flat out uint v_object;
 flat out vec3 v_color;
 
+// Cluster levels 0..7+ (color_kind 1): blue (the source's clusters) through green and yellow
+// to red and magenta (coarsest).
+const vec3 LEVEL_COLORS[8] = vec3[](vec3(0.20, 0.40, 0.95), vec3(0.15, 0.75, 0.90),
+    vec3(0.25, 0.80, 0.35), vec3(0.75, 0.85, 0.20), vec3(0.95, 0.65, 0.15),
+    vec3(0.95, 0.35, 0.15), vec3(0.85, 0.15, 0.45), vec3(0.65, 0.25, 0.85));
+
 vec3 palette(float t) { return 0.55 + 0.25 * cos(6.2831853 * t + vec3(0.0, 2.1, 4.2)); }
 
 void main() {
@@ -27,7 +33,7 @@ void main() {
     v_object = id_kind == 0 ? pair.x : in_slot;
     uint level = floatBitsToUint(cluster_cull[5u * pair.y + 4u]).w;
     if (color_kind == 1) {
-        v_color = vec3(0.25, 0.45, 0.95) + float(level) * vec3(0.09, 0.05, -0.09);
+        v_color = LEVEL_COLORS[min(level, 7u)];
     } else {
         v_color = palette(fract(float(color_kind == 0 ? pair.x : pair.y) * 0.6180339887));
     }
