@@ -246,7 +246,7 @@ class TwoPhaseCulling(TwoPhase):
 
     # -- the stages --------------------------------------------------------------------------
 
-    def sorted(self, f: Frame, ids: np.ndarray) -> np.ndarray:
+    def in_draw_order(self, f: Frame, ids: np.ndarray) -> np.ndarray:
         """``ids`` in the order a pass draws them (:attr:`order`): nearest box first
         (:func:`soc.culling.draw_order.front_to_back`); stage ``sort``."""
         if not self.sort_draws or len(ids) < 2:
@@ -262,7 +262,7 @@ class TwoPhaseCulling(TwoPhase):
                 early = early[self.alive[early]]
             if self.config.frustum and len(early):
                 early = early[ids_in_frustum(self.scene.aabbs, early, f.camera.planes)]
-        f.sets["early"] = self.sorted(f, early)
+        f.sets["early"] = self.in_draw_order(f, early)
         self.sets.early(f)
 
     def issue(self, f: Frame, what: str, program) -> None:
@@ -340,7 +340,7 @@ class ObjectSets:
             occ = m.scene.occluder[late]
             if occ.any() and len(late) - np.count_nonzero(occ) >= RETEST_MIN:
                 first, rest = late[occ], late[~occ].astype(np.uint32)
-                f.sets["first"] = m.sorted(f, first)
+                f.sets["first"] = m.in_draw_order(f, first)
                 first_ms = m.draw(f, "first", clear=False)
                 again = m.depth_test.classify(m, f.camera, f.timings, rest, "late ") == VISIBLE
                 hidden = np.zeros(len(m.scene), bool)  # by the late occluders
@@ -348,7 +348,7 @@ class ObjectSets:
                 passed = f.sets["passed"]
                 f.sets["passed"] = passed[~hidden[passed]]
                 late = rest[again].astype(np.int64)
-        f.sets["late"] = m.sorted(f, late)
+        f.sets["late"] = m.in_draw_order(f, late)
         return first_ms + m.draw(f, "late", clear=False)
 
     def choose_next(self, f: Frame) -> None:
@@ -446,7 +446,7 @@ class ClusterSets:
                 else:
                     passing[several] = True
         late_clusters = passing & ~f.sets["drawn early"]
-        late = m.sorted(f, np.flatnonzero(self.per_object(late_clusters)))
+        late = m.in_draw_order(f, np.flatnonzero(self.per_object(late_clusters)))
         with stage(f.timings, "commands"):
             f.sets["late commands"], f.sets["late triangles"] = cluster_commands(
                 late, self.clusters, late_clusters, self.base_vertex
