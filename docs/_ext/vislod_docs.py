@@ -149,6 +149,18 @@ def benchmark_rows(name: str, text: str) -> tuple[str, list[str]]:
     return intro, [header, rule, *rows]
 
 
+def _myst_roles(text: str) -> str:
+    """A docstring's reST roles (``:attr:`x```) in MyST's form (``{attr}`x```)."""
+    return re.sub(r":([a-z]+):`", r"{\1}`", text)
+
+
+def _bench_source(intro: str) -> str:
+    """The command and date of a benchmark section's first line."""
+    command = re.match(r"`[^`]+`", intro.strip())
+    date = re.search(r"\b(\d{4}-\d{2}-\d{2})\b", intro)
+    return ", ".join(x for x in (command and command.group(0), date and date.group(1)) if x)
+
+
 def method_page(name: str, cls, bench_text: str, frames: dict) -> str:
     module = cls.__module__
     title = f"``{name}``"
@@ -226,7 +238,7 @@ def method_page(name: str, cls, bench_text: str, frames: dict) -> str:
             "|---|---|---|---|",
         ]
         for opt, kind, default, text in rows:
-            cells = [f"`{opt}`", kind, f"`{default}`" if default else "", text]
+            cells = [f"`{opt}`", kind, f"`{default}`" if default else "", _myst_roles(text)]
             out.append(
                 "| " + " | ".join(c.replace("|", "\\|").replace("\n", " ") for c in cells) + " |"
             )
@@ -237,7 +249,7 @@ def method_page(name: str, cls, bench_text: str, frames: dict) -> str:
     if table:
         out += [
             "Its rows of {doc}`the market floor benchmark </generated/benchmarks>` "
-            f"(results/BENCHMARKS.md; {intro.strip()}); 'ideal' draws exactly the "
+            f"(`results/BENCHMARKS.md`: {_bench_source(intro)}); 'ideal' draws exactly the "
             "oracle's visible set at no culling cost.",
             "",
             *table,
