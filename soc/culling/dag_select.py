@@ -349,6 +349,7 @@ DAG_COUNT_RETEST = 4  # pairs the early phase left to the late test
 DAG_COUNT_TRIANGLES = 5  # + phase: triangles drawn by each phase (5, 6)
 DAG_COUNT_CULLED = 7  # pairs outside the frustum or back-facing
 DAG_COUNT_OCCLUDED = 8  # pairs the late test culled
+DAG_ARGS = 12  # 3 words: the next pass's indirect dispatch (x, 1, 1), written by stage 3
 DAG_COUNT_NODES = 16  # + depth: (instance, node) pairs of each tree depth
 DAG_MAX_DEPTH = 64
 DAG_HEADER = DAG_COUNT_NODES + DAG_MAX_DEPTH + 1
@@ -383,6 +384,8 @@ def _defines(capacity: int) -> dict[str, object]:
         "DAG_CAPACITY": f"{capacity}u",
         "DAG_NODE_SLACK": repr(float(NODE_SLACK)),
         "DAG_BOX_GROW": repr(float(DAG_BOX_GROW)),
+        "DAG_ARGS": f"{DAG_ARGS}u",
+        "DAG_MAX_GROUPS": f"{DISPATCH_GROUPS}u",
         **{k: f"{v}u" for k, v in globals().items() if k.startswith("DAG_COUNT_")},
         **{k: f"{v}u" for k, v in lists.items()},
         "DAG_WORK_WORDS": at,
@@ -584,7 +587,6 @@ class DagRenderer:
 
         if not threshold > 0:
             raise ValueError(f"threshold must be > 0 pixels, got {threshold!r}")
-        ctx = self.glctx.ctx
         self._bind()
         self.work.write(np.zeros(DAG_HEADER, np.uint32))
         prog = self._walk
@@ -595,19 +597,29 @@ class DagRenderer:
         prog["frustum"].value = bool(frustum)
         set_frustum_uniforms(prog, camera)
         prog["stage"].value = 0
-        prog.run(DISPATCH_GROUPS)
-        prog["stage"].value = 1
+        prog.run(min(-(-len(self.instances) // DAG_GROUP), DISPATCH_GROUPS))
         for d in range(self.tables.depth):
-            ctx.memory_barrier()
-            prog["depth"].value = d
-            prog.run(DISPATCH_GROUPS)
-        ctx.memory_barrier()
-        prog["stage"].value = 2
-        prog.run(DISPATCH_GROUPS)
-        ctx.memory_barrier()
+            self._sized(prog, DAG_COUNT_NODES + d, stage=1, depth=d)
+        self._sized(prog, DAG_COUNT_GROUPS, stage=2)
         counts = self._counters()
         self._check(counts)
         return int(counts[DAG_COUNT_NODES : DAG_COUNT_NODES + self.tables.depth + 1].sum())
+
+    def _sized(self, program, counter: int, **uniforms) -> None:
+        """Run ``program`` with ``uniforms`` over as many work groups as the list counted by
+        ``work[counter]`` needs (at most :data:`DISPATCH_GROUPS`), the count never read back:
+        the walk's stage 3 writes the indirect dispatch on the GPU."""
+        ctx = self.glctx.ctx
+        walk = self._walk
+        ctx.memory_barrier()
+        walk["stage"].value = 3
+        walk["args_counter"].value = counter
+        walk.run(1)
+        ctx.memory_barrier()
+        for name, value in uniforms.items():
+            program[name].value = value
+        program.run_indirect(self.work, offset=4 * DAG_ARGS)
+        ctx.memory_barrier()
 
     def _check(self, counts: np.ndarray) -> None:
         names = {
@@ -701,10 +713,8 @@ class DagRenderer:
             set_test_uniforms(cull, last, self._last_camera, 2, 0, None)
         set_frustum_uniforms(cull, camera)
         cull["occlusion"].value = have_last
-        cull["stage"].value = 0
         self._bind()
-        cull.run(DISPATCH_GROUPS)
-        ctx.memory_barrier()
+        self._sized(cull, DAG_COUNT_SELECTED, stage=0)
         lap("cull_early")
 
         prog = self.program
@@ -731,10 +741,8 @@ class DagRenderer:
             fbo.use()
             set_test_uniforms(cull, pyr, camera, 2, 0, None)
             set_frustum_uniforms(cull, camera)
-            cull["stage"].value = 1
             self._bind()
-            cull.run(DISPATCH_GROUPS)
-            ctx.memory_barrier()
+            self._sized(cull, DAG_COUNT_RETEST, stage=1)
             lap("cull_late")
             counts = self._counters()
             self._check(counts)

@@ -7,7 +7,10 @@
 //            threshold (with the node slack) is dropped, a leaf's groups are appended to the
 //            group list, an inner node's children to the node list of depth + 1;
 //   stage 2: the group list: each group's clusters whose own error is within and whose
-//            parent's is not are appended to the selected list (the cut), with their count.
+//            parent's is not are appended to the selected list (the cut), with their count;
+//   stage 3: one invocation: the work groups of the next dispatch over the list counted by
+//            work[args_counter], written at DAG_ARGS for glDispatchComputeIndirect (every
+//            pass strides through its list: any group count is correct, this one fits it).
 // Node spheres hold every cluster under them (lod.dag), so the frustum test is conservative.
 #include "dag.common"
 
@@ -17,6 +20,7 @@ uniform vec4 planes[6];      // inward frustum planes, unit normals
 uniform float plane_slack;
 uniform float plane_rounding;
 uniform bool frustum;
+uniform uint args_counter;   // stage 3
 
 // The sphere (object units) under the instance lies entirely outside one frustum plane,
 // beyond the slack and a float32 rounding allowance.
@@ -66,6 +70,13 @@ void main() {
                     append(DAG_COUNT_NODES + depth + 1u, list_out, i, c);
                 }
             }
+        }
+    } else if (stage == 3) {
+        if (me == 0u) {
+            uint n = min(work[args_counter], DAG_CAPACITY);
+            work[DAG_ARGS] = min((n + gl_WorkGroupSize.x - 1u) / gl_WorkGroupSize.x, DAG_MAX_GROUPS);
+            work[DAG_ARGS + 1u] = 1u;
+            work[DAG_ARGS + 2u] = 1u;
         }
     } else {
         uint count = min(work[DAG_COUNT_GROUPS], DAG_CAPACITY);
