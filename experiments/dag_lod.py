@@ -231,21 +231,24 @@ def equal_flip_ratio(frames, threshold: float = 1.0, method: str = "funkhouser-s
 
 
 def plot_tradeoff(frames, params):
-    """Triangles drawn against FLIP: the DAG's cut per threshold (frustum culling), object LOD
-    by Funkhouser–Séquin's greedy per budget and by the error rule per threshold."""
+    """Triangles drawn against FLIP (log, floored at 10⁻⁵): the DAG's cut per threshold
+    (frustum culling), object LOD by Funkhouser–Séquin's greedy per budget and by the error
+    rule per threshold."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(6.4, 4.2))
     ax = fig.add_subplot()
     d = frames["dag"][~frames["dag"].occlusion]
-    ax.plot(d.triangles, d.flip, "o-", label="DAG cut (threshold in px)")
-    for x, y, t in zip(d.triangles, d.flip, d.threshold, strict=True):
+    floor = 1e-5
+    ax.plot(d.triangles, d.flip.clip(lower=floor), "o-", label="DAG cut (threshold in px)")
+    for x, y, t in zip(d.triangles, d.flip.clip(lower=floor), d.threshold, strict=True):
         ax.annotate(f"{t:g}", (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7)
     o = frames["objects"]
     for method, style in (("funkhouser-sequin", "s-"), ("error-rule", "^--")):
         m = o[o.method == method].sort_values("triangles")
-        ax.plot(m.triangles, m.flip, style, label=f"object LOD ({method})")
+        ax.plot(m.triangles, m.flip.clip(lower=floor), style, label=f"object LOD ({method})")
     ax.set_xscale("log")
+    ax.set_yscale("log")
     ax.set_xlabel("triangles drawn")
     ax.set_ylabel("FLIP against full detail (mean)")
     ax.legend(fontsize=8)
