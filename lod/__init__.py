@@ -1,7 +1,8 @@
 """lod — level-of-detail chains, progressive meshes, screen-size estimates and LOD selection
 under a frame-time budget (seed 001).
 
-Names are loaded on first use, so ``import lod`` stays light (no simplifier, no GL).
+Names are loaded on first use, so ``import lod`` stays light (no simplifier, no GL); ``dir(lod)``
+lists them all. A budgeted selection in a few lines: ``docs/getting-started.md``.
 """
 
 from __future__ import annotations
@@ -24,6 +25,11 @@ _EXPORTS = {
     "Calibration": "lod.calibration",
     "melax_levels": "lod.melax",
     "quadric_simplify": "lod.chain",
+    # a budgeted selection's other terms (the quick start: docs/getting-started.md)
+    "funkhouser_sequin_benefit": "lod.benefit",
+    "rendering_accuracy": "lod.benefit",
+    "total_cost": "lod.selection",
+    "build_scene": "lod.lod_scene",
 }
 
 __all__ = sorted(_EXPORTS)
@@ -34,7 +40,11 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_EXPORTS))
 
 
+# Exported under another name than their module's.
+_RENAMED = {"build_scene": "build"}
+
+
 def __getattr__(name: str):
     if name in _EXPORTS:
-        return getattr(importlib.import_module(_EXPORTS[name]), name)
+        return getattr(importlib.import_module(_EXPORTS[name]), _RENAMED.get(name, name))
     raise AttributeError(f"module 'lod' has no attribute {name!r}")
