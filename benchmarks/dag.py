@@ -185,9 +185,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="a small field, a few frames")
     ap.add_argument("--out", default="results", help="folder of dag/targets.csv")
     ap.add_argument("--only", choices=("field", "object-lod", "build"), default=None)
+    ap.add_argument("--denser", type=int, nargs="*", default=None,
+                    help=f"density factors of the field's meshes (default {DENSER})")  # fmt: skip
     args = ap.parse_args(argv)
     q = QUICK if args.quick else dict(instances=INSTANCES, triangles=TRIANGLES, denser=DENSER,
                                       resolution=RESOLUTION, frames=FRAMES)  # fmt: skip
+    if args.denser is not None:
+        q["denser"] = tuple(args.denser)
     rows = []
     if args.only in (None, "build"):
         rows.append(build_target(200_000 if args.quick else 1_000_000))
