@@ -385,12 +385,16 @@ def write(result: dict[str, pd.DataFrame], out: Path, command: str) -> str:
     from experiments.common import GALLERY
 
     bc.write_csvs(result, out, "scale")
-    plot(result["frames"]).savefig(out / "scale.png", dpi=110)
+    fig = plot(result["frames"])
+    fig.savefig(out / "scale.png", dpi=110)
     link = "scale.png"  # results/ is not in git: in the checkout, a small copy is (README)
     if GALLERY.is_dir() and out.resolve() == GALLERY.parents[1] / "results":
-        from experiments.gallery import shrink
+        from experiments import gallery
 
-        shrink(out / "scale.png", GALLERY / "scale.png")
+        if hasattr(gallery, "save"):  # a palette PNG of the figure
+            gallery.save(fig, GALLERY / "scale.png")
+        else:
+            gallery.shrink(out / "scale.png", GALLERY / "scale.png")
         link = "../docs/gallery/scale.png"
     return markdown(result, command, link)
 
