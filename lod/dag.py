@@ -62,9 +62,11 @@ MAX_TRIANGLES = 128
 # clusters share a border and lock less of it, fewer keep the groups' error local.
 GROUP_SIZE = 8
 # A group's simplification stops before an error above this share of its largest cluster's
-# LOD radius: a group whose locked border leaves only long collapses is left for the next round
-# rather than given an error that every group above it would inherit.
-ERROR_CAP = 0.25
+# radius (its bounding sphere's): a group whose locked border leaves only long collapses is left
+# for the next round rather than given an error that every group above it would inherit (errors
+# propagate by their maximum: without the cap a denser mesh, with more groups and so more such
+# outliers, draws more triangles at the same threshold; benchmarks/dag.py measures the growth).
+ERROR_CAP = 0.05
 # A group simplified to more than this share of its triangles is left for the next round.
 MAX_KEEP = 0.85
 # The parent error of clusters that nothing replaces: larger than any projected test passes.
@@ -72,7 +74,7 @@ ROOT_ERROR = np.float32(3.0e38)
 # Children per node of the group hierarchy.
 NODE_WIDTH = 8
 # Bump when the layout or the algorithm changes: cached DAGs of older versions are ignored.
-FORMAT_VERSION = "dag-2"
+FORMAT_VERSION = "dag-3"
 
 
 @dataclass(frozen=True)
@@ -457,7 +459,7 @@ def build_dag(
         for g in range(len(bounds) - 1):
             members = active[order[bounds[g] : bounds[g + 1]]]
             tri = a_faces[_ranges(store.first_of(members), store.count_of(members))]
-            cap = ERROR_CAP * float(store.lod_sphere[members, 3].max())
+            cap = ERROR_CAP * float(store.get("spheres")[members, 3].max())
             simple, err = _simplify(v, tri, cap)
             if len(simple) == 0 or len(simple) > MAX_KEEP * len(tri):
                 retry.append(members)
