@@ -303,6 +303,7 @@ def cmd_cull(args: argparse.Namespace) -> int:
     _check_method_culls(args.method, args.scene, scene)
     cams = soc.scenes.paths.flight(scene, frames=frames, width=display[0], height=display[1])
     with soc.Culler(scene, method=args.method, resolution=resolution) as culler:
+        temporal = bool(getattr(culler.method, "temporal", False))
         culler.cull(cams[0])  # warm-up, untimed
         df = soc.fly(culler, cams, truth="oracle" if args.oracle else None, progress=False)
         if args.view:
@@ -336,6 +337,15 @@ def cmd_cull(args: argparse.Namespace) -> int:
     )
     print(terminal.table(table.rename(columns=CULL_HEADERS), index=True))
     print(f"mean cull time {df.ms_cull.mean():.2f} ms")
+    if temporal:
+        print(
+            terminal.paragraph(
+                f"note: {args.method!r} is temporal (it reuses earlier frames' results): its "
+                "first frames keep about everything in the frustum, so compare it with other "
+                "methods over the flight, not on one frame (soc.fly(..., warmup=cameras) flies "
+                "frames before the reported ones)"
+            )
+        )
     return 0
 
 

@@ -74,3 +74,15 @@ def test_a_bare_mask_is_a_clear_type_error():
     with soc.Culler(scene, Bare, resolution=(64, 48)) as culler:
         with pytest.raises(TypeError, match="MethodOutput"):
             culler.cull(cam)
+
+
+def test_a_temporal_method_warns_against_single_frame_comparisons(capsys, tmp_path):
+    trimesh = pytest.importorskip("trimesh")
+    path = tmp_path / "one.glb"
+    trimesh.Scene([trimesh.creation.box((1, 1, 1))]).export(path)
+    argv = ["cull", "--method", "hiz-2phase", "--scene", str(path), "--frames", "2"]
+    assert cli.main([*argv, "--display", "64x48"]) == 0
+    out = capsys.readouterr().out
+    assert "is temporal" in out and "not on one frame" in out
+    assert cli.main(["cull", "--method", "frustum", "--scene", str(path), "--frames", "2"]) == 0
+    assert "is temporal" not in capsys.readouterr().out
