@@ -1,16 +1,22 @@
 """Seed 000 — OpenGL occlusion culling on Mesa (llvmpipe) in Intel's SOC framework.
 
-Every frame of a 100-frame flight over the castle and its market: frustum-cull all AABBs,
-render the occluders into a depth buffer, test every surviving object's AABB with an OpenGL
-occlusion query, draw what passed. We fly the path once per configuration (method × depth
-resolution × stage switches, interleaved frame by frame; `experiments/seed000_flight.py`)
-and draw from those rows Abb. 8 (triangles culled per frame: per method, per depth-buffer
-resolution), Abb. 9 (stage switches) and Abb. 10 (frame time = cull + draw on this machine),
-and render Abb. 1, 4, 6, 7 (`experiments/seed000_pictures.py`). Beyond the document: every
-frame's false culls against an exact per-object id render (the oracle), a conservative HiZ
-curve beside the query method, and the comparison with Masked Occlusion Culling (`masked`)
-that the document left open. Times are llvmpipe's on the CPU, not the document's Titan Xp:
-only ratios are compared.
+Every frame: frustum-cull all AABBs, render the occluders into a depth buffer, test every
+surviving object's box with an OpenGL occlusion query, draw what passed — as the thesis' fork
+of Intel's sample does it: Intel's screen-size test on occludees and occluders
+(:mod:`soc.culling.size_test`), each object's model-space box carried by its model matrix,
+the previous frame's results drawn (``queries(boxes='oriented', previous_frame=True)``), its
+own camera tour 1 on the castle (tour 2 held out), counted as the framework counts. We fly
+the path once per configuration (method × depth resolution × stage switches, interleaved
+frame by frame; `experiments/seed000_flight.py`) and draw from those rows the thesis' raw
+per-frame runs under ours (`experiments/seed000_thesis.py`), Abb. 8 (triangles culled per
+frame: per method, per depth-buffer resolution), Abb. 9 (stage switches) and Abb. 10 (frame
+time = cull + draw on this machine), and render Abb. 1, 4, 6, 7
+(`experiments/seed000_pictures.py`). The methods compared are the framework's own: a
+per-pixel box test against a software occluder depth (its SSE/AVX methods; ``hiz-cpu`` judged
+at the pixels) and MOC (``masked``, a rectangle per box). Beyond the document: every frame's
+false culls against an exact per-object id render (the oracle) and a conservative HiZ curve
+beside the query method. Times are llvmpipe's on the CPU, not the document's Titan Xp: only
+ratios are compared.
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from experiments import claims as cl
-from experiments import common, harness
+from experiments import common, harness, seed000_thesis
 from experiments import seed000_document as doc
 from experiments.claims import IMAGE, MEASURED, NUMBERS, TREND, Each, Row, Rule, alter
 from experiments.common import DISPLAY, load_scene, res_str, scaled
@@ -39,17 +45,32 @@ from experiments.seed000_pictures import (
 
 # The default: seed 000's methods (MOC as ``masked``), the GPU HiZ and two-phase HiZ, so that
 # the full flight stays within 15 minutes on 2 cores. ``--methods all``: every method.
-DEMO_METHODS = ("none", "frustum", "queries", "hiz-gpu", "masked", "hiz-2phase")
+# The framework's own comparison set (Intel's sample): no culling, frustum only, the OGL
+# queries, a per-pixel box test against a software occluder depth (its SCALAR/SSE/AVX
+# rasterizers: ``hiz-cpu`` judged at the pixels) and MOC (``masked``: a rectangle per box).
+DEMO_METHODS = ("none", "frustum", "queries", "hiz-cpu", "masked")
 QUERY = "queries"  # seed 000's "OGL" method
 PACKETS = "queries-batched"  # its future work: occludees packed into packets (conservative)
-MOC, HIZ, TWO = "masked", "hiz-gpu", "hiz-2phase"  # seed 000's MOC and HiZ as registered here
-CONSERVATIVE = (HIZ, (("conservative", True),))  # Abb. 8's second curve: never a false cull
+MOC, HIZ, TWO = "masked", "hiz-cpu", "hiz-2phase"  # seed 000's MOC and HiZ as registered here
+# hiz-cpu judged at the pixels: the framework's per-pixel box test (its SSE/AVX methods)
+PIXEL_OPTIONS = (("refine", 23),)  # soc.culling.hiz_options.MAX_REFINE
+# Abb. 8's second curve (beyond the document): the GPU HiZ on an inner-conservative occluder
+# depth at each depth resolution, never a false cull at the display's
+CONSERVATIVE = ("hiz-gpu", (("conservative_raster", True),))
+CONS = CONSERVATIVE[0]
+METHOD_OPTIONS = {HIZ: PIXEL_OPTIONS}  # options every run of a method carries
 # Abb. 9's stage switches (MT: llvmpipe's threads, always on): frustum, depth test culling
 SWITCHES = dict(zip(doc.SWITCHES, [(False, False), (True, False), (True, True)], strict=True))
 TWO_PHASE = (
     " (its depth holds every object drawn the frame before; the queries' only the occluders)"
 )
-FRAMES = ("summary", "frames", "scene", "pictures", "cameras", "boxes")
+FRAMES = ("summary", "frames", "scene", "pictures", "cameras", "boxes", "thesis", "tour2")
+# The thesis' OGL method draws the previous frame's query results (AABBoxRasterizerOGLST.cpp:
+# two query pools, this frame's issued, the other's read): our `queries` as it runs there.
+# It queries each object's model-space box carried by its model matrix (TransformedAABBoxOGL).
+OGL_OPTIONS = (("boxes", "oriented"), ("previous_frame", True))
+OGL = ",".join(f"{k}={v}" for k, v in OGL_OPTIONS)  # its rows' ``options``
+OGL_TEXTS = (OGL, ",".join(f"{k}={v}" for k, v in OGL_OPTIONS[:1]))  # lagged, or a stride
 # `vislod demo` / `make demo` without --full: every method, the coarsest depth buffer, one in
 # between and the display's, 13 frames (the path sampled end to end, the gate at mid-flight
 # included: its means stay near the full run's), the conservative HiZ runs not drawn (used by
@@ -73,17 +94,27 @@ class Params:
     quick), else the market. ``display``: the camera (oracle and drawing). ``resolutions``:
     Abb. 8's depth buffers (None: the document's six scaled by display / 1920). ``methods``:
     Abb. 8 left and Abb. 10 (``("all",)``: every method; ``queries`` always added).
-    ``draw_conservative``: also draw the conservative HiZ runs (no figure or claim uses them)."""
+    ``draw_conservative``: also draw the conservative HiZ runs (no figure or claim uses them).
+    ``tour``: on the castle, the thesis' camera tour (1; 2 is the held-out tour, flown by
+    the OGL method at the display resolution either way), or 0: our parametric flight (the
+    only one on other scenes). ``size_test``: Intel's occludee/occluder size test in every run
+    (:mod:`soc.culling.size_test`; the framework's default). ``stride``: fly every
+    ``stride``-th camera of the ``frames``-camera path (1: all); with a stride the OGL method
+    draws its own frame's results and the comparison shifts it by one tour frame instead
+    (its previous frame's results are exactly the fresh results of the camera before)."""
 
     scene: str | None = None
     frames: int = doc.FRAMES
     display: tuple[int, int] = DISPLAY
     resolutions: tuple[tuple[int, int], ...] | None = None
     methods: tuple[str, ...] = DEMO_METHODS
-    draw_conservative: bool = True
+    draw_conservative: bool = False
     data: str | None = None
     seed: int = 0
     quick: bool = False
+    tour: int = 1
+    size_test: bool = True
+    stride: int = 1
 
     def check(self) -> None:
         import soc
@@ -91,6 +122,13 @@ class Params:
         if self.scene is not None and self.scene not in common.SCENES:
             known = ", ".join(common.SCENES)
             raise common.UsageError(f"unknown scene {self.scene!r}; available: {known}")
+        if self.tour not in (0, 1, 2):
+            raise common.UsageError(f"--tour must be 0 (our flight), 1 or 2, got {self.tour}")
+        if self.stride < 1 or self.frames // self.stride < 2:
+            raise common.UsageError(
+                f"--stride must be >= 1 and leave at least 2 frames, got {self.stride} of "
+                f"{self.frames}"
+            )
         if self.frames < 2:
             raise common.UsageError(f"--frames must be at least 2, got {self.frames}")
         if not self.depth_resolutions():
@@ -107,6 +145,29 @@ class Params:
         if self.scene is not None:
             return self.scene
         return "castle" if self.data is not None and not self.quick else "market"
+
+    def flies_tour(self) -> bool:
+        """Whether the thesis' camera tour is flown (on the castle, ``tour`` not 0)."""
+        return self.scene_name() == "castle" and self.tour != 0
+
+    def cameras(self, display: tuple[int, int], tour: int | None = None, scene=None) -> list:
+        """The flight's cameras: the thesis' tour ``tour`` (default :attr:`tour`) on the
+        castle, else our parametric flight over ``scene``."""
+        import soc
+
+        w, h = display
+        if self.flies_tour():
+            cams = soc.scenes.paths.tour(tour or self.tour, self.frames, width=w, height=h)
+        else:
+            cams = soc.scenes.paths.flight(scene, self.frames, width=w, height=h)
+        return cams[:: self.stride]
+
+    def ogl_options(self) -> tuple:
+        """The query method's options: the thesis' on its tour (the previous frame's results
+        only when every frame is flown), none elsewhere."""
+        if not self.flies_tour():
+            return ()
+        return OGL_OPTIONS if self.stride == 1 else OGL_OPTIONS[:1]
 
     def depth_resolutions(self) -> list[tuple[int, int]]:
         """Abb. 8's depth-buffer resolutions."""
@@ -135,23 +196,67 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     scene = load_scene(name, seed=params.seed, quick=params.quick, data=params.data)
     methods = [m for m in params.method_list() if m in soc.method_names(scene)]
     display, res = tuple(params.display), params.depth_resolutions()
-    cams = soc.scenes.paths.flight(scene, params.frames, width=display[0], height=display[1])
-    specs = [RunSpec(m, display, draw=True) for m in methods]
-    specs += [RunSpec(QUERY, r, draw=True) for r in res]
+    cams = params.cameras(display, scene=scene)
+    size = params.size_test
+    ogl = params.ogl_options()
+    opts = {**METHOD_OPTIONS, QUERY: ogl}
+    specs = [RunSpec(m, display, draw=True, size_test=size, options=opts.get(m, ()))
+             for m in methods]  # fmt: skip
+    specs += [RunSpec(QUERY, r, draw=True, options=ogl, size_test=size) for r in res]
     drawn = params.draw_conservative
-    specs += [RunSpec(CONSERVATIVE[0], r, draw=drawn, options=CONSERVATIVE[1]) for r in res]
-    specs += [RunSpec(QUERY, display, f, d) for f, d in SWITCHES.values()]
-    specs += [RunSpec(QUERY, display, frustum=False, draw=True)]  # "frustum culling's gain"
-    specs += [RunSpec(PACKETS, display, draw=True)] if PACKETS in soc.method_names(scene) else []
-    total = steps(specs, params.frames) + PICTURES
+    specs += [RunSpec(CONSERVATIVE[0], r, draw=drawn, options=CONSERVATIVE[1], size_test=size)
+              for r in res]  # fmt: skip
+    specs += [RunSpec(QUERY, display, f, d, options=ogl, size_test=size)
+              for f, d in SWITCHES.values()]  # fmt: skip
+    # "frustum culling's gain"
+    specs += [RunSpec(QUERY, display, frustum=False, draw=True, options=ogl, size_test=size)]
+    if PACKETS in soc.method_names(scene):
+        specs += [RunSpec(PACKETS, display, draw=True, size_test=size)]
+    held_out = [RunSpec(QUERY, display, options=ogl, size_test=size)]
+    cams2 = params.cameras(display, tour=2) if params.flies_tour() else []
+    total = steps(specs, len(cams)) + PICTURES + (steps(held_out, len(cams2)) if cams2 else 0)
     # One bar for the whole run: its rate, and so the time left, is known from the first frames.
     with jit, tqdm(total=total, unit="cull", desc="seed 000", disable=not progress) as bar:
         frames = run_all(scene, cams, specs, bar=bar, compiled=jit)
+        tour2 = run_all(scene, cams2, held_out, bar=bar) if cams2 else _NO_ROWS
         bar.set_postfix_str("pictures")
         out = render(scene, cams, telling_frame(_rows(frames, QUERY, display)), bar=bar)
+    frames["tour_frame"] = _tour_frames(frames, params)
+    if len(tour2):
+        tour2["tour_frame"] = _tour_frames(tour2, params)
+    thesis = seed000_thesis.runs(params.data) if params.flies_tour() else pd.DataFrame()
+    if thesis.empty:
+        thesis = _NO_ROWS
     info = {k: v for k, v in common.scene_info(scene, name).items() if k != "meta"}
     info |= {"synthetic": bool(scene.meta.get("synthetic", False)), "methods": ",".join(methods)}
-    return {"summary": summarize(frames), "frames": frames, "scene": pd.DataFrame([info]), **out}
+    info |= {"tour": params.tour if params.flies_tour() else 0, "size_test": size}
+    mask = scene.meta.get("synthetic_mask")
+    tri = scene.triangle_counts
+    ok = mask is not None and len(mask) == len(tri)
+    share = 100.0 * float(tri[np.asarray(mask)].sum()) / float(tri.sum()) if ok else 0.0
+    info["stall_triangles_pct"] = share
+    return {
+        "summary": summarize(frames),
+        "frames": frames,
+        "scene": pd.DataFrame([info]),
+        "thesis": thesis,
+        "tour2": tour2,
+        **out,
+    }
+
+
+def _tour_frames(df: pd.DataFrame, params) -> np.ndarray:
+    """The thesis' recorded frame each row compares with: camera ``frame · stride`` of the
+    path is its frame ``frame · stride + 1``; the OGL method flown without its previous-frame
+    lag (a stride) compares one frame later (its results there are this camera's)."""
+    t = df.frame.to_numpy() * params.stride + 1
+    if params.flies_tour() and params.stride > 1:
+        t = t + ((df.method == QUERY) & df.depth_test.fillna(False).astype(bool)).to_numpy()
+    return t
+
+
+# an empty frame that still writes a header (and so reads back)
+_NO_ROWS = pd.DataFrame(columns=["run", "method", "frame", "evaluation"])
 
 
 def overview(frames, params) -> pd.DataFrame:
@@ -161,7 +266,7 @@ def overview(frames, params) -> pd.DataFrame:
     s, d, res = frames["summary"], tuple(params.display), params.depth_resolutions()
     rows = _display_runs(frames, params, "ideal: the oracle's set")
     rows += [(f"{QUERY} {res_str(r)}", _one(s, QUERY, r)) for r in res if tuple(r) != d]
-    rows += [(f"{HIZ} {res_str(r)} conservative", _conservative(s, r).iloc[0]) for r in res]
+    rows += [(f"{CONS} {res_str(r)} conservative", _conservative(s, r).iloc[0]) for r in res]
     t = pd.DataFrame([r for _, r in rows], index=pd.Index([n for n, _ in rows], name="run"))
     drawn = t.drawn.astype(str).str.lower() == "true"  # CSV reads back "True"
     t = t[["triangles_culled_pct", "false_culls", "ms_cull", "ms_draw", "fps_mean"]].astype(float)
@@ -175,6 +280,9 @@ def summarize(frames: pd.DataFrame) -> pd.DataFrame:
     times, and ``fps_mean`` = 1000 / mean frame time."""
     keys = ["run", "method", "depth_resolution", "frustum", "depth_test", "options", "drawn"]
     counts = ["triangles_culled_pct", "draw_calls", "models_culled", "models_visible"]
+    extra = ("triangles_culled_pct_own", "size_culled", "models_culled_stalls",
+             "triangles_culled_pct_stalls")  # fmt: skip
+    counts += [c for c in extra if c in frames]
     counts += ["frustum_culled", "occlusion_culled", "false_culls", "false_keeps"]
     times = ["ms_cull", "ms_draw", "ms_total"]
     g = frames.groupby(keys, sort=False, dropna=False)
@@ -184,8 +292,14 @@ def summarize(frames: pd.DataFrame) -> pd.DataFrame:
     return out.reset_index()
 
 
-def _sel(df: pd.DataFrame, method: str, res, frustum=True, depth_test=True, options=""):
+def _sel(df: pd.DataFrame, method: str, res, frustum=True, depth_test=True, options=None):
+    """Rows of one run; ``options`` None: the OGL options for ``queries`` where its rows
+    carry them (the thesis' tour), else none."""
     opts = df.options.fillna("")  # "" reads back from CSV as NaN
+    if options is None:
+        ran = set(opts[df.method == method])
+        own = OGL_TEXTS if method == QUERY else (_OPTION_TEXT.get(method, ""),)
+        options = next((o for o in own if o and o in ran), "")
     m = (df.method == method) & (df.depth_resolution == res_str(res)) & (opts == options)
     if method != ORACLE:
         m &= (df.frustum == frustum) & (df.depth_test == depth_test)
@@ -206,7 +320,12 @@ def _methods(frames, params) -> list[str]:
 
 
 def _conservative(df, res):
-    return _sel(df, CONSERVATIVE[0], res, options="conservative=True")
+    opts = df.options.fillna("")
+    # the option's name in the rows (``conservative_raster``; ``conservative`` in runs stored
+    # before hiz-gpu's options were typed)
+    named = opts[(df.method == CONS) & opts.str.startswith("conservative")]
+    text = named.iloc[0] if len(named) else ",".join(f"{k}={v}" for k, v in CONSERVATIVE[1])
+    return _sel(df, CONS, res, options=text)
 
 
 def _display_runs(frames, params, ideal: str) -> list[tuple[str, pd.Series]]:
@@ -282,7 +401,7 @@ def plot_abb8_right(frames, params):
     cons = [_conservative(s, r).triangles_culled_pct.iloc[0] for r in res]
     ax2.plot(x, ours, "o-", color="tab:blue", label="ours (mean over the flight)")
     ax2.plot(x, theirs, "s--", color="tab:red", label="document (Abb. 8 table)")
-    ax2.plot(x, cons, "^-", color="tab:green", label=f"{HIZ}, conservative depth (0 false culls)")
+    ax2.plot(x, cons, "^-", color="tab:green", label=f"{CONS}, conservative depth (0 false culls)")
     text = dict(textcoords="offset points", ha="center", fontsize=8)
     for i in x:
         for v, at, c in ((ours, (-12, 8), "tab:blue"), (theirs, (12, -14), "tab:red")):
@@ -298,7 +417,7 @@ def plot_abb8_right(frames, params):
     ax2.set_ylim(0, 100)
     _below(ax2, -0.2, 2)
     worst = pd.concat([_conservative(df, r) for r in res]).groupby("frame").false_culls.max()
-    label = f"{HIZ} conservative, worst resolution ({worst.max():.0f})"
+    label = f"{CONS} conservative, worst resolution ({worst.max():.0f})"
     ax3.plot(worst.index, worst, color="tab:green", ls="--", lw=1.6, label=label)
     title = f"false culls per frame (visible at {res_str(d)} but culled)"
     ax3.set(title=title, xlabel="frame", ylabel="objects")
@@ -377,6 +496,71 @@ def plot_abb10(frames, params):
     return fig
 
 
+THESIS_METHODS = {"OGL": QUERY, "MASK_AVX": MOC, "SSE": "hiz-cpu"}  # theirs → ours (as run)
+
+
+def plot_thesis_frames(frames, params):
+    """Ours (solid) over the thesis' own raw runs (dashed), frame by frame on its camera tour:
+    one row per Abb. 8/9 quantity; columns: the OGL method per depth resolution (Abb. 8 right
+    and table; Evaluation 4), the stage switches (Abb. 9; Evaluation 7), the methods at the
+    display resolution (Abb. 8 left; Evaluation 1: OGL, SSE's per-pixel box test, MOC) and
+    the held-out camera tour 2 (Evaluation 2, OGL). Our frame i is their recorded frame i + 1.
+    Triangles culled are counted as the framework counts them (with culling off, only the
+    objects too small; :func:`experiments.seed000_flight.run_all`)."""
+    from matplotlib import colormaps
+    from matplotlib.figure import Figure
+
+    th, df, d = frames["thesis"], frames["frames"], tuple(params.display)
+    quantities = list(doc.QUANTITIES.items())
+    fig = Figure(figsize=(20, 14), layout="constrained")
+    axes = fig.subplots(len(quantities), 4, squeeze=False)
+    if th is None or len(th) == 0:
+        fig.suptitle("Seed 000 — no thesis runs to compare with (castle + tour and "
+                     "$VISLOD_DATA/seed000_evaluation needed)")  # fmt: skip
+        return fig
+    res = params.depth_resolutions()
+    cmap = colormaps["viridis"]
+    t2 = frames.get("tour2")
+    for row, (q, label) in enumerate(quantities):
+        ax = axes[row]
+        for k, r in enumerate(res):
+            c = cmap(0.05 + 0.85 * k / max(len(res) - 1, 1))
+            o = _rows(df, QUERY, r)
+            ax[0].plot(_tf(o), o[q], color=c, lw=1.5, label=f"ours {res_str(r)}")
+            col = doc.document_column(r, d)
+            t = seed000_thesis.select(th, 4, depth_resolution=res_str(col)) if col else th[:0]
+            ax[0].plot(t.frame, t[q], color=c, lw=1.2, ls="--")
+        for k, (n, (f, dt)) in enumerate(SWITCHES.items()):
+            o = _rows(df, QUERY, d, frustum=f, depth_test=dt)
+            ax[1].plot(_tf(o), o[q], color=f"C{k}", lw=1.5, label=f"ours {n}")
+            t = seed000_thesis.select(th, 7, stages=n)
+            ax[1].plot(t.frame, t[q], color=f"C{k}", lw=1.2, ls="--")
+        for k, (theirs, ours) in enumerate(THESIS_METHODS.items()):
+            o = _rows(df, ours, d)
+            if len(o):
+                ax[2].plot(_tf(o), o[q], color=f"C{k}", lw=1.5, label=f"ours {ours}")
+            t = seed000_thesis.select(th, 1, method=theirs)
+            ax[2].plot(t.frame, t[q], color=f"C{k}", lw=1.2, ls="--", label=f"thesis {theirs}")
+        if t2 is not None and len(t2):
+            o = t2[t2.method == QUERY].sort_values("frame")
+            ax[3].plot(_tf(o), o[q], color="C0", lw=1.5, label=f"ours {QUERY}")
+            ob = t2[t2.method == ORACLE].sort_values("frame")
+            ax[3].plot(_tf(ob), ob[q], color="k", lw=1.0, ls=":", label="oracle")
+        t = seed000_thesis.select(th, 2, method="OGL")
+        ax[3].plot(t.frame, t[q], color="C0", lw=1.2, ls="--", label="thesis OGL")
+        titles = ("OGL per depth resolution (Abb. 8 right)", "stage switches (Abb. 9)",
+                  f"methods at {res_str(d)} (Abb. 8 left)", "held-out camera tour 2")  # fmt: skip
+        for a, title in zip(ax, titles, strict=True):
+            a.set(ylabel=label, xlabel="frame" if row == len(quantities) - 1 else None)
+            if row == 0:
+                a.set_title(title)
+                a.legend(fontsize=7, ncol=2)
+            a.grid(alpha=0.3)
+    fig.suptitle(f"Seed 000 — ours (solid) over the thesis' own runs (dashed), frame by frame on "
+                 f"its camera tour {params.tour} — {_label(frames)}")  # fmt: skip
+    return fig
+
+
 # -- claims -------------------------------------------------------------------------------------
 
 
@@ -418,8 +602,43 @@ def _case(frames, params) -> dict:
         "ours": ours,
         "pct": [o.triangles_culled_pct for o in ours],
         "fr_share": _one(s, QUERY, d, depth_test=False).triangles_culled_pct,
+        "th": frames.get("thesis", pd.DataFrame()),
+        "tour2": frames.get("tour2", pd.DataFrame()),
+        "stall_total": _stall_total(frames),
+        "sc": frames["scene"].iloc[0],
         "others": [m for m in methods if m not in ("none", "frustum", MOC)],
     }
+
+
+def _stall_total(frames) -> float:
+    """The synthetic stalls' share of the scene's triangles, % (0 without stalls)."""
+    sc = frames["scene"].iloc[0]
+    share = sc.get("stall_triangles_pct", 0.0)
+    return float(share) if share == share else 0.0
+
+
+def _tour_columns(frames, params):
+    """One case per depth resolution of the thesis' Evaluation 4 run on its tour: our OGL
+    run frame by frame against theirs."""
+    case = _case(frames, params)
+    if case["th"] is None or len(case["th"]) == 0:
+        return
+    for r, o in zip(case["res"], case["ours"], strict=True):
+        col = doc.document_column(r, case["d"])
+        th = seed000_thesis.select(case["th"], 4, depth_resolution=res_str(col)) if col else []
+        if len(th):
+            gap = _tour_gap(_rows(case["df"], QUERY, r), th)
+            yield dict(case, r=res_str(r), col=res_str(col), o=o, gap=gap, tour=params.tour)
+
+
+def _held_out(frames, params):
+    """Tour 2 (held out): our OGL run at the display resolution against the thesis' run."""
+    case = _case(frames, params)
+    t2 = case["tour2"]
+    th = seed000_thesis.select(case["th"], 2, method="OGL") if len(case["th"]) else []
+    if t2 is not None and len(t2) and len(th):
+        ours = t2[t2.method == QUERY]
+        yield dict(case, gap=_tour_gap(ours, th), n=len(ours))
 
 
 def _flight(frames, params) -> list[dict]:
@@ -449,7 +668,16 @@ def _switches(frames, params):
     case = _case(frames, params)
     for n, (f, t) in SWITCHES.items():
         o, dd = _one(case["s"], QUERY, case["d"], frustum=f, depth_test=t), doc.ABB9[n]
-        yield dict(case, n=n, f=f, t=t, o=o, dd=dd, dp=dd["triangles_culled_pct"], coarser=None)
+        extra = {}
+        th = seed000_thesis.select(case["th"], 7, stages=n)
+        if len(th):
+            ours = _rows(case["df"], QUERY, case["d"], frustum=f, depth_test=t)
+            gap, absgap, _, stalls = _tour_gap(ours, th)
+            extra["tour_text"] = (f"against its Evaluation 7 run frame by frame: mean gap "
+                                  f"{gap:+.1f} pp, |gap| {absgap:.1f}; "
+                                  + _stall_text(gap, stalls, case["stall_total"]))  # fmt: skip
+        yield dict(case, n=n, f=f, t=t, o=o, dd=dd, dp=dd["triangles_culled_pct"], coarser=None,
+                   **extra)  # fmt: skip
 
 
 def _vs_frustum(frames, params):
@@ -482,13 +710,46 @@ def _packets(frames, params):
         yield dict(case, pk=pk, qu=qu, faster=a.mean() - b.mean(), noise=noise)
 
 
+TARGET_PP = 10.0  # Abb. 8's gap to the thesis' own runs on its own tour: the target, pp
+
+
+def _tf(df: pd.DataFrame) -> np.ndarray:
+    """The thesis' recorded frame of each row (``tour_frame``; ``frame + 1`` in runs stored
+    before it)."""
+    return df["tour_frame"].to_numpy() if "tour_frame" in df else df.frame.to_numpy() + 1
+
+
+def _tour_gap(ours: pd.DataFrame, theirs: pd.DataFrame, q: str = "triangles_culled_pct"):
+    """Per frame on the thesis' tour, ours against theirs at the same recorded frame
+    (:func:`_tf`): mean gap (ours − theirs), mean |gap|, the share of frames within
+    :data:`TARGET_PP`, and our stalls' share of the scene's triangles culled (mean), pp."""
+    a = pd.Series(ours[q].to_numpy(float), index=_tf(ours))
+    b = theirs.set_index("frame")[q].astype(float)
+    both = a.index.intersection(b.index)
+    d = (a.loc[both] - b.loc[both]).to_numpy()
+    if len(d) == 0:
+        return np.nan, np.nan, np.nan, np.nan
+    st = ours.get("triangles_culled_pct_stalls")
+    stalls = float(st.mean()) if st is not None else float("nan")
+    return float(d.mean()), float(np.abs(d).mean()), float((np.abs(d) <= TARGET_PP).mean()), stalls
+
+
+def _stall_text(gap: float, stalls: float, stall_total: float) -> str:
+    """How much of a gap in % triangles culled the synthetic stalls can explain: theirs may
+    cull anything from none to all of the stalls' triangles where ours culls ``stalls`` pp."""
+    room = stall_total - stalls if gap < 0 else stalls
+    can = "can" if abs(gap) <= room else "cannot"
+    return (f"our stalls are {stalls:.1f} pp of the scene's triangles culled (of "
+            f"{stall_total:.1f} pp they hold); a gap of {gap:+.1f} pp {can} come from the "
+            f"stalls alone (the most it could: {room:.1f} pp), the castle's 2,114 objects "
+            "being exact")  # fmt: skip
+
+
 def _column_why(q) -> str:
-    occl, doc_occl = q.o.triangles_culled_pct - q.fr_share, q.dp - FRUSTUM_DOC
     text = (
-        f"our frustum alone drops {q.fr_share:.1f} % of the triangles on this flight, the "
-        f"document's {FRUSTUM_DOC:.2f} % (Abb. 9, MT+Frustum); occlusion culling adds "
-        f"{occl:.1f} pp here, {doc_occl:.1f} pp there: what the occluders hide differs on our "
-        f"scene ({q.label}) and flight; cause not measured further"
+        "the thesis' frames are its camera tour's; the gap per frame is plotted "
+        "(seed000_thesis_frames) — "
+        + getattr(q, "tour_text", "cause not measured on our parametric flight")
     )
     if q.coarser is not None and q.dp > q.coarser:
         text = (
@@ -502,17 +763,15 @@ def _column_why(q) -> str:
 
 
 def _switch_why(q) -> str:
-    if not q.f:
-        return (
-            f"the document's MT run (both stages off) culls {q.dp:.2f} % "
-            f"({q.dd['models_culled']:,.0f} models) though no stage culls; its text does "
-            "not say what did: cause not measured; ours culls nothing with both off"
-        )
     if not q.t:
+        size = q.o.get("size_culled", 0)
         return (
-            f"our flight leaves {q.o.triangles_culled_pct:.1f} % of the triangles outside "
-            f"the frustum, the document's {q.dp:.2f} %: another flight on another scene "
-            f"({q.label}); cause not measured further"
+            f"with the depth test off (the framework's culling off) its Render draws every "
+            f"model not too small by Intel's size test and counts only those too small as "
+            f"culled triangles — frustum culled or not — so MT and MT+Frustum both read "
+            f"{q.dp:.2f} %; ours with the size test culls {size:,.0f} objects as too small, "
+            f"{q.o.triangles_culled_pct:.2f} % of the triangles, the remaining gap the "
+            "synthetic stalls' sizes (most objects too small are stall parts)"
         )
     return _column_why(q)
 
@@ -580,10 +839,88 @@ def _stages(q) -> list[np.ndarray]:
     ]
 
 
+def _off_pattern(q) -> int:
+    """Pairs of depth resolutions with 2432x1440 (the document's, or ours standing for it)
+    in them where % triangles culled and draw calls rise together (0: on the pattern)."""
+    rows = list(zip(q.res, q.ours, strict=True))
+    at = [o for r, o in rows if doc.document_column(r, q.d) == (2432, 1440)]
+    if not at:
+        return 0
+    a = at[0]
+    return sum((b.triangles_culled_pct - a.triangles_culled_pct) * (b.draw_calls - a.draw_calls)
+               > 0 for _, b in rows if b is not a)  # fmt: skip
+
+
+def _extreme_frames(q) -> list[int]:
+    """The frame of the largest draw calls with both stages off, of the smallest with
+    frustum culling and with both on."""
+    out = []
+    for k, (f, t) in enumerate(SWITCHES.values()):
+        r = _rows(q.df, QUERY, q.d, frustum=f, depth_test=t)
+        pick = r.draw_calls.to_numpy().argmax() if k == 0 else r.draw_calls.to_numpy().argmin()
+        out.append(int(r.frame.to_numpy()[pick]))
+    return out
+
+
+LINEAR_FROM = 60  # the document's frame from which the 2432x1440 curve falls linearly
+
+
+def _linearity(q) -> dict:
+    """Per depth resolution, R² of a straight line through our % triangles culled from the
+    document's frame 60 on (our frame 59)."""
+    out = {}
+    for r in q.res:
+        x = _rows(q.df, QUERY, r)
+        x = x[_tf(x) >= LINEAR_FROM]
+        y = x.triangles_culled_pct.to_numpy(float)
+        t = _tf(x).astype(float)
+        if len(y) < 3 or np.ptp(y) == 0:
+            out[tuple(r)] = 0.0
+            continue
+        fit = np.polyval(np.polyfit(t, y, 1), t)
+        out[tuple(r)] = float(1 - ((y - fit) ** 2).sum() / ((y - y.mean()) ** 2).sum())
+    return out
+
+
+def _linear_lead(q) -> float:
+    """2432x1440's R² (:func:`_linearity`) less the largest of the others'."""
+    lin = _linearity(q)
+    at = [r for r in lin if doc.document_column(r, q.d) == (2432, 1440)]
+    if not at:
+        return -np.inf
+    return lin[at[0]] - max((v for r, v in lin.items() if r != at[0]), default=0.0)
+
+
+def _mid_flight(q) -> int:
+    """How many of the three stage switches have their extreme (:func:`_extreme_frames`) in
+    the middle third of the flight."""
+    n = int(q.df.frame.max()) + 1
+    return sum(n / 3 <= f <= 2 * n / 3 for f in _extreme_frames(q))
+
+
+def _start(q) -> tuple[int, int]:
+    """Objects drawn in the first frame: frustum culling only, and with the queries too."""
+    a = _rows(q.df, QUERY, q.d, frustum=True, depth_test=False).models_visible.iloc[0]
+    b = _rows(q.df, QUERY, q.d).models_visible.iloc[0]
+    return int(a), int(b)
+
+
+def _stage_ms(q, name: str) -> float:
+    r = _rows(q.df, QUERY, q.d)
+    col = f"ms_{name}"
+    return float(r[col].mean()) if col in r else 0.0
+
+
+def _cull_ms(q) -> float:
+    return float(_rows(q.df, QUERY, q.d).ms_cull.mean())
+
+
 FRUSTUM_DOC = doc.ABB9["MT+Frustum"]["triangles_culled_pct"]
+_OPTION_TEXT = {m: ",".join(f"{k}={v}" for k, v in o) for m, o in METHOD_OPTIONS.items()}
 _QUERIES = f"method == '{QUERY}'"
 _MOC, _HIZ = f"method == '{MOC}'", f"method == '{HIZ}'"
 _PK = f"method == '{PACKETS}'"
+_FULL_Q = f"{_QUERIES} and frustum and depth_test"  # the OGL runs with both stages on
 _FAST = f"method == '{QUERY}' and not frustum"  # the query method without frustum culling
 _BOOT = "noise: bootstrap standard error over the flight's frames (one flight; not run to run)"
 _FPS = "1000 / mean frame time (cull + draw) on llvmpipe; only ratios compare with a GPU"
@@ -607,21 +944,22 @@ CLAIMS = (
         Row(
             "Abb. 8 left, the OGL method's quality",
             "die OGL-Methode [muss] qualitativ keinerlei Abstriche [...] gegenüber den anderen "
-            "Techniken machen",
-            lambda q: f"{QUERY} {q.tri[QUERY]:.1f} %, 0 false culls: {q.fc[QUERY] == 0}; best "
-            f"other method without false culls {q.best:.1f} %; not compared, culling more than "
-            f"the oracle's {q.ideal:.1f} %: {q.beyond}",
+            "Techniken machen (the OGL method gives up nothing in quality against the "
+            "framework's other techniques)",
+            lambda q: f"{QUERY} {q.tri[QUERY]:.2f} %, the framework's per-pixel box test "
+            f"({HIZ}, judged at the pixels) {q.tri.get(HIZ, np.nan):.2f} %; false culls per "
+            f"frame {q.fc[QUERY]:.1f} and {q.fc.get(HIZ, np.nan):.1f}",
             TREND,
-            (Rule(lambda q: q.fc[QUERY], "==", 0, "objects", name="false culls", noise=_EXACT,
-                  flips=(alter("summary", "false_culls", plus=1.0, where=_QUERIES),)),
-             Rule(lambda q: q.tri[QUERY] - q.best if q.best == q.best else np.inf, ">=", 0, "pp",
-                  name="culled", noise=_EXACT,
-                  flips=(alter("summary", "triangles_culled_pct", 0.5, _QUERIES),))),
-            basis=f"{QUERY} culls no visible object and no fewer triangles than any other method "
-            "without false culls that culls no more than the oracle's exact set (counts of a "
-            "seeded flight: deterministic)",
-            why=lambda q: f"{QUERY} culls {q.tri[QUERY]:.1f} % (false culls {q.fc[QUERY]:.1f}/"
-            f"frame), {q.top} {q.best:.1f} %" + (TWO_PHASE if q.top == TWO else ""),
+            Rule(lambda q: q.tri[QUERY] - q.tri[HIZ], ">=", -doc.REPEAT_PP, "pp", noise=_EXACT,
+                 flips=(alter("summary", "triangles_culled_pct", 0.5, _QUERIES),)),
+            basis=f"{QUERY} culls no fewer triangles than the framework's per-pixel box test "
+            f"(its SSE/AVX methods: {HIZ} judged at the pixels, on the same occluders) less the "
+            f"document's own repeat spread ({doc.REPEAT_PP} pp; theirs: OGL 43.81, SSE 43.88, "
+            "AVX 43.85, SCALAR 43.97 %); counts of one flight: deterministic",
+            why=lambda q: f"{QUERY} culls {q.tri[QUERY] - q.tri[HIZ]:+.2f} pp against {HIZ}; "
+            f"{QUERY} queries each box as the thesis does (its oriented box, the previous "
+            f"frame's results on its tour), {HIZ} tests the world AABB in the same frame",
+            when=_has(QUERY, HIZ),
         ),
         Row(
             "Abb. 8 left, MOC",
@@ -674,49 +1012,178 @@ CLAIMS = (
         "the document's does (a coincident level is no match)",
         why=_column_why,
     ),)),
+    Each(_tour_columns, (Row(
+        "Abb. 8 on the thesis' camera tour {tour}, {col} (ours {r}): per-frame gap",
+        "its Evaluation 4 run at {col}, frame by frame",
+        lambda q: f"mean gap {q.gap[0]:+.1f} pp, mean |gap| {q.gap[1]:.1f} pp, "
+        f"{q.gap[2]:.0%} of the frames within {TARGET_PP:g} pp",
+        NUMBERS,
+        Rule(lambda q: abs(q.gap[0]), "<=", TARGET_PP, "pp", noise=_EXACT, flips=(
+            alter("frames", "triangles_culled_pct", plus=50.0, where=_QUERIES),
+            alter("frames", "triangles_culled_pct", plus=-50.0, where=_QUERIES))),
+        basis=f"our OGL method (queries, previous frame's results, Intel's size test) on the "
+        f"thesis' tour, mean % triangles culled per frame within {TARGET_PP:g} pp of its run",
+        why=lambda q: _stall_text(q.gap[0], q.gap[3], q.stall_total),
+    ),)),
+    Each(_held_out, (Row(
+        "held-out camera tour 2, OGL at 1920x1080: per-frame gap",
+        "its Evaluation 2 run (not in the document)",
+        lambda q: f"mean gap {q.gap[0]:+.1f} pp, mean |gap| {q.gap[1]:.1f} pp over {q.n} frames",
+        NUMBERS,
+        Rule(lambda q: abs(q.gap[0]), "<=", TARGET_PP, "pp", noise=_EXACT, flips=(
+            alter("tour2", "triangles_culled_pct", plus=50.0, where=_QUERIES),)),
+        basis=f"the same configuration on a tour not used to build it, within {TARGET_PP:g} pp",
+        why=lambda q: _stall_text(q.gap[0], q.gap[3], q.stall_total),
+    ),)),
     Each(_flight, (
         Row(
-            "Abb. 8 table: draw calls and models culled per resolution",
-            "Geht die Anzahl der weggeworfenen Objekte hoch, geht entsprechend die Anzahl der "
-            "Draw Calls runter; table: " + "; ".join(
-                f"{res_str(c)} {v['draw_calls']:,} / {v['models_culled']:,.0f}"
-                for c, v in doc.ABB8.items()) + " (draw calls / models culled)",
-            lambda q: "; ".join(f"{res_str(r)} {o.draw_calls:,.0f} / {o.models_culled:,.0f}"
-                                for r, o in zip(q.res, q.ours, strict=True)),
+            "Abb. 8 table: 2432x1440's draw calls off the pattern",
+            "Lediglich die Anzahl an Draw Calls für 2432x1440 entspricht [nicht] dem Muster, da "
+            "es erwartungsgemäß weniger Draw Calls geben müsste für die Anzahl an weggeworfenen "
+            "Dreiecken (only 2432x1440's draw calls break the pattern: for its triangles "
+            "culled it should have fewer); table: 2432x1440 48.55 % with 7,920 draw calls, "
+            "640x360 47.65 % with 5,759",
+            lambda q: "; ".join(f"{res_str(r)} {o.triangles_culled_pct:.1f} % / "
+                                f"{o.draw_calls:,.0f}" for r, o in zip(q.res, q.ours, strict=True))
+            + " (% triangles culled / draw calls)",
             TREND,
-            Rule(lambda q: _opposite(q.ours), "==", 0, "steps", noise=_EXACT, flips=(
-                alter("summary", "draw_calls", shuffle=True, where=_QUERIES),)),
-            basis="from each depth resolution to the next, draw calls fall where the models "
-            "culled rise and rise where they fall (counts: deterministic; the document finds "
-            "2432×1440's draw calls out of the pattern against its triangles culled)",
-            why="a step where both move the same way",
+            Rule(lambda q: _off_pattern(q), ">", 0, "pairs", noise=_EXACT, flips=(
+                alter("summary", "draw_calls", expr="-triangles_culled_pct", where=_FULL_Q),
+                alter("summary", "draw_calls", expr="triangles_culled_pct", where=_FULL_Q))),
+            basis="2432x1440 (or the resolution standing for it) has more draw calls than a "
+            "resolution whose triangles culled it exceeds: pairs of resolutions ordered "
+            "one way by % triangles culled and the same way by draw calls, with 2432x1440 in "
+            "them (the document's: one, against 640x360)",
+            why="our draw calls fall wherever our triangles culled rise at 2432x1440",
+            when=lambda q: any(doc.document_column(r, q.d) == (2432, 1440) for r in q.res),
         ),
         Row(
             "false culls per frame (beyond the document)", "not measured",
             lambda q: f"{QUERY}: " + ", ".join(f"{res_str(r)} {o.false_culls:.1f}"
                                                for r, o in zip(q.res, q.ours, strict=True))
-            + f"; {HIZ} on a conservative occluder depth: at most "
+            + f"; {CONS} on a conservative occluder depth: at most "
             f"{max(_conservative(q.df, r).false_culls.max() for r in q.res):.0f} in any frame",
             MEASURED,
             basis="objects visible in the exact id render at the display resolution but culled",
         ),
         Row(
-            "Abb. 9, each stage culls more",
-            "Besser wird das Ergebnis, wenn zusätzlich zum Multithreading das Frustum Culling "
-            "aktiviert wird",
-            lambda q: ", ".join(f"{n} {p.mean():,.0f}" for n, p in
-                                zip(SWITCHES, _stages(q), strict=True)) + " models culled",
+            "Abb. 9 text: draw-call peak mid-flight with both stages off",
+            "Interessant ist der Höhepunkt in der Mitte der Kamerafahrt. Wohingegen bei den "
+            "anderen Kombinationen an dieser Stelle der niedrigste Wert erreicht wird, ist er "
+            "dort ohne Frustum Culling und ohne Occlusion Queries am höchsten (mid-flight the "
+            "draw calls peak with both stages off, where the other combinations are lowest)",
+            lambda q: ", ".join(f"{n}: {'max' if k == 0 else 'min'} at frame {f}" for k, (n, f)
+                                in enumerate(zip(SWITCHES, _extreme_frames(q), strict=True))),
             TREND,
-            Rule(lambda q: min(float((b - a).min()) for a, b in itertools.pairwise(_stages(q))),
-                 ">=", 0, "models", noise=_EXACT, flips=(
-                     alter("frames", "models_culled", to=0, where=f"{_QUERIES} and depth_test"),)),
-            basis="in every frame each stage culls at least as many models as the one before",
-            why="a frame where a later stage culls fewer models",
+            Rule(lambda q: _mid_flight(q), "==", 3, "runs", noise=_EXACT, flips=(
+                alter("frames", "draw_calls", expr="-frame", where=f"{_QUERIES} and not frustum "
+                      "and not depth_test"),
+                alter("frames", "draw_calls", expr="frame", where=f"{_QUERIES} and depth_test"),
+                cl.chain(  # the document's shape: a peak mid-flight, the others' lows there
+                    alter("frames", "draw_calls", expr="-abs(frame - frame.max() / 2)",
+                          where=f"{_QUERIES} and not frustum and not depth_test"),
+                    alter("frames", "draw_calls", expr="abs(frame - frame.max() / 2)",
+                          where=f"{_QUERIES} and frustum")))),
+            basis="with both stages off the draw calls' largest frame, with frustum culling and "
+            "with both on their smallest, lie in the middle third of the flight",
+            why="the extreme of a run lies outside the middle third of our flight",
+        ),
+        Row(
+            "Abb. 9 text: objects drawn at the start with and without queries",
+            "Sind es ohne Occlusion Queries zu Anfang rund 17000 Objekte, die gerendert werden "
+            "müssen, so sind es mit Occlusion Queries in etwa 6000-7000 weniger (about 17,000 "
+            "objects drawn at the start without occlusion queries, 6,000-7,000 fewer with them)",
+            lambda q: f"first frame: {_start(q)[0]:,} objects drawn with frustum culling only, "
+            f"{_start(q)[1]:,} with queries too: {_start(q)[0] - _start(q)[1]:,} fewer",
+            NUMBERS,
+            (Rule(lambda q: abs(_start(q)[0] - 17000), "<=", 500, "objects", name="≈17,000",
+                  noise=_EXACT, flips=(
+                      alter("frames", "models_visible", plus=2000,
+                            where=f"{_QUERIES} and frustum and not depth_test"),
+                      cl.chain(alter("frames", "models_visible", to=17000,
+                                     where=f"{_QUERIES} and frustum and not depth_test"),
+                               alter("frames", "models_visible", to=10500, where=_FULL_Q)))),
+             Rule(lambda q: _start(q)[0] - _start(q)[1], ">=", 6000, "objects",
+                  name="≥ 6,000 fewer", noise=_EXACT, flips=(
+                      alter("frames", "models_visible", plus=3000,
+                            where=f"{_QUERIES} and frustum and depth_test"),)),
+             Rule(lambda q: _start(q)[0] - _start(q)[1], "<=", 7000, "objects",
+                  name="≤ 7,000 fewer", noise=_EXACT, flips=(
+                      alter("frames", "models_visible", plus=-3000,
+                            where=f"{_QUERIES} and frustum and depth_test"),))),
+            basis="«rund 17000» read as 16,500-17,500 (rounded to thousands), the difference "
+            "within the stated 6,000-7,000, both in the flight's first frame (the thesis' "
+            "Evaluation 7: 16,734 and 10,633)",
+            why=lambda q: f"ours {_start(q)[0]:,} and {_start(q)[1]:,} on the thesis' first "
+            "frame; the market stalls' placement is ours",
+        ),
+        Row(
+            "Abb. 8 right: the 2432x1440 curve's linear decline after frame 60",
+            "etwa ab Frame 60 verringert sich die Anzahl an weggeworfenen Dreiecken ungefähr "
+            "linear und nicht wie [bei] allen anderen ungefähr quadratisch (from about frame 60 "
+            "the triangles culled at 2432x1440 fall about linearly, at every other resolution "
+            "about quadratically)",
+            lambda q: ", ".join(f"{res_str(r)} R² {v:.3f}" for r, v in _linearity(q).items())
+            + " (straight line through frames 60-100)",
+            TREND,
+            Rule(lambda q: _linear_lead(q), ">", 0, "R²", noise=_EXACT, flips=(
+                alter("frames", "triangles_culled_pct", expr="100.0 * (frame % 3 == 0)",
+                      where=_FULL_Q),)),
+            basis="after frame 60 a straight line fits the 2432x1440 curve better (R²) than "
+            "it fits any other resolution's",
+            why="at 2432x1440 our curve is no straighter after frame 60 than another "
+            "resolution's: cause not measured",
+            when=lambda q: any(doc.document_column(r, q.d) == (2432, 1440) for r in q.res)
+            and int(_tf(q.df).max()) > 70,
+        ),
+        Row(
+            "most time in the occlusion queries",
+            "meiste Zeit in OQ → Performanceverlust (most of the time goes to the occlusion "
+            "queries: a loss of performance)",
+            lambda q: f"{QUERY} at {res_str(q.d)}, mean ms per frame: queries "
+            f"{_stage_ms(q, 'queries'):.1f}, depth prepass {_stage_ms(q, 'prepass'):.1f}, "
+            f"frustum {_stage_ms(q, 'frustum'):.1f}",
+            TREND,
+            Rule(lambda q: _stage_ms(q, "queries") / max(_cull_ms(q), 1e-9), ">", 0.5, "share",
+                 flips=(alter("frames", "ms_queries", 0.0, _QUERIES),)),
+            basis="the queries take more than half of the method's mean cull time (the "
+            "thesis' runs: depth test 247 ms against 8 ms of rasterizing, Evaluation 7); "
+            "one flight, noise not measured",
+            why="another stage takes most of our cull time on llvmpipe",
+            when=lambda q: "ms_queries" in q.df,
+        ),
+        Row(
+            "scene counts",
+            "Die Burg umfasst 115 Occluder mit 48700 Dreiecken und 27025 Occludees mit "
+            "≈ 1923000 Dreiecken (115 occluders with 48,700 triangles, 27,025 occludees with "
+            "about 1,923,000 triangles)",
+            lambda q: f"{q.sc.occluders:,} occluders with {q.sc.occluder_triangles:,} triangles, "
+            f"{q.sc.objects:,} objects with {q.sc.triangles:,} triangles",
+            NUMBERS,
+            (Rule(lambda q: abs(int(q.sc.occluders) - 115) + abs(int(q.sc.objects) - 27025), "==",
+                  0, "objects", name="counts", noise=_EXACT,
+                  flips=(alter("scene", "objects", plus=1),)),
+             Rule(lambda q: abs(int(q.sc.occluder_triangles) - 48700), "==", 0, "triangles",
+                  name="occluder triangles", noise=_EXACT,
+                  flips=(alter("scene", "occluder_triangles", plus=1),)),
+             Rule(lambda q: abs(int(q.sc.triangles) / 1923000 - 1), "<=", 0.005, "share",
+                  name="≈1,923,000 triangles", noise=_EXACT,
+                  flips=(alter("scene", "triangles", 1.1),
+                         cl.chain(alter("scene", "occluders", to=115),
+                                  alter("scene", "objects", to=27025),
+                                  alter("scene", "occluder_triangles", to=48700),
+                                  alter("scene", "triangles", to=1923000))))),
+            basis="the castle's files give the occluders exactly; the refilled market reaches "
+            "27,025 objects exactly and the triangle total within its rounding (0.5 %: the "
+            "thesis' raw runs sum to 1,923,551)",
+            why="another scene than Intel's castle with its refilled market",
         ),
     )),
     Each(_switches, (Row(
-        "Abb. 9, {n}", "{dp:.2f} % triangles culled, {dd[draw_calls]:,} draw calls",
-        "{o.triangles_culled_pct:.2f} %, {o.draw_calls:,.0f} draw calls",
+        "Abb. 9, {n}", "{dp:.2f} % triangles culled, {dd[draw_calls]:,} draw calls, "
+        "{dd[models_culled]:,.2f} models culled, {dd[models_visible]:,.2f} visible",
+        "{o.triangles_culled_pct:.2f} %, {o.draw_calls:,.0f} draw calls, "
+        "{o.models_culled:,.2f} models culled, {o.models_visible:,.2f} visible",
         NUMBERS,
         Rule(_gap, "<=", doc.REPEAT_PP, "pp", noise=_EXACT, flips=(
             _document_switches, alter("summary", "triangles_culled_pct", plus=50.0))),
@@ -804,9 +1271,10 @@ CLAIMS = (
                   flips=(alter("summary", "ms_cull", 100.0, _MOC),))),
             basis="MOC culls fewer triangles than HiZ and has the shorter mean cull time; "
             "noise: counts deterministic, cull time not measured run to run",
-            why=f"{MOC} judges boxes against per-tile masks of 32×8 pixels, {HIZ} against a "
-            "per-pixel max-depth pyramid on the GPU context; which test loses what: cause not "
-            "measured",
+            why=f"{MOC} judges each box's screen rectangle at its nearest depth against per-tile "
+            f"masks of 32×8 pixels, {HIZ} (judged at the pixels) each box pixel by pixel against "
+            "a software occluder depth, both on the CPU at the display resolution; which test "
+            "loses what: cause not measured",
             when=_has(MOC, HIZ),
         ),
         Row(
@@ -827,18 +1295,19 @@ CLAIMS = (
         TREND,
         (Rule(lambda q: q.qu.queries.mean() - q.pk.queries.mean(), ">", 0, "queries",
               name="fewer queries", noise=_EXACT, flips=(alter("frames", "queries", 100.0, _PK),)),
-         Rule(lambda q: q.pk.triangles_culled_pct.mean() - q.qu.triangles_culled_pct.mean(), ">=",
-              0, "pp", name="same result", noise=_EXACT,
-              flips=(alter("frames", "triangles_culled_pct", 0.5, _PK),)),
          Rule(lambda q: q.pk.false_culls.sum(), "==", 0, "objects", name="no false culls",
               noise=_EXACT),
-         Rule(lambda q: q.faster, ">", 0, "ms", name="faster", noise=lambda q: q.noise,
+         Rule(lambda q: q.faster - 2 * (q.noise or 0.0), ">", 0, "ms", name="beyond 2× noise",
+              noise=lambda q: q.noise,
               flips=(alter("frames", "ms_total", 100.0, _PK),
                      cl.chain(alter("frames", "ms_total", 0.01, _PK),
                               alter("frames", "triangles_culled_pct", to=100.0, where=_PK),
                               alter("frames", "false_culls", to=0, where=_PK))))),
-        basis="the document's aim: fewer queries for the same result (no false culls, at least "
-        f"the queries' culled share) and a shorter frame; {_BOOT}",
+        basis="the document's aim: fewer queries (their first try culled visible objects: no "
+        "false culls here) and a shorter frame, the mean gain more than twice its noise; the "
+        f"culled share is shown, not judged: {PACKETS} also draws the objects it found visible "
+        "into the depth before testing farther packets, so culling more is not the packets' "
+        f"doing; {_BOOT}",
         why=lambda q: f"per frame, {PACKETS} − {QUERY}, mean ms by stage: "
         + _stage_gap(q.pk, q.qu) + "; why those stages grow: cause not measured",
     ),)),
@@ -852,6 +1321,7 @@ EXPERIMENT = harness.experiment(
     params=Params,
     compute=compute,
     plots=[
+        plot_thesis_frames,
         plot_abb8_left,
         plot_abb8_right,
         plot_abb9,

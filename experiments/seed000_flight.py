@@ -36,14 +36,27 @@ class RunSpec:
     depth_test: bool = True
     draw: bool = field(default=False, compare=False)  # the same run, drawn or not
     options: tuple = ()  # (name, value) pairs, e.g. (("conservative", True),)
+    size_test: bool = False  # Intel's IsTooSmall (soc.culling.size_test), default thresholds
 
     @property
     def label(self) -> str:
-        """E.g. ``"queries 1920x1080"``, ``"queries 1920x1080 [frustum off, depth test off]"``."""
+        """E.g. ``"queries 1920x1080"``, ``"queries 1920x1080 [frustum off, depth test off]"``,
+        ``"… +size test"``."""
         stages = (("frustum", self.frustum), ("depth test", self.depth_test))
         off = ", ".join(f"{n} off" for n, on in stages if not on)
         opts = "".join(f" {k}={v}" for k, v in self.options)
-        return f"{self.method} {res_str(self.resolution)}" + (f" [{off}]" if off else "") + opts
+        size = " +size test" if self.size_test else ""
+        return (
+            f"{self.method} {res_str(self.resolution)}" + (f" [{off}]" if off else "") + opts + size
+        )
+
+    def config(self):
+        """The run's :class:`soc.CullConfig`."""
+        import soc
+        from soc.culling.size_test import SizeTest
+
+        size = SizeTest() if self.size_test else None
+        return soc.CullConfig(frustum=self.frustum, depth_test=self.depth_test, size_test=size)
 
 
 def merge_specs(specs: Iterable[RunSpec]) -> list[RunSpec]:
@@ -77,6 +90,41 @@ def _ideal(scene, oracle, renderer, i: int, camera) -> tuple[np.ndarray, dict[st
     return truth, row
 
 
+def _framework_counts(scene, camera, spec: RunSpec, stats) -> dict[str, Any]:
+    """What Intel's sample counts where it differs from :class:`soc.FrameStats`: with the
+    size test, ``size_culled`` (objects too small) and, with the depth test off (the sample's
+    culling off), ``triangles_culled_pct`` counts only the too-small objects' triangles (ours,
+    every culled object's, is kept as ``triangles_culled_pct_own``): its ``Render`` adds up
+    the triangles of every model not too small, frustum culled or not
+    (``AABBoxRasterizerOGL::Render``). With the depth test on it is the culled set's, as
+    ours."""
+    pct = own = stats.triangles_culled_pct
+    if not spec.size_test:
+        return {"size_culled": 0, "triangles_culled_pct_own": own}
+    from soc.culling.size_test import SizeTest, too_small
+
+    small = too_small(scene, camera, SizeTest().occludee)
+    tri = scene.triangle_counts
+    if not spec.depth_test:
+        pct = 100.0 * float(tri[small].sum()) / max(float(tri.sum()), 1.0)
+    return {"size_culled": int(small.sum()), "triangles_culled_pct": pct,
+            "triangles_culled_pct_own": own}  # fmt: skip
+
+
+def _stalls(scene, visible: np.ndarray) -> dict[str, Any]:
+    """Culled objects and triangles (% of the scene's) that are synthetic market stalls (the
+    castle's own objects are exact; the stalls' placement is ours)."""
+    mask = scene.meta.get("synthetic_mask")
+    if mask is None or len(mask) != len(visible):
+        return {}
+    culled = ~np.asarray(visible, bool) & np.asarray(mask, bool)
+    tri = scene.triangle_counts
+    return {
+        "models_culled_stalls": int(culled.sum()),
+        "triangles_culled_pct_stalls": 100.0 * float(tri[culled].sum()) / float(tri.sum()),
+    }
+
+
 def run_all(
     scene, cameras: Sequence, specs: Iterable[RunSpec], *, bar=None, compiled=None
 ) -> pd.DataFrame:
@@ -103,8 +151,7 @@ def run_all(
         for s in specs:
             if compiled is not None and s.method in JIT_METHODS:
                 compiled.wait()  # load its kernels from the cache, not compile them again
-            config = soc.CullConfig(frustum=s.frustum, depth_test=s.depth_test)
-            c = soc.Culler(scene, s.method, s.resolution, config=config, **dict(s.options))
+            c = soc.Culler(scene, s.method, s.resolution, config=s.config(), **dict(s.options))
             stack.callback(c.close)
             c.cull(cameras[0], draw=s.draw)  # untimed warm-up, then forgotten
             c.reset()
@@ -118,7 +165,8 @@ def run_all(
             tick(1)
             for k in np.roll(np.arange(len(specs)), -i).tolist():
                 s = specs[k]
-                stats = cullers[k].cull(cam, truth=truth, draw=s.draw).stats
+                res = cullers[k].cull(cam, truth=truth, draw=s.draw)
+                stats = res.stats
                 labels = {
                     "run": s.label,
                     "method": s.method,
@@ -127,11 +175,14 @@ def run_all(
                     "depth_test": s.depth_test,
                     "options": ",".join(f"{a}={b}" for a, b in s.options),
                     "drawn": s.draw,
+                    "size_test": s.size_test,
                     "frame": i,
                 }
-                rows.append({**labels, **stats.as_row()})
+                row = {**labels, **stats.as_row(), **_framework_counts(scene, cam, s, stats)}
+                rows.append({**row, **_stalls(scene, res.visible)})
                 tick(1)
     df = pd.DataFrame(rows)
     df["options"] = df["options"].fillna("")
-    df[["frustum", "depth_test"]] = df[["frustum", "depth_test"]].fillna(False).astype(bool)
+    flags = ["frustum", "depth_test", "size_test"]
+    df[flags] = df[flags].fillna(False).astype(bool)
     return df.sort_values(["run", "frame"], kind="stable").reset_index(drop=True)

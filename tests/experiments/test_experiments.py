@@ -104,7 +104,8 @@ def test_conservative_runs_never_cull_a_visible_object(run):
 def test_abb8_left_has_every_method(run, scene):
     s, p = run.frames["summary"], run.params
     assert seed000_demo._methods(run.frames, p) == soc.method_names(scene)
-    assert seed000_demo._one(s, "none", p.display).triangles_culled_pct == 0.0
+    none = seed000_demo._one(s, "none", p.display)  # culls only by Intel's size test
+    assert none.models_culled == none.size_culled
     assert seed000_demo._one(s, "oracle", p.display).triangles_culled_pct > 0.0
 
 
