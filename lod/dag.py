@@ -52,6 +52,7 @@ simplifier's version).
 from __future__ import annotations
 
 import hashlib
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -413,6 +414,7 @@ def build_dag(
     *,
     max_triangles: int = MAX_TRIANGLES,
     group_size: int = GROUP_SIZE,
+    threads: int | None = None,
 ) -> ClusterDag:
     """Build the cluster DAG of one mesh (stages 1–5 of the module), no caching.
 
@@ -424,6 +426,8 @@ def build_dag(
         Most triangles per cluster (>= 8).
     group_size : int
         Clusters per group METIS aims for (>= 2).
+    threads : int, optional
+        Threads simplifying groups (default: numba's thread count); the result is the same.
 
     Returns
     -------
@@ -433,6 +437,10 @@ def build_dag(
         raise ValueError(f"max_triangles must be >= 8, got {max_triangles!r}")
     if not (2 <= int(group_size)):
         raise ValueError(f"group_size must be >= 2, got {group_size!r}")
+    if threads is None:
+        import numba
+
+        threads = numba.get_num_threads()
     v, f = weld(vertices, faces)
     source_triangles = len(np.asarray(faces))
     nv = len(v)
@@ -456,11 +464,17 @@ def build_dag(
         bounds = np.flatnonzero(np.diff(np.concatenate([[-1], labels[order], [-2]])))
         pieces, made_by, retry = [], [], []
         group_err, group_sph = [], []
-        for g in range(len(bounds) - 1):
-            members = active[order[bounds[g] : bounds[g + 1]]]
+        groups = [active[order[bounds[g] : bounds[g + 1]]] for g in range(len(bounds) - 1)]
+        radius = store.get("spheres")[:, 3]
+
+        def simplify(members, a_faces=a_faces, radius=radius):
             tri = a_faces[_ranges(store.first_of(members), store.count_of(members))]
-            cap = ERROR_CAP * float(store.get("spheres")[members, 3].max())
-            simple, err = _simplify(v, tri, cap)
+            return tri, _simplify(v, tri, ERROR_CAP * float(radius[members].max()))
+
+        # meshoptimizer runs without the GIL (ctypes): the groups on threads, results in order.
+        with ThreadPoolExecutor(max_workers=threads) as pool:
+            results = list(pool.map(simplify, groups))
+        for members, (tri, (simple, err)) in zip(groups, results, strict=True):
             if len(simple) == 0 or len(simple) > MAX_KEEP * len(tri):
                 retry.append(members)
                 continue
