@@ -756,7 +756,7 @@ EXPERIMENT = harness.experiment(
         "repeats": 3,
         "timing_triangles": 0,
     },
-    minutes=4.0,
+    minutes=6.0,
     aliases=("image-based",),
     notebook="seed001_rendering",
 )

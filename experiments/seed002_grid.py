@@ -667,7 +667,7 @@ EXPERIMENT = harness.experiment(
     plots=[plot_frametime, plot_drawn, plot_popping],
     claims=CLAIMS,
     quick={"frames": common.QUICK_FRAMES, "display": common.scaled(DISPLAY, common.QUICK_SCALE)},
-    minutes=8.0,
+    minutes=10.0,
     aliases=("grid",),
     notebook="seed002_grid",
 )
