@@ -96,7 +96,7 @@ def run_figures(
 
 def refresh_gallery(out: Path, ran: Sequence[str]) -> list[Path]:
     """When ``out`` is the checkout's ``results/``: redraw into ``docs/gallery/`` the pictures
-    of the experiments that ran or are missing there, and the README's gallery section."""
+    of the experiments that ran or are missing there."""
     from experiments import gallery
     from experiments.report import _is_tracked_report_folder
 
@@ -109,6 +109,5 @@ def refresh_gallery(out: Path, ran: Sequence[str]) -> list[Path]:
     ]
     written = gallery.write(out, only=keys) if keys else []
     if written:
-        gallery.update_readme()
         print(terminal.paragraph(f"gallery: {len(written)} pictures redrawn in {GALLERY}"))
     return written

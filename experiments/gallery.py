@@ -1,8 +1,8 @@
 """``docs/gallery/``: every picture of every experiment, tracked in git so that
-``results/REPORT.md`` and the README show them in a fresh clone. Each is drawn again from the
-experiment's stored frames (nothing is recomputed) as a small palette PNG. ``make figures``
-refreshes it after the experiments it ran; ``python -m experiments.gallery [RESULTS]`` redraws
-it from a results folder. The README's gallery section (:data:`SHOTS`) picks a few pictures.
+``results/REPORT.md`` and the documentation site show them in a fresh clone. Each is drawn
+again from the experiment's stored frames (nothing is recomputed) as a small palette PNG.
+``make figures`` refreshes it after the experiments it ran; ``python -m experiments.gallery
+[RESULTS]`` redraws it from a results folder.
 """
 
 from __future__ import annotations
@@ -10,71 +10,15 @@ from __future__ import annotations
 import io
 import sys
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from experiments import terminal
 from experiments.common import ROOT, atomic_write, default_results_dir, gallery_path, in_checkout
 
-README_BEGIN, README_END = "<!-- begin gallery -->", "<!-- end gallery -->"
 WIDTH = 1600  # pixels: readable on a code host's page at full width
 MAX_BYTES = 200_000  # per picture, so that the gallery stays small in git
 COLORS = (256, 128, 64, 32)  # palette sizes tried in turn until a picture fits MAX_BYTES
-
-
-@dataclass(frozen=True)
-class Shot:
-    """A picture the README shows: ``name`` is its file stem (``<key>_<plot>``)."""
-
-    name: str
-    caption: str
-    command: str
-
-
-SHOTS = (
-    Shot(
-        "seed000_abb1",
-        "Seed 000, Abb. 1: the frame with the kept objects outlined, and what occlusion culling "
-        "removed",
-        "vislod figures --only seed000",
-    ),
-    Shot(
-        "seed001_lod_pictures",
-        "Seed 001: no detail elision vs Funkhouser–Séquin at a target frame time (changed "
-        "pixels in magenta); the chosen levels, darker grey = more detail, with a key",
-        "vislod lod",
-    ),
-    Shot(
-        "seed001_lod_flight",
-        "Seed 001: frame time per frame against the budget for five LOD strategies, and the "
-        "share of frames over it (measured and by the cost model)",
-        "vislod lod",
-    ),
-    Shot(
-        "seed001_image_based_stereo_images",
-        "Seed 001: stereo by warping — the true right eye, the warped one, and its holes",
-        "vislod image-based",
-    ),
-    Shot(
-        "seed002_frametime",
-        "Seed 002: frame time with grid occlusion queries against frustum culling alone, and "
-        "under query caps scaled to our queries per frame (the thesis's caps never bind here)",
-        "vislod seed002",
-    ),
-    Shot(
-        "seed003_lights",
-        "Seed 003: forward vs deferred shading, CPU time and their ratio against the number of "
-        "lights, drawn back to front and front to back",
-        "vislod seed003",
-    ),
-    Shot(
-        "seed004_adaptive_frametimes",
-        "Seed 004, Figs. 3–5: frustum culling vs queries vs the adaptive method on three "
-        "growing scenes, the adaptive method's mode as background colour (legend below)",
-        "vislod seed004-adaptive",
-    ),
-)
 
 
 path = gallery_path  # where a picture lives in the gallery (``<key>_<plot>``)
@@ -130,36 +74,13 @@ def write(
     return written
 
 
-def markdown(shots: Sequence[Shot] = SHOTS, folder: Path | None = None) -> str:
-    """The README section listing the shots present in ``folder``."""
-    return "\n".join(
-        f"![{s.name}](docs/gallery/{s.name}.png)\n*{s.caption}* — `{s.command}`\n"
-        for s in shots
-        if path(s.name, folder).is_file()
-    )
-
-
-def update_readme(readme: Path | None = None, folder: Path | None = None) -> Path:
-    """Replace the text between the README's gallery markers with :func:`markdown`."""
-    readme = Path(readme) if readme is not None else ROOT / "README.md"
-    text = readme.read_text()
-    if README_BEGIN not in text or README_END not in text:
-        raise ValueError(f"{readme} has no {README_BEGIN} … {README_END} markers")
-    head, rest = text.split(README_BEGIN, 1)
-    _, tail = rest.split(README_END, 1)
-    body = markdown(folder=folder)
-    return atomic_write(
-        readme, lambda p: p.write_text(f"{head}{README_BEGIN}\n{body}{README_END}{tail}")
-    )
-
-
 def main(argv: Sequence[str] | None = None) -> int:
-    """Redraw ``docs/gallery/`` from a results folder (default ``results/``), then the
-    README's gallery and ``results/REPORT.md``; only in a checkout."""
+    """Redraw ``docs/gallery/`` from a results folder (default ``results/``), then
+    ``results/REPORT.md``; only in a checkout."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if not in_checkout():
         print(
-            "gallery: error: the gallery lives in a vislod checkout (docs/gallery, README.md); "
+            "gallery: error: the gallery lives in a vislod checkout (docs/gallery); "
             f"{ROOT} is an installed package — run it in a clone of the repository",
             file=sys.stderr,
         )
@@ -169,7 +90,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     results = Path(argv[0]) if argv else default_results_dir()
     for p in write(results):
         print(p)
-    print(update_readme())
     print(write_report(results, to=default_results_dir()))
     return 0
 

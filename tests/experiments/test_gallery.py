@@ -1,6 +1,6 @@
 """docs/gallery/: every picture redrawn from stored frames at the reading size (1600 px wide,
-a palette PNG of at most 200 KB), tracked in git; the report and the README show only
-pictures that are there; the README's gallery section is rewritten between its markers."""
+a palette PNG of at most 200 KB), tracked in git; the report shows only pictures that are
+there."""
 
 from __future__ import annotations
 
@@ -103,29 +103,6 @@ def test_pictures_are_redrawn_from_the_stored_frames_without_computing(stored, t
     with Image.open(written[0]) as im:
         assert abs(im.width - gallery.WIDTH) <= 1
     assert gallery.write(tmp_path / "nothing", folder) == []  # not run there: skipped
-
-
-def test_the_readme_section_lists_the_shots_present_and_nothing_else(tmp_path):
-    folder = tmp_path / "gallery"
-    folder.mkdir()
-    shot = gallery.SHOTS[1]
-    (folder / f"{shot.name}.png").write_bytes(b"png")
-    readme = tmp_path / "README.md"
-    readme.write_text(f"# x\n\n{gallery.README_BEGIN}\nold\n{gallery.README_END}\n\ntail\n")
-    gallery.update_readme(readme, folder)
-    text = readme.read_text()
-    assert "old" not in text and text.startswith("# x\n") and text.endswith("tail\n")
-    assert f"docs/gallery/{shot.name}.png" in text and shot.command in text
-    assert all(s.name not in text for s in gallery.SHOTS if s is not shot)
-    gallery.update_readme(readme, folder)
-    assert readme.read_text() == text  # idempotent
-
-
-def test_readme_without_markers_is_an_error(tmp_path):
-    readme = tmp_path / "README.md"
-    readme.write_text("# no markers\n")
-    with pytest.raises(ValueError, match="markers"):
-        gallery.update_readme(readme, tmp_path)
 
 
 def test_outside_a_checkout_it_refuses_with_one_line(monkeypatch, tmp_path, capsys):
