@@ -27,6 +27,7 @@ WRITERS = [
     ["seed004-model", "--quick"],
     ["seed004-octree", "--quick"],
     ["seed004-adaptive", "--quick"],
+    ["dag-lod", "--quick"],
     ["sweep", "--quick"],
 ]
 
