@@ -1,4 +1,4 @@
-"""A LOD chain seen level by level (issue 13): the discrete levels of a simplified mesh
+"""A LOD chain seen level by level: the discrete levels of a simplified mesh
 (Garland & Heckbert 1997 quadric simplification, seed 001) side by side, each coloured by its
 error — the accumulated symmetric Hausdorff distance to the full mesh, on one shared scale.
 

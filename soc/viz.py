@@ -1,4 +1,4 @@
-"""Pictures of what a culling method decided (issue 13): the scene coloured per object by its
+"""Pictures of what a culling method decided: the scene coloured per object by its
 class, the camera's frustum, the flight path; and a method's depth / HiZ pyramid levels.
 
 Stages: :func:`classify` (pure numpy: the cull's mask against the frustum test and the exact
@@ -10,7 +10,7 @@ Miller 1993) with matplotlib: its levels are 2D images, which matplotlib shows p
 
 pyvista is the optional ``viz`` extra and is imported on first use; off-screen it renders
 through EGL (``VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow``, set here when unset), beside
-vislod's own EGL context (issue 11).
+vislod's own EGL context.
 """
 
 from __future__ import annotations

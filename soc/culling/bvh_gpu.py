@@ -1,5 +1,5 @@
 """The object hierarchy on the GPU: a compute pass walks it top-down instead of testing every
-object box (issue 24: culling that costs what is in view, in the compute pass of a GPU method).
+object box (culling that costs what is in view, in the compute pass of a GPU method).
 
 The hierarchy is the scene's BVH as :class:`soc.culling.hierarchy.Hierarchy` lays it out for
 its numba walk: nodes in depth-first preorder with skip indices, each a contiguous range of a

@@ -6,7 +6,7 @@ hypothesis: shuffled, scaled, swapped) and one of them must change its verdict.
 Stored frames: ``tests/experiments/data/claims/<experiment>/`` (a quick run at the commit before
 the tables, trimmed: frames as ``.csv.gz`` without pixels, its ``inputs.json`` parameters and the
 ``claims.csv`` its code wrote); ``tests/experiments/data/claims-now/`` (quick runs of the
-experiments whose compute issue 23 extended: seed000, seed001-lod, seed001-portals, seed003,
+experiments whose compute was extended: seed000, seed001-lod, seed001-portals, seed003,
 seed004-adaptive; and of seeds 001-003 whose rows were made signable: every seed-001
 experiment, seed002, seed003), on which the rules are flipped. More folders of full runs
 (``<dir>/<experiment>/``, as ``vislod figures --out <dir>`` writes them) are compared when
@@ -31,7 +31,7 @@ FIXTURE = Path(__file__).parent / "data" / "claims"
 NOW = Path(__file__).parent / "data" / "claims-now"  # frames of the extended computes
 OLD_COLUMNS = ["item", "document", "ours", "verdict"]
 
-# Rows issue 23 ("verdicts a reviewer would sign") changed on purpose, by its finding:
+# Rows changed on purpose so that a reviewer would sign their verdicts, by finding:
 # (experiment, item pattern) -> why. Every other row keeps its item, document, ours and
 # verdict as the code before the tables wrote them (its basis may now state its bound's origin
 # and noise).
@@ -75,7 +75,8 @@ CHANGED: dict[tuple[str, str], str] = {
     ("seed004-model", r"formula \(1\).*"): "3: true by construction",
     ("seed004-octree", r"Table 2: (time|growth).*"): "3: bounded as slope <= 1; slopes compared",
     ("seed004-octree", r"Table 2(:|,) (estimate against|\d[\d,]* nodes checked).*"): (
-        "reproduce: monotone by construction not judged; the document's shares beside ours"),
+        "reproduce: monotone by construction not judged; the document's shares beside ours"
+    ),
     ("seed004-adaptive", r"Figs\. 3-5, .*"): "2: plays' noise, no 2 %; 4: conditions (5), (6)",
     ("seed004-adaptive", r"formula \(11\).*"): "4: the comparison judged",
     ("seed004-adaptive", r"benchmark.*"): "2: its rule, per scene, with its cause",
@@ -189,7 +190,7 @@ def test_every_rule_can_flip(exp, frames, params, evaluated):
 
 
 def test_the_extended_computes_give_the_new_rows_their_data():
-    """On the quick runs of issue 23's computes: the packets and the frustum-gain rows exist,
+    """On the quick runs of the extended computes: the packets and the frustum-gain rows exist,
     the adaptive rows carry the plays' noise, portal narrowing is judged against the cell
     visibility, and the picture's frame time has its draws' spread."""
     now = stored(NOW)

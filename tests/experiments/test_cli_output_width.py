@@ -1,4 +1,4 @@
-"""Every ``vislod`` command's output fits a terminal (issue 22): no line wider than 120
+"""Every ``vislod`` command's output fits a terminal: no line wider than 120
 columns, and here (not a terminal) none wider than 100 — through the commands' own printing
 paths on small inputs: the demo (short and quick), ``cull``, ``figures`` and its list, any
 experiment's command (claims of very long text), the sweep's summary and every ``--help``.

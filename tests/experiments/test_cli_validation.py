@@ -1,4 +1,4 @@
-"""Failures before the work (issue 14): every `vislod` command checks its output folder, its
+"""Failures before the work: every `vislod` command checks its output folder, its
 data path, its methods and the meshes it reads before computing, and says what is wrong in one
 line (exit status 2, no traceback)."""
 
@@ -198,7 +198,7 @@ def test_load_mesh_reads_a_good_mesh_as_is(tmp_path):
 
 
 def test_lod_quality_with_a_nan_mesh_is_one_line(capsys, tmp_path):
-    """Issue 14: it was reported as a 1-triangle mesh with error 0.000."""
+    """It was reported as a 1-triangle mesh with error 0.000."""
     from experiments.seed001_lod_quality import DATA_MESHES
 
     meshes = tmp_path / "data" / "meshes"

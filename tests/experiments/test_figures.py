@@ -111,7 +111,7 @@ def test_report_has_a_verdict_per_row_and_says_why_rows_differ(tmp_path, fakes):
 
 
 def test_resume_keys_on_the_data_path(tmp_path, registry):
-    """Issue 14: a market run must not be 'already done' for a later castle run."""
+    """A market run must not be 'already done' for a later castle run."""
     calls: list[str] = []
     _fake("d", calls, uses_data=True)
     castle = tmp_path / "data"

@@ -137,7 +137,7 @@ def _tracked() -> set[str]:
 
 @pytest.mark.parametrize("page", ["results/REPORT.md", "README.md"])
 def test_every_picture_a_page_names_is_shown_from_a_tracked_file(page):
-    """Issue 22: the report named 36 pictures and showed 7; now a name is a picture. (The
+    """The report named 36 pictures and showed 7; now a name is a picture. (The
     README's code examples name files a user writes, ``cull.png``: only its pictures count.)"""
     tracked = _tracked()
     text = (ROOT / page).read_text()

@@ -148,13 +148,13 @@ def test_report_section_shows_pictures_captions_and_claims(toy, tmp_path):
     text = "\n".join(lines)
     assert "![toy_ms](toy/toy_ms.png)" in text and "*Milliseconds per frame" in text
     assert "| slope | 2.00 |" in text and list(claims.verdict) == ["numbers", "image"]
-    # the section opens with its tally (issue 23)
+    # the section opens with its tally
     assert lines[2].startswith("**Claims: 2 rows: 1 image, 1 numbers;")
 
 
 def test_a_run_records_which_gl_measured_it(toy, tmp_path, monkeypatch):
     """inputs.json names the GL renderer of the run's context, and the report says it; a run
-    that made no context records None and the report says nothing (issue 21 item 5)."""
+    that made no context records None and the report says nothing."""
     import json
 
     from experiments.report import experiment_lines

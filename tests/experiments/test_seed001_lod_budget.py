@@ -59,7 +59,7 @@ def test_claims_judge_both_halves_of_the_picture_pair(quick_run):
     c = quick_run.claims.set_index("item")
     ratio = c.loc["picture pair: polygon ratio, no elision ÷ optimized"]
     assert "19,821" in ratio.document and "1,389" in ratio.document
-    # issue 23: the ratio depends on a budget the lecture does not give: measured, not numbers
+    # the ratio depends on a budget the lecture does not give: measured, not numbers
     assert ratio.verdict == harness.MEASURED and "budget" in ratio.basis
     held = c.loc["picture pair: the optimized picture holds its target frame time"]
     assert "× target" in held.margin and "draws" in held.basis

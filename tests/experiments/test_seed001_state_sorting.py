@@ -64,11 +64,11 @@ def test_claims_and_pictures(tiny):
     assert set(c.verdict) <= set(harness.VERDICTS)
     lru = c.loc["LRU's lower bound: the offline strategy's cost on LRU's input"]
     assert lru.verdict == harness.MEASURED and "m=4: optimum 8" in lru.ours
-    assert "constructed" in lru.basis  # issue 23: true of our own input, not a reproduction
+    assert "constructed" in lru.basis  # true of our own input, not a reproduction
     rr = c.loc["Round-Robin is very good although very simple"]
     assert rr.document == "«Round-Robin ist sehr gut (obwohl sehr einfach)»"
     assert rr.verdict in (harness.TREND, harness.DIFFERS) and rr.basis
-    assert "Random-Choice" in rr.basis and rr.margin  # issue 23: a bound with its origin
+    assert "Random-Choice" in rr.basis and rr.margin  # a bound with its origin
     worst = c.loc["the worst case says little about practical performance"]
     assert worst.basis.endswith(("holds", "does not hold"))
     for plot in (exp.plot_changes, exp.plot_ratio):

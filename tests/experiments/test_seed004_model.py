@@ -86,7 +86,7 @@ def test_refit_recovers_the_best_query_count(frames):
 
 
 def test_claims_judge_the_papers_form_of_the_model(frames):
-    """Issue 23: Table 1's rows compare the paper's form of (2) with the paper's own model
+    """Table 1's rows compare the paper's form of (2) with the paper's own model
     error (its largest, 9.54 %, the tolerance); our reading is a note; formula (1) is measured
     (it checks our bookkeeping, not the formula)."""
     claims = seed004_model.claims(frames, _params())

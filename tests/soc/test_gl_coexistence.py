@@ -1,4 +1,4 @@
-"""vislod beside other OpenGL users in one process (issue 11): a user's moderngl context, a
+"""vislod beside other OpenGL users in one process: a user's moderngl context, a
 pyvista off-screen screenshot, a second vislod GLContext.
 
 For every registered method: cull, let the other GL user make and use its context, cull again,

@@ -1,4 +1,4 @@
-"""Which GL (issue 21 item 5): ``GLContext(gl=...)`` and ``VISLOD_GL`` — auto, software,
+"""Which GL: ``GLContext(gl=...)`` and ``VISLOD_GL`` — auto, software,
 device:N; bad values refused before anything is made; the caller's EGL context given back.
 
 This machine's EGL has one device, Mesa's software device, so every choice that works here is

@@ -1,4 +1,4 @@
-"""The GPU's clock (issue 21 item 4): every stage of every method timed with GL timestamp
+"""The GPU's clock: every stage of every method timed with GL timestamp
 queries beside wall time, where the GL's timer is meaningful — and on llvmpipe, where it is
 not, nothing issued and the frame says so.
 

@@ -162,7 +162,7 @@ def test_no_module_imports_a_higher_layer():
 
 def test_no_import_circles():
     """No circle among soc's, lod's and experiments' modules, counting every import (inside
-    functions too): within each package the files import downward only (issue 22)."""
+    functions too): within each package the files import downward only."""
     circles = import_circles()
     assert not circles, "import circles:\n" + "\n".join(" -> ".join(c) for c in circles)
 

@@ -1,4 +1,4 @@
-"""Method specs as the benchmarks print them (issue 22, item 6): ``soc.Culler(scene,
+"""Method specs as the benchmarks print them: ``soc.Culler(scene,
 "hiz-2phase(test='gpu')")`` works like the keyword form; the text is parsed, never evaluated,
 and every mistake names the spec and says how to pass options."""
 

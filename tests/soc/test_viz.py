@@ -1,4 +1,4 @@
-"""soc.viz and lod.viz (issue 13): the colour classes as numbers first, then off-screen
+"""soc.viz and lod.viz: the colour classes as numbers first, then off-screen
 screenshots (written, not blank, the classes' colours present, close to a committed reference
 image), and vislod's culling unchanged in the same process afterwards.
 
