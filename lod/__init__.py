@@ -30,6 +30,10 @@ _EXPORTS = {
     "rendering_accuracy": "lod.benefit",
     "total_cost": "lod.selection",
     "build_scene": "lod.lod_scene",
+    # the cluster LOD DAG (Nanite's) of a mesh
+    "ClusterDag": "lod.dag",
+    "build_dag": "lod.dag",
+    "mesh_dag": "lod.dag",
 }
 
 __all__ = sorted(_EXPORTS)
