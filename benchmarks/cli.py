@@ -254,9 +254,9 @@ def floor_sections(args: argparse.Namespace, scene_name: str, path: str, frames:
         both = [bench_floor.targets(result, summary)]
         both.append(bench_floor.gpu_driven_targets(result, summary))
         targets = pd.concat(both, ignore_index=True)
-        body = bench_floor.markdown(result, command, note=note)
+        body = bench_floor.markdown(result, command, note=note, targets_=args.only is not None)
         sections.append(Section(f"floor-{scene_name}{on}", body, targets))
-    if args.only in (None, "methods") and not on and scene_name == args.scene:  # the flight's
+    if args.only == "methods" and not on:  # a whole file has the floor section's table
         sections.append(Section(f"methods-{scene_name}", methods_markdown(result, command)))
     if args.only in (None, "foundation") and not on and scene_name == args.scene:
         body = foundation_markdown(result, command, load_s, rss_mb)
@@ -288,7 +288,7 @@ def other_sections(args: argparse.Namespace, out: Path) -> list[Section]:
         result = bench_scale.run(**options)
         command = f"python -m benchmarks --only scale{flag['scale']}"
         command += f" --city-frames {args.city_frames}" if args.city_frames is not None else ""
-        body = bench_scale.write(result, out, command)
+        body = bench_scale.write(result, out, command, targets_=args.only is not None)
         s = bench_scale.summary(result["frames"])
         t = bench_scale.targets(s, result.get("city"))
         sections.append(Section("scale", body, t))

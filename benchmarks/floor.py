@@ -391,16 +391,23 @@ def gpu_driven_targets(result: FloorResult, summary: pd.DataFrame) -> pd.DataFra
     return pd.DataFrame(rows, columns=["target", "method", "measured", "met"])
 
 
-def markdown(result: FloorResult, command: str, note: str = "") -> str:
-    """The BENCHMARKS.md section body for ``result``."""
+def markdown(result: FloorResult, command: str, note: str = "", targets_: bool = True) -> str:
+    """The BENCHMARKS.md section body for ``result`` (``targets_``: with its targets' tables;
+    a whole file gathers them in one table instead)."""
     summary = summarize(result)
     glctx = soc.gl.context.default_context()
     w, h = result.resolution
     on = "" if result.path == "flight" else f", {result.path}"
     tables = {
         "The floor": floor_table(result),
-        "Culling targets": targets(result, summary),
-        "GPU-driven targets (llvmpipe)": gpu_driven_targets(result, summary),
+        **(
+            {
+                "Culling targets": targets(result, summary),
+                "GPU-driven targets (llvmpipe)": gpu_driven_targets(result, summary),
+            }
+            if targets_
+            else {}
+        ),
         # Mean, not median: a stage some frames skip (adaptive's estimate every 10th frame)
         # counts 0 there, so the stages add up to the mean cull time.
         "Cull stages (mean ms per frame; a frame that skips a stage counts 0)": bc.stage_table(

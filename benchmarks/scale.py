@@ -301,8 +301,11 @@ def plot(frames: pd.DataFrame):
     return fig
 
 
-def markdown(result: dict[str, pd.DataFrame], command: str, figure: str | None = None) -> str:
-    """The ``scale`` section of BENCHMARKS.md."""
+def markdown(
+    result: dict[str, pd.DataFrame], command: str, figure: str | None = None, targets_=True
+) -> str:
+    """The ``scale`` section of BENCHMARKS.md (``targets_``: with its targets' table; a whole
+    file gathers them in one table instead)."""
     import soc.gl.context
 
     s = summary(result["frames"])
@@ -356,10 +359,11 @@ def markdown(result: dict[str, pd.DataFrame], command: str, figure: str | None =
             markdown_table(bc.stage_table(city)),
         ]
     t = targets(s, city)
-    parts += [
-        "### Scale targets",
-        markdown_table(t) if len(t) else "None applies to the sizes run.",
-    ]
+    if targets_:
+        parts += [
+            "### Scale targets",
+            markdown_table(t) if len(t) else "None applies to the sizes run.",
+        ]
     return "\n\n".join(parts)
 
 
@@ -379,7 +383,7 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def write(result: dict[str, pd.DataFrame], out: Path, command: str) -> str:
+def write(result: dict[str, pd.DataFrame], out: Path, command: str, targets_=True) -> str:
     """CSVs and ``scale.png`` in ``out`` (and, when ``out`` is the checkout's ``results/``, a
     small copy of the figure in ``docs/gallery/``); returns the ``scale`` section's body."""
     from experiments.common import GALLERY
@@ -396,7 +400,7 @@ def write(result: dict[str, pd.DataFrame], out: Path, command: str) -> str:
         else:
             gallery.shrink(out / "scale.png", GALLERY / "scale.png")
         link = "../docs/gallery/scale.png"
-    return markdown(result, command, link)
+    return markdown(result, command, link, targets_)
 
 
 if __name__ == "__main__":
