@@ -9,10 +9,12 @@ is local to a cluster (its own and its parent's error and LOD sphere, built by
 Two backends of one decision:
 
 * :func:`select_cpu` — numba, one instance per thread: the reference the tests compare against;
-* :class:`DagSelect` — OpenGL compute passes (``dag_walk.comp.glsl``): a breadth-first walk of
-  the group tree of every instance, one pass per tree depth (the nodes that survive a pass are
-  the next one's input), then a pass over the groups reached that appends the selected
-  (instance, cluster) pairs to a GPU buffer with their count.
+* :meth:`DagRenderer.select` — OpenGL compute passes (``dag_walk.comp.glsl``): a breadth-first
+  walk of the group tree of every instance, one pass per tree depth (the nodes that survive a
+  pass are the next one's input), then a pass over the groups reached that appends the selected
+  (instance, cluster) pairs to a GPU buffer with their count; :meth:`DagRenderer.frame` then
+  culls them (frustum, normal cone, two-phase hierarchical z: ``dag_cull.comp.glsl``) and
+  draws them (``dag_draw.vert.glsl``).
 
 **The decision** (:func:`within` here, ``within()`` in the shader, both in float32): a sphere
 (centre c, radius r, object units) with error e, under an instance transform of scale s,
@@ -35,6 +37,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from soc.gl.context import uses_gl
 from soc.scenes.instanced import Instances, check_similarity, make_instances
 
 __all__ = [
@@ -447,9 +450,6 @@ def _instance_rows(instances: Instances) -> np.ndarray:
     rows[:, :3, :] = instances.matrices
     rows[:, 3, 0] = instances.scale
     return rows
-
-
-from soc.gl.context import uses_gl  # noqa: E402  (the GL half of the module)
 
 
 @uses_gl
