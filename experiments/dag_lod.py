@@ -272,8 +272,13 @@ def plot_threshold(frames, params):
     s = d[~d.occlusion]
     axes[1].plot(s.threshold, s.flip, "o-", label="FLIP")
     axes[1].plot(s.threshold, s.differs, "s-", label="instance or depth differs")
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
+
     for ax, y in zip(axes, ("triangles per covered pixel", "error", "frame ms"), strict=True):
         ax.set_xscale("log")
+        ax.set_xticks(sorted(set(d.threshold)))
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("threshold (px)")
         ax.set_ylabel(y)
         ax.legend(fontsize=7)
