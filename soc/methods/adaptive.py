@@ -29,7 +29,8 @@ Commands are recorded one at a time on one thread, as the paper's renderer recor
 every frame, modes 2 and 3 the commands of the nodes whose objects changed.
 
 Each frame, top-down: ``collect`` (mode 3, temporal: read the results issued ``LATENCY``
-frames ago) → ``buf`` and ``fc`` (the mode's recording and frustum test) → ``prepass`` and
+frames ago) → ``octree`` (modes 2 and 3: the changed nodes' membership and bounds) → ``buf``
+and ``fc`` (the mode's recording and frustum test) → ``prepass`` and
 ``queries`` (mode 3, same frame) → ``draw`` → ``queries`` (mode 3, temporal: issued against
 the frame's depth) → ``decide``. Every frame's timings update the unit costs
 (:class:`soc.models.adaptive.UnitCosts`). ``decide`` (every frame with ``rule="paper"``; at
@@ -130,8 +131,9 @@ class AdaptiveFrame:
     estimate : int or None
         Invisible objects estimated this frame (None when no estimate ran).
     timings_ms : dict[str, float]
-        Stages: ``collect``, ``buf``, ``fc``, ``prepass``, ``queries``, ``draw``,
-        ``decide`` (``estimate`` inside it), ``fit`` (those that ran), ms.
+        Stages: ``collect``, ``octree`` (modes 2/3: the octree's upkeep), ``buf``, ``fc``,
+        ``prepass``, ``queries``, ``draw``, ``decide`` (``estimate`` inside it), ``fit`` (those
+        that ran), ms.
     ms : float
         The whole frame (cull, draw and decide), finished, ms.
     costs : ModeCosts or None
@@ -570,7 +572,11 @@ class AdaptiveCulling(CullMethod):
             self.costs.buf.observe(timings["buf"], commands=recorded, nodes=0)
             counts["in_frustum"], counts["kept_tris"] = len(kept), triangles
         else:
-            octree = self.sync_octree()  # a no-op unless mode 1 just handed over
+            with stage(timings, "octree"):
+                # The events into the octree (a no-op unless mode 1 just handed over) and the
+                # changed nodes' membership and bounds: the octree's upkeep, not recording.
+                octree = self.sync_octree()
+                octree.rebuild_dirty()
             nodes_gl = self._node_buffers()
             with stage(timings, "buf"):
                 st = nodes_gl.sync()  # T_buf(H): dirty nodes only, finished inside
@@ -841,8 +847,9 @@ class AdaptiveCulling(CullMethod):
 
     def _hidden_units(self, mode: int) -> dict[str, float]:
         """Objects, triangles and node draws the queries save: measured in mode 3 (the
-        nodes found occluded), else the latest invisible estimate (conservative)."""
-        if mode == 3:
+        nodes found occluded), else — and in mode 3 until its first results arrive, ``LATENCY``
+        frames after it began — the latest invisible estimate (conservative)."""
+        if mode == 3 and (not self.temporal or self._queried_effective > 0):
             hidden = self._hidden
             octree = self.octree
             ok = self._hidden_version == octree.version[hidden]

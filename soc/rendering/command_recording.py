@@ -40,7 +40,9 @@ import numpy as np
 COMMAND_WORDS = 5  # count, instanceCount, firstIndex, baseVertex, baseInstance (uint32 each)
 COMMAND_BYTES = 4 * COMMAND_WORDS
 MIN_SLOT = 4  # commands of the smallest node slot
-MERGE_GAP = 256  # upload two written runs as one when at most this many commands lie between
+# Upload two written runs as one when at most this many commands lie between: one more write
+# call costs about what copying this many commands does (a few µs on llvmpipe).
+MERGE_GAP = 1024
 
 
 @numba.njit(cache=True, nogil=True)
@@ -220,7 +222,7 @@ class NodeCommands:
         T_buf(H), finished."""
         t0 = time.perf_counter()
         octree = self.octree
-        octree.rebuild_dirty()  # membership of the changed nodes (ids only without commands)
+        octree.rebuild_dirty()  # membership of the changed nodes (a no-op when done already)
         self._grow_tables()
         version = octree.version
         nodes = np.flatnonzero(version != self._uploaded[: len(version)])
