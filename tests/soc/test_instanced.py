@@ -5,6 +5,8 @@ render, and the cut looks like the full meshes."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -145,3 +147,32 @@ def test_cut_looks_like_the_full_meshes(field, dag_parts):
             ref = o.id_buffer(cam)
             assert (ref != NO_OBJECT).mean() > 0.01
             assert np.mean(ids != ref) < 0.03
+
+
+def test_culling_methods_see_instances_as_objects(field):
+    """A method run on the flattened scene culls instances: conservative against the instanced
+    scene's oracle, object for object."""
+    import soc
+
+    flat = field.to_scene()
+    with soc.Culler(flat, method="hiz-gpu", resolution=RES) as culler:
+        for cam in _cameras(field, 3, seed=8):
+            visible = culler.cull(cam).visible
+            truth = exact_visibility(field, cam)
+            assert truth.any() and not (truth & ~visible).any()
+
+
+def test_rock_field_uses_the_scans_when_present(monkeypatch, tmp_path):
+    """meshes='data' places the scans found under $VISLOD_DATA/meshes, and says what is
+    missing when there are none."""
+    import os
+
+    from soc.scenes.instanced import DATA_MESHES
+
+    root = os.environ.get("VISLOD_DATA")
+    if root and any((Path(root) / "meshes" / n).exists() for n in DATA_MESHES):
+        scene = rock_field(5, meshes="data", seed=1)
+        assert len(scene) == 5 and scene.source_triangles > 5 * 50_000
+    monkeypatch.setenv("VISLOD_DATA", str(tmp_path))
+    with pytest.raises(SceneError, match="found no scan"):
+        rock_field(5, meshes="data")
