@@ -138,11 +138,9 @@ class GpuHierarchy:
         The walk mode ``"auto"`` stands for: ``"subtrees"`` when every root of the cut is a
         leaf (each invocation then judges one leaf box and its objects, in one dispatch),
         else ``"levels"`` (the subtrees below a cut above the leaves are walked one per
-        invocation, unevenly; a dispatch per level shares their nodes out). Measured on
-        llvmpipe: on castle-2114 (578 leaf roots) the subtrees walk cost no more than testing
-        every box, the level walk 0.02–0.06 of the ideal frame more; on the city (10⁶
-        objects, 2,048 roots at depth 11 of 19) the level walk's test took 17–70 ms where the
-        subtrees walk took 38–85 ms (``results/BENCHMARKS.md``).
+        invocation, unevenly; a dispatch per level shares their nodes out). On llvmpipe the
+        subtrees walk cost no more than testing every box on castle-2114 and the level walk
+        was the faster on the million-object city (docs/findings.md, "Benchmarks").
     """
 
     def __init__(self, glctx, hierarchy: Hierarchy, roots: int = ROOTS):

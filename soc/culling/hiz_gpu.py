@@ -13,10 +13,10 @@ Stages, in the order a frame runs them:
 1. :meth:`DepthPyramid.build` — level 0 is the occluder depth texture itself; level k+1 has
    ``ceil(size_k / 2)`` texels per axis and each texel is the max of its 2×2 texels of level k,
    with the odd last row/column clamped away (``hiz_reduce*.frag.glsl``, one full-viewport
-   triangle a level, levels 1 and 2 in one pass: llvmpipe writes render targets 2–3× faster
-   than SSBOs or images, and its cost is mostly per fragment; the small top levels in one
-   pass from the first level of at most :data:`TOP_SOURCE_TEXELS` texels, each texel the max
-   of its block of that level: a pass costs about 0.07 ms on llvmpipe however small).
+   triangle a level, levels 1 and 2 in one pass: llvmpipe writes render targets faster than
+   SSBOs or images, and its cost is mostly per fragment; the small top levels in one pass
+   from the first level of at most :data:`TOP_SOURCE_TEXELS` texels, each texel the max of
+   its block of that level: a pass has a fixed cost on llvmpipe however small).
    By induction texel ``x`` of level k stands for exactly the level-0 columns
    ``[x·2^k, min((x+1)·2^k, W))`` (likewise rows), so the levels cover every pixel at every
    resolution, powers of two or not. Levels 1–2 are packed in one RGBA texture and levels

@@ -116,7 +116,7 @@ class GLContext(BindableContext):
         Whether GL runs on the CPU (llvmpipe, softpipe, swrast).
     timer_meaningful : bool
         Whether the GL's timer queries measure the GL's work: not on a software renderer
-        (llvmpipe's read part of it: 126–138 ms for a 225–253 ms draw of the market).
+        (llvmpipe's read part of it: docs/findings.md, "Benchmarks").
     gpu_clock : bool
         Whether frames are timed on the GL's clock too (:meth:`timed_frame`; ``gpu_ms`` of
         :class:`soc.FrameStats`). Default :attr:`timer_meaningful`; set it to force the
@@ -127,7 +127,7 @@ class GLContext(BindableContext):
         every timed stage, so that its wall time holds its GL work. Default: on a software
         renderer (wall time is the clock there, and finishing costs nothing), not where the
         GL timer is meaningful: a GPU's stages are timed on its clock, and each wait for it
-        costs wall time (0.44 ms for a clear and a finish on an H100) that a renderer would
+        costs wall time (measurable even for a clear and a finish on a GPU) that a renderer would
         not pay; :class:`soc.Culler` then finishes once, at the end of the frame.
 
     Notes

@@ -11,7 +11,7 @@ and pyramid test of every object, by a walk of the scene's object hierarchy that
 subtree outside the frustum or behind the pyramid, :mod:`soc.culling.hierarchy`; or, with
 ``hierarchy=False``, one pass over every object). Boxes that reach the near plane are kept
 untested. No torch (the method used torch's scatter_reduce until the raster became a numba
-kernel, ~10× faster).
+kernel, many times faster).
 
 Conservative at the depth resolution it runs at: the software depth buffer is never nearer
 than GL's occluder depth at any pixel centre, and the box test only hides a box whose every
