@@ -533,10 +533,12 @@ def plot_stages(frames: dict[str, pd.DataFrame], params: Params):
         ax.set_title(f"{sc}: mean ms per frame by stage\nns per recorded command: {ns} "
                      f"(paper ≤ {PAPER_NS_PER_OBJECT:.0f} per object)", fontsize=8)  # fmt: skip
         ax.set_ylabel("ms per frame (mean)")
+        ax.set_ylim(0, 1.12 * float(s.ms.max()))  # room for the totals above the bars
         ax.tick_params(axis="x", labelsize=7)
         ax.grid(alpha=0.3, axis="y")
-    axes[0].legend(fontsize=7, loc="upper left")
-    fig.tight_layout()
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(BARS), fontsize=7)
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
     return fig
 
 
