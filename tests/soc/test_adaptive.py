@@ -66,13 +66,16 @@ def test_conservative_flag_follows_the_options():
 
 def test_bad_options_raise():
     scene = soc.scenes.clutter(0)
-    for bad in ({"mode": 4}, {"rule": "fastest"}, {"queries": "some"}, {"leaf_capacity": 0},
-                {"alive": np.ones(3, bool)}):  # fmt: skip
-        with pytest.raises(ValueError):
+    for bad in ({"mode": 4}, {"rule": "fastest"}, {"queries": "some"}, {"queries": -1},
+                {"leaf_capacity": 0}, {"temporal": 1}):  # fmt: skip
+        with pytest.raises(ValueError, match=next(iter(bad))):
             soc.Culler(scene, method="adaptive", resolution=RES, **bad)
-    for gone in ("margin", "dwell", "estimate_every", "initial_mode", "latency"):
-        with pytest.raises((TypeError, ValueError), match=gone):
+    for gone in ("margin", "dwell", "estimate_every", "initial_mode", "latency", "alive"):
+        with pytest.raises(ValueError, match=gone):
             soc.Culler(scene, method="adaptive", resolution=RES, **{gone: 1})
+    with soc.Culler(scene, method="adaptive", resolution=RES) as c:
+        with pytest.raises(ValueError, match="alive"):
+            c.method.set_alive(np.ones(3, bool))
 
 
 def test_node_culling_keeps_a_superset_of_the_object_frustum_test(clutter_scenes):
@@ -145,9 +148,9 @@ def paper_run():
 
     dyn = dynamic_scene("scene3", 0, frames=24, scale=0.03)
     res = (160, 90)
-    with soc.Culler(dyn.scene, method="adaptive", resolution=res,
-                    alive=np.zeros(len(dyn.scene), bool), leaf_capacity=8) as c:  # fmt: skip
+    with soc.Culler(dyn.scene, method="adaptive", resolution=res, leaf_capacity=8) as c:
         m = c.method
+        m.set_alive(np.zeros(len(dyn.scene), bool))
         assert m.rule == "paper"
         frames = []
         for state, cam in zip(dyn, dyn.cameras(*res), strict=True):
@@ -302,8 +305,9 @@ def test_octree_follows_the_alive_set_after_events(small_dynamic, mode):
     n = len(dyn.scene)
     res = (160, 90)
     with soc.Culler(dyn.scene, method="adaptive", resolution=res, mode=mode,
-                    alive=np.zeros(n, bool), leaf_capacity=16) as c:  # fmt: skip
+                    leaf_capacity=16) as c:  # fmt: skip
         m = c.method
+        m.set_alive(np.zeros(n, bool))
         cams = dyn.cameras(*res)
         for state, cam in zip(dyn, cams, strict=True):
             m.apply(state)
@@ -323,8 +327,8 @@ def test_octree_follows_the_alive_set_after_events(small_dynamic, mode):
 
 def test_apply_rejects_events_that_contradict_the_alive_set(small_dynamic):
     dyn = small_dynamic
-    with soc.Culler(dyn.scene, method="adaptive", resolution=(64, 36),
-                    alive=np.zeros(len(dyn.scene), bool)) as c:  # fmt: skip
+    with soc.Culler(dyn.scene, method="adaptive", resolution=(64, 36)) as c:
+        c.method.set_alive(np.zeros(len(dyn.scene), bool))
         c.method.apply(dyn.state(0))
         with pytest.raises(ValueError, match="frame 0"):
             c.method.apply(dyn.state(0))  # adding the same objects again
@@ -338,8 +342,8 @@ def test_render_draws_the_same_set_as_cull(small_dynamic):
     alive = dyn.alive(dyn.frames - 1)
     cam = dyn.cameras(*res)[-1]
     for mode in (1, 2):
-        with soc.Culler(dyn.scene, method="adaptive", resolution=res, mode=mode,
-                        alive=alive) as c:  # fmt: skip
+        with soc.Culler(dyn.scene, method="adaptive", resolution=res, mode=mode) as c:
+            c.method.set_alive(alive)
             r = Renderer(c.geometry, res)
             try:
                 drawn = c.method.render(cam, r)
