@@ -23,7 +23,7 @@ from soc.methods import METHODS, CullMethod, MethodOutput, register
 # between frames.
 STRICT = {
     "grid": {"temporal": False},
-    "adaptive": {"temporal": False},
+    "adaptive": {"temporal": False, "leaf_capacity": 4},  # small leaves: node culling culls
 }
 # portals needs a scene of cells (tests/soc/test_portals.py checks it against the oracle).
 CONSERVATIVE = sorted(
