@@ -154,11 +154,13 @@ def adaptive_markdown(out: Path, progress: bool = True, quick: bool = False) -> 
     same inputs is read back) and its :data:`ADAPTIVE_TABLES`."""
     from experiments import harness
 
-    res = harness.run(ADAPTIVE, out=out, progress=progress, quick=quick)
+    # a quick run goes beside the full runs, as `vislod figures --quick` does, never over them
+    runs = out / "quick" if quick else out
+    res = harness.run(ADAPTIVE, out=runs, progress=progress, quick=quick)
     parts = [
         "## Seed 004 Figs. 3-5: frustum culling vs queries on all nodes vs adaptive",
         f"`vislod {ADAPTIVE}` (methods interleaved per frame; compare ratios, not absolute ms); "
-        f"per-frame rows and the claims in `{out.name}/{ADAPTIVE}/`"
+        f"per-frame rows and the claims in `{out.name}/{'quick/' if quick else ''}{ADAPTIVE}/`"
         + (" (a stored run, read back)." if res.resumed else f", {time.strftime('%Y-%m-%d')}."),
     ]
     for name in ADAPTIVE_TABLES:
