@@ -287,10 +287,10 @@ def criterion(
     ratio: float = RATIO,
     name: str = "adaptive",
 ) -> dict:
-    """The issue's benchmark on one scene's ms per frame of each method: the adaptive method
-    ``name``'s mean at most the better fixed method's mean (``mean_ok``), and the largest ratio
-    over the windows of its window mean to the better fixed window mean at most ``ratio``
-    (``windows_ok``)."""
+    """Our benchmark (not the paper's) on one scene's ms per frame of each method: the
+    adaptive method ``name``'s mean at most the better fixed method's mean (``mean_ok``), and
+    the largest ratio over the windows of its window mean to the better fixed window mean at
+    most ``ratio`` (``windows_ok``)."""
     a = np.asarray(times[name], np.float64)
     others = list(FIXED)
     means = {m: float(np.mean(times[m])) for m in others}
