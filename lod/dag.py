@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import hashlib
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -178,27 +178,13 @@ class ClusterDag:
         return {name: getattr(self, name) for name in _ARRAYS}
 
 
-_ARRAYS = (
-    "vertices",
-    "faces",
-    "first",
-    "count",
-    "level",
-    "lod_sphere",
-    "lod_error",
-    "parent_sphere",
-    "parent_error",
-    "group_first",
-    "spheres",
-    "aabbs",
-    "cone_axis",
-    "cone_cutoff",
-    "cone_apex",
-    "node_sphere",
-    "node_error",
-    "node_first",
-    "node_count",
-    "node_leaf",
+# What a ClusterDag holds and the cache stores: the dataclass's array fields, in order.
+_ARRAYS = tuple(f.name for f in fields(ClusterDag) if f.name not in ("source_triangles", "key"))
+# What a cluster carries while the DAG is built (:class:`_Store`): the per-cluster arrays (not
+# the vertices, the groups or the hierarchy) and the group that consumes it (the finish's key).
+_STORE = (
+    *(n for n in _ARRAYS if n != "vertices" and n != "group_first" and not n.startswith("node_")),
+    "parent_group",
 )
 
 
@@ -568,24 +554,6 @@ class _Store:
         self.get("parent_error")[ids] = error
         self.get("parent_group")[ids] = self._groups
         self._groups += 1
-
-
-_STORE = (
-    "faces",
-    "first",
-    "count",
-    "level",
-    "lod_sphere",
-    "lod_error",
-    "parent_sphere",
-    "parent_error",
-    "parent_group",
-    "aabbs",
-    "spheres",
-    "cone_axis",
-    "cone_cutoff",
-    "cone_apex",
-)
 
 
 def _finish(store: _Store, vertices, source_triangles, key) -> ClusterDag:
