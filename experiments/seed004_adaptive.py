@@ -21,9 +21,8 @@ model's T(0), T(n_0), T(q*).
 
 from __future__ import annotations
 
-import time
-from contextlib import ExitStack
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -149,40 +148,95 @@ class AliveOracle(Oracle):
         return ids[self.alive[ids]]
 
 
-# -- 1. the animation, three methods interleaved -----------------------------------------------
+class Shaded:
+    """One adaptive method as :func:`soc.fly` flies it through seed 004's frames: each frame
+    applies the events of ``clip.state`` (set before the frame; None: no events), then culls
+    and draws shaded into ``renderer`` with the mode's command buffers (``last``: its
+    :class:`~soc.methods.adaptive.AdaptiveFrame`, ``ms_apply`` the events' ms, ``truth`` the
+    visible set it was judged against). :meth:`reset` starts a fresh method from ``alive``
+    (a new play)."""
+
+    def __init__(self, clip, renderer, alive: np.ndarray, **options):
+        self.clip, self.renderer, self.alive, self.options = clip, renderer, alive, options
+        self.scene, self.resolution = clip.scene, tuple(renderer.resolution)
+        self.culler = self.last = self.truth = None
+        self.ms_apply = 0.0
+        self.reset()
+
+    @property
+    def glctx(self):
+        return self.culler.glctx
+
+    @property
+    def method(self):
+        return self.culler.method
+
+    def reset(self) -> None:
+        """A fresh method: nothing learned, nothing recorded."""
+        import soc
+
+        self.close()
+        self.culler = soc.Culler(self.scene, method="adaptive", resolution=self.resolution,
+                                 **self.options)  # fmt: skip
+        self.method.set_alive(self.alive)
+
+    def cull(self, camera, *, truth=None, draw=True):
+        from soc.metrics import CullResult, frame_stats, stage
+
+        timings: dict[str, float] = {}
+        with stage(timings, "apply"):
+            if self.clip.state is not None:
+                self.method.apply(self.clip.state)
+        fr = self.method.render(camera, self.renderer)
+        self.last, self.ms_apply, self.truth = fr, timings["apply"], truth
+        stats = frame_stats(self.scene, fr.visible, frustum_culled=fr.frustum_culled,
+                            queries=fr.queries, timings_ms={**timings, **fr.timings_ms},
+                            truth=truth)  # fmt: skip
+        return CullResult(fr.visible, stats)
+
+    def close(self) -> None:
+        if self.culler is not None:
+            self.culler.close()
+        self.culler = None
 
 
-def animate(dyn, params: Params, renderer, bar, repeat: int = 0) -> list[dict]:
-    """Play ``dyn``'s animation once with fresh methods, interleaved per frame in an order
-    drawn from the repeat's seed (the oracle in repeat 0 only); one row per frame and method."""
+# -- 1. the animation, four methods interleaved ------------------------------------------------
+
+
+def animate(dyn, params: Params, renderer, progress: bool = True) -> pd.DataFrame:
+    """Play ``dyn``'s animation ``repeats`` times by :func:`soc.fly`, fresh methods in each
+    play, interleaved per frame in an order drawn from the seed and the play (the oracle every
+    ``oracle_every`` frames); one row per frame, method and play (``repeat``)."""
     import soc
 
-    cams = dyn.cameras(*params.resolution)
+    clip = SimpleNamespace(scene=dyn.scene, state=None)
+    oracle = AliveOracle(dyn.scene) if params.oracle_every else None
+
+    def before_frame(i: int, _camera) -> None:
+        clip.state = dyn.state(i)
+        if oracle is not None:
+            oracle.alive = clip.state.alive
+
+    def row(name: str, play: Shaded, _result) -> dict:
+        return _row(dyn.name, name, clip.state, play.ms_apply, play.last, play.truth)
+
     empty = np.zeros(len(dyn.scene), bool)
-    checks = params.oracle_every if repeat == 0 else 0
-    rng = np.random.default_rng([params.seed, 4] + ([repeat] if repeat else []))
-    rows: list[dict] = []
-    with ExitStack() as stack:
-        methods = {
-            m: stack.enter_context(soc.Culler(dyn.scene, method="adaptive",
-                                              resolution=params.resolution, **opts)).method
-            for m, opts in METHOD_OPTIONS.items()
-        }  # fmt: skip
-        for m in methods.values():
-            m.set_alive(empty)
-        oracle = stack.enter_context(AliveOracle(dyn.scene)) if checks else None
-        for state, cam in zip(dyn, cams, strict=True):
-            done = {}
-            for k in rng.permutation(len(METHODS)).tolist():
-                method = methods[METHODS[k]]
-                done[METHODS[k]] = (method.apply(state), method.render(cam, renderer))
-            truth = None
-            if checks and state.frame % checks == 0:
-                oracle.alive = state.alive
-                truth = oracle.visible(cam, params.resolution)
-            rows += [_row(dyn.name, name, state, *done[name], truth) for name in METHODS]
-            bar.update(1)
-    return rows
+    plays = {}
+    try:
+        plays = {m: Shaded(clip, renderer, empty, **o) for m, o in METHOD_OPTIONS.items()}
+        f = soc.fly(
+            plays, dyn.cameras(*params.resolution), progress=progress, warmup=0,
+            truth=None if oracle is None else lambda cam: oracle.visible(cam, params.resolution),
+            truth_every=max(params.oracle_every, 1), repeats=params.repeats, order="shuffle",
+            seed=params.seed, before_frame=before_frame, extra=row,
+        )  # fmt: skip
+    finally:
+        for play in plays.values():
+            play.close()
+        if oracle is not None:
+            oracle.close()
+    columns = list(row(METHODS[0], plays[METHODS[0]], None))
+    return f[[*columns, "repeat"]] if "repeat" in f else f[columns].assign(repeat=0)
 
 
 def _row(scene: str, name: str, state, ms_apply: float, fr, truth) -> dict:
@@ -206,32 +260,35 @@ def _row(scene: str, name: str, state, ms_apply: float, fr, truth) -> dict:
 # -- 2. the query-count regression -------------------------------------------------------------
 
 
-def sweep(dyn, params: Params, renderer, bar) -> tuple[pd.DataFrame, dict, list[dict]]:
+def sweep(dyn, params: Params, renderer, progress: bool = True):
     """The regression's points (with the triangles the queries hid in each frame), fit row and
-    T(0)/T(n_0)/T(q*) rows at the last frame. The distinct counts among 0, n_0 and q* are timed
-    in turn, ``SWEEP_REPEATS`` rounds (a count two terms share is timed once and given to
-    both)."""
+    T(0)/T(n_0)/T(q*) rows at the last frame, flown by :func:`soc.fly` on its camera. The
+    distinct counts among 0, n_0 and q* are timed in turn, ``SWEEP_REPEATS`` rounds (a count
+    two terms share is timed once and given to both)."""
     import soc
     from soc.models.adaptive import MAX_FIT_RMS
     from soc.models.query_model import best_query_count, fit_query_model
 
     last = dyn.frames - 1
     cam = dyn.cameras(*params.resolution)[last]
-    c = soc.Culler(dyn.scene, method="adaptive", resolution=params.resolution, mode=3,
-                   temporal=False, queries="auto")  # fmt: skip
-    with c:
-        m = c.method
-        m.set_alive(dyn.alive(last))
-        m.render(cam, renderer)  # warm-up: the first frame records every node buffer
-        m.planner.reset()
-        # The triangles of every node in the frustum: what q = 0 draws (the camera is fixed).
-        base = float(m._node_triangles()[m.octree.visible_nodes(cam)].sum())
-        times, hidden = [], []
-        for _ in range(params.sweep_frames):
-            fr = m.render(cam, renderer)
-            times.append(fr.ms)
-            hidden.append(base - fr.triangles)
-            bar.update(1)
+    clip = SimpleNamespace(scene=dyn.scene, state=None)
+    play = Shaded(clip, renderer, dyn.alive(last), mode=3, temporal=False, queries="auto")
+    m = play.method
+    base = 0.0
+
+    def fresh_planner(i: int, _camera) -> None:
+        nonlocal base
+        if i == 0:  # after the warm-up frame, which records every node buffer
+            m.planner.reset()
+            # The triangles of every node in the frustum: what q = 0 draws (a fixed camera).
+            base = float(m._node_triangles()[m.octree.visible_nodes(cam)].sum())
+
+    def hidden(_name, _play, _result) -> dict:
+        return {"ms": play.last.ms, "hidden_triangles": base - play.last.triangles}
+
+    try:
+        f = soc.fly({"sweep": play}, [cam] * params.sweep_frames, warmup=[cam],
+                    before_frame=fresh_planner, extra=hidden, progress=progress)  # fmt: skip
         m.fit_queries()  # once more, with every frame's statistics and the latest unit costs
         stats = m.planner.statistics(m.planner.per_command, m.planner.per_query)
         own = m.octree.own_counts
@@ -241,25 +298,28 @@ def sweep(dyn, params: Params, renderer, bar) -> tuple[pd.DataFrame, dict, list[
         model = fit.model(c_n, b["commands"], d["calls"], d["triangles"])
         n0 = len(m.octree.visible_nodes(cam))
         choice = best_query_count(model, n0)
-        trusted, compare = m.planner.fit is not None, []
+        trusted = m.planner.fit is not None
         terms = (("T(0)", 0), ("T(n0)", n0),
                  ("T(q*)", int(choice.candidates.get("q*", (choice.q,))[0])))  # fmt: skip
         counts = list(dict.fromkeys(q for _, q in terms))
-        ms: dict[int, list[float]] = {q: [] for q in counts}
-        for _ in range(SWEEP_REPEATS):  # the counts in turn: drift falls on all alike
-            for q in counts:
-                m.queries = int(q)
-                ms[q].append(m.render(cam, renderer).ms)
-        for label, q in terms:
-            compare.append({"scene": dyn.name, "term": label, "q": int(q),
-                            "model_ms": float(model.time(q)),
-                            "measured_ms": float(np.median(ms[q])), "measured_min": min(ms[q]),
-                            "measured_max": max(ms[q]),
-                            "same_as": next(t for t, k in terms if k == q)})  # fmt: skip
+
+        def count(i: int, _camera) -> None:  # the counts in turn: drift falls on all alike
+            m.queries = int(counts[i % len(counts)])
+
+        timed = soc.fly({"count": play}, [cam] * (SWEEP_REPEATS * len(counts)), warmup=0,
+                        before_frame=count, extra=hidden, progress=False)  # fmt: skip
+    finally:
+        play.close()
+    ms = {q: timed.ms.to_numpy()[i :: len(counts)].tolist() for i, q in enumerate(counts)}
+    compare = [{"scene": dyn.name, "term": label, "q": int(q), "model_ms": float(model.time(q)),
+                "measured_ms": float(np.median(ms[q])), "measured_min": min(ms[q]),
+                "measured_max": max(ms[q]), "same_as": next(t for t, k in terms if k == q)}
+               for label, q in terms]  # fmt: skip
     k = len(stats.q)  # the planner's window keeps the latest frames
     points = pd.DataFrame({"scene": dyn.name, "q": stats.q,
-                           **{key: getattr(stats, key) for key in SERIES}, "ms": times[-k:],
-                           "hidden_triangles": hidden[-k:]})  # fmt: skip
+                           **{key: getattr(stats, key) for key in SERIES},
+                           "ms": f.ms.to_numpy()[-k:],
+                           "hidden_triangles": f.hidden_triangles.to_numpy()[-k:]})  # fmt: skip
     fit_row = {
         "scene": dyn.name,
         **{f"fit_{k}": float(getattr(fit, k)) for k in ("n_0", "s_1", "e_0", "p", "e_1")},
@@ -384,41 +444,39 @@ def _criteria(times: dict[str, np.ndarray]) -> dict:
 
 
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
-    """Per scene :func:`animate` (``repeats`` times) and :func:`sweep`, then :func:`summarize`;
-    frames :data:`FRAMES`."""
-    from tqdm.auto import tqdm
-
+    """Per scene :func:`animate` (``repeats`` plays) and :func:`sweep`, then
+    :func:`summarize`; frames :data:`FRAMES`."""
     from soc.gl.context import default_context
+    from soc.metrics import stage
     from soc.models.adaptive import warm_up_fit
     from soc.rendering.renderer import Renderer
     from soc.scenes.dynamic import dynamic_scene
 
     glctx = default_context()
     warm_up_fit()  # compile the jitted regression once, before any frame is timed
-    rows, points, fits, compare, scenes, repeats = [], [], [], [], [], []
-    total = len(params.scenes) * (params.repeats * params.frames + params.sweep_frames)
-    with tqdm(total=total, desc="seed004 adaptive", unit="frame", disable=not progress) as bar:
-        for name in params.scenes:
-            t = time.perf_counter()
+    plays, points, fits, compare, scenes, repeats = [], [], [], [], [], []
+    for name in params.scenes:
+        ms: dict[str, float] = {}
+        with stage(ms, "generate"):
             dyn = dynamic_scene(name, params.seed, frames=params.frames, scale=params.scale)
-            gen = time.perf_counter() - t
-            renderer = Renderer(glctx.geometry(dyn.scene), params.resolution)
-            try:
-                for k in range(params.repeats):
-                    played = animate(dyn, params, renderer, bar, repeat=k)
-                    repeats.append(repeat_row(pd.DataFrame(played), k))
-                    rows += played if k == 0 else []
-                p, fit, cmp = sweep(dyn, params, renderer, bar)
-            finally:
-                renderer.release()
-            points.append(p)
-            fits.append(fit)
-            compare += cmp
-            obj, tri = (dyn.counts()[k] for k in ("objects", "triangles"))
-            scenes.append({"scene": name, "pool_objects": len(dyn.scene),
-                           "objects_first": int(obj[0]), "objects_last": int(obj[-1]),
-                           "triangles_last": int(tri[-1]), "generate_s": gen})  # fmt: skip
-    f = pd.DataFrame(rows)
+        renderer = Renderer(glctx.geometry(dyn.scene), params.resolution)
+        try:
+            played = animate(dyn, params, renderer, progress)
+            p, fit, cmp = sweep(dyn, params, renderer, progress)
+        finally:
+            renderer.release()
+        for k, one in played.groupby("repeat"):
+            repeats.append(repeat_row(one, int(k)))
+        plays.append(played[played.repeat == 0].drop(columns="repeat"))
+        points.append(p)
+        fits.append(fit)
+        compare += cmp
+        obj, tri = (dyn.counts()[k] for k in ("objects", "triangles"))
+        scenes.append({"scene": name, "pool_objects": len(dyn.scene),
+                       "objects_first": int(obj[0]), "objects_last": int(obj[-1]),
+                       "triangles_last": int(tri[-1]),
+                       "generate_s": ms["generate"] / 1e3})  # fmt: skip
+    f = pd.concat(plays, ignore_index=True)
     summary, crit, switches = summarize(f)
     return {
         "frames": f, "summary": summary, "criterion": crit, "switches": switches,
