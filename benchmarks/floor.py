@@ -237,11 +237,11 @@ def run_floor(
         with bc.open_cullers(scene, parsed, resolution) as cullers:
             flown = soc.fly({**cullers, FLOOR: probe}, cameras, truth="oracle", draw=True,
                             ideal=True, everything=True, progress=progress)  # fmt: skip
+            # Each culler's own promise, which its options may change (grid(temporal=False) is
+            # conservative, queries(previous_frame=True) is not), not its class's.
+            conservative = {s: c.conservative for s, c in cullers.items()}
     finally:
         probe.close()
-    # The class flag (never culls a visible object), not the instance: hiz-gpu's instance
-    # attribute ``conservative`` is its raster option and shadows the flag.
-    conservative = {s: bool(METHODS[n].conservative) for s, (n, _) in parsed.items()}
     df = flown[flown["method"] != FLOOR].rename(columns=COLUMNS).reset_index(drop=True)
     for col in ("gpu_cull_ms", "gpu_draw_ms", "gpu_total_ms"):
         if col not in df:

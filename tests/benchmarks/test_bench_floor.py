@@ -88,6 +88,21 @@ def test_a_floor_run_on_the_walk(tmp_path):
         bench.main(["--only", "methods", "--path", "walk", "--out", str(tmp_path)])
 
 
+def test_each_row_says_whether_its_culler_is_conservative_not_its_class():
+    """An option can change the promise: grid(temporal=False) waits for this frame's results
+    (conservative though grid's class says no), queries(previous_frame=True) uses last frame's
+    (not conservative though the class says yes). The column and the summary read the culler."""
+    specs = ["grid", "grid(temporal=False)", "queries", "queries(previous_frame=True)"]
+    res = bench_floor.run_floor(
+        soc.scenes.clutter(0, objects=40), 2, specs, resolution=(96, 64), progress=False
+    )
+    column = res.frames.groupby("method")["conservative"].agg(set)
+    assert column[specs].tolist() == [{False}, {True}, {True}, {False}]
+    assert column["ideal"] and column["everything"]
+    summary = bench_floor.summarize(res).set_index("method")["conservative"]
+    assert summary[specs].tolist() == ["no", "yes", "yes", "no"]
+
+
 def test_markdown_section_written_between_markers(result, tmp_path):
     body = bench_floor.markdown(result, "python -m benchmarks --only floor")
     for heading in ("### The floor", "### Culling targets", "| hiz-gpu(footprint=4) |"):
