@@ -55,6 +55,7 @@ import hashlib
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, fields
 
+import numba
 import numpy as np
 
 # Most triangles per cluster: the clusterizer's (niagara's and Nanite's 128).
@@ -75,7 +76,7 @@ ROOT_ERROR = np.float32(3.0e38)
 # Children per node of the group hierarchy.
 NODE_WIDTH = 8
 # Bump when the layout or the algorithm changes: cached DAGs of older versions are ignored.
-FORMAT_VERSION = "dag-3"
+FORMAT_VERSION = "dag-4"
 
 
 @dataclass(frozen=True)
@@ -368,27 +369,71 @@ def _simplify(vertices, tri, max_error=_NO_CAP):
 
 
 def _merge_spheres(spheres: np.ndarray) -> np.ndarray:
-    """(4,) float32 a sphere holding every sphere of ``spheres`` (k, 4): Ritter's growth over
-    the spheres from the largest (two passes), its radius then the largest reach from the
-    stored centre, rounded up in float32."""
-    s = spheres.astype(np.float64)
-    k = int(np.argmax(s[:, 3]))
-    c, r = s[k, :3].copy(), s[k, 3]
+    """(4,) float32 a sphere holding every sphere of ``spheres`` (k, 4), close to the smallest
+    one: the smaller of Ritter's growth (two passes from the largest sphere) and Bădoiu and
+    Clarkson's iteration towards the farthest sphere (:data:`MERGE_STEPS` steps, it converges
+    to the smallest enclosing ball); its radius then the largest reach from the float32 centre,
+    rounded up, so that it holds every sphere whatever the approximation."""
+    s = np.ascontiguousarray(spheres, np.float64)
+    centre = _merge_centre(s, MERGE_STEPS).astype(np.float32).astype(np.float64)
+    reach = (np.sqrt(((s[:, :3] - centre) ** 2).sum(1)) + s[:, 3]).max()
+    r32 = np.float32(reach)
+    while np.float64(r32) < reach:
+        r32 = np.nextafter(r32, np.float32(np.inf))
+    return np.array([*centre, np.nextafter(r32, np.float32(np.inf))], np.float32)
+
+
+# Steps of the smallest-enclosing-ball iteration of :func:`_merge_spheres` (its excess radius
+# falls about as 1 / sqrt(steps)).
+MERGE_STEPS = 256
+
+
+@numba.njit(cache=True)
+def _merge_centre(s, steps):  # pragma: no cover - compiled
+    """(3,) float64 the centre of a sphere holding the spheres ``s`` (k, 4): Ritter's, or the
+    best centre of the Bădoiu-Clarkson iteration (each step moves the centre 1 / (i + 1) of
+    the way to the far point of the farthest sphere) where its reach is smaller."""
+    k = 0
+    for i in range(len(s)):
+        if s[i, 3] > s[k, 3]:
+            k = i
+    c = s[k, :3].copy()
+    r = s[k, 3]
     for _ in range(2):
-        for i in range(len(s)):  # build time, a group's clusters (about 8)
+        for i in range(len(s)):
             v = s[i, :3] - c
-            d = float(np.sqrt(v @ v))
+            d = np.sqrt((v * v).sum())
             if d + s[i, 3] > r:  # grow to hold sphere i: the new sphere touches both far ends
                 new_r = 0.5 * (r + d + s[i, 3])
                 if d > 0:
                     c = c + v / d * (new_r - r)
                 r = new_r
-    centre = c.astype(np.float32).astype(np.float64)
-    reach = (np.linalg.norm(s[:, :3] - centre, axis=1) + s[:, 3]).max()
-    r32 = np.float32(reach)
-    while np.float64(r32) < reach:
-        r32 = np.nextafter(r32, np.float32(np.inf))
-    return np.array([*centre, np.nextafter(r32, np.float32(np.inf))], np.float32)
+    best, best_r = c.copy(), _reach(s, c)
+    c = s[:, :3].sum(0) / len(s)
+    for step in range(steps):
+        far, reach = 0, -1.0
+        for i in range(len(s)):
+            v = s[i, :3] - c
+            x = np.sqrt((v * v).sum()) + s[i, 3]
+            if x > reach:
+                far, reach = i, x
+        if reach < best_r:
+            best, best_r = c.copy(), reach
+        v = s[far, :3] - c
+        d = np.sqrt((v * v).sum())
+        # The point of the farthest sphere farthest from c (its centre when c is that centre).
+        p = s[far, :3] + (v / d * s[far, 3] if d > 0 else np.zeros(3))
+        c = c + (p - c) / (step + 2)
+    return best
+
+
+@numba.njit(cache=True)
+def _reach(s, c):  # pragma: no cover - compiled
+    out = 0.0
+    for i in range(len(s)):
+        v = s[i, :3] - c
+        out = max(out, np.sqrt((v * v).sum()) + s[i, 3])
+    return out
 
 
 # -- the build -------------------------------------------------------------------------------------

@@ -233,3 +233,24 @@ def test_pixel_scale_matches_projection():
 
     cam = Camera.look_at((0, 0, 10), (0, 0, 0), fov_y=90.0, width=200, height=100)
     assert pixel_scale(cam) == pytest.approx(50.0)
+
+
+def test_merged_spheres_hold_their_spheres_and_are_near_the_smallest():
+    """The LOD sphere of a group holds every child sphere (float32, rounded up) and is close to
+    the smallest ball holding them: two spheres' smallest ball is known in closed form, and
+    a point set's spheres of radius 0 on a ring are held by the ring's circle."""
+    from lod.dag import _merge_spheres
+
+    rng = np.random.default_rng(11)
+    for _ in range(50):
+        s = np.concatenate([rng.normal(size=(8, 3)) * 3, rng.uniform(0.1, 2, (8, 1))], 1)
+        m = _merge_spheres(s.astype(np.float32)).astype(np.float64)
+        reach = np.linalg.norm(s[:, :3] - m[:3], axis=1) + s[:, 3]
+        assert (reach <= m[3]).all()
+        two = s[:2]
+        exact = 0.5 * (np.linalg.norm(two[0, :3] - two[1, :3]) + two[0, 3] + two[1, 3])
+        exact = max(exact, two[:, 3].max())
+        assert _merge_spheres(two.astype(np.float32))[3] <= exact * 1.01
+    a = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    ring = np.stack([np.cos(a), np.sin(a), 0 * a, 0 * a], 1) * [5, 5, 5, 0] + [1, 2, 3, 0]
+    assert _merge_spheres(ring.astype(np.float32))[3] <= 5 * 1.02
