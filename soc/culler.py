@@ -27,6 +27,14 @@ def method_names(scene=None) -> list[str]:
     return sorted(m for m, cls in METHODS.items() if scene is None or cls.supports(scene))
 
 
+def _is_instanced(scene) -> bool:
+    """Whether ``scene`` is an :class:`~soc.scenes.instanced.InstancedScene` (meshes once,
+    instances as objects), which only a method with ``instanced_scenes = True`` culls."""
+    from soc.scenes.instanced import InstancedScene
+
+    return isinstance(scene, InstancedScene)
+
+
 def _check_takes_options(cls: type[CullMethod]) -> None:
     """A method's constructor receives its options: ``(geometry, resolution, config,
     options)``, or it is the base class's."""
@@ -44,7 +52,10 @@ class Culler:
 
     Parameters
     ----------
-    scene : Scene
+    scene : Scene or InstancedScene
+        An :class:`~soc.scenes.instanced.InstancedScene` is culled by ``"gpu-driven"`` with
+        ``lod`` (the cut of its cluster DAGs, instances as objects); other methods take
+        ``scene.to_scene()``.
     method : str or CullMethod subclass
         One of :func:`method_names` (``"none"``, ``"frustum"``, ``"queries"``, …), optionally
         with options as the benchmarks print them (``"hiz-2phase(test='gpu')"``, literal
@@ -102,6 +113,13 @@ class Culler:
                 "(options: NAME(option=value, ...) or keywords)"
             )
         _check_takes_options(cls)
+        instanced = _is_instanced(scene)
+        if instanced and not getattr(cls, "instanced_scenes", False):
+            raise ValueError(
+                f"culling method {getattr(cls, 'name', cls.__name__)!r} culls flat scenes, not "
+                "an InstancedScene: cull scene.to_scene() (each instance a copy of its mesh), "
+                "or draw the DAG's cut with method 'gpu-driven' and lod=<pixels>"
+            )
         # The options are checked before any GL work: a wrong one costs nothing.
         typed = build_options(cls, options)
         self.resolution = _resolution(*resolution)
@@ -113,10 +131,18 @@ class Culler:
         with self.glctx.current():
             self.glctx.check_size(self.resolution, "culling resolution")
             self.scene = scene
-            self.geometry = self.glctx.geometry(scene)
+            if instanced:  # this culler's own upload: meshes once, a transform per instance
+                from soc.gl.geometry import InstancedGeometry
+
+                self.geometry = InstancedGeometry(self.glctx, scene)
+            else:
+                self.geometry = self.glctx.geometry(scene)
+            self._own_geometry = instanced
             try:
                 self.method = cls(self.geometry, self.resolution, self.config, typed)
             except BaseException:
+                if instanced:
+                    self.geometry.release()
                 self.glctx.pop_errors()  # a failed constructor leaves no GL error behind
                 raise
 
@@ -144,6 +170,9 @@ class Culler:
         if self._renderer is not None:
             self._renderer.release()
             self._renderer = None
+        if self._own_geometry:
+            self.geometry.release()
+            self._own_geometry = False
 
     def __enter__(self) -> Culler:
         return self

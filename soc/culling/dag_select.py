@@ -41,9 +41,11 @@ from soc.gl.context import uses_gl
 from soc.scenes.instanced import Instances, check_similarity, make_instances
 
 __all__ = [
+    "DagClusters",
     "DagFrame",
     "DagRenderer",
     "DagTables",
+    "DagWalk",
     "Instances",
     "check_similarity",
     "make_instances",
@@ -358,6 +360,8 @@ DAG_MAX_DEPTH = 64
 DAG_HEADER = DAG_COUNT_NODES + DAG_MAX_DEPTH + 1
 # Most pairs a list holds (nodes of one depth, groups, the cut, each phase's commands).
 DEFAULT_CAPACITY = 1 << 21
+# Where the walk sets the cut's bits (a candidate bit set: DagWalk's ``marks``).
+DAG_MARKS_BINDING = 10
 # Invocations per work group of the DAG's compute passes (the shaders' COMPUTE_GROUP).
 DAG_GROUP = 64
 # Work groups of a dispatch (each invocation strides through its list).
@@ -384,6 +388,7 @@ def _defines(capacity: int) -> dict[str, object]:
         "DAG_CULL_BINDING": 7,
         "DAG_COMMANDS_BINDING": 8,
         "DAG_PAIRS_BINDING": 9,
+        "DAG_MARKS_BINDING": DAG_MARKS_BINDING,
         "DAG_CAPACITY": f"{capacity}u",
         "DAG_NODE_SLACK": repr(float(NODE_SLACK)),
         "DAG_BOX_GROW": repr(float(DAG_BOX_GROW)),
@@ -453,6 +458,374 @@ def _instance_rows(instances: Instances) -> np.ndarray:
 
 
 @uses_gl
+class DagWalk:
+    """The cut's selection on the GPU (``dag_walk.comp.glsl``): the DAG tables and instances
+    uploaded once, a breadth-first walk of every instance's group tree per frame.
+
+    The selected (instance, cluster) pairs go to the work buffer's selected list
+    (:meth:`select` reads them back), or, with ``marks``, each sets one bit of a candidate bit
+    set (``gpu-driven``'s frame buffer: :class:`DagClusters`), bit ``first[i] + c -
+    tables.mesh_clusters[mesh[i]]`` for cluster ``c`` of instance ``i``.
+
+    Parameters
+    ----------
+    tables : DagTables
+    instances : Instances
+    glctx : GLContext
+    capacity : int
+        Most pairs a work list holds.
+    first : (I,) int, optional
+        Each instance's first bit in the marked bit set (default 0: only :meth:`select`).
+    """
+
+    def __init__(self, tables: DagTables, instances: Instances, glctx, capacity: int,
+                 first: np.ndarray | None = None):  # fmt: skip
+        ctx = glctx.ctx
+        if tables.depth > DAG_MAX_DEPTH:
+            raise ValueError(f"trees deeper than {DAG_MAX_DEPTH} levels: {tables.depth}")
+        if int(instances.mesh.max()) >= len(tables.mesh_root):
+            raise ValueError(
+                f"an instance places mesh {int(instances.mesh.max())} but the tables hold "
+                f"{len(tables.mesh_root)} meshes"
+            )
+        self.glctx, self.tables, self.instances = glctx, tables, instances
+        self.capacity = int(capacity)
+        self.defines = _defines(self.capacity)
+        self.program = ctx.compute_shader(_source("dag_walk.comp", self.defines))
+        t = tables
+        nodes = np.zeros((len(t.node_first), 2, 4), np.float32)
+        nodes[:, 0] = t.node_sphere
+        info = nodes[:, 1].view(np.uint32)
+        info[:, 0], info[:, 1] = t.node_first, t.node_count
+        info[:, 2] = t.node_leaf
+        info[:, 3] = t.node_error.view(np.uint32)
+        lod = np.zeros((len(t), 3, 4), np.float32)
+        lod[:, 0], lod[:, 1] = t.lod_sphere, t.parent_sphere
+        lod[:, 2, 0], lod[:, 2, 1] = t.lod_error, t.parent_error
+        rows = _instance_rows(instances)
+        if first is not None:  # the bit of cluster c of instance i: c + this (mod 2^32)
+            delta = np.asarray(first, np.int64) - t.mesh_clusters[instances.mesh]
+            rows[:, 3, 1] = (delta % (1 << 32)).astype(np.uint32).view(np.float32)
+        self.buffers = {
+            0: ctx.buffer(rows),
+            1: ctx.buffer(instances.mesh.astype(np.uint32)),
+            2: ctx.buffer(t.mesh_root.astype(np.uint32)),
+            3: ctx.buffer(nodes),
+            4: ctx.buffer(t.group_first.astype(np.uint32)),
+            5: ctx.buffer(lod),
+            6: ctx.buffer(reserve=4 * int(self.defines["DAG_WORK_WORDS"])),
+        }
+        self.work = self.buffers[6]
+
+    def release(self) -> None:
+        """Free the walk's GL objects."""
+        for b in self.buffers.values():
+            b.release()
+        self.program.release()
+
+    def bind(self) -> None:
+        """Bind the tables and the work buffer at their DAG_* binding points."""
+        for binding, buf in self.buffers.items():
+            buf.bind_to_storage_buffer(binding)
+
+    def counters(self, first: int = 0, n: int = DAG_HEADER) -> np.ndarray:
+        """(n,) uint32 the work buffer's words from ``first`` (the DAG_COUNT_* counters)."""
+        return np.frombuffer(self.work.read(size=4 * n, offset=4 * first), np.uint32).copy()
+
+    def run(self, camera, threshold: float, frustum: bool, *, pixel_scale: float | None = None,
+            marks=None, marks_at: int = 0, check: bool = True) -> int:  # fmt: skip
+        """The walk's dispatches. ``pixel_scale`` pixels per unit at distance 1 (default the
+        camera's own resolution's); ``marks`` a GL buffer whose bits from word ``marks_at``
+        the cut sets (else the selected list is written). With ``check`` the counters are
+        read back (a sync), checked against the capacity, and the nodes visited returned
+        (else 0)."""
+        from soc.culling.hiz_gpu import set_frustum_uniforms
+
+        if not threshold > 0:
+            raise ValueError(f"threshold must be > 0 pixels, got {threshold!r}")
+        self.bind()
+        if marks is not None:
+            marks.bind_to_storage_buffer(DAG_MARKS_BINDING)
+        else:  # never read, but a bound buffer
+            self.work.bind_to_storage_buffer(DAG_MARKS_BINDING)
+        self.work.write(np.zeros(DAG_HEADER, np.uint32))
+        prog = self.program
+        if pixel_scale is None:
+            pixel_scale = float(camera.resolution[1]) * 0.5 * float(camera.projection[1, 1])
+        prog["eye"].value = tuple(float(x) for x in camera.eye)
+        prog["pixel_scale"].value = float(pixel_scale)
+        prog["threshold"].value = float(threshold)
+        prog["frustum"].value = bool(frustum)
+        _set(prog, "mark", marks is not None)
+        _set(prog, "marks_at", int(marks_at))
+        set_frustum_uniforms(prog, camera)
+        prog["stage"].value = 0
+        prog.run(min(-(-len(self.instances) // DAG_GROUP), DISPATCH_GROUPS))
+        for d in range(self.tables.depth):
+            self.sized(prog, DAG_COUNT_NODES + d, stage=1, depth=d)
+        self.sized(prog, DAG_COUNT_GROUPS, stage=2)
+        if not check:
+            return 0
+        counts = self.counters()
+        self.check(counts)
+        return int(counts[DAG_COUNT_NODES : DAG_COUNT_NODES + self.tables.depth + 1].sum())
+
+    def sized(self, program, counter: int, **uniforms) -> None:
+        """Run ``program`` with ``uniforms`` over as many work groups as the list counted by
+        ``work[counter]`` needs (at most :data:`DISPATCH_GROUPS`), the count never read back:
+        the walk's stage 3 writes the indirect dispatch on the GPU."""
+        ctx = self.glctx.ctx
+        walk = self.program
+        ctx.memory_barrier()
+        walk["stage"].value = 3
+        walk["args_counter"].value = counter
+        walk.run(1)
+        ctx.memory_barrier()
+        for name, value in uniforms.items():
+            program[name].value = value
+        program.run_indirect(self.work, offset=4 * DAG_ARGS)
+        ctx.memory_barrier()
+
+    def check(self, counts: np.ndarray) -> None:
+        """Raise RuntimeError when a work list of ``counts`` (the counters) overflowed."""
+        names = {
+            DAG_COUNT_GROUPS: "groups reached",
+            DAG_COUNT_SELECTED: "selected clusters",
+            DAG_COUNT_RETEST: "late retests",
+            DAG_COUNT_EARLY: "early draws",
+            DAG_COUNT_EARLY + 1: "late draws",
+        }
+        names.update({DAG_COUNT_NODES + d: f"nodes at depth {d}" for d in range(DAG_MAX_DEPTH)})
+        for at, name in names.items():
+            if counts[at] > self.capacity:
+                raise RuntimeError(
+                    f"the DAG's work list of {name} needs {int(counts[at]):,} pairs, more than "
+                    f"its capacity {self.capacity:,}: pass a larger capacity to DagRenderer"
+                )
+
+    def select(self, camera, threshold: float = 1.0, *, frustum: bool = False) -> np.ndarray:
+        """The cut selected on the GPU, read back: (K, 2) int64 (instance, global cluster),
+        sorted. ``frustum`` drops instances' subtrees outside the frustum (the CPU
+        reference, :func:`select_cpu`, does not)."""
+        self.run(camera, threshold, frustum)
+        n = int(self.counters()[DAG_COUNT_SELECTED])
+        if n == 0:
+            return np.zeros((0, 2), np.int64)
+        at = int(self.defines["DAG_LIST_SELECTED"].rstrip("u"))
+        data = np.frombuffer(self.work.read(size=8 * n, offset=4 * at), np.uint32)
+        pairs = data.reshape(-1, 2).astype(np.int64)
+        return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+
+def _world_boxes(local: np.ndarray, matrices: np.ndarray, chunk: int = 1 << 20) -> np.ndarray:
+    """(K, 2, 3) float32 world boxes holding boxes ``local`` (K, 2, 3) under ``matrices``
+    (K, 3, 4) similarity transforms, in float64 and rounded outwards, in chunks."""
+    out = np.empty(local.shape, np.float32)
+    for s in range(0, len(local), chunk):
+        lo, hi = local[s : s + chunk, 0].astype(np.float64), local[s : s + chunk, 1]
+        c, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
+        m = matrices[s : s + chunk].astype(np.float64)
+        wc = np.einsum("ijk,ik->ij", m[:, :, :3], c) + m[:, :, 3]
+        wh = np.einsum("ijk,ik->ij", np.abs(m[:, :, :3]), h)
+        out[s : s + chunk, 0] = np.nextafter((wc - wh).astype(np.float32), np.float32(-np.inf))
+        out[s : s + chunk, 1] = np.nextafter((wc + wh).astype(np.float32), np.float32(np.inf))
+    return out
+
+
+@uses_gl
+class DagClusters:
+    """The cut of an instanced scene's cluster DAGs as ``gpu-driven``'s cluster source
+    (:class:`soc.methods.two_phase.ClusterSource`): ``soc.Culler(scene, "gpu-driven",
+    lod=threshold)``.
+
+    The table of clusters that the pipeline culls and keeps state for holds every DAG cluster
+    (of every level) of every instance: instance ``i`` owns clusters ``first[i] ..
+    first[i + 1] - 1``, its mesh's DAG clusters in order, each drawn from the DAG's own index
+    buffer (all levels, mesh-local indices) with the instance's base vertex and transform; the
+    instance is the pipeline's object. Each frame, before the early pass,
+    :meth:`mark_candidates` runs the DAG walk (:class:`DagWalk`) with the frame's camera and
+    sets the candidate bits of the cut's clusters; the pipeline's frustum and two-phase HiZ
+    passes test and draw only those (and last frame's passed clusters only where they are
+    still in the cut).
+
+    Parameters
+    ----------
+    geometry : soc.gl.geometry.InstancedGeometry
+        Of an :class:`~soc.scenes.instanced.InstancedScene` with its DAGs (``scene.dag``,
+        :meth:`~soc.scenes.instanced.InstancedScene.with_dag`).
+    threshold : float
+        Largest projected error of a drawn cluster, pixels of ``resolution``.
+    resolution : (int, int)
+        The frame's width and height (its height gives the pixels per unit).
+    frustum : bool
+        Drop subtrees whose bounding sphere is outside the frustum in the walk.
+
+    Attributes
+    ----------
+    first : (I + 1,) int64
+        Each instance's first cluster in the table.
+    count : int
+        Clusters in the table (C).
+    ibo, vbo, info, boxes, objects : moderngl.Buffer
+        The DAG's indices and vertices, and the table as gpu-driven reads it
+        (:class:`soc.gl.geometry.ClusterBuffers`' layout).
+    clusters : None
+        No :class:`soc.culling.clusters.Clusters` table (the table is this source).
+    walk : DagWalk
+    """
+
+    clusters = None
+
+    def __init__(self, geometry, threshold: float, resolution, frustum: bool = True):
+        from soc.gl.geometry import grown_aabbs
+
+        scene = geometry.scene
+        tables = getattr(scene, "dag", None)
+        if tables is None:
+            raise ValueError(
+                "gpu-driven with lod= draws the cut of the scene's cluster DAGs, and this "
+                "instanced scene has none: attach them with scene.with_dag(DagTables.from_dags("
+                "[lod.dag.mesh_dag(v, f) for v, f in zip(scene.mesh_vertices, "
+                "scene.mesh_faces)]))"
+            )
+        if not float(threshold) > 0:
+            raise ValueError(f"lod must be > 0 pixels, got {threshold!r}")
+        self.check_meshes(scene, tables)
+        self.glctx, self.scene, self.tables = geometry.glctx, scene, tables
+        self.threshold = float(threshold)
+        self.frustum = bool(frustum)
+        self.resolution = (int(resolution[0]), int(resolution[1]))
+        t = tables
+        mesh = np.asarray(scene.mesh, np.int64)
+        per_mesh = np.diff(t.mesh_clusters)
+        counts = per_mesh[mesh]
+        self.first = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        self.count = c = int(self.first[-1])
+        inst = np.repeat(np.arange(len(scene), dtype=np.int64), counts)
+        cluster = t.mesh_clusters[mesh[inst]] + np.arange(c) - self.first[inst]
+        self.cluster, self.instance = cluster, inst
+        info = np.zeros((c, 4), np.uint32)
+        info[:, 0] = 3 * t.first[cluster]
+        info[:, 1] = 3 * t.count[cluster]
+        info[:, 2] = inst
+        boxes = _world_boxes(t.aabbs[cluster], scene.matrices[inst])
+        grown = grown_aabbs(boxes, geometry.diagonal).reshape(-1, 6)
+        objects = np.zeros((len(scene), 4), np.uint32)
+        objects[:, 0], objects[:, 1] = self.first[:-1], counts
+        objects[:, 2] = t.mesh_vertex[mesh]
+        ctx = self.glctx.ctx
+        self.vbo = ctx.buffer(t.vertices)
+        self.ibo = ctx.buffer(t.faces.astype(np.uint32))
+        self.info = ctx.buffer(info)
+        self.boxes = ctx.buffer(np.ascontiguousarray(grown))
+        self.objects = ctx.buffer(objects)
+        # A list never holds more pairs than the table has clusters (a tree has fewer nodes
+        # and groups than clusters), so a table within the default capacity never overflows.
+        self.walk = DagWalk(
+            t, scene.instances(), self.glctx, min(max(c, 1), DEFAULT_CAPACITY), self.first[:-1]
+        )
+        self._checked = c <= DEFAULT_CAPACITY
+        self._vaos: dict = {}
+        self.geometry = geometry
+
+    @staticmethod
+    def check_meshes(scene, tables) -> None:
+        """Raise ValueError unless ``tables`` holds a DAG of each of ``scene``'s meshes."""
+        if len(tables.mesh_root) != len(scene.mesh_faces):
+            raise ValueError(
+                f"the DAG tables hold {len(tables.mesh_root)} meshes, the scene "
+                f"{len(scene.mesh_faces)}: build one DAG per mesh, in the scene's order"
+            )
+        tris = np.array([len(f) for f in scene.mesh_faces], np.int64)
+        if not np.array_equal(np.asarray(tables.source_triangles, np.int64), tris):
+            raise ValueError(
+                f"the DAGs' source triangles {list(tables.source_triangles)} are not the "
+                f"scene's meshes' {tris.tolist()}: build one DAG per mesh, in the scene's order"
+            )
+
+    def release(self) -> None:
+        for vao in self._vaos.values():
+            vao.release()
+        self._vaos.clear()
+        for b in (self.vbo, self.ibo, self.info, self.boxes, self.objects):
+            b.release()
+        self.walk.release()
+
+    def pixel_scale(self, camera) -> float:
+        """Pixels per world unit at distance 1 of the frame's resolution."""
+        return float(self.resolution[1]) * 0.5 * float(camera.projection[1, 1])
+
+    def mark_candidates(self, camera, frame, offset: int) -> None:
+        """Set the bits of this frame's cut (one per cluster of the table) in the GPU buffer
+        ``frame`` from byte ``offset`` (zeroed before): the DAG walk, on the GPU."""
+        self.walk.run(
+            camera, self.threshold, self.frustum, pixel_scale=self.pixel_scale(camera),
+            marks=frame, marks_at=offset // 4, check=False,
+        )  # fmt: skip
+
+    def check(self) -> None:
+        """Raise RuntimeError when the last walk overflowed a work list (a table beyond the
+        default capacity only)."""
+        if not self._checked:
+            self.walk.check(self.walk.counters())
+
+    def selected(self) -> int:
+        """(instance, cluster) pairs of the last frame's cut (in the frustum with ``frustum``),
+        read back."""
+        return int(self.walk.counters(DAG_COUNT_SELECTED, 1)[0])
+
+    def candidates(self, camera, objects: np.ndarray) -> np.ndarray:
+        """(M,) int64 the table's clusters of ``objects`` (K,) int in ``camera``'s cut (the
+        CPU selection, :func:`select_cpu`, no frustum), each object's in table order."""
+        objects = np.asarray(objects, np.int64)
+        pairs = select_cpu(self.tables, self.scene.instances(), camera.eye,
+                           self.pixel_scale(camera), self.threshold)  # fmt: skip
+        ids = self.table_ids(pairs)
+        keep = np.isin(pairs[:, 0], objects)
+        ids, owner = ids[keep], pairs[keep, 0]
+        rank = np.empty(len(self.scene), np.int64)
+        rank[objects] = np.arange(len(objects))
+        return ids[np.lexsort((ids, rank[owner]))]
+
+    def table_ids(self, pairs: np.ndarray) -> np.ndarray:
+        """(K,) int64 the table's clusters of (instance, global DAG cluster) ``pairs`` (K, 2)."""
+        pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
+        mesh = np.asarray(self.scene.mesh, np.int64)[pairs[:, 0]]
+        return self.first[pairs[:, 0]] + pairs[:, 1] - self.tables.mesh_clusters[mesh]
+
+    def pairs(self, ids: np.ndarray) -> np.ndarray:
+        """(K, 2) int64 (instance, global DAG cluster) of the table's clusters ``ids`` (K,)."""
+        ids = np.asarray(ids, np.int64)
+        return np.stack([self.instance[ids], self.cluster[ids]], axis=1)
+
+    def program(self, camera, shaded: bool):
+        """The program drawing the table's clusters (``instanced.vert`` with ``shade.frag``
+        or ``depth_only.frag``), its camera uniforms set, and its vertex array."""
+        from soc.constants import LIGHT_DIR
+
+        frag = "shade.frag" if shaded else "depth_only.frag"
+        p = self.glctx.program("instanced.vert", frag)
+        p["view_proj"].write(camera.gl_bytes(camera.view_proj))
+        if shaded:
+            p["light_dir"].value = LIGHT_DIR
+            p["eye"].value = tuple(float(x) for x in camera.eye)
+        key = p.glo
+        if key not in self._vaos:
+            g = self.geometry
+            attrs = [
+                (self.vbo, "3f", "in_position"),
+                (g.ids, "u/i", "in_object"),
+                (g.rows, "4f 4f 4f/i", "in_row0", "in_row1", "in_row2"),
+                (g.colors, "3f/i", "in_color"),
+            ]
+            attrs = [a for a in attrs if a[2] in p]
+            self._vaos[key] = self.glctx.ctx.vertex_array(
+                p, attrs, index_buffer=self.ibo, index_element_size=4
+            )
+        return p, self._vaos[key]
+
+
+@uses_gl
 class DagRenderer:
     """The cut of DAG meshes placed by instances, selected, culled and drawn on the GPU.
 
@@ -482,33 +855,18 @@ class DagRenderer:
 
         self.glctx = glctx or default_context()
         ctx = self.glctx.ctx
-        if tables.depth > DAG_MAX_DEPTH:
-            raise ValueError(f"trees deeper than {DAG_MAX_DEPTH} levels: {tables.depth}")
-        if int(instances.mesh.max()) >= len(tables.mesh_root):
-            raise ValueError(
-                f"an instance places mesh {int(instances.mesh.max())} but the tables hold "
-                f"{len(tables.mesh_root)} meshes"
-            )
+        self.walk = DagWalk(tables, instances, self.glctx, capacity)
         self.tables, self.instances = tables, instances
         self.capacity = int(capacity)
-        self.defines = _defines(self.capacity)
+        self.defines = self.walk.defines
         self.resolution = (int(resolution[0]), int(resolution[1]))
-        self._walk = ctx.compute_shader(_source("dag_walk.comp", self.defines))
+        self._walk = self.walk.program
         self._cull = ctx.compute_shader(_source("dag_cull.comp", self.defines))
         self.program = ctx.program(
             vertex_shader=_source("dag_draw.vert", self.defines),
             fragment_shader=_source("dag_draw.frag", self.defines),
         )
         t = tables
-        nodes = np.zeros((len(t.node_first), 2, 4), np.float32)
-        nodes[:, 0] = t.node_sphere
-        info = nodes[:, 1].view(np.uint32)
-        info[:, 0], info[:, 1] = t.node_first, t.node_count
-        info[:, 2] = t.node_leaf
-        info[:, 3] = t.node_error.view(np.uint32)
-        lod = np.zeros((len(t), 3, 4), np.float32)
-        lod[:, 0], lod[:, 1] = t.lod_sphere, t.parent_sphere
-        lod[:, 2, 0], lod[:, 2, 1] = t.lod_error, t.parent_error
         cull = np.zeros((len(t), 5, 4), np.float32)
         cull[:, 0, :3], cull[:, 1, :3] = t.aabbs[:, 0], t.aabbs[:, 1]
         cull[:, 0, 3] = t.cone_cutoff
@@ -517,19 +875,13 @@ class DagRenderer:
         draw[:, 0], draw[:, 1] = 3 * t.first, 3 * t.count
         draw[:, 2] = t.mesh_vertex[t.cluster_mesh]
         draw[:, 3] = t.level
-        self._buffers = {
-            0: ctx.buffer(_instance_rows(instances)),
-            1: ctx.buffer(instances.mesh.astype(np.uint32)),
-            2: ctx.buffer(t.mesh_root.astype(np.uint32)),
-            3: ctx.buffer(nodes),
-            4: ctx.buffer(t.group_first.astype(np.uint32)),
-            5: ctx.buffer(lod),
-            6: ctx.buffer(reserve=4 * int(self.defines["DAG_WORK_WORDS"])),
+        self._own = {
             7: ctx.buffer(cull),
             8: ctx.buffer(reserve=2 * self.capacity * 20),
             9: ctx.buffer(reserve=2 * self.capacity * 8),
         }
-        self.work = self._buffers[6]
+        self._buffers = {**self.walk.buffers, **self._own}
+        self.work = self.walk.work
         self.commands = self._buffers[8]
         self.vbo = ctx.buffer(t.vertices)
         self.ibo = ctx.buffer(t.faces.astype(np.uint32))
@@ -555,14 +907,14 @@ class DagRenderer:
 
     def release(self) -> None:
         """Free every GL object of this renderer."""
-        for b in (*self._buffers.values(), self.vbo, self.ibo, self.slots):
+        for b in (*self._own.values(), self.vbo, self.ibo, self.slots):
             b.release()
+        self.walk.release()
         self.vao.release()
         for fbo in self._targets:
             self.glctx.release_framebuffer(fbo, *fbo.color_attachments, fbo.depth_attachment)
         for p in self._pyramids or ():
             p.release()
-        self._walk.release()
         self._cull.release()
         self.program.release()
 
@@ -579,76 +931,21 @@ class DagRenderer:
             buf.bind_to_storage_buffer(binding)
 
     def _counters(self, first: int = 0, n: int = DAG_HEADER) -> np.ndarray:
-        return np.frombuffer(self.work.read(size=4 * n, offset=4 * first), np.uint32).copy()
+        return self.walk.counters(first, n)
 
     def _run_select(self, camera, threshold: float, frustum: bool) -> int:
         """The walk's dispatches (selection into the work buffer); returns the nodes visited."""
-        from soc.culling.hiz_gpu import set_frustum_uniforms
-
-        if not threshold > 0:
-            raise ValueError(f"threshold must be > 0 pixels, got {threshold!r}")
-        self._bind()
-        self.work.write(np.zeros(DAG_HEADER, np.uint32))
-        prog = self._walk
-        k = float(camera.resolution[1]) * 0.5 * float(camera.projection[1, 1])
-        prog["eye"].value = tuple(float(x) for x in camera.eye)
-        prog["pixel_scale"].value = k
-        prog["threshold"].value = float(threshold)
-        prog["frustum"].value = bool(frustum)
-        set_frustum_uniforms(prog, camera)
-        prog["stage"].value = 0
-        prog.run(min(-(-len(self.instances) // DAG_GROUP), DISPATCH_GROUPS))
-        for d in range(self.tables.depth):
-            self._sized(prog, DAG_COUNT_NODES + d, stage=1, depth=d)
-        self._sized(prog, DAG_COUNT_GROUPS, stage=2)
-        counts = self._counters()
-        self._check(counts)
-        return int(counts[DAG_COUNT_NODES : DAG_COUNT_NODES + self.tables.depth + 1].sum())
+        return self.walk.run(camera, threshold, frustum)
 
     def _sized(self, program, counter: int, **uniforms) -> None:
-        """Run ``program`` with ``uniforms`` over as many work groups as the list counted by
-        ``work[counter]`` needs (at most :data:`DISPATCH_GROUPS`), the count never read back:
-        the walk's stage 3 writes the indirect dispatch on the GPU."""
-        ctx = self.glctx.ctx
-        walk = self._walk
-        ctx.memory_barrier()
-        walk["stage"].value = 3
-        walk["args_counter"].value = counter
-        walk.run(1)
-        ctx.memory_barrier()
-        for name, value in uniforms.items():
-            program[name].value = value
-        program.run_indirect(self.work, offset=4 * DAG_ARGS)
-        ctx.memory_barrier()
+        self.walk.sized(program, counter, **uniforms)
 
     def _check(self, counts: np.ndarray) -> None:
-        names = {
-            DAG_COUNT_GROUPS: "groups reached",
-            DAG_COUNT_SELECTED: "selected clusters",
-            DAG_COUNT_RETEST: "late retests",
-            DAG_COUNT_EARLY: "early draws",
-            DAG_COUNT_EARLY + 1: "late draws",
-        }
-        names.update({DAG_COUNT_NODES + d: f"nodes at depth {d}" for d in range(DAG_MAX_DEPTH)})
-        for at, name in names.items():
-            if counts[at] > self.capacity:
-                raise RuntimeError(
-                    f"the DAG's work list of {name} needs {int(counts[at]):,} pairs, more than "
-                    f"its capacity {self.capacity:,}: pass a larger capacity to DagRenderer"
-                )
+        self.walk.check(counts)
 
     def select(self, camera, threshold: float = 1.0, *, frustum: bool = False) -> np.ndarray:
-        """The cut selected on the GPU, read back: (K, 2) int64 (instance, global cluster),
-        sorted. ``frustum`` drops instances' subtrees outside the frustum (the CPU
-        reference, :func:`select_cpu`, does not)."""
-        self._run_select(camera, threshold, frustum)
-        n = int(self._counters()[DAG_COUNT_SELECTED])
-        if n == 0:
-            return np.zeros((0, 2), np.int64)
-        at = int(self.defines["DAG_LIST_SELECTED"].rstrip("u"))
-        data = np.frombuffer(self.work.read(size=8 * n, offset=4 * at), np.uint32)
-        pairs = data.reshape(-1, 2).astype(np.int64)
-        return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+        """The cut selected on the GPU, read back (:meth:`DagWalk.select`)."""
+        return self.walk.select(camera, threshold, frustum=frustum)
 
     # -- the frame -----------------------------------------------------------------------------
 

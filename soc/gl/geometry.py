@@ -303,12 +303,24 @@ class InstancedGeometry:
     ----------
     commands : (I, 5) uint32
         One indirect draw command per instance.
+    scene : soc.scenes.instanced.InstancedScene
+    diagonal : float
+        The scene's bounding-box diagonal, world units.
+    query_boxes : (I, 2, 3) float32
+        The instances' AABBs grown by the conservative margin (:func:`grown_aabbs`).
+    boxes : moderngl.Buffer
+        (I, 6) float32 the same, ``lo, hi`` (the culling passes' object boxes).
     """
 
     def __init__(self, glctx, scene):
         ctx = glctx.ctx
         self.glctx = glctx
+        self.scene = scene
         n = len(scene)
+        self.diagonal = scene.diagonal
+        self.query_boxes = grown_aabbs(scene.aabbs, self.diagonal)
+        self.boxes = ctx.buffer(self.query_boxes.reshape(n, 6))
+        self._attached: dict = {}
         nv = np.array([len(v) for v in scene.mesh_vertices], np.int64)
         nf = np.array([len(f) for f in scene.mesh_faces], np.int64)
         v_off = np.concatenate([[0], np.cumsum(nv)[:-1]])
@@ -336,8 +348,20 @@ class InstancedGeometry:
         for vao in self._vaos.values():
             vao.release()
         self._vaos.clear()
+        for a in self._attached.values():
+            a.release()
+        self._attached.clear()
         for b in (self.vbo, self.ibo, self.ids, self.rows, self.colors, self.indirect):
             b.release()
+        self.boxes.release()
+
+    def attached(self, key, make):
+        """As :meth:`SceneGeometry.attached`: GPU data derived from the scene (e.g. the
+        instances' hierarchy), made on first need, released with this geometry."""
+        held = self._attached.get(key)
+        if held is None:
+            held = self._attached[key] = make(self)
+        return held
 
     def mesh_vao(self, program):
         """Vertex array drawing instances with ``program`` (instanced.vert inputs)."""

@@ -131,12 +131,20 @@ class GpuDrivenOptions(MethodOptions):
         work (default None: :attr:`soc.gl.context.GLContext.stage_sync`, on llvmpipe, not on
         a GPU, where the frame's passes are queued back to back and only the read back of the
         bits waits). The same frames either way.
+    lod : float or None
+        Draw an :class:`~soc.scenes.instanced.InstancedScene` by the cut of its cluster LOD
+        DAGs (``scene.dag``): each frame every instance's clusters whose projected error is
+        within ``lod`` pixels and whose parent's is not, selected on the GPU
+        (:class:`soc.culling.dag_select.DagClusters`), then culled and drawn by the same
+        passes; the instances are the objects. None (default): the scene's own meshes (a
+        flat scene only). ``cluster_triangles`` is the DAG's then.
     """
 
     granularity: Granularity = "cluster"
     cluster_triangles: int = option(CLUSTER_TRIANGLES, low=1)
     order: Order = "front-to-back"
     sync: bool | None = None
+    lod: float | None = option(None, low=0.0)
 
 
 @register
@@ -165,6 +173,7 @@ class GpuDrivenCulling(TwoPhase):
 
     name = "gpu-driven"
     Options = GpuDrivenOptions
+    instanced_scenes = True  # soc.Culler hands it InstancedScenes (with lod)
 
     def __init__(self, geometry, resolution, config, options: GpuDrivenOptions | None = None):
         super().__init__(geometry, resolution, config, options)
@@ -173,12 +182,33 @@ class GpuDrivenCulling(TwoPhase):
         # Clusters of objects of several clusters are tested one per invocation in a pass of
         # their own (the late pass's loop keeps one SIMD lane busy while the others wait).
         self.split = granularity == "cluster"
-        if granularity == "cluster":
+        lod = self.options.lod
+        self.instanced = hasattr(scene, "mesh_faces")  # an InstancedScene
+        if self.instanced != (lod is not None):
+            super().release()
+            raise ValueError(
+                "gpu-driven draws an InstancedScene by the cut of its cluster DAGs: pass "
+                "lod=<pixels> (e.g. 1.0), or cull scene.to_scene()"
+                if self.instanced
+                else f"gpu-driven(lod={lod!r}) draws the cut of an InstancedScene's cluster "
+                "DAGs; this scene is flat: drop lod"
+            )
+        if lod is not None:
+            from soc.culling.dag_select import DagClusters
+
+            if granularity != "cluster":
+                super().release()
+                raise ValueError("gpu-driven(lod=...) culls the DAG's clusters: granularity "
+                                 f"must be 'cluster', got {granularity!r}")  # fmt: skip
+            self.source = DagClusters(geometry, lod, self.renderer.resolution, config.frustum)
+            self.gpu = self.source  # the table of every instance's DAG clusters
+        elif granularity == "cluster":
             self.source = SceneClusters(scene, self.options.cluster_triangles)
         else:
             self.source = WholeObjects(scene)
         self.clusters = self.source.clusters
-        self.gpu = geometry.clusters(self.clusters)
+        if lod is None:
+            self.gpu = geometry.clusters(self.clusters)
         self.hierarchy = gpu_hierarchy(geometry)
         self.pyramid = DepthPyramid(self.glctx, self.renderer.resolution)
         self.early_pass = self.glctx.compute("gpu_driven_early.comp")
@@ -225,6 +255,8 @@ class GpuDrivenCulling(TwoPhase):
             if b is not None:
                 b.release()
         self.pyramid.release()
+        if self.options.lod is not None:
+            self.source.release()
         super().release()
 
     def reset(self) -> None:
@@ -303,8 +335,10 @@ class GpuDrivenCulling(TwoPhase):
             self.frame.clear()
             self.passed.write(_ZERO, offset=4 * list_out)
             self.passed.write(_ZERO + _ZERO, offset=4 * self._split_at)
-            if marks:
+        if marks:  # the source's choice (a DAG's cut: the walk), a stage of its own
+            with stage(timings, "select", self.finish):
                 self.source.mark_candidates(camera, self.frame, 4 * self._candidate_bits)
+        with stage(timings, "early", self.finish):
             if f.occlusion:
                 self._run(self.early_pass)
         if f.occlusion and self.sort_draws:
@@ -313,7 +347,10 @@ class GpuDrivenCulling(TwoPhase):
 
     def issue(self, f: Frame, what: str, program) -> None:
         late = what == "late"
-        vao = self.geometry.mesh_vao(program, self.gpu.ibo)
+        if self.instanced:  # the instances' transforms: instanced.vert
+            program, vao = self.source.program(f.camera, f.draw)
+        else:
+            vao = self.geometry.mesh_vao(program, self.gpu.ibo)
         c = self.gpu.count
         commands = self.sorted if self.sort_draws else self.commands
         self.draws.draw(vao, program, commands, self.frame, 4 * late, c * late, c)
@@ -356,6 +393,8 @@ class GpuDrivenCulling(TwoPhase):
             bits = np.unpackbits(words[self._object_bits :].view(np.uint8), bitorder="little")
             visible = bits[:n].astype(bool)
         self.last_commands = (int(words[FRAME_COMMANDS]), int(words[FRAME_COMMANDS + 1]))
+        if self.instanced:
+            self.source.check()  # a walk's list beyond its capacity (large tables only)
         triangles = int(words[FRAME_TRIANGLES]) + int(words[FRAME_TRIANGLES + 1])
         return MethodOutput(
             visible,
@@ -364,6 +403,15 @@ class GpuDrivenCulling(TwoPhase):
             f.timings,
             triangles_drawn=triangles,
         )
+
+    def candidate_clusters(self) -> np.ndarray:
+        """(C,) bool: the last frame's candidate clusters as the cluster source marked them on
+        the GPU (a DAG's cut; all False for a source that does not mark), read back (for
+        tests and measurements; not part of a frame)."""
+        c = self.gpu.count
+        start = 4 * self._candidate_bits
+        words = np.frombuffer(self.frame.read(4 * ((c + 31) // 32), offset=start), "<u4")
+        return np.unpackbits(words.view(np.uint8), bitorder="little")[:c].astype(bool)
 
     def drawn_clusters(self) -> np.ndarray:
         """(C,) bool: the clusters the last frame drew (early or late), read back from the GPU

@@ -5,8 +5,8 @@ The oracle (:func:`soc.exact_visibility`, :class:`soc.culling.oracle.Oracle`) dr
 instances as objects (ids 0..I-1) from one vertex and index buffer per scene and a per-instance
 attribute (:class:`soc.gl.geometry.InstancedGeometry`); :meth:`InstancedScene.to_scene` flattens
 a small one into a :class:`~soc.scenes.scene.Scene` for the methods that cull whole meshes.
-The cluster DAG's renderer (:class:`soc.culling.dag_select.DagRenderer`) draws the same
-instances by their DAG cut.
+``soc.Culler(scene.with_dag(tables), "gpu-driven", lod=...)`` culls and draws the same
+instances by the cut of their cluster DAGs (:class:`soc.culling.dag_select.DagClusters`).
 
 Generators: :func:`rock_field` (displaced rocks and statues of :mod:`soc.scenes.dense`, or the
 ``igea`` and ``armadillo`` scans under ``$VISLOD_DATA/meshes`` with ``meshes="data"``).
@@ -116,6 +116,11 @@ class InstancedScene:
     occluder : (I,) bool
     triangle_counts : (I,) int64
         The source triangles of each instance's mesh.
+    mesh_counts : (I,) int64
+        Draw records per instance (1).
+    dag : soc.culling.dag_select.DagTables or None
+        The cluster LOD DAGs of the meshes, in mesh order (:meth:`with_dag`), which
+        ``soc.Culler(scene, "gpu-driven", lod=...)`` draws the cut of; None: none attached.
     names : Sequence[str]
         ``instance0``, ``instance1``, ...
     meta : Mapping[str, Any]
@@ -166,6 +171,8 @@ class InstancedScene:
         self.occluder = _readonly(occ.copy())
         tris = np.array([len(f) for f in self.mesh_faces], np.int64)
         self.triangle_counts = _readonly(tris[self.mesh])
+        self.mesh_counts = _readonly(np.ones(n, np.int64))
+        self.dag = None
         self.aabbs = _readonly(self._world_boxes())
         self.names = IndexedNames(n, ("instance",))
         self.meta = MappingProxyType(dict(meta or {}))
@@ -226,10 +233,27 @@ class InstancedScene:
             raise SceneError(
                 f"{self.source_triangles:,} source triangles would be copied per instance "
                 f"(more than max_triangles={max_triangles:,}); cull this scene through its "
-                "DAG (soc.culling.dag_select.DagRenderer) or raise max_triangles"
+                "DAGs (soc.Culler(scene.with_dag(tables), 'gpu-driven', lod=1.0)) or raise "
+                "max_triangles"
             )
         meshes = [self.instance_mesh(i) for i in range(len(self))]
         return Scene.from_meshes(meshes, self.occluder, meta={**self.meta, "instanced": True})
+
+    def with_dag(self, dag) -> InstancedScene:
+        """This scene (its arrays shared) with ``dag``, the cluster LOD DAGs of its meshes in
+        mesh order (:class:`soc.culling.dag_select.DagTables`, e.g. ``DagTables.from_dags(
+        [lod.dag.mesh_dag(v, f) for v, f in zip(scene.mesh_vertices, scene.mesh_faces)])``):
+        what ``soc.Culler(scene, "gpu-driven", lod=...)`` draws the cut of."""
+        import copy
+
+        if len(dag.mesh_root) != len(self.mesh_faces):
+            raise SceneError(
+                f"the DAG tables hold {len(dag.mesh_root)} meshes, the scene "
+                f"{len(self.mesh_faces)}: build one DAG per mesh, in the scene's order"
+            )
+        out = copy.copy(self)
+        out.dag = dag
+        return out
 
     def instances(self):
         """The instances as :class:`Instances` (what the DAG's selection reads)."""

@@ -75,6 +75,27 @@ bool candidate(uint c) {
     return every_candidate || (frame[candidate_bits + (c >> 5)] & (1u << (c & 31u))) != 0u;
 }
 
+// The bits of 32-cluster word w that fall in clusters [start, end).
+uint range_mask(uint w, uint start, uint end) {
+    uint lo = max(start, w << 5) - (w << 5);
+    uint hi = min(end, (w + 1u) << 5) - (w << 5);
+    uint upper = hi == 32u ? 0xFFFFFFFFu : (1u << hi) - 1u;
+    return upper & ~((1u << lo) - 1u);
+}
+
+// The candidate bits of word w among object o's clusters ([first, first + count)): a cut
+// holds a few of an object's clusters, visited a word at a time (findLSB over the bits).
+uint candidate_word(uint w, uvec4 obj) {
+    return frame[candidate_bits + w] & range_mask(w, obj.x, obj.x + obj.y);
+}
+
+// Whether this frame's early pass drew cluster c (its drawn bit, before the late stage sets
+// those of the clusters it draws). With a cut chosen per frame (not every_candidate) the late
+// stage reads this instead of the cluster's state, which it writes for candidates only.
+bool drawn_early(uint c) {
+    return (frame[cluster_bits + (c >> 5)] & (1u << (c & 31u))) != 0u;
+}
+
 vec3 object_lo(uint o) { return vec3(object_boxes[6u * o], object_boxes[6u * o + 1u], object_boxes[6u * o + 2u]); }
 vec3 object_hi(uint o) { return vec3(object_boxes[6u * o + 3u], object_boxes[6u * o + 4u], object_boxes[6u * o + 5u]); }
 vec3 cluster_lo(uint c) { return vec3(cluster_boxes[6u * c], cluster_boxes[6u * c + 1u], cluster_boxes[6u * c + 2u]); }

@@ -37,7 +37,8 @@ void test_clusters() {
             pass = judge(lo, hi) == 1u;
         }
         uint o = clusters[c].z;
-        bool early = object_state[o] == frame_id && (cluster_state[c] & 1u) != 0u;
+        bool early = every_candidate ? object_state[o] == frame_id && (cluster_state[c] & 1u) != 0u
+                                     : drawn_early(c);
         cluster_state[c] = pass ? (early ? 1u : 5u) : 0u;
     }
     if (judged > 0u) atomicAdd(frame[FRAME_JUDGED], judged);
@@ -50,10 +51,22 @@ void emit_objects() {
         uint o = passed[split_at + 2u + cluster_count + k];
         uvec4 obj = objects[o];
         Visit v = visit_start(o);
-        for (uint c = obj.x; c < obj.x + obj.y; ++c) {
-            uint state = cluster_state[c];
-            cluster_state[c] = state & 1u;
-            visit(v, c, (state & 1u) != 0u, (state & 4u) != 0u, obj.z, o);
+        if (every_candidate) {
+            for (uint c = obj.x; c < obj.x + obj.y; ++c) {
+                uint state = cluster_state[c];
+                cluster_state[c] = state & 1u;
+                visit(v, c, (state & 1u) != 0u, (state & 4u) != 0u, obj.z, o);
+            }
+        } else {  // a cut chosen per frame: stage 0 judged its clusters only, visited in order
+            // (the runs break where the index ranges do, so skipping the others is safe)
+            for (uint w = obj.x >> 5; w <= (obj.x + obj.y - 1u) >> 5; ++w) {
+                for (uint bits = candidate_word(w, obj); bits != 0u; bits &= bits - 1u) {
+                    uint c = (w << 5) + uint(findLSB(bits));
+                    uint state = cluster_state[c];
+                    cluster_state[c] = state & 1u;
+                    visit(v, c, (state & 1u) != 0u, (state & 4u) != 0u, obj.z, o);
+                }
+            }
         }
         visit_end(v, obj.z, o);
     }
