@@ -372,8 +372,3 @@ def boot_std(stat: Callable[..., float], *arrays: np.ndarray, n: int = 200) -> f
 def holds_text(ok: bool) -> str:
     """The words a basis ends with."""
     return "holds" if ok else "does not hold"
-
-
-def finite(x: float) -> bool:
-    """Not NaN nor infinite."""
-    return isinstance(x, int | float | np.integer | np.floating) and math.isfinite(x)

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from experiments import claims as claims_mod
@@ -355,6 +356,40 @@ def run(
         }
         atomic_write(folder / "inputs.json", lambda p: p.write_text(json.dumps(meta, indent=1)))
     return res
+
+
+# -- pictures ------------------------------------------------------------------------------------
+
+
+def figure(figsize: tuple[float, float], rows: int = 1, cols: int = 1, *, layout: str | None = None,
+           **subplots: Any):  # fmt: skip
+    """A new picture: a matplotlib ``Figure`` of ``figsize`` inches (no pyplot, so nothing
+    global; ``layout`` e.g. "constrained") and its ``rows`` x ``cols`` axes, as
+    ``fig.subplots`` gives them (one ``Axes`` for 1 x 1 unless ``squeeze=False``)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize, layout=layout)
+    return fig, fig.subplots(rows, cols, **subplots)
+
+
+def finish(fig, title: str | None = None, *, rect: Sequence[float] | None = None, **suptitle: Any):
+    """The end of every picture: ``title`` above its panels (``suptitle`` keywords, e.g.
+    ``fontsize``), the panels laid out tight (within ``rect`` of the figure), ``fig`` returned."""
+    if title is not None:
+        fig.suptitle(title, **suptitle)
+    fig.tight_layout(rect=rect)
+    return fig
+
+
+def show_images(axes, images, titles, *, fontsize: float = 9, **imshow: Any) -> None:
+    """One picture per axes (``imshow`` keywords, e.g. ``interpolation``), titled, without
+    the axes' lines and ticks; axes beyond the pictures are left blank."""
+    axes = list(np.ravel(axes))
+    for ax, img, title in zip(axes, images, titles, strict=False):
+        ax.imshow(img, **imshow)
+        ax.set_title(title, fontsize=fontsize)
+    for ax in axes:
+        ax.set_axis_off()
 
 
 # -- parameters as command-line options ----------------------------------------------------------

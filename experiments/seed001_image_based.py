@@ -377,36 +377,22 @@ def _info(frames: dict[str, pd.DataFrame]) -> str:
 
 
 def _images(frames: dict[str, pd.DataFrame], picture: str, suptitle: str):
-    from matplotlib.figure import Figure
-
     rows = frames["pictures"]
     rows = rows[rows.picture == picture].sort_values("panel")
-    fig = Figure(figsize=(4 * max(len(rows), 1), 3.6))
-    axes = np.atleast_1d(fig.subplots(1, max(len(rows), 1)))
-    for ax, r in zip(axes, rows.itertuples(), strict=False):
-        ax.imshow(decode(r.png), interpolation="nearest")
-        ax.set_title(r.title, fontsize=9)
-    for ax in axes:
-        ax.set_axis_off()
-    fig.suptitle(suptitle, fontsize=11)
-    fig.tight_layout()
-    return fig
+    fig, axes = harness.figure((4 * max(len(rows), 1), 3.6), 1, max(len(rows), 1), squeeze=False)
+    harness.show_images(axes, map(decode, rows.png), rows["title"], interpolation="nearest")
+    return harness.finish(fig, suptitle, fontsize=11)
 
 
 def _curves(keys: tuple[str, ...], width: float, xlabel: str, suptitle: str, draw):
     """One panel per column of ``keys``, ``draw(ax, key)`` drawing its curves."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(width, 4))
-    axes = fig.subplots(1, len(keys))
+    fig, axes = harness.figure((width, 4), 1, len(keys))
     for ax, key in zip(axes, keys, strict=True):
         draw(ax, key)
         ax.set(xlabel=xlabel, ylabel=LABELS[key])
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
-    fig.suptitle(suptitle, fontsize=11)
-    fig.tight_layout()
-    return fig
+    return harness.finish(fig, suptitle, fontsize=11)
 
 
 def plot_stereo_images(frames: dict[str, pd.DataFrame], params: Params):

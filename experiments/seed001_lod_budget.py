@@ -424,7 +424,6 @@ def plot_pictures(frames: dict[str, pd.DataFrame], params: Params):
     Titles give polygons and measured frame times (median of three draws) on llvmpipe."""
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import BoundaryNorm, ListedColormap
-    from matplotlib.figure import Figure
 
     p = frames["pictures"].set_index("panel")
     ne, op = p.loc["no elision"], p.loc["optimized"]
@@ -433,8 +432,7 @@ def plot_pictures(frames: dict[str, pd.DataFrame], params: Params):
     tinted = b.copy()
     tinted[changed] = 0.45 * tinted[changed] + 0.55 * np.array([1.0, 0.0, 1.0])
     h, w = a.shape[:2]
-    fig = Figure(figsize=(18, 18 / 3 * h / w + 1.6), layout="constrained")
-    axes = fig.subplots(1, 3)
+    fig, axes = harness.figure((18, 18 / 3 * h / w + 1.6), 1, 3, layout="constrained")
     levels = sum(c.startswith("level") and c[5:].isdigit() for c in p.columns)
     titles = [
         f"no detail elision: {ne.polygons:,} polygons, {ne.ms:.0f} ms",
@@ -442,10 +440,8 @@ def plot_pictures(frames: dict[str, pd.DataFrame], params: Params):
         f"\nmagenta: {changed.mean():.1%} of pixels differ from the left",
         "chosen level per object: darker grey = more detail",
     ]
-    for ax, img, title in zip(axes, (a, tinted, decode(p.loc["levels"].png)), titles, strict=True):
-        ax.imshow(img, interpolation="nearest")
-        ax.set_title(title, fontsize=10)
-        ax.set_axis_off()
+    images = (a, tinted, decode(p.loc["levels"].png))
+    harness.show_images(axes, images, titles, fontsize=10, interpolation="nearest")
     greys = np.linspace(GREY_FINEST, GREY_COARSEST, levels)
     cmap = ListedColormap(np.repeat(greys[:, None], 3, axis=1))
     sm = ScalarMappable(BoundaryNorm(np.arange(levels + 1) - 0.5, levels), cmap)
@@ -505,12 +501,9 @@ def plot_calibration(frames: dict[str, pd.DataFrame], params: Params):
     """Measured vs predicted time per draw (log-log) for the lecture's model
     max(C1·Poly + C2·Vert, C3·Pixels) (left) and the variant chosen by held-out error (right);
     circles fitted, crosses held out, colour log10 of the pixels covered; dashed = equality."""
-    from matplotlib.figure import Figure
-
     s, m = frames["calibration"], frames["model"].set_index("variant")
     chosen = m.index[m.chosen.astype(bool)][0]
-    fig = Figure(figsize=(11, 5), layout="constrained")
-    axes = fig.subplots(1, 2, sharex=True, sharey=True)
+    fig, axes = harness.figure((11, 5), 1, 2, sharex=True, sharey=True, layout="constrained")
     held = s.held_out.astype(bool)
     for ax, name in zip(axes, dict.fromkeys(("lecture", chosen)), strict=False):
         for mask, style, label in ((~held, "o", "fitted"), (held, "x", "held out")):

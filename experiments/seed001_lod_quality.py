@@ -318,10 +318,7 @@ def plot_simplifiers(frames: dict[str, pd.DataFrame], params: Params):
     """Left: sampled symmetric Hausdorff error (% of the bounding-box diagonal) against
     triangles; right: wall time from the full mesh against triangles; log-log, one colour per
     mesh, solid circles = quadric (fast-simplification), dashed squares = Melax's cost."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(12, 4.6))
-    ax, bx = fig.subplots(1, 2)
+    fig, (ax, bx) = harness.figure((12, 4.6), 1, 2)
     for k, (_, g) in enumerate(frames["simplifiers"].groupby("mesh", sort=False)):
         for simp, style in (("quadric", "-o"), ("melax", "--s")):
             r = g[g.simplifier == simp]
@@ -336,46 +333,36 @@ def plot_simplifiers(frames: dict[str, pd.DataFrame], params: Params):
         a.set(xscale="log", yscale="log", xlabel="triangles")
         a.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
-    fig.suptitle(
-        "Seed 001 — quadric edge collapse (fast-simplification) vs Melax's cost", fontsize=11
+    return harness.finish(
+        fig, "Seed 001 — quadric edge collapse (fast-simplification) vs Melax's cost", fontsize=11
     )
-    fig.tight_layout()
-    return fig
 
 
 def plot_picture(frames: dict[str, pd.DataFrame], params: Params):
     """One mesh drawn flat-shaded from the same camera: full, simplified by the quadric error
     and by Melax's cost to the same fraction of its triangles; titles give triangles and the
     Hausdorff error (% of the bounding-box diagonal)."""
-    from matplotlib.figure import Figure
-
     pic, s = frames["picture"].set_index("panel"), frames["simplifiers"]
     s = s[(s.mesh == pic.mesh.iloc[0]) & np.isclose(s.ratio, params.picture_ratio)]
     q, m = (s.set_index("simplifier").loc[k] for k in ("quadric", "melax"))
     imgs = [decode(pic.loc[p, "png"]) for p in ("full", "quadric", "melax")]
     h, w = imgs[0].shape[:2]
-    fig = Figure(figsize=(3 * w / 100, h / 100 + 0.5))
+    fig, axes = harness.figure((3 * w / 100, h / 100 + 0.5), 1, 3)
     titles = [f"full: {q.triangles_full:,} triangles",
               f"quadric: {q.triangles:,} tris, error {q.error_pct:.2f} %",
               f"Melax: {m.triangles:,} tris, error {m.error_pct:.2f} %"]  # fmt: skip
-    for ax, img, title in zip(fig.subplots(1, 3), imgs, titles, strict=True):
-        ax.imshow(img)
-        ax.set_title(title, fontsize=8)
-        ax.axis("off")
-    fig.suptitle(f"{q.label} at 1/{round(1 / params.picture_ratio)} of its triangles", fontsize=9)
-    fig.tight_layout()
-    return fig
+    harness.show_images(axes, imgs, titles, fontsize=8)
+    return harness.finish(
+        fig, f"{q.label} at 1/{round(1 / params.picture_ratio)} of its triangles", fontsize=9
+    )
 
 
 def plot_screen_size(frames: dict[str, pd.DataFrame], params: Params):
     """Left: cumulative share of cases against |estimate − rasterized pixels| / pixels per
     category (colour), solid = exact (silhouette), dashed = naive (2D box); boxes of at least
     100 pixels. Right: histogram of estimate ÷ rasterized pixels over all those cases."""
-    from matplotlib.figure import Figure
-
     ss = frames["screen_size"]
-    fig = Figure(figsize=(12, 4.6))
-    ax, bx = fig.subplots(1, 2)
+    fig, (ax, bx) = harness.figure((12, 4.6), 1, 2)
     for k, cat in enumerate(CATEGORIES):
         for est, style in (("exact", "-"), ("naive", "--")):
             e = np.sort(ss[ss.category == cat][f"{est}_rel_error"].dropna().abs().to_numpy())
@@ -396,11 +383,9 @@ def plot_screen_size(frames: dict[str, pd.DataFrame], params: Params):
     bx.axvline(1.0, color="k", lw=0.8)
     bx.set_title("estimate ÷ true pixel count, all categories", fontsize=10)
     bx.legend(fontsize=8)
-    fig.suptitle(
-        "Seed 001 — naive (2D bbox) vs exact (silhouette) screen size of boxes", fontsize=11
+    return harness.finish(
+        fig, "Seed 001 — naive (2D bbox) vs exact (silhouette) screen size of boxes", fontsize=11
     )
-    fig.tight_layout()
-    return fig
 
 
 # -- claims ----------------------------------------------------------------------------------

@@ -116,12 +116,9 @@ def plot_rooms(frames: dict[str, pd.DataFrame], params: Params):
     """Left: mean % of the building's objects culled per room the camera stands in (walk
     order; "all" = every frame) — grey frustum alone, blue portals, green the oracle's ideal
     (every hidden object culled). Right: cull time per frame (ms, no drawing) of both methods."""
-    from matplotlib.figure import Figure
-
     r, f = frames["rooms"], frames["frames"]
     labels = list(dict.fromkeys(r.room))
-    fig = Figure(figsize=(14, 4.8))
-    ax, bx = fig.subplots(1, 2, gridspec_kw={"width_ratios": [3, 2]})
+    fig, (ax, bx) = harness.figure((14, 4.8), 1, 2, gridspec_kw={"width_ratios": [3, 2]})
     x = np.arange(len(labels))
     styles = {"frustum": ("tab:grey", "frustum only"), "portals": ("tab:blue", "portals"),
               "oracle": ("tab:green", "oracle (ideal: all hidden culled)")}  # fmt: skip
@@ -140,12 +137,13 @@ def plot_rooms(frames: dict[str, pd.DataFrame], params: Params):
     bx.grid(alpha=0.3)
     bx.legend(fontsize=8)
     fc = int(f[f.method == "portals"].false_culls.sum())
-    fig.suptitle(f"Seed 001 — portal culling, {params.rooms[0]}x{params.rooms[1]} rooms x "
-                 f"{params.floors} floor(s) ({int(f.objects.iloc[0]):,} objects), {params.frames} "
-                 f"frames at {res_str(params.display)}; portals' false culls: {fc}",
-                 fontsize=11)  # fmt: skip
-    fig.tight_layout()
-    return fig
+    return harness.finish(
+        fig,
+        f"Seed 001 — portal culling, {params.rooms[0]}x{params.rooms[1]} rooms x "
+        f"{params.floors} floor(s) ({int(f.objects.iloc[0]):,} objects), {params.frames} "
+        f"frames at {res_str(params.display)}; portals' false culls: {fc}",
+        fontsize=11,
+    )
 
 
 def _walk(frames: dict[str, pd.DataFrame], params: Params):

@@ -288,12 +288,9 @@ STYLES = {"fifo": dict(color="black", ls=":"), "lru": dict(color="tab:red"),
 
 
 def _panels(frames: dict[str, pd.DataFrame], key: str, ylabel: str):
-    from matplotlib.figure import Figure
-
     sw = frames["sweep"]
     streams = list(dict.fromkeys(sw.stream))
-    fig = Figure(figsize=(4.2 * len(streams), 4.3))
-    axes = np.atleast_1d(fig.subplots(1, len(streams)))
+    fig, (axes,) = harness.figure((4.2 * len(streams), 4.3), 1, len(streams), squeeze=False)
     for ax, st in zip(axes, streams, strict=True):
         one = sw[sw.stream == st].sort_values("k")
         for s in STRATEGIES:
@@ -315,14 +312,13 @@ def _panels(frames: dict[str, pd.DataFrame], key: str, ylabel: str):
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=7)
     info = frames["stream"].iloc[0]
-    fig.suptitle(
+    return harness.finish(
+        fig,
         f"Seed 001 — sorting buffer: {ylabel} per buffer size; market = {int(info.draws):,} "
         f"draws over {int(info.frames)} frames ({info.method}, {info.display}), "
         f"{int(info.materials)} materials",
         fontsize=11,
     )
-    fig.tight_layout()
-    return fig
 
 
 def plot_changes(frames: dict[str, pd.DataFrame], params: Params):

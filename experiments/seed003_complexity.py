@@ -773,7 +773,6 @@ def plot_lights(frames, params: Params):
     (bottom). Left: forward (solid), deferred loop (dashed) and passes (dotted), a colour per
     viewport; right: deferred / forward (below 1: deferred faster), a vertical line where the
     loop overtakes forward. The x axis is linear up to 1, logarithmic beyond."""
-    from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
 
     t = frames["times"]
@@ -784,8 +783,7 @@ def plot_lights(frames, params: Params):
     sides = sorted(set(sel.side))
     colours = dict(zip(sides, COLOURS, strict=False))
     metric = CLOCKS[CLAIM_CLOCK]
-    fig = Figure(figsize=(13, 4.3 * len(orders) + 0.8))
-    axes = fig.subplots(len(orders), 2, squeeze=False)
+    fig, axes = harness.figure((13, 4.3 * len(orders) + 0.8), len(orders), 2, squeeze=False)
     for i, order in enumerate(orders):
         o = sel[sel.order == order]
         for side in sides:
@@ -816,21 +814,20 @@ def plot_lights(frames, params: Params):
     handles += [Line2D([], [], color="grey", lw=0.8, label="crossover (deferred-loop)")]
     fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=9,
                frameon=False)  # fmt: skip
-    fig.suptitle("Seed 003 — forward O(V·VP·L) vs deferred O(V·VP + L·VP): CPU time against L")
-    fig.tight_layout(rect=(0, 0.05, 1, 1))
-    return fig
+    return harness.finish(
+        fig,
+        "Seed 003 — forward O(V·VP·L) vs deferred O(V·VP + L·VP): CPU time against L",
+        rect=(0, 0.05, 1, 1),
+    )
 
 
 def _sweep_plot(frames, sweep: str, series_key: str | None, xlabel: str, title: str):
     """Wall and CPU time against the sweep's x (log-log), fitted slopes in the legend."""
-    from matplotlib.figure import Figure
-
     t, fr = frames["times"], frames["fits"]
     key = SWEEP_X[sweep]
     sel = t[t.sweep == sweep]
     groups = sorted(set(sel[series_key])) if series_key else [None]
-    fig = Figure(figsize=(14, 5.2))
-    axes = fig.subplots(1, 2)
+    fig, axes = harness.figure((14, 5.2), 1, 2)
     for ax, (clock, metric) in zip(axes, CLOCKS.items(), strict=True):
         for k, g in enumerate(groups):
             for path in PATHS:
@@ -851,9 +848,7 @@ def _sweep_plot(frames, sweep: str, series_key: str | None, xlabel: str, title: 
         ax.set(xscale="log", yscale="log", xlabel=xlabel, ylabel=CLOCK_LABEL[clock])
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=7)
-    fig.suptitle(title, fontsize=11)
-    fig.tight_layout()
-    return fig
+    return harness.finish(fig, title, fontsize=11)
 
 
 def plot_viewport(frames, params: Params):
@@ -873,14 +868,11 @@ def plot_triangles(frames, params: Params):
 def plot_stages(frames, params: Params):
     """Median wall (left) and CPU time (right) of each path's stages at ``reference``,
     stacked: clear, forward shading, g-buffer pass, lighting."""
-    from matplotlib.figure import Figure
-
     t = frames["times"]
     side, lights = params.reference
     ref = t[(t.sweep == "L") & (t.order == ORDERS[0]) & (t.side == side) & (t.lights == lights)]
-    fig = Figure(figsize=(12, 4.2))
-    for ax, (clock, prefix) in zip(fig.subplots(1, 2), (("wall", "ms"), ("cpu", "cpu")),
-                                   strict=True):  # fmt: skip
+    fig, axes = harness.figure((12, 4.2), 1, 2)
+    for ax, (clock, prefix) in zip(axes, (("wall", "ms"), ("cpu", "cpu")), strict=True):
         bottom = np.zeros(len(ref))
         for stage in ("clear", "shade", "gbuffer", "lighting"):
             v = ref[f"{prefix}_{stage}"].fillna(0.0).to_numpy(float)
@@ -888,21 +880,18 @@ def plot_stages(frames, params: Params):
             bottom += v
         ax.set_ylabel(f"{CLOCK_LABEL[clock]} (median)")
         ax.legend(fontsize=8)
-    fig.suptitle(f"Seed 003 — stages at {side}², L = {lights} (back to front)", fontsize=10)
-    fig.tight_layout()
-    return fig
+    return harness.finish(
+        fig, f"Seed 003 — stages at {side}², L = {lights} (back to front)", fontsize=10
+    )
 
 
 def plot_images(frames, params: Params):
     """The reference frame forward and deferred (loop), their difference, and the g-buffer:
     depth, octahedral normal, diffuse colour, material id (at most 128 pixels a side)."""
-    from matplotlib.figure import Figure
-
     from soc.rendering.shading import SKY_MATERIAL, oct_decode
 
     df = frames["images"]
-    fig = Figure(figsize=(16, 8.4))
-    axes = fig.subplots(2, 4)
+    fig, axes = harness.figure((16, 8.4), 2, 4)
     for ax in axes.flat:
         ax.axis("off")
     if df.empty:
@@ -934,10 +923,10 @@ def plot_images(frames, params: Params):
             fig.colorbar(shown, ax=ax, fraction=0.046)
         ax.set_title(title, fontsize=9)
     side, lights = params.reference
-    fig.suptitle(f"Seed 003 — the same frame forward and deferred ({side}², L = {lights}), "
-                 "and the g-buffer")  # fmt: skip
-    fig.tight_layout()
-    return fig
+    return harness.finish(
+        fig,
+        f"Seed 003 — the same frame forward and deferred ({side}², L = {lights}), and the g-buffer",
+    )
 
 
 EXPERIMENT = harness.experiment(

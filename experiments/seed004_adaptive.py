@@ -521,13 +521,12 @@ def plot_frametimes(frames: dict[str, pd.DataFrame], params: Params):
     """Figs. 3-5, a column per scene. Top: each method's frame time over the animation on the
     adaptive method's mode (background; dotted: a switch). Bottom: adaptive's predicted time
     of each mode at its decisions, beside its measured time."""
-    from matplotlib.figure import Figure
     from matplotlib.patches import Patch
 
     f, summary, crit = frames["frames"], frames["summary"], frames["criterion"]
     scenes = list(dict.fromkeys(f.scene))
-    fig = Figure(figsize=(5.2 * len(scenes), 8.0))
-    axes = fig.subplots(2, len(scenes), squeeze=False, gridspec_kw={"height_ratios": [2, 1]})
+    fig, axes = harness.figure((5.2 * len(scenes), 8.0), 2, len(scenes), squeeze=False,
+                               gridspec_kw={"height_ratios": [2, 1]})  # fmt: skip
     for j, scene in enumerate(scenes):
         top, bottom = axes[0, j], axes[1, j]
         ad = f[(f.scene == scene) & (f.method == "adaptive")].sort_values("frame")
@@ -559,8 +558,7 @@ def plot_frametimes(frames: dict[str, pd.DataFrame], params: Params):
     handles = [Patch(fc=MODE_COLORS[k], ec="grey", label=MODE_NAMES[k]) for k in (1, 2, 3)]
     fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=8,
                title="background: the adaptive method's mode", title_fontsize=8)  # fmt: skip
-    fig.tight_layout(rect=(0, 0.07, 1, 1))
-    return fig
+    return harness.finish(fig, rect=(0, 0.07, 1, 1))
 
 
 def plot_stages(frames: dict[str, pd.DataFrame], params: Params):
@@ -569,12 +567,9 @@ def plot_stages(frames: dict[str, pd.DataFrame], params: Params):
     adaptive methods' own bookkeeping (decisions, the invisible estimate, fits), stacked; the
     title gives the cost of one recorded command in each mode beside the paper's frame cost
     per object (Table 1)."""
-    from matplotlib.figure import Figure
-
     st, rec = frames["stages"], frames["recording"]
     scenes = list(dict.fromkeys(st.scene))
-    fig = Figure(figsize=(4.6 * len(scenes), 4.4))
-    axes = fig.subplots(1, len(scenes), squeeze=False)[0]
+    fig, (axes,) = harness.figure((4.6 * len(scenes), 4.4), 1, len(scenes), squeeze=False)
     for ax, sc in zip(axes, scenes, strict=True):
         s = st[st.scene == sc].set_index("method")
         methods = [m for m in METHODS if m in s.index]
@@ -596,8 +591,7 @@ def plot_stages(frames: dict[str, pd.DataFrame], params: Params):
         ax.grid(alpha=0.3, axis="y")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(BARS), fontsize=7)
-    fig.tight_layout(rect=(0, 0.07, 1, 1))
-    return fig
+    return harness.finish(fig, rect=(0, 0.07, 1, 1))
 
 
 def _g(x: float) -> str:
@@ -625,13 +619,10 @@ def plot_regression(frames: dict[str, pd.DataFrame], params: Params):
     """The query-count regression at each scene's last frame (a row per scene): c(q) (8),
     s(q) (9), e(q) (10) measured (dots) and fitted (lines); the frame time with T(q) of (7)
     shifted to the points' median and the frames timed at q = 0, n_0, q* (squares)."""
-    from matplotlib.figure import Figure
-
     from soc.models.query_model import QueryModel
 
     pts, fits, cmp = frames["regression"], frames["fits"], frames["q_compare"]
-    fig = Figure(figsize=(15, 3.3 * len(fits)))
-    axes = fig.subplots(len(fits), 4, squeeze=False)
+    fig, axes = harness.figure((15, 3.3 * len(fits)), len(fits), 4, squeeze=False)
     for i, fit in enumerate(fits.itertuples(index=False)):
         fit = pd.Series(fit._asdict())
         sel = pts[pts.scene == fit.scene]
@@ -663,8 +654,7 @@ def plot_regression(frames: dict[str, pd.DataFrame], params: Params):
         for j, ax in enumerate(axes[i]):
             ax.legend(fontsize=7 if j < 3 else 6)
             ax.grid(alpha=0.3)
-    fig.tight_layout()
-    return fig
+    return harness.finish(fig)
 
 
 # -- claims ------------------------------------------------------------------------------------

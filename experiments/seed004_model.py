@@ -262,12 +262,9 @@ def plot_table1(frames: dict[str, pd.DataFrame], params: Params):
     (2), the paper's form on our constants, dense boxes (a limitation) and the paper's rows
     (grey; a GTX 1070: levels not comparable). Right: each row's model error, ours beside the
     paper's (the comparable quantity), the tolerance shaded."""
-    from matplotlib.figure import Figure
-
     t = frames["table1"]
     const = frames["constants"].set_index("constant")
-    fig = Figure(figsize=(12.5, 4.8))
-    ax, ax_err = fig.subplots(1, 2)
+    fig, (ax, ax_err) = harness.figure((12.5, 4.8), 1, 2)
     rnd, dense = t[t.kind == "random"], t[t.kind == "dense"]
     yerr = [(rnd.ms_measured - rnd.ms_p25).clip(lower=0), (rnd.ms_p75 - rnd.ms_measured).clip(0)]
     ax.errorbar(rnd.objects, rnd.ms_measured, yerr=yerr, fmt="o", color="C0",
@@ -302,8 +299,7 @@ def plot_table1(frames: dict[str, pd.DataFrame], params: Params):
     ax_err.grid(alpha=0.3)
     ax_err.legend(fontsize=7)
     ax_err.set_title("model error per row (held-back sizes)", fontsize=10)
-    fig.tight_layout()
-    return fig
+    return harness.finish(fig)
 
 
 # -- claims ---------------------------------------------------------------------------------------

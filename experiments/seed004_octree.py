@@ -362,12 +362,9 @@ def plot_table2(frames: dict[str, pd.DataFrame], params: Params):
     """Table 2. Left: estimated invisible objects (share of all) against the nodes checked,
     ours per threshold (means over the cameras), the oracle's counts and the paper's row (grey).
     Right: time of the method (ms, medians) beside the paper's GTX 1070: compare the slopes."""
-    from matplotlib.figure import Figure
-
     s = table2_summary(frames["table2"])
     objects = int(frames["table2_scene"].objects.iloc[0])
-    fig = Figure(figsize=(11, 4.2))
-    a, b = fig.subplots(1, 2)
+    fig, (a, b) = harness.figure((11, 4.2), 1, 2)
     for thr, sel in s.groupby("threshold", sort=False):
         label = f"ours, min objects {int(sel.min_objects.iloc[0])}"
         label += " (default)" if thr == "default" else ""
@@ -388,20 +385,16 @@ def plot_table2(frames: dict[str, pd.DataFrame], params: Params):
     b.set(yscale="log", ylabel="time of the method, ms (traversal + queries)")
     a.set_title(f"Table 2: estimate (conservative), {objects:,} objects", fontsize=10)
     b.set_title("Table 2: time (llvmpipe vs the paper's GPU)", fontsize=10)
-    fig.tight_layout()
-    return fig
+    return harness.finish(fig)
 
 
 def plot_replay(frames: dict[str, pd.DataFrame], params: Params):
     """The octree over each scene's animation. Top: ms per frame of T_buf(H) (the changed node
     buffers), T_buf(S) (the frustum's objects afresh, mode 1), T_fc(H) and T_fc(S). Bottom:
     objects alive and commands re-recorded per frame."""
-    from matplotlib.figure import Figure
-
     f = frames["frames"]
     scenes = list(dict.fromkeys(f.scene))
-    fig = Figure(figsize=(4.6 * len(scenes), 6.5))
-    axes = fig.subplots(2, len(scenes), squeeze=False)
+    fig, axes = harness.figure((4.6 * len(scenes), 6.5), 2, len(scenes), squeeze=False)
     for j, s in enumerate(scenes):
         sel = f[f.scene == s]
         top, bottom = axes[0, j], axes[1, j]
@@ -417,32 +410,25 @@ def plot_replay(frames: dict[str, pd.DataFrame], params: Params):
         bottom.legend(fontsize=7)
         for ax in (top, bottom):
             ax.grid(alpha=0.3)
-    fig.tight_layout()
-    return fig
+    return harness.finish(fig)
 
 
 def plot_expensive_nodes(frames: dict[str, pd.DataFrame], params: Params):
     """The Table 2 scene from camera 0, the expensive octree nodes outlined after the estimate:
     red = found occluded (drawn through what hides them), yellow = the others (depth-tested)."""
-    from matplotlib.figure import Figure
-
     px = frames["picture"]
     h, w = int(px.y.max()) + 1, int(px.x.max()) + 1
     img = np.zeros((h, w, 3), np.uint8)
     img[px.y.to_numpy(), px.x.to_numpy()] = px[["r", "g", "b"]].to_numpy(np.uint8)
     info = frames["table2_scene"].iloc[0]
-    fig = Figure(figsize=(9, 9 * h / w + 0.5))
-    ax = fig.subplots()
-    ax.imshow(img)
-    ax.set_axis_off()
-    ax.set_title(
+    fig, ax = harness.figure((9, 9 * h / w + 0.5))
+    title = (
         f"{int(info.objects):,} objects, {int(info.picture_budget):,} nodes checked, min "
         f"objects {int(info.picture_min_objects)}: red = found occluded "
-        f"({int(info.picture_estimate):,} objects), yellow = other expensive nodes",
-        fontsize=9,
+        f"({int(info.picture_estimate):,} objects), yellow = other expensive nodes"
     )
-    fig.tight_layout()
-    return fig
+    harness.show_images([ax], [img], [title])
+    return harness.finish(fig)
 
 
 # -- claims ---------------------------------------------------------------------------------------

@@ -212,3 +212,20 @@ def test_pictures_as_text_round_trip_and_a_power_law_has_its_exponent():
     assert np.allclose(decode(encode(small))[..., :3] * 255, 200, atol=0.5)
     x = np.array([10.0, 100.0, 1000.0])
     assert abs(loglog_slope(x, 3 * x**0.5) - 0.5) < 1e-12
+
+
+def test_picture_helpers_lay_out_title_and_blank_what_has_no_picture():
+    """``figure`` gives ``fig.subplots``' axes, ``show_images`` titles one picture per axes and
+    turns every axes' lines off (those without a picture stay blank), ``finish`` titles the
+    figure only when asked (otherwise matplotlib's default size would change)."""
+    fig, axes = harness.figure((4, 2), 1, 3, squeeze=False)
+    assert axes.shape == (1, 3)
+    img = np.zeros((4, 6, 3), np.uint8)
+    harness.show_images(axes, [img, img], ["a", "b"], fontsize=7)
+    assert [ax.get_title() for ax in axes.flat] == ["a", "b", ""]
+    assert [len(ax.images) for ax in axes.flat] == [1, 1, 0]
+    assert not any(ax.axison for ax in axes.flat)
+    assert harness.finish(fig, "whole", fontsize=9) is fig
+    assert fig.get_suptitle() == "whole" and fig._suptitle.get_fontsize() == 9
+    bare, _ = harness.figure((2, 2))
+    assert harness.finish(bare).get_suptitle() == ""
