@@ -10,7 +10,6 @@ untimed (shader compilation, allocations) and then forgets it (:meth:`soc.Culler
 
 from __future__ import annotations
 
-import time
 from collections.abc import Iterable, Sequence
 from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
@@ -74,22 +73,6 @@ def steps(specs: Iterable[RunSpec], frames: int) -> int:
     return (frames + 1) * (len(merge_specs(specs)) + 1)
 
 
-def _ideal(scene, oracle, renderer, i: int, camera) -> tuple[np.ndarray, dict[str, Any]]:
-    """The oracle's visible set and the ideal frame's row: the exact set's counts, the id
-    render's ``ms_oracle`` and the time to draw exactly that set (its only cost)."""
-    from soc.metrics import frame_stats
-
-    t0 = time.perf_counter()
-    truth = oracle.visible(camera)
-    ms_oracle = 1e3 * (time.perf_counter() - t0)
-    ms_draw = renderer.draw(camera, np.flatnonzero(truth))
-    stats = frame_stats(scene, truth, frustum_culled=0, queries=0, timings_ms={})
-    row = {k: v for k, v in stats.as_row().items() if not k.startswith("ms_")}
-    row.update(run=ORACLE, method=ORACLE, frame=i, false_culls=0, false_keeps=0)
-    row.update(ms_oracle=ms_oracle, ms_draw=ms_draw, ms_cull=0.0, ms_total=ms_draw)
-    return truth, row
-
-
 def _framework_counts(scene, camera, spec: RunSpec, stats) -> dict[str, Any]:
     """What Intel's sample counts where it differs from :class:`soc.FrameStats`: with the
     size test, ``size_culled`` (objects too small) and, with the depth test off (the sample's
@@ -128,7 +111,9 @@ def _stalls(scene, visible: np.ndarray) -> dict[str, Any]:
 def run_all(
     scene, cameras: Sequence, specs: Iterable[RunSpec], *, bar=None, compiled=None
 ) -> pd.DataFrame:
-    """Every (merged) run of ``specs`` over ``cameras``, with the oracle once per frame.
+    """Every (merged) run of ``specs`` over ``cameras``, flown by :func:`soc.fly`: the runs
+    interleaved, the oracle (at the display resolution) once per frame for all, its ideal
+    frame drawn beside them.
 
     One row per frame × run: ``run`` (:attr:`RunSpec.label` or ``"oracle"``), the spec's
     fields, ``drawn``, ``frame``, then :meth:`soc.FrameStats.as_row` (false culls against the
@@ -136,53 +121,44 @@ def run_all(
     :class:`soc.precompile.Precompile`, waited for before the first culler it compiles for.
     """
     import soc
+    from soc.fly import IDEAL
     from soc.precompile import JIT_METHODS
-    from soc.rendering.renderer import Renderer
 
     tick = bar.update if bar is not None else lambda n: None
-    specs = merge_specs(specs)
+    specs = {s.label: s for s in merge_specs(specs)}
     display = tuple(cameras[0].resolution)
-    rows: list[dict[str, Any]] = []
+    now: dict[str, Any] = {}  # the frame's camera, for the framework's counts
+
+    def before_frame(_i: int, camera) -> None:
+        tick(len(specs) + 1)  # the warm-up, then each frame flown before this one
+        now["camera"] = camera
+
+    def labels(label: str, _culler, result) -> dict[str, Any]:
+        s = specs[label]
+        row = {"run": label, "method": s.method, "depth_resolution": res_str(s.resolution),
+               "frustum": s.frustum, "depth_test": s.depth_test, "drawn": s.draw,
+               "options": ",".join(f"{a}={b}" for a, b in s.options),
+               "size_test": s.size_test}  # fmt: skip
+        row |= _framework_counts(scene, now["camera"], s, result.stats)
+        return row | _stalls(scene, result.visible)
+
     with ExitStack() as stack:
         oracle = stack.enter_context(soc.Oracle(scene))
-        renderer = Renderer(oracle.geometry, display)
-        stack.callback(renderer.release)
-        cullers = []
-        for s in specs:
+        cullers = {}
+        for label, s in specs.items():
             if compiled is not None and s.method in JIT_METHODS:
                 compiled.wait()  # load its kernels from the cache, not compile them again
             c = soc.Culler(scene, s.method, s.resolution, config=s.config(), **dict(s.options))
-            stack.callback(c.close)
-            c.cull(cameras[0], draw=s.draw)  # untimed warm-up, then forgotten
-            c.reset()
-            cullers.append(c)
-            tick(1)  # a warm-up costs about a frame: the bar's rate sees it
-        _ideal(scene, oracle, renderer, 0, cameras[0])
-        tick(1)
-        for i, cam in enumerate(cameras):
-            truth, row = _ideal(scene, oracle, renderer, i, cam)
-            rows.append({**row, "depth_resolution": res_str(display), "drawn": True})
-            tick(1)
-            for k in np.roll(np.arange(len(specs)), -i).tolist():
-                s = specs[k]
-                res = cullers[k].cull(cam, truth=truth, draw=s.draw)
-                stats = res.stats
-                labels = {
-                    "run": s.label,
-                    "method": s.method,
-                    "depth_resolution": res_str(s.resolution),
-                    "frustum": s.frustum,
-                    "depth_test": s.depth_test,
-                    "options": ",".join(f"{a}={b}" for a, b in s.options),
-                    "drawn": s.draw,
-                    "size_test": s.size_test,
-                    "frame": i,
-                }
-                row = {**labels, **stats.as_row(), **_framework_counts(scene, cam, s, stats)}
-                rows.append({**row, **_stalls(scene, res.visible)})
-                tick(1)
-    df = pd.DataFrame(rows)
+            cullers[label] = stack.enter_context(c)
+        df = soc.fly(cullers, cameras, truth=oracle.visible, ideal=True, progress=False,
+                     draw=[k for k, s in specs.items() if s.draw], extra=labels,
+                     before_frame=before_frame)  # fmt: skip
+    tick(len(specs) + 1)
+    ideal = df.method == IDEAL
+    df.loc[ideal, ["run", "method"]] = ORACLE
+    df.loc[ideal, ["depth_resolution", "drawn"]] = [res_str(display), True]
+    df = df.rename(columns={"oracle_ms": "ms_oracle"}).drop(columns=["width", "height"])
     df["options"] = df["options"].fillna("")
-    flags = ["frustum", "depth_test", "size_test"]
+    flags = ["frustum", "depth_test", "size_test", "drawn"]
     df[flags] = df[flags].fillna(False).astype(bool)
     return df.sort_values(["run", "frame"], kind="stable").reset_index(drop=True)
