@@ -72,9 +72,11 @@ FRAMES = ("summary", "frames", "scene", "pictures", "cameras", "boxes", "thesis"
 # The thesis' OGL method draws the previous frame's query results (AABBoxRasterizerOGLST.cpp:
 # two query pools, this frame's issued, the other's read): our `queries` as it runs there.
 # It queries each object's model-space box carried by its model matrix (TransformedAABBoxOGL).
+# Its depth buffer is a window the screen clamps while the viewport keeps the resolution
+# (OSMesaPipeline.cpp, Constants.h): at resolutions beyond the display only the picture's
+# top-left display-sized part is tested (``window``, set to the display in every OGL run).
 OGL_OPTIONS = (("boxes", "oriented"), ("previous_frame", True))
-OGL = ",".join(f"{k}={v}" for k, v in OGL_OPTIONS)  # its rows' ``options``
-OGL_TEXTS = (OGL, ",".join(f"{k}={v}" for k, v in OGL_OPTIONS[:1]))  # lagged, or a stride
+OGL_PREFIX = "boxes=oriented"  # how its rows' ``options`` begin (lagged or not, any window)
 # `vislod demo` / `make demo` without --full: every method, the coarsest depth buffer, one in
 # between and the display's, 13 frames (the path sampled end to end, the gate at mid-flight
 # included: its means stay near the full run's), the conservative HiZ runs not drawn (used by
@@ -168,10 +170,11 @@ class Params:
 
     def ogl_options(self) -> tuple:
         """The query method's options: the thesis' on its tour (the previous frame's results
-        only when every frame is flown), none elsewhere."""
+        only when every frame is flown; the display as its window), none elsewhere."""
         if not self.flies_tour():
             return ()
-        return OGL_OPTIONS if self.stride == 1 else OGL_OPTIONS[:1]
+        lag = OGL_OPTIONS if self.stride == 1 else OGL_OPTIONS[:1]
+        return (*lag, ("window", tuple(self.display)))
 
     def depth_resolutions(self) -> list[tuple[int, int]]:
         """Abb. 8's depth-buffer resolutions."""
@@ -303,9 +306,12 @@ def _sel(df: pd.DataFrame, method: str, res, frustum=True, depth_test=True, opti
     carry them (the thesis' tour), else none."""
     opts = df.options.fillna("")  # "" reads back from CSV as NaN
     if options is None:
-        ran = set(opts[df.method == method])
-        own = OGL_TEXTS if method == QUERY else (_OPTION_TEXT.get(method, ""),)
-        options = next((o for o in own if o and o in ran), "")
+        ran = sorted(set(opts[df.method == method]))
+        if method == QUERY:
+            options = next((o for o in ran if o.startswith(OGL_PREFIX)), "")
+        else:
+            options = _OPTION_TEXT.get(method, "")
+            options = options if options in ran else ""
     m = (df.method == method) & (df.depth_resolution == res_str(res)) & (opts == options)
     if method != ORACLE:
         m &= (df.frustum == frustum) & (df.depth_test == depth_test)

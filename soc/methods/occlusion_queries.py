@@ -16,7 +16,7 @@ import numpy as np
 
 from soc.culling.queries import OcclusionQueries, near_plane_straddlers
 from soc.methods.base import MethodOutput, register, stage
-from soc.methods.options import MethodOptions
+from soc.methods.options import MethodOptions, option
 from soc.methods.prepass_queries import PrepassQueryMethod
 
 
@@ -38,11 +38,19 @@ class QueryOptions(MethodOptions):
         Draw the previous frame's results, as the thesis' OGL method does (default False);
         the first frame after :meth:`reset` uses its own (the sample's unrecorded frame 0
         primes the pool from the same camera). Not conservative.
+    window : (int, int) or None
+        The thesis' depth buffer lives in a window of at most this many pixels (its screen),
+        the depth resolution being only the viewport: where the resolution is larger, only the
+        picture's top-left ``window`` part is drawn and queried, and an object seen only
+        outside it passes no sample and is culled (``OSMesaPipeline.cpp``: the window is
+        created at the resolution, which the screen clamps, and ``glViewport`` keeps the full
+        resolution). None (default): the whole picture. Not conservative where it cuts.
     """
 
     compiled: bool = True
     boxes: Literal["aabb", "oriented"] = "aabb"
     previous_frame: bool = False
+    window: tuple[int, int] | None = option(None, low=1)
 
 
 @register
@@ -63,6 +71,11 @@ class QueryCulling(PrepassQueryMethod):
         self.queries = OcclusionQueries(geometry, compiled=opts.compiled, boxes=opts.boxes)
         self.previous_frame = opts.previous_frame
         self.conservative = not self.previous_frame and opts.boxes == "aabb"
+        if opts.window is not None:  # the picture's top-left part the window holds
+            (w, h), (ww, wh) = self.target.resolution, opts.window
+            if ww < w or wh < h:
+                self.target.fbo.scissor = (0, max(h - wh, 0), min(ww, w), min(wh, h))
+                self.conservative = False
         self.temporal = self.previous_frame
         self._last: np.ndarray | None = None
 
