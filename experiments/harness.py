@@ -21,6 +21,8 @@ import importlib
 import importlib.util
 import inspect
 import json
+import re
+import sys
 import time
 import types
 import typing
@@ -126,25 +128,43 @@ _REGISTRY: dict[str, Experiment] = {}
 def experiment(
     key: str,
     *,
-    seed: str,
     title: str,
-    params: type,
-    compute: Callable[..., Frames],
     plots: Sequence[Callable[..., Any]],
-    claims: Callable[..., pd.DataFrame] | claims_mod.Table,
+    module: str | None = None,
+    seed: str | None = None,
+    params: type | None = None,
+    compute: Callable[..., Frames] | None = None,
+    claims: Callable[..., pd.DataFrame] | claims_mod.Table | None = None,
     quick: Mapping[str, Any] | None = None,
     **attrs: Any,
 ) -> Experiment:
     """Register an experiment (once, at the end of its module). ``claims``: a declarative
-    table (:mod:`experiments.claims`) or a function of frames and params."""
+    table (:mod:`experiments.claims`) or a function of frames and params. Given ``module``
+    (the module's ``__name__``), ``params``, ``compute`` and ``claims`` default to its
+    ``Params``, ``compute`` and ``CLAIMS``; ``seed`` defaults to the digits of a key
+    ``seedNNN...``."""
+    if module is not None:
+        names = {"params": "Params", "compute": "compute", "claims": "CLAIMS"}
+        given = {"params": params, "compute": compute, "claims": claims}
+        for arg, name in names.items():
+            if given[arg] is None:
+                if not hasattr(sys.modules[module], name):
+                    raise TypeError(f"{key}: module {module} defines no {name}: pass {arg}=")
+                given[arg] = getattr(sys.modules[module], name)
+        params, compute, claims = given["params"], given["compute"], given["claims"]
+    if seed is None:
+        digits = re.match(r"seed(\d{3})", key)
+        if digits is None:
+            raise TypeError(f"{key}: give its seed= (the key does not start seedNNN)")
+        seed = digits.group(1)
     if not dataclasses.is_dataclass(params):
         raise TypeError(f"{key}: params must be a dataclass, got {params!r}")
     if not callable(claims):
         attrs["table"] = tuple(claims)
         claims = functools.partial(claims_mod.evaluate, attrs["table"])
-    module = inspect.getmodule(compute)
-    attrs.setdefault("intro", inspect.getdoc(module) or "")
-    attrs["module"] = module.__name__ if module else ""
+    module_of = inspect.getmodule(compute)
+    attrs.setdefault("intro", inspect.getdoc(module_of) or "")
+    attrs["module"] = module_of.__name__ if module_of else ""
     quick = dict(quick or {})
     exp = Experiment(key, seed, title, params, quick, compute, tuple(plots), claims, **attrs)
     _REGISTRY[key] = exp

@@ -729,12 +729,9 @@ CLAIMS = (Each(_sweeps, (
 
 EXPERIMENT = harness.experiment(
     "seed001-image-based",
-    seed="001",
+    module=__name__,
     title="image-based techniques: stereo by warping, the warping renderer, z-compositing",
-    params=Params,
-    compute=compute,
     plots=[plot_stereo_images, plot_stereo_error, plot_warp_age, plot_warp_images, plot_composite],
-    claims=CLAIMS,
     quick={
         "display": (320, 240),
         "views": 3,

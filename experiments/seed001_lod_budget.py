@@ -735,12 +735,9 @@ CLAIMS = (Each(_viewpoint, (
 
 EXPERIMENT = harness.experiment(
     "seed001-lod",
-    seed="001",
+    module=__name__,
     title="levels of detail under a frame budget: the picture pair, strategies over a flight",
-    params=Params,
-    compute=compute,
     plots=[plot_pictures, plot_flight, plot_calibration],
-    claims=CLAIMS,
     quick={"frames": 12, "display": scaled(DISPLAY, QUICK_SCALE)},
     minutes=4.0,
     aliases=("lod",),

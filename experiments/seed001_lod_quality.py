@@ -524,12 +524,9 @@ CLAIMS = (
 
 EXPERIMENT = harness.experiment(
     "seed001-lod-quality",
-    seed="001",
+    module=__name__,
     title="LOD quality: quadric vs Melax edge collapse, naive vs exact screen-size estimate",
-    params=Params,
-    compute=compute,
     plots=[plot_simplifiers, plot_picture, plot_screen_size],
-    claims=CLAIMS,
     quick={
         "sphere_subdivisions": 4,
         "torus_sections": (48, 32),

@@ -235,12 +235,9 @@ CLAIMS = (Each(_walk, (
 
 EXPERIMENT = harness.experiment(
     "seed001-portals",
-    seed="001",
+    module=__name__,
     title="portal culling in a building: objects culled per room, frustum vs portals vs oracle",
-    params=Params,
-    compute=compute,
     plots=[plot_rooms],
-    claims=CLAIMS,
     quick={"frames": 12, "display": scaled(DISPLAY, QUICK_SCALE)},
     minutes=1.0,
     aliases=("portals",),

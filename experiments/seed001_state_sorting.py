@@ -471,12 +471,9 @@ CLAIMS = (Each(_streams, (
 
 EXPERIMENT = harness.experiment(
     "seed001-state-sorting",
-    seed="001",
+    module=__name__,
     title="state sorting: sorting-buffer strategies, colour changes per buffer size",
-    params=Params,
-    compute=compute,
     plots=[plot_changes, plot_ratio],
-    claims=CLAIMS,
     quick={
         "frames": 6,
         "display": scaled(DISPLAY, QUICK_SCALE),

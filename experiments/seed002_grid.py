@@ -641,12 +641,9 @@ CLAIMS = (
 
 EXPERIMENT = harness.experiment(
     "seed002",
-    seed="002",
+    module=__name__,
     title="occlusion queries on grid cells: grid sizes, query caps, popping, indoors and out",
-    params=Params,
-    compute=compute,
     plots=[plot_frametime, plot_drawn, plot_popping],
-    claims=CLAIMS,
     quick={"frames": common.QUICK_FRAMES, "display": common.scaled(DISPLAY, common.QUICK_SCALE)},
     minutes=10.0,
     aliases=("grid",),

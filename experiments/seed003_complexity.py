@@ -931,12 +931,9 @@ def plot_images(frames, params: Params):
 
 EXPERIMENT = harness.experiment(
     "seed003",
-    seed="003",
+    module=__name__,
     title="forward vs deferred shading: time against triangles, pixels and lights; g-buffer",
-    params=Params,
-    compute=compute,
     plots=[plot_lights, plot_viewport, plot_triangles, plot_stages, plot_images],
-    claims=CLAIMS,
     quick={
         "subdivisions": (1, 2, 3),
         "v_sides": (128, 256),

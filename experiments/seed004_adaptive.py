@@ -1238,12 +1238,9 @@ CLAIMS = (
 
 EXPERIMENT = harness.experiment(
     "seed004-adaptive",
-    seed="004",
+    module=__name__,
     title="the adaptive method on three growing scenes: frustum vs queries vs adaptive (Figs. 3-5)",
-    params=Params,
-    compute=compute,
     plots=[plot_frametimes, plot_stages, plot_regression],
-    claims=CLAIMS,
     quick=dict(frames=40, resolution=(320, 180), scale=0.12, oracle_every=1, sweep_frames=24),
     minutes=5.0,
     extras=("fit",),

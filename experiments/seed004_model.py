@@ -461,12 +461,9 @@ CLAIMS = (
 
 EXPERIMENT = harness.experiment(
     "seed004-model",
-    seed="004",
+    module=__name__,
     title="performance model: memory (1) and frame time (2) with measured constants (Table 1)",
-    params=Params,
-    compute=compute,
     plots=[plot_table1],
-    claims=CLAIMS,
     quick={
         "sizes": (10, 20, 30, 100, 1000, 5000),
         "dense_sizes": (1000,),

@@ -645,12 +645,9 @@ CLAIMS = (
 
 EXPERIMENT = harness.experiment(
     "seed004-octree",
-    seed="004",
+    module=__name__,
     title="dynamic scenes, octree with per-node command buffers, invisible estimate (Table 2)",
-    params=Params,
-    compute=compute,
     plots=[plot_table2, plot_replay, plot_expensive_nodes],
-    claims=CLAIMS,
     quick={"frames": 30, "resolution": (640, 360), "scale": 0.25, "cameras": 2, "repeats": 2},
     minutes=2.0,
     notebook="seed004_adaptive",

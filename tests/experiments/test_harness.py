@@ -229,3 +229,26 @@ def test_picture_helpers_lay_out_title_and_blank_what_has_no_picture():
     assert fig.get_suptitle() == "whole" and fig._suptitle.get_fontsize() == 9
     bare, _ = harness.figure((2, 2))
     assert harness.finish(bare).get_suptitle() == ""
+
+
+def test_a_module_registers_by_its_names_and_the_key_gives_the_seed(monkeypatch):
+    """``module=`` takes the module's ``Params``, ``compute`` and ``CLAIMS`` and a key
+    ``seedNNN...`` its seed; a missing name, or a key without a seed, is refused by name."""
+    import sys
+    import types
+
+    mod = types.ModuleType("toy_experiment_module")
+    mod.Params, mod.compute, mod.CLAIMS = ToyParams, compute, claims
+    monkeypatch.setitem(sys.modules, mod.__name__, mod)
+    try:
+        exp = harness.experiment("seed999-toy", module=mod.__name__, title="t", plots=[plot_ms])
+        assert (exp.seed, exp.params, exp.compute, exp.plots) == ("999", ToyParams, compute,
+                                                                   (plot_ms,))  # fmt: skip
+        assert exp.claims is claims
+        with pytest.raises(TypeError, match="give its seed="):
+            harness.experiment("toy", module=mod.__name__, title="t", plots=[plot_ms])
+        del mod.CLAIMS
+        with pytest.raises(TypeError, match="defines no CLAIMS: pass claims="):
+            harness.experiment("seed999-toy", module=mod.__name__, title="t", plots=[plot_ms])
+    finally:
+        harness._REGISTRY.pop("seed999-toy", None)
