@@ -67,7 +67,12 @@ from soc.culling.hiz_options import MAX_REFINE, check_test_options
 from soc.gl.context import uses_gl
 from soc.gl.geometry import grown_aabbs
 from soc.gl.shader_defines import (
+    BOX_OCCLUDED,
+    BOX_OUTSIDE,
+    BOX_VISIBLE,
     COMPUTE_GROUP,
+    MAX_DISPLAYS,
+    MAX_LEVELS,
     TEST_BOXES_BINDING,
     TEST_IDS_BINDING,
     TEST_RESULT_BINDING,
@@ -93,12 +98,9 @@ HIZ_PIXEL_MARGIN = 1.0 / 32.0
 TEST_GROUP = COMPUTE_GROUP  # boxes
 TEST_GROUPS = 32
 
-# The test shader's uniform array of per-level (offset, width, height); 24 levels reach 2^23 px.
-MAX_LEVELS = 24
-
 # Results of :meth:`HizTest.classify` (``MaskedOcclusionCulling``'s OCCLUDED / VISIBLE /
-# VIEW_CULLED).
-OCCLUDED, VISIBLE, OUTSIDE = 0, 1, 2
+# VIEW_CULLED), as hiz_test.comp writes them.
+OCCLUDED, VISIBLE, OUTSIDE = BOX_OCCLUDED, BOX_VISIBLE, BOX_OUTSIDE
 
 # Relative allowance for float32 rounding in the shader's frustum-plane test (a few ulps of
 # the magnitudes summed, 1.2e-7 each, with a wide margin): a box is reported outside only
@@ -114,10 +116,6 @@ TOP_SOURCE_TEXELS = 2048
 _DEPTH_UNIT = 0
 _QUADS_UNIT = 1
 _ATLAS_UNIT = 2
-
-
-# Display resolutions one box test can judge at besides the pyramid's own (hiz_test.comp).
-MAX_DISPLAYS = 2
 
 
 def _displays(display, own: tuple[int, int]) -> list[tuple[int, int]]:

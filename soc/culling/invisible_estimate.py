@@ -39,7 +39,7 @@ import numpy as np
 from soc.culling.box_queries import BoxQueries
 from soc.culling.depth_prepass import DepthTarget, render_occluders
 from soc.culling.frustum import aabbs_in_frustum
-from soc.gl.context import uses_gl
+from soc.gl.context import ReleasedOnExit, uses_gl
 
 # Table 2's budgets (nodes checked), also the default sweep.
 TABLE2_NODES_CHECKED = (10, 20, 30, 100, 300, 1000, 2000, 10000)
@@ -80,7 +80,7 @@ class InvisibleEstimate:
 
 
 @uses_gl
-class InvisibleEstimator:
+class InvisibleEstimator(ReleasedOnExit):
     """Estimates invisible objects of an :class:`~soc.culling.octree.Octree` over an uploaded scene.
 
     Parameters
@@ -119,12 +119,6 @@ class InvisibleEstimator:
     def release(self) -> None:
         self.queries.release()
         self.target.release()
-
-    def __enter__(self) -> InvisibleEstimator:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.release()
 
     def render_depth(self, camera) -> float:
         """Render the alive occluders in the frustum into the depth target; returns ms."""

@@ -26,6 +26,7 @@ import ctypes
 import os
 import weakref
 from importlib import resources
+from typing import TypeVar
 
 from soc.errors import GLError, GLUnavailableError
 from soc.gl import binding, display
@@ -43,7 +44,14 @@ from soc.gl.raw import (
 )
 from soc.gl.timer import GpuTimer, TimedFrame
 
-__all__ = ["EGLState", "GLContext", "current_egl_state", "default_context", "uses_gl"]
+__all__ = [
+    "EGLState",
+    "GLContext",
+    "ReleasedOnExit",
+    "current_egl_state",
+    "default_context",
+    "uses_gl",
+]
 
 APT_HINT = display.APT_HINT
 
@@ -88,7 +96,21 @@ class _Loader:
         g._egl.eglDestroyContext(g._display, g._handle)
 
 
-class GLContext(BindableContext):
+_R = TypeVar("_R", bound="ReleasedOnExit")
+
+
+class ReleasedOnExit:
+    """Mixin of the objects that hold GL resources: ``with obj:`` gives ``obj`` and calls its
+    ``release()`` at the end."""
+
+    def __enter__(self: _R) -> _R:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()  # type: ignore[attr-defined]
+
+
+class GLContext(BindableContext, ReleasedOnExit):
     """A headless OpenGL 4.5 core context (moderngl over EGL) with shader and geometry caches.
 
     Parameters
@@ -245,12 +267,6 @@ class GLContext(BindableContext):
             self._release_doomed()
 
     # -- lifetime ---------------------------------------------------------------------------
-
-    def __enter__(self) -> GLContext:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.release()
 
     def release(self) -> None:
         """Release every program, uploaded scene and the context itself."""

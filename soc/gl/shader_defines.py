@@ -29,6 +29,15 @@ WALK_NODES = 1  # node boxes judged
 WALK_OBJECTS = 2  # object boxes judged
 WALK_VISITS = 3  # nodes visited
 WALK_HEADER = 4
+# hiz_test.comp's code per box (soc.culling.hiz_gpu's OCCLUDED / VISIBLE / OUTSIDE).
+BOX_OCCLUDED = 0
+BOX_VISIBLE = 1
+BOX_OUTSIDE = 2  # entirely outside one frustum plane
+# Pyramid levels in the uniform ``level_info[MAX_LEVELS]`` of the test and reduce shaders (24
+# levels reach 2^23 px), and display resolutions one box test judges at besides the pyramid's
+# own (``displays[MAX_DISPLAYS]``).
+MAX_LEVELS = 24
+MAX_DISPLAYS = 2
 
 # -- bvh_walk.common.glsl (soc/culling/bvh_gpu.py) -----------------------------------------------
 WALK_NODES_BINDING = 8  # (M, 4) uint32 per node: skip, start, size, counted
@@ -66,9 +75,31 @@ FRAME_COMMANDS = 0  # + pass
 FRAME_TRIANGLES = 2  # + pass
 FRAME_OUTSIDE = 4
 FRAME_JUDGED = 5
+FRAME_CLUSTERS = 6  # + pass: clusters drawn
 FRAME_BUCKETS = 8
 FRAME_CURSORS = FRAME_BUCKETS + 2 * ORDER_BUCKETS
 FRAME_HEADER = FRAME_CURSORS + 2 * ORDER_BUCKETS
+
+# -- the rendering techniques' passes (soc/rendering) ---------------------------------------------
+# Invocations per side of the square work groups (``local_size_x`` = ``local_size_y``) of the
+# per-pixel compute passes: composite_z.comp, warp_scatter.comp, warp_resolve.comp.
+PIXEL_GROUP = 8
+# composite_z.comp (compositing.py): the accumulated image's units.
+ACC_COLOR_IMAGE = 0  # rgba8
+ACC_DEPTH_IMAGE = 1  # r32f window depth
+ACC_IDS_IMAGE = 2  # r32ui object ids
+# warp_*.glsl (warping.py).
+MODELS_BINDING = 0  # warp_gbuffer.vert: (N,) mat4 world <- object
+WARPS_BINDING = 0  # warp_map.common: (N + 1,) mat4 per object's warp, then the background's
+NEAREST_BINDING = 1  # warp_scatter/resolve: (H * W,) uint32 nearest depth bits per pixel
+WINNER_BINDING = 2  # warp_scatter/resolve: (H * W,) uint32 winning source pixel
+OUT_COLOR_IMAGE = 0  # warp_resolve: rgba8 target colour
+OUT_IDS_IMAGE = 1  # warp_resolve: r32ui target object ids
+OUT_DEPTH_IMAGE = 2  # warp_resolve: r32f target window depth
+# forward_lighting.common, gbuffer_fill and deferred_*.glsl (shading.py).
+LIGHTS_BINDING = 0  # (L,) lights, two vec4 each
+MATERIAL_COUNT = 8  # material id = object id mod MATERIAL_COUNT
+SKY_MATERIAL = 0xFFFF  # material id of g-buffer pixels where nothing was drawn (R16UI)
 
 
 def defines() -> dict[str, int]:

@@ -24,16 +24,14 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from soc.gl.context import uses_gl
+from soc.gl.context import ReleasedOnExit, uses_gl
+from soc.gl.shader_defines import ACC_COLOR_IMAGE, ACC_DEPTH_IMAGE, ACC_IDS_IMAGE, PIXEL_GROUP
 from soc.rendering.warping import Frame
 from soc.scenes.camera import _resolution
 
-# Compute work-group side of composite_z.comp (its ``local_size``).
-GROUP = 8
-
 
 @uses_gl
-class Compositor:
+class Compositor(ReleasedOnExit):
     """Folds frames (colour, depth, ids textures on the GL) into their per-pixel nearest.
 
     Parameters
@@ -68,12 +66,6 @@ class Compositor:
         for t in (self.color, self.depth, self.ids):
             t.release()
 
-    def __enter__(self) -> Compositor:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.release()
-
     def composite(self, parts: Sequence) -> float:
         """Combine ``parts`` (each with ``color``, ``depth`` and ``ids`` textures of
         :attr:`resolution`, e.g. :class:`soc.rendering.warping.FrameRenderer` after a render) by
@@ -90,9 +82,9 @@ class Compositor:
         p = self.program
         w, h = self.resolution
         t0 = time.perf_counter()
-        self.color.bind_to_image(0, read=True, write=True)
-        self.depth.bind_to_image(1, read=True, write=True)
-        self.ids.bind_to_image(2, read=True, write=True)
+        self.color.bind_to_image(ACC_COLOR_IMAGE, read=True, write=True)
+        self.depth.bind_to_image(ACC_DEPTH_IMAGE, read=True, write=True)
+        self.ids.bind_to_image(ACC_IDS_IMAGE, read=True, write=True)
         for k, part in enumerate(parts):
             for unit, (name, tex) in enumerate(
                 (("layer_color", part.color), ("layer_depth", part.depth), ("layer_ids", part.ids))
@@ -100,7 +92,7 @@ class Compositor:
                 tex.use(location=unit)
                 p[name].value = unit
             p["first"].value = k == 0
-            p.run(-(-w // GROUP), -(-h // GROUP))
+            p.run(-(-w // PIXEL_GROUP), -(-h // PIXEL_GROUP))
             ctx.memory_barrier()  # the next part reads what this one wrote
         ctx.finish()
         ms = 1e3 * (time.perf_counter() - t0)

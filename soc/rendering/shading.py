@@ -37,17 +37,18 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from soc.gl.context import shader_source, uses_gl
+from soc.gl.context import ReleasedOnExit, shader_source, uses_gl
 from soc.gl.raw import GL_QUERY_RESULT, GL_SAMPLES_PASSED
+from soc.gl.shader_defines import LIGHTS_BINDING, SKY_MATERIAL
 from soc.rendering.renderer import SKY
 from soc.scenes.camera import Camera, _resolution
 
 PATHS = ("forward", "deferred-loop", "deferred-passes")
 
 AMBIENT = 0.15  # fraction of the diffuse colour lit without any light
-SKY_MATERIAL = 0xFFFF  # material id of g-buffer pixels where nothing was drawn
 
-# Per material (material id = object id mod 8): specular strength, Blinn–Phong shininess.
+# Per material (material id = object id mod MATERIAL_COUNT): specular strength, Blinn–Phong
+# shininess.
 MATERIALS = np.array(
     [[0.0, 1.0], [0.15, 8.0], [0.3, 16.0], [0.5, 32.0],
      [0.1, 4.0], [0.25, 64.0], [0.4, 24.0], [0.6, 48.0]],
@@ -327,7 +328,7 @@ class ShadingStats:
 
 
 @uses_gl
-class ShadingRenderer:
+class ShadingRenderer(ReleasedOnExit):
     """Forward and deferred shading of a scene at ``resolution`` pixels with point lights.
 
     Owns its targets: an RGBA32F colour (both paths' output), a 24-bit depth texture (the
@@ -384,12 +385,6 @@ class ShadingRenderer:
         self._released = False
 
     # -- lifetime ---------------------------------------------------------------------------
-
-    def __enter__(self) -> ShadingRenderer:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.release()
 
     def release(self) -> None:
         """Release every target, program and buffer this renderer allocated (idempotent)."""
@@ -549,7 +544,7 @@ class ShadingRenderer:
             p["view_proj"].write(camera.gl_bytes(camera.view_proj))
         if "materials" in p:
             p["materials"].write(MATERIALS.tobytes())
-        self._light_buffer.bind_to_storage_buffer(0)
+        self._light_buffer.bind_to_storage_buffer(LIGHTS_BINDING)
 
     def _deferred_uniforms(self, p, camera: Camera) -> None:
         self._uniforms(p, camera)

@@ -50,8 +50,18 @@ import numpy as np
 
 from soc.culling.oracle import NO_OBJECT
 from soc.errors import check_choice
-from soc.gl.context import shader_source, uses_gl
+from soc.gl.context import ReleasedOnExit, shader_source, uses_gl
 from soc.gl.raw import GL_COLOR
+from soc.gl.shader_defines import (
+    MODELS_BINDING,
+    NEAREST_BINDING,
+    OUT_COLOR_IMAGE,
+    OUT_DEPTH_IMAGE,
+    OUT_IDS_IMAGE,
+    PIXEL_GROUP,
+    WARPS_BINDING,
+    WINNER_BINDING,
+)
 from soc.rendering.renderer import LIGHT_DIR, SKY
 from soc.scenes.camera import Camera, _resolution
 
@@ -65,9 +75,6 @@ BACKGROUND_NDC_Z = 1.0 - 2.0**-20
 
 # Colour of holes in warped images (the target is cleared to it).
 HOLE_COLOR = (0.0, 0.0, 0.0, 1.0)
-
-# Compute work-group side of warp_scatter.comp and warp_resolve.comp (their ``local_size``).
-SCATTER_GROUP = 8
 
 
 # -- results ----------------------------------------------------------------------------------
@@ -347,7 +354,7 @@ class _Target:
 
 
 @uses_gl
-class FrameRenderer:
+class FrameRenderer(ReleasedOnExit):
     """The application frame of the warping renderer: colour, depth and object id of a scene.
 
     Objects are drawn in ascending id order with depth test LESS (the first fragment at the
@@ -395,12 +402,6 @@ class FrameRenderer:
         self.target.release()
         self.models.release()
 
-    def __enter__(self) -> FrameRenderer:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.release()
-
     def render(
         self,
         camera: Camera,
@@ -445,7 +446,7 @@ class FrameRenderer:
         p["view_proj"].write(camera.gl_bytes(camera.view_proj))
         p["light_dir"].value = LIGHT_DIR
         p["eye"].value = tuple(camera.eye)
-        self.models.bind_to_storage_buffer(0)
+        self.models.bind_to_storage_buffer(MODELS_BINDING)
         self.geometry.draw_objects(p, ids)
         ctx.finish()
         ms = 1e3 * (time.perf_counter() - t0)
@@ -459,7 +460,7 @@ class FrameRenderer:
 
 
 @uses_gl
-class Warper:
+class Warper(ReleasedOnExit):
     """The warping server: one splat per pixel of a :class:`FrameRenderer`'s last frame,
     moved to a newer camera (:meth:`reproject`) or to the other eye (:meth:`stereo`).
 
@@ -533,12 +534,6 @@ class Warper:
             p.release()
         self.warps.release()
         self.target.release()
-
-    def __enter__(self) -> Warper:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.release()
 
     # -- the two warps ------------------------------------------------------------------------
 
@@ -649,7 +644,7 @@ class Warper:
             "splat_size": float(splat_size),
         }
         ctx = self.glctx.ctx
-        self.warps.bind_to_storage_buffer(0)
+        self.warps.bind_to_storage_buffer(WARPS_BINDING)
         if self.engine == "points":
             self.target.clear(HOLE_COLOR, HOLE)
             ctx.enable_only(moderngl.DEPTH_TEST | self._point_size_flag)
@@ -659,11 +654,11 @@ class Warper:
             self._vao.render(moderngl.POINTS, vertices=w * h)
             ctx.finish()
             return
-        groups = (-(-w // SCATTER_GROUP), -(-h // SCATTER_GROUP))
+        groups = (-(-w // PIXEL_GROUP), -(-h // PIXEL_GROUP))
         self.nearest.clear(chunk=b"\xff" * 4)
         self.winner.clear(chunk=b"\xff" * 4)
-        self.nearest.bind_to_storage_buffer(1)
-        self.winner.bind_to_storage_buffer(2)
+        self.nearest.bind_to_storage_buffer(NEAREST_BINDING)
+        self.winner.bind_to_storage_buffer(WINNER_BINDING)
         self._set(self.scatter, uniforms)
         self._bind_source(self.scatter, source)
         for stage in (0, 1):
@@ -672,9 +667,9 @@ class Warper:
             ctx.memory_barrier()
         self._set(self.resolve, {"size": (w, h), "hole_color": HOLE_COLOR, "hole": HOLE})
         self._bind_source(self.resolve, source)
-        self.target.color.bind_to_image(0, read=False, write=True)
-        self.target.ids.bind_to_image(1, read=False, write=True)
-        self.target.depth.bind_to_image(2, read=False, write=True)
+        self.target.color.bind_to_image(OUT_COLOR_IMAGE, read=False, write=True)
+        self.target.ids.bind_to_image(OUT_IDS_IMAGE, read=False, write=True)
+        self.target.depth.bind_to_image(OUT_DEPTH_IMAGE, read=False, write=True)
         self.resolve.run(*groups)
         ctx.memory_barrier()
         ctx.finish()

@@ -5,16 +5,16 @@
 // Ties in depth go to the smaller object id: that is what one render of all objects in
 // ascending id order with depth test LESS keeps (the first fragment at the nearest depth),
 // so the composite equals the full render everywhere, ties included.
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = PIXEL_GROUP, local_size_y = PIXEL_GROUP) in;
 
 uniform sampler2D layer_color;   // RGBA8
 uniform sampler2D layer_depth;   // window depth (compare mode off)
 uniform usampler2D layer_ids;    // R32UI
 uniform bool first;              // the first layer is taken as it is
 
-layout(rgba8, binding = 0) uniform image2D acc_color;
-layout(r32f, binding = 1) uniform image2D acc_depth;
-layout(r32ui, binding = 2) uniform uimage2D acc_ids;
+layout(rgba8, binding = ACC_COLOR_IMAGE) uniform image2D acc_color;
+layout(r32f, binding = ACC_DEPTH_IMAGE) uniform image2D acc_depth;
+layout(r32ui, binding = ACC_IDS_IMAGE) uniform uimage2D acc_ids;
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);

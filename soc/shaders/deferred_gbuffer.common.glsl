@@ -11,8 +11,6 @@ uniform vec2 viewport;         // pixels
 uniform vec3 eye;
 uniform vec3 sky;
 
-const uint SKY_MATERIAL = 0xFFFFu;
-
 vec3 oct_decode(vec2 e) {
     vec3 n = vec3(e, 1.0 - abs(e.x) - abs(e.y));
     if (n.z < 0.0) n.xy = (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);

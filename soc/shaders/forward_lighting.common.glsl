@@ -8,10 +8,9 @@ struct Light {
     vec4 color;            // rgb intensity; w unused
 };
 
-layout(std430, binding = 0) readonly buffer Lights { Light lights[]; };
+layout(std430, binding = LIGHTS_BINDING) readonly buffer Lights { Light lights[]; };
 
-const int MATERIALS = 8;
-uniform vec2 materials[MATERIALS];  // per material: specular strength, shininess
+uniform vec2 materials[MATERIAL_COUNT];  // per material: specular strength, shininess
 uniform float ambient;              // fraction of the diffuse colour lit without any light
 
 // Inverse-square falloff softened at the light (1 + (d / d0)^2, d0 = radius / 4) and windowed

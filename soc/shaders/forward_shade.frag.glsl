@@ -17,7 +17,7 @@ void main() {
     vec3 n = normalize(cross(dFdx(v_world), dFdy(v_world)));
     vec3 v = normalize(eye - v_world);
     if (dot(n, v) < 0.0) n = -n;
-    vec2 material = materials[v_object % uint(MATERIALS)];
+    vec2 material = materials[v_object % uint(MATERIAL_COUNT)];
     vec3 c = ambient * v_color;
     for (int i = 0; i < light_count; ++i) {
         c += shade_light(lights[i], v_world, n, v, v_color, material);

@@ -14,8 +14,6 @@ layout(location = 2) out uint g_material;  // R16UI
 
 uniform vec3 eye;
 
-const uint MATERIALS = 8u;
-
 // Octahedral encoding (Meyer et al. 2010): the same 2 × 32 bit as the lecture's polar
 // coordinates, without their poles.
 vec2 oct_encode(vec3 n) {
@@ -30,5 +28,5 @@ void main() {
     if (dot(n, eye - v_world) < 0.0) n = -n;
     g_normal = oct_encode(n);
     g_diffuse = v_color;
-    g_material = v_object % MATERIALS;
+    g_material = v_object % uint(MATERIAL_COUNT);
 }

@@ -12,7 +12,7 @@ uniform sampler2D atlas;   // levels >= 3
 uniform int src;           // the level read
 uniform int first;         // the first level written (src + 1)
 uniform int count;         // levels written
-uniform ivec4 level_info[24];  // per level: corner in `atlas`, width, height
+uniform ivec4 level_info[MAX_LEVELS];  // per level: corner in `atlas`, width, height
 
 layout(location = 0) out float farthest;
 

@@ -13,7 +13,7 @@ uniform float plane_slack;  // relative slack of the plane test (soc.constants.F
 uniform float plane_rounding;  // relative float32 rounding allowance of the plane test
 uniform mat4 view_proj;
 uniform ivec2 size;         // level 0, texels
-uniform ivec2 displays[2]; // resolutions visibility is judged at (pixel centres), >= size
+uniform ivec2 displays[MAX_DISPLAYS]; // resolutions visibility is judged at (pixel centres), >= size
 uniform int display_count;  // how many of them differ from size (those come first)
 uniform float min_w;        // corners with clip w below this: keep the box untested
 uniform float depth_bias;   // NDC units, pulls the box towards the camera
@@ -21,7 +21,7 @@ uniform float pixel_margin; // pixels added around the projected rectangle
 uniform int footprint;      // texels per axis at the chosen level (2 or 4)
 uniform int refine;         // levels finer than its own a box is judged at (0 = classic)
 uniform int levels;         // number of levels including level 0
-uniform ivec4 level_info[24];  // per level: corner in `atlas` (levels 0-2: unused), width, height
+uniform ivec4 level_info[MAX_LEVELS];  // per level: corner in `atlas` (levels 0-2: unused), width, height
 
 // Whether the box [lo, hi] lies entirely outside one frustum plane: the signed distance of its
 // most-inside corner is negative beyond the slack and beyond a bound on the float32 rounding

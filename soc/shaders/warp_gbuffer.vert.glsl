@@ -6,7 +6,7 @@ in vec3 in_position;
 in uint in_object;
 in vec3 in_color;
 
-layout(std430, binding = 0) readonly buffer Models { mat4 models[]; };  // (N,) world <- object
+layout(std430, binding = MODELS_BINDING) readonly buffer Models { mat4 models[]; };  // (N,) world <- object
 
 uniform mat4 view_proj;
 

@@ -18,7 +18,7 @@
 uniform sampler2D depth;        // source window depth (compare mode off)
 uniform usampler2D ids;         // source object ids (no_object = background)
 
-layout(std430, binding = 0) readonly buffer Warps { mat4 warps[]; };  // (objects + 1,)
+layout(std430, binding = WARPS_BINDING) readonly buffer Warps { mat4 warps[]; };  // (objects + 1,)
 
 uniform ivec2 size;             // source (= target) pixels
 uniform uint objects;           // N: warps[N] is the background's

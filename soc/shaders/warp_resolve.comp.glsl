@@ -1,17 +1,17 @@
 #version 450
 // Last stage of the compute-scatter warp: every target pixel fetches the colour and object id
 // of the source pixel that won it (warp_scatter.comp), or becomes a hole.
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = PIXEL_GROUP, local_size_y = PIXEL_GROUP) in;
 
 uniform sampler2D color;        // source colour
 uniform usampler2D ids;         // source object ids
 
-layout(std430, binding = 1) readonly buffer Nearest { uint nearest[]; };
-layout(std430, binding = 2) readonly buffer Winner { uint winner[]; };
+layout(std430, binding = NEAREST_BINDING) readonly buffer Nearest { uint nearest[]; };
+layout(std430, binding = WINNER_BINDING) readonly buffer Winner { uint winner[]; };
 
-layout(rgba8, binding = 0) uniform writeonly image2D out_color;
-layout(r32ui, binding = 1) uniform writeonly uimage2D out_ids;
-layout(r32f, binding = 2) uniform writeonly image2D out_depth;
+layout(rgba8, binding = OUT_COLOR_IMAGE) uniform writeonly image2D out_color;
+layout(r32ui, binding = OUT_IDS_IMAGE) uniform writeonly uimage2D out_ids;
+layout(r32f, binding = OUT_DEPTH_IMAGE) uniform writeonly image2D out_depth;
 
 uniform ivec2 size;             // pixels
 uniform vec4 hole_color;

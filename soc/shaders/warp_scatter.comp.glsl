@@ -7,12 +7,12 @@
 //            (the point warp's tie rule: the first drawn wins).
 // warp_resolve.comp then fetches the winners' colour and id. A splat whose centre lies
 // outside the clip volume is dropped whole, as GL clips points.
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = PIXEL_GROUP, local_size_y = PIXEL_GROUP) in;
 
 #include "warp_map.common"
 
-layout(std430, binding = 1) buffer Nearest { uint nearest[]; };  // (H * W,) cleared to ~0
-layout(std430, binding = 2) buffer Winner { uint winner[]; };    // (H * W,) cleared to ~0
+layout(std430, binding = NEAREST_BINDING) buffer Nearest { uint nearest[]; };  // (H * W,) cleared to ~0
+layout(std430, binding = WINNER_BINDING) buffer Winner { uint winner[]; };    // (H * W,) cleared to ~0
 
 uniform int stage;              // 0 or 1, see above
 uniform float splat_size;       // pixels
