@@ -76,6 +76,7 @@ from soc.gl.shader_defines import (
     CLUSTERS_BINDING,
     COMMANDS_BINDING,
     FRAME_BINDING,
+    FRAME_CLUSTERS,
     FRAME_COMMANDS,
     FRAME_HEADER,
     FRAME_JUDGED,
@@ -169,6 +170,8 @@ class GpuDrivenCulling(TwoPhase):
         ``{"early draw": ms, "late draw": ms}`` of the last frame.
     last_commands : tuple of int
         Draw commands of the last frame's early and late pass.
+    last_clusters : tuple of int
+        Clusters the last frame's early and late pass drew.
     """
 
     name = "gpu-driven"
@@ -248,6 +251,7 @@ class GpuDrivenCulling(TwoPhase):
             "candidate_bits": self._candidate_bits,
         }
         self.last_commands = (0, 0)
+        self.last_clusters = (0, 0)
 
     def release(self) -> None:
         buffers = (self.object_state, self.cluster_state, self.commands, self.frame, self.passed)
@@ -393,6 +397,7 @@ class GpuDrivenCulling(TwoPhase):
             bits = np.unpackbits(words[self._object_bits :].view(np.uint8), bitorder="little")
             visible = bits[:n].astype(bool)
         self.last_commands = (int(words[FRAME_COMMANDS]), int(words[FRAME_COMMANDS + 1]))
+        self.last_clusters = (int(words[FRAME_CLUSTERS]), int(words[FRAME_CLUSTERS + 1]))
         if self.instanced:
             self.source.check()  # a walk's list beyond its capacity (large tables only)
         triangles = int(words[FRAME_TRIANGLES]) + int(words[FRAME_TRIANGLES + 1])

@@ -137,8 +137,11 @@ void emit(uint pass, uint first, uint count, uint base_vertex, uint o, uint c0) 
 // not per cluster).
 struct Run { uint first; uint count; uint word; uint bits; uint c0; };
 
-void run_bits(inout Run run) {
-    if (run.bits != 0u) atomicOr(frame[cluster_bits + run.word], run.bits);
+void run_bits(inout Run run, uint pass) {
+    if (run.bits != 0u) {
+        atomicOr(frame[cluster_bits + run.word], run.bits);
+        atomicAdd(frame[FRAME_CLUSTERS + pass], uint(bitCount(run.bits)));
+    }
     run.bits = 0u;
 }
 
@@ -153,7 +156,7 @@ void run_add(inout Run run, uint pass, uint c, uint base_vertex, uint o) {
         run.c0 = c;
     }
     run.count += info.y;
-    if ((c >> 5) != run.word) run_bits(run);
+    if ((c >> 5) != run.word) run_bits(run, pass);
     run.word = c >> 5;
     run.bits |= 1u << (c & 31u);
 }
@@ -161,7 +164,7 @@ void run_add(inout Run run, uint pass, uint c, uint base_vertex, uint o) {
 void run_flush(inout Run run, uint pass, uint base_vertex, uint o) {
     if (run.count > 0u) emit(pass, run.first, run.count, base_vertex, o, run.c0);
     run.count = 0u;
-    run_bits(run);
+    run_bits(run, pass);
 }
 
 void mark_object(uint o) { atomicOr(frame[object_bits + (o >> 5)], 1u << (o & 31u)); }
@@ -229,8 +232,10 @@ void visit_end(inout Visit v, uint base_vertex, uint o) {
     if (v.drawn) mark_object(o);
 }
 
-// The drawn-cluster bits of clusters c0 .. c0 + k - 1, one atomic per 32-cluster word.
+// The drawn-cluster bits of clusters c0 .. c0 + k - 1 (drawn early), one atomic per 32-cluster
+// word.
 void mark_clusters(uint c0, uint k) {
+    atomicAdd(frame[FRAME_CLUSTERS + EARLY_PASS], k);
     uint c = c0, end = c0 + k;
     while (c < end) {
         uint word = c >> 5;
