@@ -71,7 +71,7 @@ def test_culling_is_conservative_against_the_cuts_id_render(field):
     sees is kept unless the cut itself does not show it (its coarser clusters covered by a
     neighbour's); occlusion culls some of the cut; the triangles counted are the drawn
     clusters'."""
-    from soc.culling.dag_select import DagRenderer
+    from soc.dag_renderer import DagRenderer
 
     occluded = 0
     with (
@@ -103,7 +103,7 @@ def test_culling_is_conservative_against_the_cuts_id_render(field):
 def test_the_frame_is_the_cuts_image(field):
     """The culler's depth is the depth of the cut drawn whole (the DAG renderer with nothing
     culled), pixel for pixel up to a few rounding pixels."""
-    from soc.culling.dag_select import DagRenderer
+    from soc.dag_renderer import DagRenderer
 
     with (
         soc.Culler(field, "gpu-driven", resolution=RES, lod=0.5) as c,
