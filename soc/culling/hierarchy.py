@@ -70,13 +70,14 @@ from soc.culling.hiz_cpu import (
     _U32,
     FLOAT32_TRANSFORM_ULPS,
     OCCLUDED,
-    RECT_MARGIN_PX,
     VIEW_CULLED,
     VISIBLE,
     WALK_STACK,
     _pyramid_test,
     crosses_near_plane,
+    pixel_centres,
     project_box,
+    project_corner,
 )
 from soc.culling.masked import _test_rect
 
@@ -514,16 +515,7 @@ def node_rect(box, m, am, width, height):  # pragma: no cover - compiled
     xhi, yhi = -np.inf, -np.inf
     nz_max, inv_max = 0.0, 0.0
     for corner in range(8):
-        p0 = np.float64(box[corner & 1, 0])
-        p1 = np.float64(box[(corner >> 1) & 1, 1])
-        p2 = np.float64(box[(corner >> 2) & 1, 2])
-        w = m[3, 0] * p0 + m[3, 1] * p1 + m[3, 2] * p2 + m[3, 3]
-        inv = 1.0 / w
-        nx = (m[0, 0] * p0 + m[0, 1] * p1 + m[0, 2] * p2 + m[0, 3]) * inv
-        ny = (m[1, 0] * p0 + m[1, 1] * p1 + m[1, 2] * p2 + m[1, 3]) * inv
-        nz = (m[2, 0] * p0 + m[2, 1] * p1 + m[2, 2] * p2 + m[2, 3]) * inv
-        x = (nx + 1.0) * (0.5 * width)
-        y = (ny + 1.0) * (0.5 * height)
+        _, _, _, x, y, nz, inv = project_corner(box, m, corner, width, height)
         xlo, xhi = min(xlo, x), max(xhi, x)
         ylo, yhi = min(ylo, y), max(yhi, y)
         zlo = min(zlo, 0.5 * (nz + 1.0))
@@ -542,11 +534,7 @@ def node_rect(box, m, am, width, height):  # pragma: no cover - compiled
     tx = NODE_TOLERANCE * (1.0 + width * mag_x * inv_max)
     ty = NODE_TOLERANCE * (1.0 + height * mag_y * inv_max)
     xlo, xhi, ylo, yhi = xlo - tx, xhi + tx, ylo - ty, yhi + ty
-    # As project_box: pixel centres c + 0.5 in [lo - margin, hi + margin], clamped.
-    x0 = max(0, math.ceil(min(max(xlo - RECT_MARGIN_PX - 0.5, -1.0), width)))
-    y0 = max(0, math.ceil(min(max(ylo - RECT_MARGIN_PX - 0.5, -1.0), height)))
-    x1 = min(width - 1, math.floor(min(max(xhi + RECT_MARGIN_PX - 0.5, -1.0), width)))
-    y1 = min(height - 1, math.floor(min(max(yhi + RECT_MARGIN_PX - 0.5, -1.0), height)))
+    x0, y0, x1, y1 = pixel_centres(xlo, ylo, xhi, yhi, width, height)  # as project_box
     return x0, y0, x1, y1, zlo - 0.5 * QUERY_DEPTH_BIAS_NDC
 
 

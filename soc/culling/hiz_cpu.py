@@ -235,6 +235,34 @@ def crosses_near_plane(box, forward, eye_depth, min_depth):  # pragma: no cover 
 
 
 @numba.njit(cache=True, inline="always")
+def project_corner(box, m, corner, width, height):  # pragma: no cover - compiled
+    """Corner ``corner`` (0-7; bit ``k`` takes ``box[1]`` on axis ``k``) of ``box`` (2, 3)
+    under the (4, 4) float64 view-projection ``m``: its float64 coordinates ``p0, p1, p2``,
+    window ``x, y`` (pixels), NDC depth ``nz`` and ``1 / w``."""
+    p0 = np.float64(box[corner & 1, 0])
+    p1 = np.float64(box[(corner >> 1) & 1, 1])
+    p2 = np.float64(box[(corner >> 2) & 1, 2])
+    w = m[3, 0] * p0 + m[3, 1] * p1 + m[3, 2] * p2 + m[3, 3]
+    inv = 1.0 / w
+    nx = (m[0, 0] * p0 + m[0, 1] * p1 + m[0, 2] * p2 + m[0, 3]) * inv
+    ny = (m[1, 0] * p0 + m[1, 1] * p1 + m[1, 2] * p2 + m[1, 3]) * inv
+    nz = (m[2, 0] * p0 + m[2, 1] * p1 + m[2, 2] * p2 + m[2, 3]) * inv
+    return p0, p1, p2, (nx + 1.0) * (0.5 * width), (ny + 1.0) * (0.5 * height), nz, inv
+
+
+@numba.njit(cache=True, inline="always")
+def pixel_centres(xlo, ylo, xhi, yhi, width, height):  # pragma: no cover - compiled
+    """``x0, y0, x1, y1``: the pixels whose centres ``c + 0.5`` lie in the window rectangle
+    ``[lo - RECT_MARGIN_PX, hi + RECT_MARGIN_PX]``, clamped to ``[0, n - 1]`` (``x0 > x1`` or
+    ``y0 > y1`` when there are none)."""
+    x0 = max(0, math.ceil(min(max(xlo - RECT_MARGIN_PX - 0.5, -1.0), width)))
+    y0 = max(0, math.ceil(min(max(ylo - RECT_MARGIN_PX - 0.5, -1.0), height)))
+    x1 = min(width - 1, math.floor(min(max(xhi + RECT_MARGIN_PX - 0.5, -1.0), width)))
+    y1 = min(height - 1, math.floor(min(max(yhi + RECT_MARGIN_PX - 0.5, -1.0), height)))
+    return x0, y0, x1, y1
+
+
+@numba.njit(cache=True, inline="always")
 def project_box(box, m, am, width, height):  # pragma: no cover - compiled
     """One box of :func:`project_boxes` (numba, for kernels that test boxes one by one).
 
@@ -244,29 +272,16 @@ def project_box(box, m, am, width, height):  # pragma: no cover - compiled
     xlo, ylo, zlo = np.inf, np.inf, np.inf
     xhi, yhi = -np.inf, -np.inf
     for corner in range(8):
-        p0 = np.float64(box[corner & 1, 0])
-        p1 = np.float64(box[(corner >> 1) & 1, 1])
-        p2 = np.float64(box[(corner >> 2) & 1, 2])
-        w = m[3, 0] * p0 + m[3, 1] * p1 + m[3, 2] * p2 + m[3, 3]
-        inv = 1.0 / w
-        nx = (m[0, 0] * p0 + m[0, 1] * p1 + m[0, 2] * p2 + m[0, 3]) * inv
-        ny = (m[1, 0] * p0 + m[1, 1] * p1 + m[1, 2] * p2 + m[1, 3]) * inv
-        nz = (m[2, 0] * p0 + m[2, 1] * p1 + m[2, 2] * p2 + m[2, 3]) * inv
+        p0, p1, p2, x, y, nz, inv = project_corner(box, m, corner, width, height)
         a0, a1, a2 = abs(p0), abs(p1), abs(p2)
         mag = (am[2, 0] + am[3, 0]) * a0 + (am[2, 1] + am[3, 1]) * a1
         mag += (am[2, 2] + am[3, 2]) * a2 + am[2, 3] + am[3, 3]
         err = FLOAT32_TRANSFORM_ULPS * _U32 * mag * (1.0 + abs(nz))
-        x = (nx + 1.0) * (0.5 * width)
-        y = (ny + 1.0) * (0.5 * height)
         z = 0.5 * (nz + 1.0) - 0.5 * err * inv
         xlo, xhi = min(xlo, x), max(xhi, x)
         ylo, yhi = min(ylo, y), max(yhi, y)
         zlo = min(zlo, z)
-    # Pixel centres c + 0.5 in [lo - margin, hi + margin], clamped to [0, n - 1].
-    x0 = max(0, math.ceil(min(max(xlo - RECT_MARGIN_PX - 0.5, -1.0), width)))
-    y0 = max(0, math.ceil(min(max(ylo - RECT_MARGIN_PX - 0.5, -1.0), height)))
-    x1 = min(width - 1, math.floor(min(max(xhi + RECT_MARGIN_PX - 0.5, -1.0), width)))
-    y1 = min(height - 1, math.floor(min(max(yhi + RECT_MARGIN_PX - 0.5, -1.0), height)))
+    x0, y0, x1, y1 = pixel_centres(xlo, ylo, xhi, yhi, width, height)
     return x0, y0, x1, y1, zlo - 0.5 * QUERY_DEPTH_BIAS_NDC
 
 

@@ -97,6 +97,7 @@ from soc.culling.software_raster import (
     raster_threads,
     setup_occluders,
     setup_triangles,
+    triangle_record,
 )
 
 # Tile and subtile sizes, pixels (the library's AVX2 layout: a tile is 4×2 subtiles).
@@ -269,21 +270,7 @@ def _rasterize_band(
         row_pad |= 0xFF << (8 * r)
     fw = float(width)
     for t in range(count):
-        x0, y0, x1, y1, x2, y2 = (
-            records[t, 0],
-            records[t, 1],
-            records[t, 2],
-            records[t, 3],
-            records[t, 4],
-            records[t, 5],
-        )
-        a, b, c, zvmax, zvmin = (
-            records[t, 6],
-            records[t, 7],
-            records[t, 8],
-            records[t, 9],
-            records[t, 10],
-        )
+        x0, y0, x1, y1, x2, y2, a, b, c, zvmax, zvmin = triangle_record(records, t)
         j_lo, j_hi = pixel_rows(x0, y0, x1, y1, x2, y2, margin, height)
         i_min = max(0, math.ceil(min(max(min(x0, min(x1, x2)) - 0.5, -1.0), fw)))
         i_max = min(width - 1, math.floor(min(max(max(x0, max(x1, x2)) - 0.5, -1.0), fw)))

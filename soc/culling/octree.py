@@ -116,6 +116,21 @@ def _inverted(k: int) -> np.ndarray:
     return b
 
 
+class _NodeView:
+    """A read-only view of the first ``nodes`` rows of the octree's per-node array ``attr``
+    (the arrays grow ahead of the nodes in use)."""
+
+    def __init__(self, attr: str):
+        self.attr = attr
+
+    def __get__(self, tree: Octree | None, owner=None) -> np.ndarray:
+        if tree is None:
+            return self  # type: ignore[return-value]
+        v = getattr(tree, self.attr)[: tree._m]
+        v.flags.writeable = False
+        return v
+
+
 class Octree:
     """Single-reference loose octree over object ids ``0 .. capacity-1`` (module docstring).
 
@@ -145,6 +160,8 @@ class Octree:
         Objects living in the node itself.
     own_bounds : (M, 2, 3) float32
         Union of the node's own objects' AABBs (conservative; empty = inverted).
+    version : (M,) int64
+        How often each node's command array was recorded (GL copies compare it).
     node_of : (capacity,) int64
         The node each object lives in, -1 when it is not in the tree.
     """
@@ -209,48 +226,19 @@ class Octree:
 
     # -- read-only views ----------------------------------------------------------------------
 
-    def _view(self, a: np.ndarray) -> np.ndarray:
-        v = a[: self._m]
-        v.flags.writeable = False
-        return v
-
     @property
     def nodes(self) -> int:
         """Number of nodes ever created (ids ``0 .. nodes-1``)."""
         return self._m
 
-    @property
-    def level(self) -> np.ndarray:
-        return self._view(self._level)
-
-    @property
-    def cell(self) -> np.ndarray:
-        return self._view(self._cell)
-
-    @property
-    def parent(self) -> np.ndarray:
-        return self._view(self._parent)
-
-    @property
-    def children(self) -> np.ndarray:
-        return self._view(self._children)
-
-    @property
-    def split(self) -> np.ndarray:
-        return self._view(self._split)
-
-    @property
-    def own_counts(self) -> np.ndarray:
-        return self._view(self._own)
-
-    @property
-    def own_bounds(self) -> np.ndarray:
-        return self._view(self._bounds)
-
-    @property
-    def version(self) -> np.ndarray:
-        """(M,) int64 how often each node's command array was recorded (GL copies compare it)."""
-        return self._view(self._version)
+    level = _NodeView("_level")
+    cell = _NodeView("_cell")
+    parent = _NodeView("_parent")
+    children = _NodeView("_children")
+    split = _NodeView("_split")
+    own_counts = _NodeView("_own")
+    own_bounds = _NodeView("_bounds")
+    version = _NodeView("_version")
 
     @property
     def node_of(self) -> np.ndarray:
@@ -575,16 +563,6 @@ class Octree:
         """(M, 2, 3) float32 union of the subtree's objects' AABBs (conservative)."""
         return self._hierarchy()[1]
 
-    def ancestors(self, nodes) -> np.ndarray:
-        """(K,) int64 all proper ancestors of ``nodes``, sorted, without repeats."""
-        out = []
-        cur = np.unique(np.asarray(nodes, np.int64))
-        while len(cur):
-            cur = self._parent[cur]
-            cur = np.unique(cur[cur >= 0])
-            out.append(cur)
-        return np.unique(np.concatenate(out)) if out else np.zeros(0, np.int64)
-
     def objects_in(self, nodes, *, subtree: bool = False) -> np.ndarray:
         """(K,) int64 ids of the objects living in ``nodes`` (or in their subtrees), sorted."""
         mark = np.zeros(self._m, bool)
@@ -815,39 +793,6 @@ class NodeBuffers:
         else:
             raw = self._buffers[node].read(k * COMMAND_BYTES)
         return np.frombuffer(raw, np.uint32).reshape(k, 5)
-
-
-@uses_gl
-class ObjectCommands:
-    """Mode 1's single command buffer for comparison: the commands of the given objects
-    gathered and uploaded every frame (T_buf(S)), drawn with one multi-draw call."""
-
-    def __init__(self, geometry):
-        self.geometry = geometry
-        self.glctx = geometry.glctx
-        self._buffer = self.glctx.ctx.buffer(reserve=256 * COMMAND_BYTES, dynamic=True)
-        self._count = 0
-
-    def release(self) -> None:
-        self._buffer.release()
-
-    def sync(self, ids) -> float:
-        """Record and upload the commands of objects ``ids (K,)``; returns ms (finished)."""
-        t0 = time.perf_counter()
-        cmds = np.ascontiguousarray(self.geometry.commands[np.asarray(ids, np.int64)])
-        if cmds.nbytes > self._buffer.size:
-            self._buffer.orphan(2 * cmds.nbytes)
-        if len(cmds):
-            self._buffer.write(cmds)
-        self._count = len(cmds)
-        self.glctx.finish()
-        return 1e3 * (time.perf_counter() - t0)
-
-    def draw(self, program) -> int:
-        """Draw what the last :meth:`sync` recorded; returns the commands executed."""
-        if self._count:
-            self.geometry.mesh_vao(program).render_indirect(self._buffer, count=self._count)
-        return self._count
 
 
 @uses_gl

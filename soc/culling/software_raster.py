@@ -68,6 +68,14 @@ RECORD = 11
 _U32 = 2.0**-24  # float32 unit roundoff
 
 
+@numba.njit(cache=True, inline="always")
+def triangle_record(records, t):  # pragma: no cover - compiled
+    """Record ``t`` of ``records`` (R, :data:`RECORD`) as its fields: ``x0, y0, x1, y1, x2,
+    y2, a, b, c, z_max, z_min``."""
+    r = records[t]
+    return r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10]
+
+
 def occluder_triangles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """World triangles of the scene's occluders, grouped by occluder.
 
@@ -427,15 +435,7 @@ def rasterize_records(records, count, depth, margin, band=0, bands=1):  # pragma
     fw = float(width)
     fragments = 0
     for t in range(count):
-        x0, y0, x1, y1, x2, y2 = (
-            records[t, 0],
-            records[t, 1],
-            records[t, 2],
-            records[t, 3],
-            records[t, 4],
-            records[t, 5],
-        )
-        a, b, c, zvmax = records[t, 6], records[t, 7], records[t, 8], records[t, 9]
+        x0, y0, x1, y1, x2, y2, a, b, c, zvmax, _ = triangle_record(records, t)
         j_lo, j_hi = pixel_rows(x0, y0, x1, y1, x2, y2, margin, height)
         l0x, l0q, r0x, r0q = _edge(x0, y0, x1, y1, margin)
         l1x, l1q, r1x, r1q = _edge(x1, y1, x2, y2, margin)

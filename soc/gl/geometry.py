@@ -364,20 +364,26 @@ class InstancedGeometry:
         return held
 
     def mesh_vao(self, program):
-        """Vertex array drawing instances with ``program`` (instanced.vert inputs)."""
+        """Vertex array drawing instances with ``program`` (instanced.vert inputs), kept."""
         key = program.glo
         if key not in self._vaos:
-            attrs = [
-                (self.vbo, "3f", "in_position"),
-                (self.ids, "u/i", "in_object"),
-                (self.rows, "4f 4f 4f/i", "in_row0", "in_row1", "in_row2"),
-                (self.colors, "3f/i", "in_color"),
-            ]
-            attrs = [a for a in attrs if a[2] in program]
-            self._vaos[key] = self.glctx.ctx.vertex_array(
-                program, attrs, index_buffer=self.ibo, index_element_size=4
-            )
+            self._vaos[key] = self.vertex_array(program, self.vbo, self.ibo)
         return self._vaos[key]
+
+    def vertex_array(self, program, vertex_buffer, index_buffer):
+        """A new vertex array (the caller releases it) drawing the instances' per-instance
+        ids, transforms and colours with ``program`` (instanced.vert inputs) over other
+        meshes: ``vertex_buffer`` (3 float32 a vertex) and ``index_buffer`` (uint32)."""
+        attrs = [
+            (vertex_buffer, "3f", "in_position"),
+            (self.ids, "u/i", "in_object"),
+            (self.rows, "4f 4f 4f/i", "in_row0", "in_row1", "in_row2"),
+            (self.colors, "3f/i", "in_color"),
+        ]
+        attrs = [a for a in attrs if a[2] in program]  # those the compiler kept
+        return self.glctx.ctx.vertex_array(
+            program, attrs, index_buffer=index_buffer, index_element_size=4
+        )
 
     def draw_objects(self, program, ids: np.ndarray) -> int:
         """Draw the full meshes of instances ``ids`` (K,) with one multi-draw-indirect call;

@@ -11,7 +11,7 @@ import pytest
 
 import soc
 from soc.culling.frustum import aabbs_in_frustum
-from soc.culling.octree import NodeBuffers, ObjectCommands, Octree, object_commands
+from soc.culling.octree import NodeBuffers, Octree, object_commands
 from soc.scenes.dynamic import dynamic_scene
 
 BOUNDS = np.array([[-100.0, 0.0, -100.0], [100.0, 40.0, 100.0]])
@@ -298,7 +298,6 @@ def test_node_buffers_hold_and_draw_exactly_the_alive_objects(small_dynamic, lay
     assert np.array_equal(object_commands(scene), geom.commands)
     tree = Octree.for_scene(scene, max_depth=6, leaf_capacity=4)
     nb = NodeBuffers(tree, geom, layout=layout)
-    flat = ObjectCommands(geom)
     r = Renderer(geom, (160, 96))
     cams = dyn.cameras(160, 96)
     try:
@@ -319,9 +318,6 @@ def test_node_buffers_hold_and_draw_exactly_the_alive_objects(small_dynamic, lay
             by_nodes = r.depth_image()
             r.draw(cam, alive)
             assert np.array_equal(by_nodes, r.depth_image()), f"frame {state.frame}"
-            flat.sync(alive)
-            assert flat.draw(r.program) == len(alive)
     finally:
         r.release()
         nb.release()
-        flat.release()
