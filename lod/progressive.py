@@ -46,16 +46,6 @@ def _collapse_forest(n: int, collapses: np.ndarray) -> tuple[np.ndarray, np.ndar
     return parent, step
 
 
-def _representative(parent: np.ndarray, step: np.ndarray, n_collapses: int) -> np.ndarray:
-    """(n,) int64: the vertex each vertex has merged into after the first n_collapses."""
-    rep = np.arange(len(parent), dtype=np.int64)
-    while True:
-        move = step[rep] < n_collapses
-        if not move.any():
-            return rep
-        rep[move] = parent[rep[move]]
-
-
 def _death(faces: np.ndarray, parent: np.ndarray, step: np.ndarray) -> np.ndarray:
     """(m,) int64: for each triangle, the number of collapses after which two of its corners
     have merged (a large sentinel when never). Two corners x, y merge when their paths in the

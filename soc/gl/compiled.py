@@ -280,8 +280,3 @@ def query_available(fns, query, scratch):
     a (1,) uint32 array to read into."""
     get_query_object(fns, query, glraw.GL_QUERY_RESULT_AVAILABLE, scratch.ctypes.data)
     return scratch[0] != 0
-
-
-def as_query_ids(ids: np.ndarray) -> np.ndarray:
-    """``ids`` as a contiguous (K,) uint32 array (the loops' query-name type)."""
-    return np.ascontiguousarray(ids, dtype=np.uint32).reshape(-1)

@@ -68,7 +68,6 @@ from soc.methods.base import CullMethod, MethodOutput, register, stage
 from soc.methods.options import MethodOptions, option
 from soc.models.adaptive import (
     DEFAULT_MARGIN,
-    MODE_NAMES,
     MODES,
     RULES,
     ModeCosts,
@@ -875,10 +874,3 @@ class AdaptiveCulling(CullMethod):
             "calls": float(len(np.unique(octree.node_of[hidden]))),
         }
         return est.invisible
-
-    # -- reporting -----------------------------------------------------------------------------
-
-    @property
-    def mode_name(self) -> str:
-        """The current mode's name (``rebuild``, ``octree``, ``queries``)."""
-        return MODE_NAMES[self.mode]

@@ -46,7 +46,6 @@ from dataclasses import dataclass
 import numpy as np
 
 MODES = (1, 2, 3)
-MODE_NAMES = {1: "rebuild", 2: "octree", 3: "queries"}
 RULES = ("paper", "cost")  # paper_mode, choose_mode
 
 # rule="cost" only: relative gain a mode must promise over the current one before the method
