@@ -43,15 +43,14 @@ from experiments.seed000_pictures import (
     telling_frame,
 )
 
-# The default: seed 000's methods (MOC as ``masked``), the GPU HiZ and two-phase HiZ, so that
-# the full flight stays within 15 minutes on 2 cores. ``--methods all``: every method.
-# The framework's own comparison set (Intel's sample): no culling, frustum only, the OGL
-# queries, a per-pixel box test against a software occluder depth (its SCALAR/SSE/AVX
-# rasterizers: ``hiz-cpu`` judged at the pixels) and MOC (``masked``: a rectangle per box).
+# The default (``--methods all``: every method), the framework's own comparison set (Intel's
+# sample): no culling, frustum only, the OGL queries, a per-pixel box test against a software
+# occluder depth (its SCALAR/SSE/AVX rasterizers: ``hiz-cpu`` judged at the pixels) and MOC
+# (``masked``: a rectangle per box).
 DEMO_METHODS = ("none", "frustum", "queries", "hiz-cpu", "masked")
 QUERY = "queries"  # seed 000's "OGL" method
 PACKETS = "queries-batched"  # its future work: occludees packed into packets (conservative)
-MOC, HIZ, TWO = "masked", "hiz-cpu", "hiz-2phase"  # seed 000's MOC and HiZ as registered here
+MOC, HIZ = "masked", "hiz-cpu"  # seed 000's MOC and HiZ as registered here
 # hiz-cpu judged at the pixels: the framework's per-pixel box test (its SSE/AVX methods)
 PIXEL_OPTIONS = (("refine", 23),)  # soc.culling.hiz_options.MAX_REFINE
 # Abb. 8's second curve (beyond the document): the GPU HiZ on an inner-conservative occluder
@@ -65,9 +64,6 @@ ONE_THREAD = (("cpu_threads", 1),)
 ONE_THREAD_TEXT = "cpu_threads=1"
 # Abb. 9's stage switches (MT: llvmpipe's threads, always on): frustum, depth test culling
 SWITCHES = dict(zip(doc.SWITCHES, [(False, False), (True, False), (True, True)], strict=True))
-TWO_PHASE = (
-    " (its depth holds every object drawn the frame before; the queries' only the occluders)"
-)
 FRAMES = ("summary", "frames", "scene", "pictures", "cameras", "boxes", "thesis", "tour2")
 # The thesis' OGL method draws the previous frame's query results (AABBoxRasterizerOGLST.cpp:
 # two query pools, this frame's issued, the other's read): our `queries` as it runs there.
@@ -630,17 +626,9 @@ def _stall_total(frames) -> float:
 
 
 def _tour_columns(frames, params):
-    """One case per depth resolution of the thesis' Evaluation 4 run on its tour: our OGL
-    run frame by frame against theirs."""
-    case = _case(frames, params)
-    if case["th"] is None or len(case["th"]) == 0:
-        return
-    for r, o in zip(case["res"], case["ours"], strict=True):
-        col = doc.document_column(r, case["d"])
-        th = seed000_thesis.select(case["th"], 4, depth_resolution=res_str(col)) if col else []
-        if len(th):
-            gap = _tour_gap(_rows(case["df"], QUERY, r), th)
-            yield dict(case, r=res_str(r), col=res_str(col), o=o, gap=gap, tour=params.tour)
+    """The Abb. 8 columns (:func:`_columns`) with a thesis' Evaluation 4 run on its tour: our
+    OGL run frame by frame against theirs (``gap``)."""
+    yield from (c for c in _columns(frames, params) if "gap" in c)
 
 
 def _tour_methods(frames, params):
@@ -683,25 +671,24 @@ def _columns(frames, params):
         dd = doc.ABB8[col]
         dp, last, mine = dd["triangles_culled_pct"], mine, o.triangles_culled_pct
         step = np.inf if coarser is None else (mine - last) * np.sign(dp - coarser)
-        extra = {}
         th = seed000_thesis.select(case["th"], 4, depth_resolution=res_str(col))
-        if len(th):
-            gap, absgap, _, stalls = _tour_gap(_rows(case["df"], QUERY, r), th)
-            extra["tour_text"] = (f"against its Evaluation 4 run frame by frame: mean gap "
-                                  f"{gap:+.1f} pp, |gap| {absgap:.1f}; "
-                                  + _stall_text(gap, stalls, case["stall_total"]))  # fmt: skip
-        yield dict(
-            case,
-            col=res_str(col),
-            r=res_str(r),
-            o=o,
-            dd=dd,
-            dp=dp,
-            coarser=coarser,
-            step=step,
-            **extra,
-        )
+        extra = _tour_text(case, _rows(case["df"], QUERY, r), th, 4) | {"tour": params.tour}
+        yield dict(case, col=res_str(col), r=res_str(r), o=o, dd=dd, dp=dp, coarser=coarser,
+                   step=step, **extra)  # fmt: skip
         coarser = dp
+
+
+def _tour_text(case, ours: pd.DataFrame, theirs: pd.DataFrame, evaluation: int) -> dict:
+    """Where the thesis ran it, our run's per-frame ``gap`` (:func:`_tour_gap`) and its
+    ``tour_text`` for a row's why; nothing elsewhere."""
+    if not len(theirs):
+        return {}
+    gap = _tour_gap(ours, theirs)
+    text = (
+        f"against its Evaluation {evaluation} run frame by frame: mean gap {gap[0]:+.1f} "
+        f"pp, |gap| {gap[1]:.1f}; " + _stall_text(gap[0], gap[3], case["stall_total"])
+    )
+    return {"gap": gap, "tour_text": text}
 
 
 def _switches(frames, params):
@@ -709,14 +696,8 @@ def _switches(frames, params):
     case = _case(frames, params)
     for n, (f, t) in SWITCHES.items():
         o, dd = _one(case["s"], QUERY, case["d"], frustum=f, depth_test=t), doc.ABB9[n]
-        extra = {}
-        th = seed000_thesis.select(case["th"], 7, stages=n)
-        if len(th):
-            ours = _rows(case["df"], QUERY, case["d"], frustum=f, depth_test=t)
-            gap, absgap, _, stalls = _tour_gap(ours, th)
-            extra["tour_text"] = (f"against its Evaluation 7 run frame by frame: mean gap "
-                                  f"{gap:+.1f} pp, |gap| {absgap:.1f}; "
-                                  + _stall_text(gap, stalls, case["stall_total"]))  # fmt: skip
+        ours = _rows(case["df"], QUERY, case["d"], frustum=f, depth_test=t)
+        extra = _tour_text(case, ours, seed000_thesis.select(case["th"], 7, stages=n), 7)
         yield dict(case, n=n, f=f, t=t, o=o, dd=dd, dp=dd["triangles_culled_pct"], coarser=None,
                    **extra)  # fmt: skip
 
@@ -833,14 +814,6 @@ def _stage_gap(a: pd.DataFrame, b: pd.DataFrame) -> str:
     return ", ".join(f"{k.removeprefix('ms_')} {v:+.1f}" for k, v in more.items())
 
 
-def _opposite(rows) -> int:
-    """Steps between consecutive resolutions where draw calls and models culled do not move
-    in opposite directions (0: the document's pattern holds at every step)."""
-    pairs = itertools.pairwise(rows)
-    return sum(not (b.draw_calls - a.draw_calls) * (b.models_culled - a.models_culled) < 0
-               for a, b in pairs)  # fmt: skip
-
-
 def _gap(q) -> float:
     """Our % triangles culled's distance from the document's."""
     return abs(q.o.triangles_culled_pct - q.dp)
@@ -858,20 +831,18 @@ def _gap_flips(where: str, frame: str) -> tuple:
     return tuple(alter(frame, "triangles_culled_pct", plus=d, where=where) for d in (50.0, -50.0))
 
 
-def _gap_rule(flips: tuple) -> Rule:
-    """A tour row's rule: the mean per-frame gap to the thesis' run within TARGET_PP."""
-    return Rule(lambda q: abs(q.gap[0]), "<=", TARGET_PP, "pp", noise=_EXACT, flips=flips)
-
-
-def _gap_ours(q) -> str:
-    return (
-        f"mean gap {q.gap[0]:+.1f} pp, mean |gap| {q.gap[1]:.1f} pp, "
-        f"{q.gap[2]:.0%} of the frames within {TARGET_PP:g} pp"
-    )
-
-
-def _gap_note(q) -> str:
-    return _stall_text(q.gap[0], q.gap[3], q.stall_total)
+def _gap_row(cases, item: str, document: str, flips: tuple, basis: str) -> Each:
+    """A tour row per case of ``cases`` (each with its ``gap``, :func:`_tour_gap`): the mean
+    per-frame gap to the thesis' run within :data:`TARGET_PP`, with the stalls' share noted."""
+    return Each(cases, (Row(
+        item + ": per-frame gap", document,
+        lambda q: f"mean gap {q.gap[0]:+.1f} pp, mean |gap| {q.gap[1]:.1f} pp, "
+        f"{q.gap[2]:.0%} of the frames within {TARGET_PP:g} pp",
+        NUMBERS,
+        Rule(lambda q: abs(q.gap[0]), "<=", TARGET_PP, "pp", noise=_EXACT, flips=flips),
+        basis=f"{basis} within {TARGET_PP:g} pp of its run",
+        note=lambda q: _stall_text(q.gap[0], q.gap[3], q.stall_total),
+    ),))  # fmt: skip
 
 
 def _document_curve(frames):
@@ -886,37 +857,23 @@ def _document_curve(frames):
     return {**frames, "summary": s}
 
 
-def _document_switches(frames):
-    """The query method's % culled in each Abb. 9 stage switch set to the document's."""
-    s = frames["summary"].copy()
-    for n, (f, t) in SWITCHES.items():
-        at = (s.method == QUERY) & (s.frustum == f) & (s.depth_test == t)
-        s.loc[at, "triangles_culled_pct"] = doc.ABB9[n]["triangles_culled_pct"]
-    return {**frames, "summary": s}
+def _document_switches(*quantities: str):
+    """An alteration setting the query method's ``quantities`` in each Abb. 9 stage switch to
+    the document's."""
 
+    def alteration(frames):
+        s = frames["summary"].copy()
+        for n, (f, t) in SWITCHES.items():
+            at = (s.method == QUERY) & (s.frustum == f) & (s.depth_test == t)
+            s.loc[at, list(quantities)] = [doc.ABB9[n][k] for k in quantities]
+        return {**frames, "summary": s}
 
-def _document_switch_models(frames):
-    """The query method's models culled and visible in each Abb. 9 stage switch set to the
-    document's."""
-    s = frames["summary"].copy()
-    for n, (f, t) in SWITCHES.items():
-        at = (s.method == QUERY) & (s.frustum == f) & (s.depth_test == t)
-        for k in ("models_culled", "models_visible"):
-            s.loc[at, k] = doc.ABB9[n][k]
-    return {**frames, "summary": s}
+    return alteration
 
 
 # The document's own repeat spread of models culled: its 1920x1080 run twice (Abb. 9 and 8).
 REPEAT_MODELS = round(abs(doc.ABB9["MT+Frustum+Depth test"]["models_culled"]
                           - doc.ABB8[(1920, 1080)]["models_culled"]), 2)  # fmt: skip
-
-
-def _stages(q) -> list[np.ndarray]:
-    """Models culled per frame by each Abb. 9 stage switch, in the switches' order."""
-    return [
-        _rows(q.df, QUERY, q.d, frustum=f, depth_test=t).models_culled.to_numpy()
-        for f, t in SWITCHES.values()
-    ]
 
 
 def _off_pattern(q) -> int:
@@ -1093,35 +1050,19 @@ CLAIMS = (
         "the document's does (a coincident level is no match)",
         why=_column_why,
     ),)),
-    Each(_tour_columns, (Row(
-        "Abb. 8 on the thesis' camera tour {tour}, {col} (ours {r}): per-frame gap",
-        "its Evaluation 4 run at {col}, frame by frame",
-        _gap_ours,
-        NUMBERS,
-        _gap_rule(_gap_flips(_QUERIES, "frames")),
-        basis=f"our OGL method (queries, previous frame's results, Intel's size test) on the "
-        f"thesis' tour, mean % triangles culled per frame within {TARGET_PP:g} pp of its run",
-        note=_gap_note,
-    ),)),
-    Each(_tour_methods, (Row(
-        "Abb. 8 left on the thesis' camera tour 1, {theirs} (ours {ours}): per-frame gap",
-        "its Evaluation 1 run of {theirs} ({what}) at 1920x1080, frame by frame",
-        _gap_ours,
-        NUMBERS,
-        _gap_rule(_gap_flips(_CPU, "frames")),
-        basis=f"the framework's method against ours standing for it on the thesis' tour, mean % "
-        f"triangles culled per frame within {TARGET_PP:g} pp",
-        note=_gap_note,
-    ),)),
-    Each(_held_out, (Row(
-        "held-out camera tour 2, OGL at 1920x1080: per-frame gap",
-        "its Evaluation 2 run (not in the document)",
-        lambda q: f"mean gap {q.gap[0]:+.1f} pp, mean |gap| {q.gap[1]:.1f} pp over {q.n} frames",
-        NUMBERS,
-        _gap_rule(_gap_flips(_QUERIES, "tour2")[:1]),
-        basis=f"the same configuration on a tour not used to build it, within {TARGET_PP:g} pp",
-        note=_gap_note,
-    ),)),
+    _gap_row(_tour_columns, "Abb. 8 on the thesis' camera tour {tour}, {col} (ours {r})",
+             "its Evaluation 4 run at {col}, frame by frame", _gap_flips(_QUERIES, "frames"),
+             "our OGL method (queries, previous frame's results, Intel's size test, the display "
+             "as its window) on the thesis' tour, mean % triangles culled per frame"),
+    _gap_row(_tour_methods, "Abb. 8 left on the thesis' camera tour 1, {theirs} (ours {ours})",
+             "its Evaluation 1 run of {theirs} ({what}) at 1920x1080, frame by frame",
+             _gap_flips(_CPU, "frames"),
+             "the framework's method against ours standing for it on the thesis' tour, mean % "
+             "triangles culled per frame"),
+    _gap_row(_held_out, "held-out camera tour 2, OGL at 1920x1080",
+             "its Evaluation 2 run (not in the document)", _gap_flips(_QUERIES, "tour2")[:1],
+             "the same configuration on a tour not used to build it, mean % triangles culled per "
+             "frame"),
     Each(_flight, (
         Row(
             "Abb. 8 table: 2432x1440's draw calls off the pattern",
@@ -1273,7 +1214,8 @@ CLAIMS = (
         "{o.models_culled:,.2f} models culled, {o.models_visible:,.2f} visible",
         NUMBERS,
         Rule(_gap, "<=", doc.REPEAT_PP, "pp", noise=_EXACT, flips=(
-            _document_switches, alter("summary", "triangles_culled_pct", plus=50.0))),
+            _document_switches("triangles_culled_pct"),
+            alter("summary", "triangles_culled_pct", plus=50.0))),
         basis=f"within {doc.REPEAT_PP} pp, the document's own repeat spread",
         why=_switch_why,
     ),)),
@@ -1284,8 +1226,9 @@ CLAIMS = (
         f"{q.o.models_culled + q.o.models_visible:,.0f})",
         NUMBERS,
         Rule(lambda q: abs(q.o.models_culled - q.dd["models_culled"]), "<=", REPEAT_MODELS,
-             "models", noise=_EXACT, flips=(_document_switch_models,
-                                            alter("summary", "models_culled", plus=5000.0))),
+             "models", noise=_EXACT, flips=(
+                 _document_switches("models_culled", "models_visible"),
+                 alter("summary", "models_culled", plus=5000.0))),
         basis=f"within {REPEAT_MODELS:g} models culled, the document's own repeat spread (its "
         "1920×1080 run: 19,728.07 in Abb. 9, 19,683.44 in Abb. 8); visible = 27,025 − culled",
         why=lambda q: f"ours culls {q.o.models_culled - q.dd['models_culled']:+,.0f} models; "

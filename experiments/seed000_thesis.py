@@ -23,7 +23,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 FOLDER = "seed000_evaluation"
@@ -107,9 +106,3 @@ def select(df: pd.DataFrame, evaluation: int, **eq) -> pd.DataFrame:
     for k, v in eq.items():
         m &= df[k] == v
     return df[m].sort_values("frame")
-
-
-def mean_gap(ours: np.ndarray, theirs: np.ndarray) -> float:
-    """Mean over the frames of ours − theirs (frames aligned; the shorter length)."""
-    n = min(len(ours), len(theirs))
-    return float(np.mean(np.asarray(ours[:n], float) - np.asarray(theirs[:n], float)))
