@@ -2,7 +2,7 @@
 costs as its error threshold varies, against the full-detail image and against object LOD.
 
 One view across a field whose instances span near to far. Per threshold (pixels) the cut is
-selected on the GPU (:class:`soc.dag_renderer.DagRenderer`), culled (frustum, normal cone,
+selected on the GPU (:class:`soc.culling.dag_select.DagRenderer`), culled (frustum, normal cone,
 two-phase hierarchical z, or frustum only) and drawn; we record the triangles drawn, the
 triangles per covered pixel, the frame's stages in ms, and the image error against the
 full-detail render: NVIDIA's FLIP (``flip-evaluator``, LDR) and the share of covered pixels
@@ -129,9 +129,8 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
 
     import lod
     from lod.dag import mesh_dag, pixel_scale
-    from soc.culling.dag_select import DagTables, render_instances
+    from soc.culling.dag_select import DagRenderer, DagTables, render_instances
     from soc.culling.oracle import may_draw
-    from soc.dag_renderer import DagRenderer
     from soc.scenes.camera import Camera
 
     scene, cam = field_and_view(params)

@@ -13,10 +13,16 @@ Two backends of one decision:
   the group tree of every instance, one pass per tree depth (the nodes that survive a pass are
   the next one's input), then a pass over the groups reached that appends the selected
   (instance, cluster) pairs to a GPU buffer with their count, or sets their bits in a
-  candidate bit set: :class:`DagClusters` plugs the cut into ``gpu-driven``
-  (``soc.Culler(scene, "gpu-driven", lod=threshold)``), whose frustum and two-phase HiZ passes
-  cull it and draw it. :class:`soc.dag_renderer.DagRenderer` runs such cullers and draws the
-  cut's pictures.
+  candidate bit set.
+
+Where the cut is culled and drawn: :class:`DagClusters` plugs it into ``gpu-driven``
+(``soc.Culler(scene.with_dag(tables), "gpu-driven", lod=threshold)``), whose frustum and
+two-phase HiZ passes cull it and draw it, the instances as its objects. Its table of clusters
+holds every DAG cluster of every instance (about 140 bytes each on the GPU with its draw
+commands' room: at most :data:`MAX_TABLE`), which bounds the instances × DAG clusters it can
+hold; :class:`DagRenderer` (``frame``: frustum, normal cone and two-phase hierarchical z of its
+own, ``dag_cull.comp.glsl``, over the selected pairs only) still draws the fields beyond that
+(the benchmarks' 10⁹ and 10¹⁰-triangle fields) and the cut's pictures (``dag_draw.vert.glsl``).
 
 **The decision** (:func:`within` here, ``within()`` in the shader, both in float32): a sphere
 (centre c, radius r, object units) with error e, under an instance transform of scale s,
@@ -44,6 +50,8 @@ from soc.scenes.instanced import Instances, check_similarity, make_instances
 
 __all__ = [
     "DagClusters",
+    "DagFrame",
+    "DagRenderer",
     "DagTables",
     "DagWalk",
     "Instances",
@@ -349,44 +357,52 @@ def select_brute(tables: DagTables, instances: Instances, eye, pixel_scale, thre
 # Counters at the start of the work buffer (dag.common.glsl's DAG_COUNT_*).
 DAG_COUNT_GROUPS = 0  # (instance, group) pairs reached by the walk
 DAG_COUNT_SELECTED = 1  # (instance, cluster) pairs of the cut
+DAG_COUNT_EARLY = 2  # + phase: commands drawn by the early (2) and late (3) phase
+DAG_COUNT_RETEST = 4  # pairs the early phase left to the late test
+DAG_COUNT_TRIANGLES = 5  # + phase: triangles drawn by each phase (5, 6)
+DAG_COUNT_CULLED = 7  # pairs outside the frustum or back-facing
+DAG_COUNT_OCCLUDED = 8  # pairs the late test culled
 DAG_ARGS = 12  # 3 words: the next pass's indirect dispatch (x, 1, 1), written by stage 3
 DAG_COUNT_NODES = 16  # + depth: (instance, node) pairs of each tree depth
 DAG_MAX_DEPTH = 64
 DAG_HEADER = DAG_COUNT_NODES + DAG_MAX_DEPTH + 1
-# Most pairs a list holds (nodes of one depth, groups, the cut).
+# Most pairs a list holds (nodes of one depth, groups, the cut, each phase's commands).
 DEFAULT_CAPACITY = 1 << 21
 # Where the walk sets the cut's bits (a candidate bit set: DagWalk's ``marks``).
 DAG_MARKS_BINDING = 10
-# dag_draw.vert's buffers: the instances' rows (the walk's), the clusters' levels, the pairs.
-DAG_INSTANCES_BINDING = 0
-DAG_LEVELS_BINDING = 7
-DAG_PAIRS_BINDING = 9
+# Most clusters (instances × their meshes' DAG clusters) a DagClusters table holds (about 140
+# bytes each on the GPU: 9 GB).
+MAX_TABLE = 1 << 26
 # Invocations per work group of the DAG's compute passes (the shaders' COMPUTE_GROUP).
 DAG_GROUP = 64
 # Work groups of a dispatch (each invocation strides through its list).
 DISPATCH_GROUPS = 256
+# Relative growth of a cluster's world box for the transform's float32 rounding.
+DAG_BOX_GROW = 4e-6
 
 
 def _defines(capacity: int) -> dict[str, object]:
     """The numbers of this module the DAG shaders are compiled with."""
     lists = {}
     at = DAG_HEADER
-    for name, pairs in (("NODES", 2), ("GROUPS", 1), ("SELECTED", 1)):
+    for name, pairs in (("NODES", 2), ("GROUPS", 1), ("SELECTED", 1), ("RETEST", 1)):
         lists[f"DAG_LIST_{name}"] = at
         at += 2 * pairs * capacity
     return {
-        "DAG_INSTANCES_BINDING": DAG_INSTANCES_BINDING,
+        "DAG_INSTANCES_BINDING": 0,
         "DAG_INSTANCE_MESH_BINDING": 1,
         "DAG_MESH_ROOT_BINDING": 2,
         "DAG_NODES_BINDING": 3,
         "DAG_GROUPS_BINDING": 4,
         "DAG_LOD_BINDING": 5,
         "DAG_WORK_BINDING": 6,
-        "DAG_LEVELS_BINDING": DAG_LEVELS_BINDING,
-        "DAG_PAIRS_BINDING": DAG_PAIRS_BINDING,
+        "DAG_CULL_BINDING": 7,
+        "DAG_COMMANDS_BINDING": 8,
+        "DAG_PAIRS_BINDING": 9,
         "DAG_MARKS_BINDING": DAG_MARKS_BINDING,
         "DAG_CAPACITY": f"{capacity}u",
         "DAG_NODE_SLACK": repr(float(NODE_SLACK)),
+        "DAG_BOX_GROW": repr(float(DAG_BOX_GROW)),
         "DAG_ARGS": f"{DAG_ARGS}u",
         "DAG_MAX_GROUPS": f"{DISPATCH_GROUPS}u",
         **{k: f"{v}u" for k, v in globals().items() if k.startswith("DAG_COUNT_")},
@@ -404,6 +420,39 @@ def _source(name: str, defines: dict) -> str:
     extra = ["#ifndef COMPUTE_GROUP", f"#define COMPUTE_GROUP {DAG_GROUP}", "#endif"]
     extra += [f"#define {k} {v}" for k, v in defines.items() if k != "DAG_WORK_WORDS"]
     return "\n".join([lines[0], *extra, *lines[1:]])
+
+
+@dataclass(frozen=True)
+class DagFrame:
+    """What one frame of :meth:`DagRenderer.frame` did.
+
+    Attributes
+    ----------
+    selected : int
+        (instance, cluster) pairs of the cut (in the frustum).
+    drawn_early, drawn_late : int
+        Pairs drawn by each phase.
+    culled : int
+        Pairs outside the frustum or back-facing.
+    occluded : int
+        Pairs the late hierarchical-z test culled.
+    triangles : int
+        Triangles drawn, both phases.
+    nodes : int
+        Tree nodes visited, all instances.
+    timings_ms : dict
+        Milliseconds per stage (``select``, ``cull_early``, ``draw_early``, ``pyramid``,
+        ``cull_late``, ``draw_late``, ``total``), each after a ``finish``.
+    """
+
+    selected: int
+    drawn_early: int
+    drawn_late: int
+    culled: int
+    occluded: int
+    triangles: int
+    nodes: int
+    timings_ms: dict
 
 
 def _set(program, name: str, value) -> None:
@@ -550,13 +599,19 @@ class DagWalk:
 
     def check(self, counts: np.ndarray) -> None:
         """Raise RuntimeError when a work list of ``counts`` (the counters) overflowed."""
-        names = {DAG_COUNT_GROUPS: "groups reached", DAG_COUNT_SELECTED: "selected clusters"}
+        names = {
+            DAG_COUNT_GROUPS: "groups reached",
+            DAG_COUNT_SELECTED: "selected clusters",
+            DAG_COUNT_RETEST: "late retests",
+            DAG_COUNT_EARLY: "early draws",
+            DAG_COUNT_EARLY + 1: "late draws",
+        }
         names.update({DAG_COUNT_NODES + d: f"nodes at depth {d}" for d in range(DAG_MAX_DEPTH)})
         for at, name in names.items():
             if counts[at] > self.capacity:
                 raise RuntimeError(
                     f"the DAG's work list of {name} needs {int(counts[at]):,} pairs, more than "
-                    f"its capacity {self.capacity:,}: pass a larger capacity"
+                    f"its capacity {self.capacity:,}: pass a larger capacity to DagRenderer"
                 )
 
     def select(self, camera, threshold: float = 1.0, *, frustum: bool = False) -> np.ndarray:
@@ -564,18 +619,13 @@ class DagWalk:
         sorted. ``frustum`` drops instances' subtrees outside the frustum (the CPU
         reference, :func:`select_cpu`, does not)."""
         self.run(camera, threshold, frustum)
-        pairs = self.select_list()
-        return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
-
-    def select_list(self) -> np.ndarray:
-        """(K, 2) int64 the selected list of the last :meth:`run` (without ``marks``), in the
-        order the walk appended it."""
-        n = min(int(self.counters()[DAG_COUNT_SELECTED]), self.capacity)
+        n = int(self.counters()[DAG_COUNT_SELECTED])
         if n == 0:
             return np.zeros((0, 2), np.int64)
         at = int(self.defines["DAG_LIST_SELECTED"].rstrip("u"))
         data = np.frombuffer(self.work.read(size=8 * n, offset=4 * at), np.uint32)
-        return data.reshape(-1, 2).astype(np.int64)
+        pairs = data.reshape(-1, 2).astype(np.int64)
+        return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
 
 
 def _world_boxes(local: np.ndarray, matrices: np.ndarray, chunk: int = 1 << 20) -> np.ndarray:
@@ -662,6 +712,13 @@ class DagClusters:
         counts = per_mesh[mesh]
         self.first = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         self.count = c = int(self.first[-1])
+        if c > MAX_TABLE:
+            raise ValueError(
+                f"{len(scene):,} instances of DAGs of {per_mesh.tolist()} clusters make a table "
+                f"of {c:,} clusters, more than gpu-driven's {MAX_TABLE:,} (about 140 bytes each "
+                "on the GPU): draw fewer instances, or draw the cut with "
+                "soc.culling.dag_select.DagRenderer (which keeps the selected pairs only)"
+            )
         inst = np.repeat(np.arange(len(scene), dtype=np.int64), counts)
         cluster = t.mesh_clusters[mesh[inst]] + np.arange(c) - self.first[inst]
         self.cluster, self.instance = cluster, inst
@@ -787,15 +844,292 @@ class DagClusters:
 
 
 @uses_gl
+class DagRenderer:
+    """The cut of DAG meshes placed by instances, selected, culled and drawn on the GPU.
+
+    Parameters
+    ----------
+    tables : DagTables
+    instances : Instances
+    resolution : (int, int)
+        Width and height of the render targets (colour, instance or slot id, depth).
+    glctx : GLContext, optional
+        Default: the process's context.
+    capacity : int
+        Most pairs a work list holds (:data:`DEFAULT_CAPACITY`); a frame that needs more
+        raises ``RuntimeError`` naming the list.
+
+    Notes
+    -----
+    :meth:`select` is the selection pass alone: inputs the instance transforms and the DAG
+    buffers (uploaded here), the camera and the threshold in pixels; output the selected
+    (instance, cluster) pairs in a GPU buffer (the work buffer's selected list) and their
+    count. :meth:`frame` runs it, then the two-phase culling and the draws.
+    """
+
+    def __init__(self, tables: DagTables, instances: Instances, resolution=(1920, 1080),
+                 glctx=None, *, capacity: int = DEFAULT_CAPACITY):  # fmt: skip
+        from soc.gl.context import default_context
+
+        self.glctx = glctx or default_context()
+        ctx = self.glctx.ctx
+        self.walk = DagWalk(tables, instances, self.glctx, capacity)
+        self.tables, self.instances = tables, instances
+        self.capacity = int(capacity)
+        self.defines = self.walk.defines
+        self.resolution = (int(resolution[0]), int(resolution[1]))
+        self._walk = self.walk.program
+        self._cull = ctx.compute_shader(_source("dag_cull.comp", self.defines))
+        self.program = ctx.program(
+            vertex_shader=_source("dag_draw.vert", self.defines),
+            fragment_shader=_source("dag_draw.frag", self.defines),
+        )
+        t = tables
+        cull = np.zeros((len(t), 5, 4), np.float32)
+        cull[:, 0, :3], cull[:, 1, :3] = t.aabbs[:, 0], t.aabbs[:, 1]
+        cull[:, 0, 3] = t.cone_cutoff
+        cull[:, 2, :3], cull[:, 3, :3] = t.cone_axis, t.cone_apex
+        draw = cull[:, 4].view(np.uint32)
+        draw[:, 0], draw[:, 1] = 3 * t.first, 3 * t.count
+        draw[:, 2] = t.mesh_vertex[t.cluster_mesh]
+        draw[:, 3] = t.level
+        self._own = {
+            7: ctx.buffer(cull),
+            8: ctx.buffer(reserve=2 * self.capacity * 20),
+            9: ctx.buffer(reserve=2 * self.capacity * 8),
+        }
+        self._buffers = {**self.walk.buffers, **self._own}
+        self.work = self.walk.work
+        self.commands = self._buffers[8]
+        self.vbo = ctx.buffer(t.vertices)
+        self.ibo = ctx.buffer(t.faces.astype(np.uint32))
+        self.slots = ctx.buffer(np.arange(2 * self.capacity, dtype=np.uint32))
+        self.vao = ctx.vertex_array(
+            self.program,
+            [(self.vbo, "3f", "in_position"), (self.slots, "u/i", "in_slot")],
+            index_buffer=self.ibo,
+            index_element_size=4,
+        )
+        self._targets = [self._target() for _ in range(2)]
+        self._pyramids = None
+        self._frame = 0
+        self._last_camera = None
+
+    def _target(self):
+        ctx = self.glctx.ctx
+        depth = ctx.depth_texture(self.resolution)
+        self.glctx.raw.float_depth(depth)
+        colour = ctx.renderbuffer(self.resolution, components=4)
+        ids = ctx.renderbuffer(self.resolution, components=1, dtype="u4")
+        return ctx.framebuffer(color_attachments=[colour, ids], depth_attachment=depth)
+
+    def release(self) -> None:
+        """Free every GL object of this renderer."""
+        for b in (*self._own.values(), self.vbo, self.ibo, self.slots):
+            b.release()
+        self.walk.release()
+        self.vao.release()
+        for fbo in self._targets:
+            self.glctx.release_framebuffer(fbo, *fbo.color_attachments, fbo.depth_attachment)
+        for p in self._pyramids or ():
+            p.release()
+        self._cull.release()
+        self.program.release()
+
+    def __enter__(self) -> DagRenderer:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+    # -- selection ---------------------------------------------------------------------------
+
+    def _bind(self) -> None:
+        for binding, buf in self._buffers.items():
+            buf.bind_to_storage_buffer(binding)
+
+    def _counters(self, first: int = 0, n: int = DAG_HEADER) -> np.ndarray:
+        return self.walk.counters(first, n)
+
+    def _run_select(self, camera, threshold: float, frustum: bool) -> int:
+        """The walk's dispatches (selection into the work buffer); returns the nodes visited."""
+        return self.walk.run(camera, threshold, frustum)
+
+    def _sized(self, program, counter: int, **uniforms) -> None:
+        self.walk.sized(program, counter, **uniforms)
+
+    def _check(self, counts: np.ndarray) -> None:
+        self.walk.check(counts)
+
+    def select(self, camera, threshold: float = 1.0, *, frustum: bool = False) -> np.ndarray:
+        """The cut selected on the GPU, read back (:meth:`DagWalk.select`)."""
+        return self.walk.select(camera, threshold, frustum=frustum)
+
+    # -- the frame -----------------------------------------------------------------------------
+
+    def frame(self, camera, threshold: float = 1.0, *, occlusion: bool = True,
+              cones: bool = True, frustum: bool = True, color_kind: int = 0,
+              id_kind: int = 0) -> DagFrame:  # fmt: skip
+        """Select, cull and draw one frame into this renderer's targets (read them with
+        :meth:`read`).
+
+        Parameters
+        ----------
+        camera : Camera
+            Its resolution must be the renderer's.
+        threshold : float
+            Largest projected error of a drawn cluster, pixels.
+        occlusion : bool
+            Two-phase hierarchical-z culling (the early phase against last frame's depth
+            pyramid and camera; without a last frame every frustum-passing pair is drawn
+            early).
+        cones : bool
+            Cull back-facing clusters by their normal cones (vislod's oracle draws back
+            faces: see :mod:`soc.culling.clusters`).
+        frustum : bool
+            Cull subtrees and clusters outside the frustum.
+        color_kind : int
+            0 a colour per instance, 1 per cluster level, 2 per cluster.
+        id_kind : int
+            What the id target holds: 0 the instance, 1 the pair's slot (:meth:`drawn`).
+        """
+        import time
+
+        import moderngl
+
+        from soc.culling.hiz_gpu import DepthPyramid, set_frustum_uniforms, set_test_uniforms
+
+        if tuple(camera.resolution) != self.resolution:
+            raise ValueError(f"camera resolution {camera.resolution} is not {self.resolution}")
+        ctx = self.glctx.ctx
+        if self._pyramids is None:
+            self._pyramids = [DepthPyramid(self.glctx, self.resolution) for _ in range(2)]
+        times = {}
+        t0 = time.perf_counter()
+
+        def lap(name):
+            ctx.finish()
+            times[name] = 1000.0 * (time.perf_counter() - sum(times.values()) / 1000.0 - t0)
+
+        cur = self._frame % 2
+        fbo, pyr = self._targets[cur], self._pyramids[cur]
+        nodes = self._run_select(camera, threshold, frustum)
+        lap("select")
+        cull = self._cull
+        k = float(camera.resolution[1]) * 0.5 * float(camera.projection[1, 1])
+        _set(cull, "eye", tuple(float(x) for x in camera.eye))
+        _set(cull, "pixel_scale", k)
+        _set(cull, "threshold", float(threshold))
+        cull["cones"].value = bool(cones)
+        cull["frustum"].value = bool(frustum)
+        have_last = occlusion and self._last_camera is not None
+        if have_last:
+            last = self._pyramids[1 - cur]
+            set_test_uniforms(cull, last, self._last_camera, 2, 0, None)
+        set_frustum_uniforms(cull, camera)
+        cull["occlusion"].value = have_last
+        self._bind()
+        self._sized(cull, DAG_COUNT_SELECTED, stage=0)
+        lap("cull_early")
+
+        prog = self.program
+        prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
+        _set(prog, "eye", tuple(float(x) for x in camera.eye))
+        _set(prog, "light_dir", (0.4, 0.8, 0.45))
+        prog["id_kind"].value = int(id_kind)
+        prog["color_kind"].value = int(color_kind)
+        fbo.use()
+        fbo.depth_mask = True
+        ctx.enable_only(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        fbo.clear(0.06, 0.07, 0.09, 1.0, depth=1.0)
+        self.glctx.raw.clear_uint_color(0xFFFFFFFF, draw_buffer=1)
+        counts = self._counters()
+        self._check(counts)
+        n_early = int(counts[DAG_COUNT_EARLY])
+        if n_early:
+            self.vao.render_indirect(self.commands, count=n_early)
+        lap("draw_early")
+        if occlusion:
+            pyr.build(fbo.depth_attachment)
+            lap("pyramid")
+            fbo.use()
+            set_test_uniforms(cull, pyr, camera, 2, 0, None)
+            set_frustum_uniforms(cull, camera)
+            self._bind()
+            self._sized(cull, DAG_COUNT_RETEST, stage=1)
+            lap("cull_late")
+            counts = self._counters()
+            self._check(counts)
+            n_late = int(counts[DAG_COUNT_EARLY + 1])
+            if n_late:
+                fbo.use()
+                prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
+                ctx.enable_only(moderngl.DEPTH_TEST)
+                self.vao.render_indirect(self.commands, count=n_late, first=self.capacity)
+            lap("draw_late")
+            pyr.build(fbo.depth_attachment)  # for next frame's early test
+            lap("pyramid_next")
+        times["total"] = sum(times.values())
+        self._last_camera = camera if occlusion else None
+        self._frame += 1
+        self.glctx.check("dag frame")
+        return DagFrame(
+            selected=int(counts[DAG_COUNT_SELECTED]),
+            drawn_early=int(counts[DAG_COUNT_EARLY]),
+            drawn_late=int(counts[DAG_COUNT_EARLY + 1]),
+            culled=int(counts[DAG_COUNT_CULLED]),
+            occluded=int(counts[DAG_COUNT_OCCLUDED]),
+            triangles=int(counts[DAG_COUNT_TRIANGLES] + counts[DAG_COUNT_TRIANGLES + 1]),
+            nodes=nodes,
+            timings_ms=times,
+        )
+
+    def drawn(self) -> np.ndarray:
+        """(K, 2) int64 the (instance, cluster) pairs the last frame drew, sorted."""
+        counts = self._counters()
+        out = []
+        for phase in (0, 1):
+            n = min(int(counts[DAG_COUNT_EARLY + phase]), self.capacity)
+            if n == 0:
+                continue
+            data = self._buffers[9].read(size=8 * n, offset=8 * phase * self.capacity)
+            out.append(np.frombuffer(data, np.uint32).reshape(-1, 2))
+        pairs = np.concatenate(out).astype(np.int64) if out else np.zeros((0, 2), np.int64)
+        return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+    def read(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The last frame's targets: colour (H, W, 3) uint8, ids (H, W) uint32 (0xFFFFFFFF
+        where empty) and window depth (H, W) float32; row 0 at the bottom."""
+        fbo = self._targets[(self._frame - 1) % 2]
+        w, h = self.resolution
+        rgb = np.frombuffer(fbo.read(components=3, attachment=0), np.uint8).reshape(h, w, 3)
+        ids = np.frombuffer(fbo.read(components=1, attachment=1, dtype="u4"), np.uint32)
+        depth = np.frombuffer(fbo.depth_attachment.read(), np.float32)
+        return rgb.copy(), ids.reshape(h, w).copy(), depth.reshape(h, w).copy()
+
+    def visible_pairs(self) -> np.ndarray:
+        """(K, 2) int64 the (instance, cluster) pairs with a pixel in the last frame, which must
+        have been drawn with ``id_kind=1``: the oracle of the cut when that frame culled
+        nothing (``occlusion``, ``cones`` and ``frustum`` off). Sorted."""
+        _, ids, _ = self.read()
+        slots = np.unique(ids[ids != 0xFFFFFFFF]).astype(np.int64)
+        if len(slots) == 0:
+            return np.zeros((0, 2), np.int64)
+        table = np.frombuffer(self._buffers[9].read(), np.uint32).reshape(-1, 2)
+        pairs = table[slots].astype(np.int64)
+        return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+
+@uses_gl
 def render_instances(
     scene, camera, color_ids=None, glctx=None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Draw every instance of ``scene`` (an :class:`~soc.scenes.instanced.InstancedScene`) with
-    its whole mesh, shaded as :class:`soc.dag_renderer.DagRenderer`'s pictures (the same
-    colour per instance), no culling: the image of object LOD (a scene whose meshes are LOD
-    levels) or of the full detail. ``color_ids`` (I,) int: the instance number each instance
-    takes its colour from (default its own; a subset of another scene's instances keeps their
-    colours).
+    its whole mesh, shaded as :class:`DagRenderer` shades (the same colour per instance), no
+    culling: the image of object LOD (a scene whose meshes are LOD levels) or of the full
+    detail. ``color_ids`` (I,) int: the instance number each instance takes its colour from
+    (default its own; a subset of another scene's instances keeps their colours).
 
     Returns
     -------
@@ -803,7 +1137,7 @@ def render_instances(
     ids : (H, W) uint32
         Instance per pixel, 0xFFFFFFFF where empty.
     depth : (H, W) float32
-        Window depth. Row 0 at the bottom, as :meth:`soc.dag_renderer.DagRenderer.read`.
+        Window depth. Row 0 at the bottom, as :meth:`DagRenderer.read`.
     """
     import moderngl
 

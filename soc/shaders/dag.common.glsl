@@ -1,5 +1,5 @@
-// The cluster DAG tables and the cut's decision, of dag_walk.comp (soc/culling/dag_select.py,
-// which defines the DAG_* numbers and reads the same layouts).
+// The cluster DAG tables and the cut's decision, shared by dag_walk.comp and dag_cull.comp
+// (soc/culling/dag_select.py, which defines the DAG_* numbers and reads the same layouts).
 layout(local_size_x = COMPUTE_GROUP) in;
 
 // (I, 4) vec4 per instance: rows 0-2 of its object-to-world matrix, then (scale, 0, 0, 0).

@@ -63,6 +63,11 @@ def test_the_culler_selects_the_cpu_cut(field):
                 assert len(cpu) > 2 * len(field)  # more than the roots
                 assert c.method.source.selected() == len(gpu)
                 assert len(gpu ^ set(map(tuple, cpu.tolist()))) <= 2
+                # The source's CPU candidates (the ClusterSource protocol) are the same cut.
+                every = c.method.source.candidates(cam, np.arange(len(field)))
+                assert _pairs(c, np.isin(np.arange(c.method.gpu.count), every)) == set(
+                    map(tuple, cpu.tolist())
+                )
 
 
 def test_culling_is_conservative_against_the_cuts_id_render(field):
@@ -71,7 +76,7 @@ def test_culling_is_conservative_against_the_cuts_id_render(field):
     sees is kept unless the cut itself does not show it (its coarser clusters covered by a
     neighbour's); occlusion culls some of the cut; the triangles counted are the drawn
     clusters'."""
-    from soc.dag_renderer import DagRenderer
+    from soc.culling.dag_select import DagRenderer
 
     occluded = 0
     with (
@@ -96,6 +101,7 @@ def test_culling_is_conservative_against_the_cuts_id_render(field):
             assert np.array_equal(r.visible, np.isin(np.arange(len(field)), [p[0] for p in drawn]))
             tris = field.dag.count[source.cluster[np.flatnonzero(drawn_bits)]].sum()
             assert r.stats.triangles_drawn == int(tris)
+            assert sum(c.method.last_clusters) == len(drawn)  # each drawn once, early or late
             occluded += len(_pairs(c, c.method.candidate_clusters())) - len(drawn)
     assert occluded > 0
 
@@ -103,7 +109,7 @@ def test_culling_is_conservative_against_the_cuts_id_render(field):
 def test_the_frame_is_the_cuts_image(field):
     """The culler's depth is the depth of the cut drawn whole (the DAG renderer with nothing
     culled), pixel for pixel up to a few rounding pixels."""
-    from soc.dag_renderer import DagRenderer
+    from soc.culling.dag_select import DagRenderer
 
     with (
         soc.Culler(field, "gpu-driven", resolution=RES, lod=0.5) as c,
