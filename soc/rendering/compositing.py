@@ -101,11 +101,7 @@ class Compositor(ReleasedOnExit):
 
     def frame(self) -> Frame:
         """The composite read back (top row first)."""
-        w, h = self.resolution
-        rgba = np.frombuffer(self.color.read(), np.uint8).reshape(h, w, 4)
-        depth = np.frombuffer(self.depth.read(), np.float32).reshape(h, w)
-        ids = np.frombuffer(self.ids.read(), np.uint32).reshape(h, w)
-        return Frame(rgba[::-1, :, :3].copy(), depth[::-1].copy(), ids[::-1].copy())
+        return Frame.read(self.color, self.depth, self.ids)
 
 
 @uses_gl

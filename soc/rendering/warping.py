@@ -104,6 +104,16 @@ class Frame:
         """(width, height) pixels."""
         return (self.ids.shape[1], self.ids.shape[0])
 
+    @classmethod
+    def read(cls, color, depth, ids) -> Frame:
+        """Read back the GL textures ``color`` (RGBA8), ``depth`` (R32F) and ``ids`` (R32UI)
+        of one size, flipped to top row first."""
+        w, h = color.size
+        rgba = np.frombuffer(color.read(), np.uint8).reshape(h, w, 4)
+        z = np.frombuffer(depth.read(), np.float32).reshape(h, w)
+        i = np.frombuffer(ids.read(), np.uint32).reshape(h, w)
+        return cls(rgba[::-1, :, :3].copy(), z[::-1].copy(), i[::-1].copy())
+
 
 @dataclass(frozen=True)
 class WarpError:
@@ -346,11 +356,7 @@ class _Target:
 
     def read(self) -> Frame:
         """The three textures as a :class:`Frame` (top row first)."""
-        w, h = self.resolution
-        rgba = np.frombuffer(self.color.read(), np.uint8).reshape(h, w, 4)
-        depth = np.frombuffer(self.depth.read(), np.float32).reshape(h, w)
-        ids = np.frombuffer(self.ids.read(), np.uint32).reshape(h, w)
-        return Frame(rgba[::-1, :, :3].copy(), depth[::-1].copy(), ids[::-1].copy())
+        return Frame.read(self.color, self.depth, self.ids)
 
 
 @uses_gl
