@@ -33,6 +33,14 @@ The stages, with what this configuration plugs into them:
 The kept set (``visible``) is every object with a cluster drawn (early or late);
 ``triangles_drawn`` counts the triangles of the drawn clusters.
 
+**A cluster LOD DAG's cut** (``lod``, on an :class:`~soc.scenes.instanced.InstancedScene` with
+its DAGs): the objects are the instances and the clusters every DAG cluster of every instance
+(:class:`soc.culling.dag_select.DagClusters`); before stage 1 the DAG walk marks this frame's
+cut as the candidate clusters, the early pass draws last frame's passed clusters that are still
+in the cut, and the test judges and draws only the cut's clusters (visited a word of candidate
+bits at a time). The same passes, so the same argument of conservativeness: against the cut's
+own surface (tests/soc/test_dag_culler.py compares with the cut's id render).
+
 **Conservative in every frame** (the pipeline's argument, :mod:`soc.methods.two_phase`): a
 cluster with a sample the oracle sees lies in its grown box and its object's, each of which
 then passes the frustum test and the HiZ test, so the cluster is drawn late unless it was drawn
