@@ -11,10 +11,11 @@ alike; each side's ratio is the median over its runs. Timings on a shared machin
 comparable as such paired ratios.
 
     VISLOD_DATA=/work/shared/data nice -n 10 .venv/bin/python scripts/paired_floor.py \\
-        --old 0206fdf --frames 10 --runs 3 --scenes market castle-2114
+        --old 0206fdf --frames 10 --runs 3 --scenes castle-2114 market
 
-writes ``--work``/paired.md (the tables) and prints it; each run's per-frame CSV and log stay
-in ``--work``/<side>-<scene>-<run>/. The worktree is removed at the end unless ``--keep``.
+writes ``--work``/paired.md (the tables, after each scene) and prints it; each run's
+per-frame CSV and log stay in ``--work``/<side>-<scene>-<run>/. The worktree is removed at
+the end unless ``--keep``.
 """
 
 from __future__ import annotations
@@ -109,7 +110,7 @@ def table(frames: pd.DataFrame, methods: list[str]) -> pd.DataFrame:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--old", default="0206fdf", help="the commit to compare against")
-    ap.add_argument("--scenes", nargs="+", default=["market", "castle-2114"])
+    ap.add_argument("--scenes", nargs="+", default=["castle-2114", "market"])
     ap.add_argument("--frames", type=int, default=10)
     ap.add_argument("--runs", type=int, default=3, help="runs of each side per scene")
     ap.add_argument("--methods", default=METHODS, help="';'-separated method specs")
@@ -138,12 +139,11 @@ def main(argv: list[str] | None = None) -> int:
             frames = pd.concat(frames, ignore_index=True)
             frames.to_csv(args.work / f"frames-{scene}.csv", index=False)
             parts.append(f"\n## {scene}\n\n" + table(frames, methods).to_markdown(index=False))
+            (args.work / "paired.md").write_text("\n".join(parts) + "\n")  # each scene as done
     finally:
         if not args.keep:
             subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(old)])
-    text = "\n".join(parts) + "\n"
-    (args.work / "paired.md").write_text(text)
-    print(text)
+    print("\n".join(parts))
     return 0
 
 
