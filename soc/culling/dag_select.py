@@ -828,18 +828,8 @@ class DagClusters:
             p["light_dir"].value = LIGHT_DIR
             p["eye"].value = tuple(float(x) for x in camera.eye)
         key = p.glo
-        if key not in self._vaos:
-            g = self.geometry
-            attrs = [
-                (self.vbo, "3f", "in_position"),
-                (g.ids, "u/i", "in_object"),
-                (g.rows, "4f 4f 4f/i", "in_row0", "in_row1", "in_row2"),
-                (g.colors, "3f/i", "in_color"),
-            ]
-            attrs = [a for a in attrs if a[2] in p]
-            self._vaos[key] = self.glctx.ctx.vertex_array(
-                p, attrs, index_buffer=self.ibo, index_element_size=4
-            )
+        if key not in self._vaos:  # the instances' attributes over the DAG's meshes
+            self._vaos[key] = self.geometry.vertex_array(p, self.vbo, self.ibo)
         return p, self._vaos[key]
 
 
