@@ -15,7 +15,6 @@ timestamps too where that clock means something (``gpu_*`` columns). Two tidy Da
 from __future__ import annotations
 
 import dataclasses
-import inspect
 import math
 from dataclasses import dataclass
 
@@ -44,9 +43,6 @@ def extra_specs(resolution: tuple[int, int] = DISPLAY) -> tuple[str, ...]:
         "hiz-gpu(footprint=4, refine=23)",
         f"hiz-gpu(occluder_resolution=({w}, {h}))",
         "hiz-2phase(test='gpu')",
-        "hiz-2phase(footprint=2, refine=0)",
-        "hiz-2phase(octants=True)",
-        "hiz-2phase(next_from='final')",
         "masked(cpu_threads=1)",
         "hiz-cpu(cpu_threads=1)",
         "hiz-cpu(footprint=4, refine=23)",
@@ -80,14 +76,8 @@ BASELINES = {"frustum", "queries", "everything", "ideal"}
 
 
 def accepted_options(name: str) -> set[str]:
-    """The option names method ``name`` takes (its ``Options`` dataclass's fields, or for a
-    method without one its constructor's keywords)."""
-    cls = METHODS[name]
-    opts = getattr(cls, "Options", None)
-    if opts is not None and dataclasses.is_dataclass(opts) and dataclasses.fields(opts):
-        return {f.name for f in dataclasses.fields(opts)}
-    params = inspect.signature(cls.__init__).parameters
-    return set(params) - {"self", "geometry", "resolution", "config", "options"}
+    """The option names method ``name`` takes (its ``Options`` dataclass's fields)."""
+    return {f.name for f in dataclasses.fields(METHODS[name].Options)}
 
 
 def parse_spec(spec: str) -> tuple[str, dict]:
@@ -101,9 +91,6 @@ def parse_spec(spec: str) -> tuple[str, dict]:
         raise ValueError(f"method spec {spec!r}: {e}") from e
     if name not in METHODS:
         raise ValueError(f"method spec {spec!r}: unknown method {name!r}; {soc.method_names()}")
-    accepted = accepted_options(name)
-    if "cpu_threads" in options and "cpu_threads" not in accepted and "threads" in accepted:
-        options["threads"] = options.pop("cpu_threads")  # a method not yet on typed options
     return name, options
 
 

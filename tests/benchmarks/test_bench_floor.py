@@ -103,6 +103,14 @@ def test_each_row_says_whether_its_culler_is_conservative_not_its_class():
     assert summary[specs].tolist() == ["no", "yes", "yes", "no"]
 
 
+def test_every_option_row_names_options_its_method_takes():
+    """A row whose option went from its method would be left out of the run without a word."""
+    rows = [
+        s for s in bench_floor.extra_specs() if bench_floor.parse_spec(s)[0] in soc.method_names()
+    ]
+    assert bench_floor.available(rows) == rows
+
+
 def test_markdown_section_written_between_markers(result, tmp_path):
     body = bench_floor.markdown(result, "python -m benchmarks --only floor")
     for heading in ("### The floor", "### Culling targets", "| hiz-gpu(footprint=4) |"):
