@@ -361,11 +361,8 @@ def plot_abb8_left(frames, params):
     """Abb. 8 left: % of the scene's triangles culled per frame by every method at the display
     resolution (solid, one colour per method), the oracle's ideal (exactly the visible set,
     black dashed) and the document's mean for its OGL method at 1920×1080 (red dotted)."""
-    from matplotlib.figure import Figure
-
     df, d = frames["frames"], tuple(params.display)
-    fig = Figure(figsize=(11, 6.2), layout="constrained")
-    ax = fig.subplots()
+    fig, ax = harness.figure((11, 6.2), layout="constrained")
     for k, m in enumerate(_methods(frames, params)):
         r = _rows(df, m, d)
         ax.plot(r.frame, r.triangles_culled_pct, color=f"C{k}", lw=1.8, label=m)
@@ -388,12 +385,11 @@ def plot_abb8_right(frames, params):
     the conservative HiZ curve (green, never a false cull) and the oracle's mean (dashed).
     Right: false culls per frame (visible at the display resolution but culled; symlog)."""
     from matplotlib import colormaps
-    from matplotlib.figure import Figure
 
     df, s, d = frames["frames"], frames["summary"], tuple(params.display)
     res = params.depth_resolutions()
-    fig = Figure(figsize=(18, 6.4), layout="constrained")
-    ax1, ax2, ax3 = fig.subplots(1, 3, gridspec_kw={"width_ratios": [1.35, 1, 1]})
+    fig, (ax1, ax2, ax3) = harness.figure((18, 6.4), 1, 3, layout="constrained",
+                                          gridspec_kw={"width_ratios": [1.35, 1, 1]})  # fmt: skip
     for k, r in enumerate(res):
         c, x = colormaps["viridis"](0.05 + 0.85 * k / max(len(res) - 1, 1)), _rows(df, QUERY, r)
         ax1.plot(x.frame, x.triangles_culled_pct, color=c, lw=1.6, label=res_str(r))
@@ -444,12 +440,10 @@ def plot_abb9(frames, params):
     """Abb. 9: the query method's stage switches at the display resolution — MT alone, MT +
     frustum culling (FC), MT + FC + depth-test culling (DTC) — as means over the flight, ours
     (blue) beside the document's table (red), one panel per quantity."""
-    from matplotlib.figure import Figure
-
     s, d = frames["summary"], tuple(params.display)
-    fig = Figure(figsize=(16, 4.8), layout="constrained")
+    fig, axes = harness.figure((16, 4.8), 1, 4, layout="constrained")
     x = np.arange(len(SWITCHES))
-    for ax, (q, label) in zip(fig.subplots(1, 4), doc.QUANTITIES.items(), strict=True):
+    for ax, (q, label) in zip(axes, doc.QUANTITIES.items(), strict=True):
         ours = [_one(s, QUERY, d, frustum=f, depth_test=t)[q] for f, t in SWITCHES.values()]
         theirs = [doc.ABB9[n][q] for n in SWITCHES]
         digits = 1 if q == "triangles_culled_pct" else 0
@@ -475,16 +469,14 @@ def plot_abb10(frames, params):
     frame time; the label gives that mean in ms and the FPS it makes (1000 / mean frame time).
     Left: every method at the display resolution and the ideal frame (drawing exactly the
     oracle's visible set, no culling cost); right: the query method per depth resolution."""
-    from matplotlib.figure import Figure
-
     groups = [_display_runs(frames, params, "ideal (oracle set)")]
     groups += [
         [(res_str(r), _one(frames["summary"], QUERY, r)) for r in params.depth_resolutions()]
     ]
     titles = [f"every method, depth buffer {res_str(params.display)}"]
     titles += [f"'{QUERY}' per depth-buffer resolution"]
-    fig = Figure(figsize=(15, 5.6), layout="constrained")
-    axes = fig.subplots(1, 2, width_ratios=[len(g) for g in groups])
+    widths = [len(g) for g in groups]
+    fig, axes = harness.figure((15, 5.6), 1, 2, layout="constrained", width_ratios=widths)
     for ax, rows, title in zip(axes, groups, titles, strict=True):
         x = np.arange(len(rows))
         cull = np.array([r.ms_cull for _, r in rows])
@@ -518,12 +510,10 @@ def plot_thesis_frames(frames, params):
     Triangles culled are counted as the framework counts them (with culling off, only the
     objects too small; :func:`experiments.seed000_flight.run_all`)."""
     from matplotlib import colormaps
-    from matplotlib.figure import Figure
 
     th, df, d = frames["thesis"], frames["frames"], tuple(params.display)
     quantities = list(doc.QUANTITIES.items())
-    fig = Figure(figsize=(20, 14), layout="constrained")
-    axes = fig.subplots(len(quantities), 4, squeeze=False)
+    fig, axes = harness.figure((20, 14), len(quantities), 4, layout="constrained", squeeze=False)
     if th is None or len(th) == 0:
         fig.suptitle("Seed 000 — no thesis runs to compare with (castle + tour and "
                      "$VISLOD_DATA/seed000_evaluation needed)")  # fmt: skip

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
+from experiments import harness
 from experiments.common import decode, encode, res_str
 
 QUERY_METHOD = "queries"
@@ -116,13 +117,11 @@ def render(scene, cameras: Sequence, frame: int, *, bar=None) -> dict[str, pd.Da
 def _pair(frames, picture: str, suptitle: str):
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
-    from matplotlib.figure import Figure
 
     rows = frames["pictures"].query("picture == @picture").sort_values("panel")
     images = [decode(t) for t in rows.png]
     h, w = images[0].shape[:2]
-    fig = Figure(figsize=(16, 16 / 2 * h / w + 0.9), layout="constrained")
-    axes = fig.subplots(1, len(images))
+    fig, axes = harness.figure((16, 16 / 2 * h / w + 0.9), 1, len(images), layout="constrained")
     for ax, img, (_, row) in zip(axes, images, rows.iterrows(), strict=True):
         if np.isfinite(row.get("depth_min", np.nan)):  # a depth buffer, in world distance
             ax.imshow(img[..., 0] if img.ndim == 3 else img, cmap="gray", vmin=0, vmax=1)
@@ -164,7 +163,6 @@ def plot_abb7(frames, params):
     view-direction arrow every few frames, start (green circle), mid (orange diamond) and
     exit (black cross)."""
     from matplotlib.collections import PolyCollection
-    from matplotlib.figure import Figure
 
     b, cams = frames["boxes"], frames["cameras"]
     lo, hi = b[["x0", "z0"]].to_numpy(), b[["x1", "z1"]].to_numpy()
@@ -172,8 +170,7 @@ def plot_abb7(frames, params):
     occluder = b.occluder.to_numpy(bool)
     eyes = cams[["eye_x", "eye_z"]].to_numpy()
     fwd = cams[["forward_x", "forward_z"]].to_numpy()
-    fig = Figure(figsize=(10, 9.2), layout="constrained")
-    ax = fig.subplots()
+    fig, ax = harness.figure((10, 9.2), layout="constrained")
     big = (hi - lo).prod(1) > 0.25 * np.ptp(np.r_[lo, hi], axis=0).prod()  # would hide all
     for mask, face, edge, width, ls, alpha, label in (
         (big, "#f4f1ea", "#999999", 0.8, "--", None, "ground / largest objects"),
