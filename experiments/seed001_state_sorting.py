@@ -132,7 +132,8 @@ def draw_stream(params: Params) -> tuple[list[np.ndarray], dict[str, Any]]:
     w, h = params.display
     cams = soc.scenes.paths.flight(scene, frames=params.frames, width=w, height=h)
     with soc.Culler(scene, method=params.method, resolution=params.display) as culler:
-        frames = [mats[np.flatnonzero(culler.cull(cam).visible)] for cam in cams]
+        flown = soc.fly(culler, cams, progress=False, extra=lambda *r: {"kept": r[2].visible_ids})
+    frames = [mats[ids] for ids in flown.kept]
     sizes = [len(f) for f in frames]
     info = {
         "scene": repr(scene), "objects": len(scene), "materials": len(names),

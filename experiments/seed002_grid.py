@@ -109,8 +109,9 @@ class Run:
 
 
 def fly(segment: Segment, runs: Sequence[Run], params: Params, truths, progress: bool):
-    """Every run over the cameras, drawing, by :func:`soc.fly` (frames interleaved, the order
-    rotating per frame, so load from other processes lands on all runs alike)."""
+    """Every run over the cameras, drawing, by :func:`soc.fly` (a warm-up frame, then frames
+    interleaved, the order rotating per frame, so load from other processes lands on all runs
+    alike)."""
     import soc
 
     with ExitStack() as stack:
@@ -121,8 +122,6 @@ def fly(segment: Segment, runs: Sequence[Run], params: Params, truths, progress:
                      "temporal": r.temporal} if grid else {})  # fmt: skip
             c = soc.Culler(segment.scene, r.method, params.display, **opts)
             cullers[r.label] = stack.enter_context(c)
-            c.cull(segment.cameras[0], draw=True)
-            c.reset()  # the measured frames start without temporal state
         return soc.fly(cullers, segment.cameras, truth=truths, draw=True, progress=progress)
 
 
