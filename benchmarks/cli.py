@@ -15,7 +15,8 @@ A run without ``--only`` writes the whole file: a table of where every target st
 every section, each with the command that made it. ``--only`` replaces its section in the file
 (the targets table is not rewritten). Every culling section (``floor-<scene>``,
 ``methods-<scene>``, ``foundation``) is drawn from one :func:`benchmarks.floor.run_floor` run,
-written as CSV; the LOD, adaptive, queries and scale sections have runs of their own. Scenes:
+written as CSV; the LOD, adaptive, queries, scale and cluster-DAG (``dag``,
+:mod:`benchmarks.dag`) sections have runs of their own. Scenes:
 market, castle (market refilled), castle-2114 (as shipped), clutter, city (10⁶ objects:
 :data:`benchmarks.scale.CITY_SPECS` only).
 """
@@ -41,7 +42,7 @@ from experiments.markdown import markdown_table
 
 SCENES = ("market", "castle", "castle-2114", "clutter", "city")
 BASELINE_METHODS = ("frustum", "queries")  # seed 000's pipeline: the foundation section
-SECTIONS = ("foundation", "methods", "floor", "lod", "adaptive", "queries", "scale")
+SECTIONS = ("foundation", "methods", "floor", "lod", "adaptive", "queries", "scale", "dag")
 ADAPTIVE = "seed004-adaptive"  # the harness experiment behind the adaptive section
 # Its DataFrames shown; the rest (per frame, per regression point) are only in its CSVs.
 ADAPTIVE_TABLES = ("summary", "criterion", "switches", "q_compare")
@@ -294,7 +295,19 @@ def other_sections(args: argparse.Namespace, out: Path) -> list[Section]:
         s = bench_scale.summary(result["frames"])
         t = bench_scale.targets(s, result.get("city"))
         sections.append(Section("scale", body, t))
+    if args.only in (None, "dag"):
+        sections.append(dag_section(out, "dag" in small))
     return sections
+
+
+def dag_section(out: Path, quick: bool = False) -> Section:
+    """The cluster LOD DAG's targets (:mod:`benchmarks.dag`; CSVs ``out/dag-*.csv``)."""
+    from benchmarks import dag as bench_dag
+
+    frames = bench_dag.run(quick=quick)
+    write_csvs(frames, out, "dag")
+    command = "python -m benchmarks --only dag" + (" --quick" if quick else "")
+    return Section("dag", bench_dag.markdown(frames, command, quick), bench_dag.targets(frames))
 
 
 def targets_table(sections: list[Section]) -> str:
@@ -396,7 +409,7 @@ def main(argv: list[str] | None = None) -> int:
         command += f" --path {path}" if path != "flight" else ""
         sections += floor_sections(args, scene_name, path, frames, out, command)
     if args.only is None:
-        order = ["foundation", "methods-", "floor-", "queries", "scale", "lod", ADAPTIVE]
+        order = ["foundation", "methods-", "floor-", "queries", "scale", "lod", ADAPTIVE, "dag"]
         sections.sort(key=lambda s: next(i for i, p in enumerate(order) if s.name.startswith(p)))
         command = "python -m benchmarks " + " ".join(argv if argv is not None else sys.argv[1:])
         settings = (

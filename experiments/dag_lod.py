@@ -1,17 +1,21 @@
-"""Cluster LOD DAG (Nanite's) on an instanced field of rocks and statues: what the cut draws and
-costs as its error threshold varies, against the full-detail image and against object LOD.
+"""Cluster LOD DAG (Nanite's) on instanced scenes: what the cut draws and costs as its error
+threshold varies, against the full-detail image and against object LOD.
 
-One view across a field whose instances span near to far. Per threshold (pixels) the cut is
-selected on the GPU (:class:`soc.culling.dag_select.DagRenderer`), culled (frustum, normal cone,
-two-phase hierarchical z, or frustum only) and drawn; we record the triangles drawn, the
-triangles per covered pixel, the frame's stages in ms, and the image error against the
-full-detail render: NVIDIA's FLIP (``flip-evaluator``, LDR) and the share of covered pixels
-whose instance differs or whose depth differs by more than 1 %. Object LOD is the same view
-with one discrete LOD chain per mesh (:func:`lod.build_chain`), a level per instance chosen by
-Funkhouser and Séquin's greedy (:func:`lod.select`, benefit the instance's projected area
-discounted by its level's projected error, cost its triangles) over a sweep of triangle
-budgets, and by the DAG's own rule at object granularity (the coarsest level whose projected
-error is within the threshold). The picture shows the cut at 1 px coloured by level.
+Three views (:data:`VIEWS`): a field of rocks and statues seen across from its edge (most
+instances small on screen), and a canyon whose cliffs each reach from beside the camera to the
+horizon (the case a per-cluster cut is for: object LOD must draw a whole cliff at the level its
+nearest part needs), from a camera on its floor and from one above its far end. Per view and
+threshold (pixels) the cut is selected on the GPU (:class:`soc.culling.dag_select.DagRenderer`),
+culled (frustum, normal cone, two-phase hierarchical z, or frustum only) and drawn; we record
+the triangles drawn, the triangles per covered pixel, the frame's stages in ms, and the image
+error against the full-detail render: NVIDIA's FLIP (``flip-evaluator``, LDR) and the share of
+covered pixels whose instance differs or whose depth differs by more than 1 %. Object LOD is
+the same view with one discrete LOD chain per mesh (:func:`lod.build_chain`), a level per
+instance chosen by Funkhouser and Séquin's greedy (:func:`lod.select`, benefit the instance's
+projected area discounted by its level's projected error, cost its triangles) over a sweep of
+triangle budgets, and by the DAG's own rule at object granularity (the coarsest level whose
+projected error is within the threshold); :func:`equal_flip_ratios` compares the two at equal
+FLIP. The pictures show the cut at 1 px coloured by level, with the colours' key.
 """
 
 from __future__ import annotations
@@ -29,14 +33,19 @@ from experiments.common import decode, encode
 FRAMES = ("dag", "objects", "info", "levels")
 # A pixel's depth differs when the linear depths differ by more than this share.
 DEPTH_TOLERANCE = 0.01
+# FLIPs below this are taken as this on the log scale of the equal-FLIP comparison (the
+# full-detail level's FLIP is 0).
+FLIP_FLOOR = 1e-6
 
 
 @dataclass(frozen=True)
 class Params:
     """One run: the field (instances, triangles per generated mesh, distinct meshes, half-width,
-    instance scales (large ones span near to far), ``"generated"`` or ``"data"`` meshes), the
-    viewport, the DAG's thresholds (pixels), object LOD's budgets (shares of the full-detail
-    triangles in view) and chain ratios, frames per measurement, the seed."""
+    instance scales, ``"generated"`` or ``"data"`` meshes), the viewport, the DAG's thresholds
+    (pixels), object LOD's budgets (shares of the full-detail triangles in view) and chain
+    ratios, frames per measurement, the seed; the canyon's triangles per mesh (its cliff and
+    its boulder) and boulders (:func:`canyon_and_views`); the views measured (of
+    :data:`VIEWS`)."""
 
     instances: int = 400
     triangles: int = 60_000
@@ -46,10 +55,14 @@ class Params:
     meshes: str = "generated"
     resolution: tuple[int, int] = (960, 540)
     thresholds: tuple[float, ...] = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)
-    budgets: tuple[float, ...] = (0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0)
+    budgets: tuple[float, ...] = (0.002, 0.005, 0.01, 0.02, 0.03, 0.05, 0.07, 0.1, 0.14, 0.2,
+                                  0.3, 0.5, 1.0)  # fmt: skip
     ratios: tuple[float, ...] = (1.0, 1 / 2, 1 / 4, 1 / 8, 1 / 16, 1 / 32, 1 / 64, 1 / 128)
     repeats: int = 3
     seed: int = 0
+    canyon_triangles: int = 300_000
+    boulders: int = 16
+    views: tuple[str, ...] = ("field", "canyon-low", "canyon-high")
 
 
 def field_and_view(params: Params):
@@ -71,6 +84,76 @@ def field_and_view(params: Params):
     cam = Camera.look_at((0.0, 2.5, -1.02 * e), (0.0, 1.0, 0.0), width=w, height=h, near=0.1,
                          far=4.0 * e)  # fmt: skip
     return scene, cam
+
+
+# The views measured: the field seen from its edge, and the canyon from two cameras.
+VIEWS = ("field", "canyon-low", "canyon-high")
+# The canyon's cliffs: (scale, centre x, y, z, heading in radians) of a cliff mesh about 2 × 1.2
+# × 10 units (length along z), so that each reaches from next to the low camera far down the
+# canyon: two on either side of the floor, two further on.
+CLIFFS = (
+    (30.0, -36.0, 0.0, 140.0, 0.04),
+    (26.0, 33.0, -4.0, 120.0, -0.05),
+    (45.0, -70.0, 0.0, 520.0, 0.10),
+    (40.0, 62.0, 0.0, 480.0, -0.08),
+)
+
+
+def canyon_and_views(params: Params):
+    """A canyon whose instances span near to far: four long cliffs (a displaced rock stretched
+    five times along its length, :data:`CLIFFS`) lining a floor strewn with
+    ``params.boulders`` boulders (sizes 1 to 6), and two cameras: ``canyon-low`` at eye height
+    on the floor looking down the canyon (each near cliff runs from beside the eye to the
+    horizon) and ``canyon-high``, above the far end looking back and down.
+
+    Returns
+    -------
+    scene : InstancedScene
+    cameras : dict of str to Camera
+    """
+    from soc.scenes.camera import Camera
+    from soc.scenes.dense import rock
+    from soc.scenes.instanced import InstancedScene, _rotations
+
+    cv, cf = rock(params.canyon_triangles, seed=params.seed * 101 + 11)
+    cliff = (cv.astype(np.float64) * np.array([1.0, 0.6, 5.0])).astype(np.float32)
+    boulder = rock(params.canyon_triangles, seed=params.seed * 101 + 12)
+    rng = np.random.default_rng(params.seed + 5)
+    n = int(params.boulders)
+    size = np.exp(rng.uniform(np.log(1.0), np.log(6.0), n))
+    pos = np.stack([rng.uniform(-14.0, 14.0, n), 0.5 * size, rng.uniform(15.0, 420.0, n)], 1)
+    c = np.array(CLIFFS, np.float64)
+    scale = np.concatenate([c[:, 0], size])
+    heading = np.concatenate([c[:, 4], rng.uniform(0, 2 * np.pi, n)])
+    up = np.tile([0.0, 1.0, 0.0], (len(scale), 1))
+    mats = np.zeros((len(scale), 3, 4))
+    mats[:, :, :3] = _rotations(up, heading) * scale[:, None, None]
+    mats[:, :, 3] = np.concatenate([c[:, 1:4], pos])
+    mesh = np.concatenate([np.zeros(len(c), np.int64), np.ones(n, np.int64)])
+    scene = InstancedScene([(cliff, cf), boulder], mats, mesh,
+                           meta={"synthetic": True, "source": "dag-lod canyon"})  # fmt: skip
+    w, h = params.resolution
+    kw = dict(width=w, height=h, near=0.1, far=1500.0)
+    cams = {
+        "canyon-low": Camera.look_at((0.0, 3.0, -5.0), (0.0, 2.0, 100.0), **kw),
+        "canyon-high": Camera.look_at((-8.0, 40.0, 560.0), (5.0, 0.0, 150.0), **kw),
+    }
+    return scene, cams
+
+
+def views(params: Params):
+    """``[(view, scene, camera)]`` of ``params.views`` (the canyon's scene shared by its
+    two)."""
+    unknown = set(params.views) - set(VIEWS)
+    if unknown:
+        raise ValueError(f"no view {sorted(unknown)}: the views are {VIEWS}")
+    out = []
+    if "field" in params.views:
+        out.append(("field", *field_and_view(params)))
+    if any(v.startswith("canyon") for v in params.views):
+        canyon, cams = canyon_and_views(params)
+        out += [(k, canyon, c) for k, c in cams.items() if k in params.views]
+    return out
 
 
 def image_errors(ref, test, near: float, far: float) -> dict[str, float]:
@@ -123,23 +206,45 @@ def _remap(ids, keep):
 
 
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
-    """Per threshold × culling the DAG's frame; per budget and threshold object LOD's image;
-    the level picture."""
+    """Per view (:data:`VIEWS`): per threshold × culling the DAG's frame; per budget and
+    threshold object LOD's image; the level pictures (the field's cut from above its edge, the
+    canyon's from its low camera)."""
     from tqdm.auto import tqdm
 
+    dag, objects, pictures, levels, info = [], [], [], [], []
+    todo = views(params)
+    bar = tqdm(total=len(todo) * (2 * len(params.thresholds) + len(params.budgets)
+                                  + len(params.thresholds)), desc="dag-lod",
+               disable=not progress)  # fmt: skip
+    for view, scene, cam in todo:
+        d, o, pic, lv, inf = _measure(params, view, scene, cam, bar)
+        dag.append(d.assign(view=view))
+        objects.append(o.assign(view=view))
+        levels.append(lv.assign(view=view))
+        info.append(inf.assign(view=view))
+        if pic is not None:
+            pictures.append({"view": view, "png": encode(pic)})
+    bar.close()
+    return {"dag": pd.concat(dag, ignore_index=True),
+            "objects": pd.concat(objects, ignore_index=True),
+            "picture": pd.DataFrame(pictures), "levels": pd.concat(levels, ignore_index=True),
+            "info": pd.concat(info, ignore_index=True)}  # fmt: skip
+
+
+def _measure(params: Params, view: str, scene, cam, bar):
+    """One view's frames: (dag, objects, level picture or None, level counts, info)."""
     import lod
     from lod.dag import mesh_dag, pixel_scale
     from soc.culling.dag_select import DagRenderer, DagTables, render_instances
     from soc.culling.oracle import may_draw
     from soc.scenes.camera import Camera
 
-    scene, cam = field_and_view(params)
     dags = [mesh_dag(v, f) for v, f in zip(scene.mesh_vertices, scene.mesh_faces, strict=True)]
     tables = DagTables.from_dags(dags)
     ref = render_instances(scene, cam)
     near, far = cam.near, cam.far
     rows = []
-    bar = tqdm(total=2 * len(params.thresholds), desc="dag-lod", disable=not progress)
+    picture = None
     with DagRenderer(tables, scene.instances(), params.resolution) as r:
         for t in params.thresholds:
             for occlusion in (False, True):
@@ -158,14 +263,19 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
                     **image_errors(ref, img, near, far),
                 })  # fmt: skip
                 bar.update()
-        # The picture: the cut at 1 px seen from above the field's edge, coloured by level.
-        e = params.extent
-        above = Camera.look_at((0.0, 0.5 * e, -1.2 * e), (0.0, 0.0, 0.0), width=cam.width,
-                               height=cam.height, near=0.1, far=4.0 * e)  # fmt: skip
-        r.frame(above, 1.0, occlusion=False, color_kind=1)
-        levels_img = r.read()[0][::-1]
+        # The pictures: the cut at 1 px coloured by level, the field's seen from above its
+        # edge, the canyon's from its low camera.
+        if view == "field":
+            e = params.extent
+            above = Camera.look_at((0.0, 0.5 * e, -1.2 * e), (0.0, 0.0, 0.0), width=cam.width,
+                                   height=cam.height, near=0.1, far=4.0 * e)  # fmt: skip
+            r.frame(above, 1.0, occlusion=False, color_kind=1)
+            picture = r.read()[0][::-1]
+        elif view == "canyon-low":
+            r.frame(cam, 1.0, occlusion=False, color_kind=1)
+            picture = r.read()[0][::-1]
+        r.frame(cam, 1.0, occlusion=False)
         level_counts = np.bincount(tables.level[r.drawn()[:, 1]], minlength=tables.level.max() + 1)
-    bar.close()
     dag = pd.DataFrame(rows)
     dag["tris_per_px"] = dag.triangles / dag.covered_px.clip(lower=1)
     dag["source_triangles"] = scene.source_triangles
@@ -187,7 +297,7 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     obj_rows = []
     cases = [("funkhouser-sequin", b, None) for b in params.budgets]
     cases += [("error-rule", None, t) for t in params.thresholds]
-    for method, budget, t in tqdm(cases, desc="object LOD", disable=not progress):
+    for method, budget, t in cases:
         if method == "funkhouser-sequin":
             levels = lod.select(benefit, cost, budget * full, method="funkhouser-sequin")
         else:
@@ -201,114 +311,189 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
             "triangles": int(tris[scene.mesh[keep], levels[keep]].sum()),
             **image_errors(ref, (rgb, _remap(ids, keep), z), near, far),
         })  # fmt: skip
+        bar.update()
     objects = pd.DataFrame(obj_rows)
-    picture = pd.DataFrame([{"png": encode(levels_img)}])
     levels_frame = pd.DataFrame({"level": np.arange(len(level_counts)), "clusters": level_counts})
     info = pd.DataFrame([{
         "instances": len(scene), "meshes": len(dags), "source_triangles": scene.source_triangles,
         "dag_clusters": len(tables), "dag_index_ratio": sum(len(d.faces) for d in dags)
         / sum(d.source_triangles for d in dags), "full_triangles_in_view": full,
     }])  # fmt: skip
-    return {"dag": dag, "objects": objects, "picture": picture, "levels": levels_frame,
-            "info": info}  # fmt: skip
+    return dag, objects, picture, levels_frame, info
 
 
-def equal_flip_ratio(frames, threshold: float = 1.0, method: str = "funkhouser-sequin") -> float:
-    """Object LOD's triangles over the DAG's at the DAG's FLIP at ``threshold`` (frustum
-    culling only): object LOD's triangles interpolated (log) along its budget sweep at that
-    FLIP; nan when the sweep does not reach it."""
-    d = frames["dag"]
-    row = d[(d.threshold == threshold) & ~d.occlusion].iloc[0]
-    o = frames["objects"]
+def _view(frame: pd.DataFrame, view: str) -> pd.DataFrame:
+    return frame[frame.view == view] if "view" in frame else frame
+
+
+def equal_flip_ratios(frames, view: str = "field",
+                      method: str = "funkhouser-sequin") -> pd.DataFrame:  # fmt: skip
+    """Per threshold of the DAG's cut (frustum culling) in ``view``: its triangles and FLIP,
+    object LOD's triangles at that FLIP (interpolated on the log-log curve, between the two
+    budgets of its sweep whose FLIPs bracket it, FLIPs floored at :data:`FLIP_FLOOR`; nan when
+    the sweep does not reach it) and their ratio (object LOD's over the DAG's: above 1 the cut
+    draws fewer at the same image error)."""
+    d = _view(frames["dag"], view)
+    d = d[~d.occlusion.astype(bool)].sort_values("threshold")
+    o = _view(frames["objects"], view)
     o = o[o.method == method].sort_values("triangles")
-    f, t = o.flip.to_numpy(), np.log(o.triangles.to_numpy(float))
-    target = row.flip
-    for k in range(len(f) - 1):
-        if f[k] >= target >= f[k + 1]:
-            w = 0.0 if f[k] == f[k + 1] else (f[k] - target) / (f[k] - f[k + 1])
-            return float(np.exp(t[k] + w * (t[k + 1] - t[k])) / row.triangles)
-    return float("nan")
+    f = np.log(np.maximum(o.flip.to_numpy(float), FLIP_FLOOR))
+    t = np.log(o.triangles.to_numpy(float))
+    rows = []
+    for row in d.itertuples():
+        obj = float("nan")
+        x = np.log(max(row.flip, FLIP_FLOOR))
+        for k in range(len(f) - 1):
+            if f[k] >= x >= f[k + 1]:
+                w = 0.0 if f[k] == f[k + 1] else (f[k] - x) / (f[k] - f[k + 1])
+                obj = float(np.exp(t[k] + w * (t[k + 1] - t[k])))
+                break
+        rows.append({"view": view, "threshold": row.threshold, "dag_triangles": row.triangles,
+                     "flip": row.flip, "object_triangles": obj,
+                     "ratio": obj / row.triangles})  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def equal_flip_ratio(frames, threshold: float = 1.0, method: str = "funkhouser-sequin",
+                     view: str = "field") -> float:  # fmt: skip
+    """Object LOD's triangles over the DAG's at the DAG's FLIP at ``threshold`` in ``view``
+    (:func:`equal_flip_ratios`); nan when object LOD's sweep does not reach that FLIP."""
+    r = equal_flip_ratios(frames, view, method)
+    return float(r.loc[r.threshold == threshold, "ratio"].iloc[0])
 
 
 def plot_tradeoff(frames, params):
-    """Triangles drawn against FLIP (log, floored at 10⁻⁵): the DAG's cut per threshold
-    (frustum culling), object LOD by Funkhouser–Séquin's greedy per budget and by the error
-    rule per threshold."""
+    """Per view, triangles drawn against FLIP (log, floored at 10⁻⁵): the DAG's cut per
+    threshold (frustum culling), object LOD by Funkhouser–Séquin's greedy per budget and by the
+    error rule per threshold."""
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(6.4, 4.2))
-    ax = fig.add_subplot()
-    d = frames["dag"][~frames["dag"].occlusion]
+    names = [v for v in VIEWS if (frames["dag"].get("view", pd.Series(["field"])) == v).any()]
+    fig = Figure(figsize=(4.2 * len(names), 4.0))
+    axes = fig.subplots(1, len(names), squeeze=False)[0]
     floor = 1e-5
-    ax.plot(d.triangles, d.flip.clip(lower=floor), "o-", label="DAG cut (threshold in px)")
-    for x, y, t in zip(d.triangles, d.flip.clip(lower=floor), d.threshold, strict=True):
-        ax.annotate(f"{t:g}", (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7)
-    o = frames["objects"]
-    for method, style in (("funkhouser-sequin", "s-"), ("error-rule", "^--")):
-        m = o[o.method == method].sort_values("triangles")
-        ax.plot(m.triangles, m.flip.clip(lower=floor), style, label=f"object LOD ({method})")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("triangles drawn")
-    ax.set_ylabel("FLIP against full detail (mean)")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
+    for ax, view in zip(axes, names, strict=True):
+        d = _view(frames["dag"], view)
+        d = d[~d.occlusion.astype(bool)]
+        ax.plot(d.triangles, d.flip.clip(lower=floor), "o-", label="DAG cut (threshold in px)")
+        for x, y, t in zip(d.triangles, d.flip.clip(lower=floor), d.threshold, strict=True):
+            ax.annotate(f"{t:g}", (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7)
+        o = _view(frames["objects"], view)
+        for method, style in (("funkhouser-sequin", "s-"), ("error-rule", "^--")):
+            m = o[o.method == method].sort_values("triangles")
+            ax.plot(m.triangles, m.flip.clip(lower=floor), style, label=f"object LOD ({method})")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(view, fontsize=9)
+        ax.set_xlabel("triangles drawn")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("FLIP against full detail (mean)")
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
     return fig
 
 
 def plot_threshold(frames, params):
-    """Against the threshold: triangles per covered pixel, FLIP, the share of pixels whose
-    instance or depth differs, and the frame's ms with and without occlusion culling."""
+    """Against the threshold, per view: triangles per covered pixel and FLIP (frustum culling),
+    the frame's ms with (dashed) and without occlusion culling."""
     from matplotlib.figure import Figure
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
 
     fig = Figure(figsize=(9.0, 3.2))
     d = frames["dag"]
     axes = fig.subplots(1, 3)
-    for occ, style in ((False, "o-"), (True, "s--")):
-        s = d[d.occlusion == occ]
-        lab = "two-phase HiZ" if occ else "frustum only"
-        axes[0].plot(s.threshold, s.tris_per_px, style, label=lab)
-        axes[2].plot(s.threshold, s.ms_total, style, label=lab)
-    s = d[~d.occlusion]
-    axes[1].plot(s.threshold, s.flip, "o-", label="FLIP")
-    axes[1].plot(s.threshold, s.differs, "s-", label="instance or depth differs")
-    from matplotlib.ticker import NullFormatter, ScalarFormatter
-
-    for ax, y in zip(axes, ("triangles per covered pixel", "error", "frame ms"), strict=True):
+    names = [v for v in VIEWS if (d.get("view", pd.Series(["field"])) == v).any()]
+    for k, view in enumerate(names):
+        s = _view(d, view)
+        colour = f"C{k}"
+        for occ, style in ((False, "o-"), (True, "s--")):
+            o = s[s.occlusion.astype(bool) == occ]
+            if not occ:
+                axes[0].plot(o.threshold, o.tris_per_px, style, color=colour, label=view)
+                axes[1].plot(o.threshold, o.flip, style, color=colour, label=view)
+            axes[2].plot(o.threshold, o.ms_total, style, color=colour,
+                         label=f"{view}{', two-phase HiZ' if occ else ''}")  # fmt: skip
+    for ax, y in zip(axes, ("triangles per covered pixel", "FLIP", "frame ms"), strict=True):
         ax.set_xscale("log")
         ax.set_xticks(sorted(set(d.threshold)))
         ax.xaxis.set_major_formatter(ScalarFormatter())
         ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("threshold (px)")
         ax.set_ylabel(y)
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=6)
         ax.grid(alpha=0.3)
+    axes[1].set_yscale("log")
     fig.tight_layout()
     return fig
+
+
+def level_colors() -> np.ndarray:
+    """(8, 3) float the level colours of the DAG renderer's level picture (levels 0 to 6, and
+    7 for 7 and coarser), read from its vertex shader (``LEVEL_COLORS``), the one place they
+    are written."""
+    import re
+    from pathlib import Path
+
+    import soc.shaders
+
+    text = (Path(soc.shaders.__file__).parent / "dag_draw.vert.glsl").read_text()
+    block = re.search(r"LEVEL_COLORS\[(\d+)\]\s*=\s*vec3\[\]\((.*?)\);", text, re.S)
+    if block is None:
+        raise RuntimeError("dag_draw.vert.glsl no longer defines LEVEL_COLORS[n] = vec3[](...)")
+    found = re.findall(r"vec3\(([^)]*)\)", block.group(2))
+    colors = np.array([[float(x) for x in c.split(",")] for c in found])
+    if len(colors) != int(block.group(1)):
+        raise RuntimeError(f"LEVEL_COLORS declares {block.group(1)} colours, holds {len(colors)}")
+    return colors
 
 
 def plot_levels(frames, params):
-    """The cut at 1 px seen from above the field's edge, coloured by level: blue the source's
-    clusters, then cyan, green, yellow, orange, red, pink and purple for coarser levels."""
+    """The cut at 1 px coloured by level (the key beside it: the levels drawn, the last
+    colour for that level and coarser): the field seen from above its edge, the canyon from
+    its low camera. Lit as the renderer shades, so a colour darkens where the surface turns
+    from the light."""
     from matplotlib.figure import Figure
+    from matplotlib.patches import Patch
 
-    img = decode(frames["picture"].png.iloc[0])
-    fig = Figure(figsize=(7.2, 7.2 * img.shape[0] / img.shape[1] + 0.3))
-    ax = fig.add_subplot()
-    ax.imshow(img)
-    ax.set_axis_off()
-    fig.tight_layout()
+    pics = frames["picture"]
+    colors = level_colors()
+    lv = frames["levels"]
+    top = int(lv.level[lv.clusters > 0].max()) if (lv.clusters > 0).any() else 0
+    n = len(pics)
+    img0 = decode(pics.png.iloc[0])
+    fig = Figure(figsize=(6.0 * n, 6.0 * img0.shape[0] / img0.shape[1] + 0.9))
+    axes = fig.subplots(1, n, squeeze=False)[0]
+    for ax, (_, row) in zip(axes, pics.iterrows(), strict=True):
+        ax.imshow(decode(row.png))
+        ax.set_title(row.get("view", "field"), fontsize=9)
+        ax.set_axis_off()
+    last = len(colors) - 1
+    handles = [Patch(color=colors[min(k, last)],
+                     label=f"level {k}" + (" and coarser" if k == last else ""))
+               for k in range(min(top, last) + 1)]  # fmt: skip
+    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8,
+               title="cluster level (0: the source's clusters)", title_fontsize=8,
+               frameon=False)  # fmt: skip
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
     return fig
 
 
-def _at(frames, t=1.0, occlusion=False):
-    d = frames["dag"]
-    return d[(d.threshold == t) & (d.occlusion == occlusion)].iloc[0]
+def _at(frames, t=1.0, occlusion=False, view="field"):
+    d = _view(frames["dag"], view)
+    return d[(d.threshold == t) & (d.occlusion.astype(bool) == occlusion)].iloc[0]
+
+
+def _ratio_text(q, view):
+    r = equal_flip_ratios(q.frames, view)
+    one = r[r.threshold == 1.0].iloc[0]
+    rest = ", ".join(f"{t:g} px {x:.2f}" for t, x in zip(r.threshold, r.ratio, strict=True))
+    return (f"{one.ratio:.2f}× the triangles ({one.dag_triangles:,} DAG triangles at FLIP "
+            f"{one.flip:.4f}); by threshold {rest}")  # fmt: skip
 
 
 CLAIMS = (
     Row(
-        "triangles per covered pixel at 1 px",
+        "triangles per covered pixel at 1 px (field)",
         "Nanite: about one triangle per pixel",
         lambda q: (
             f"{_at(q.frames).tris_per_px:.2f} ({_at(q.frames).triangles:,} triangles "
@@ -316,14 +501,17 @@ CLAIMS = (
         ),
         MEASURED,
     ),
-    Row(
-        "object LOD against the DAG at the same FLIP (1 px)",
-        "Nanite: the cut adapts within an object, object LOD cannot",
-        lambda q: f"{equal_flip_ratio(q.frames):.2f}× the triangles",
-        MEASURED,
+    *(
+        Row(
+            f"object LOD against the DAG at the same FLIP ({view})",
+            "Nanite: the cut adapts within an object, object LOD cannot",
+            lambda q, view=view: _ratio_text(q, view),
+            MEASURED,
+        )
+        for view in VIEWS
     ),
     Row(
-        "selection and culling's share of the frame (1 px, two-phase)",
+        "selection and culling's share of the frame (1 px, two-phase, field)",
         "–",
         lambda q: f"{_at(q.frames, 1.0, True).select_cull_share:.0%}",
         MEASURED,
@@ -347,8 +535,10 @@ EXPERIMENT = harness.experiment(
         "budgets": (0.01, 0.05, 0.2, 0.5, 1.0),
         "ratios": (1.0, 1 / 4, 1 / 16, 1 / 64),
         "repeats": 1,
+        "canyon_triangles": 20_000,
+        "boulders": 6,
     },
-    minutes=4.0,
+    minutes=8.0,
     extras=("dag",),
     notebook="dag_lod",
 )

@@ -166,12 +166,14 @@ DAG_INTRO = """\
 # Cluster LOD DAG (Nanite's) on instanced scenes
 
 A field of rocks and statues, each mesh held once and placed many times
-(`soc.scenes.rock_field`); each mesh's cluster DAG (`lod.dag`: clusters grouped, simplified with
-the group border locked, split again, level by level) and its cut selected per instance on the
-GPU by error threshold in pixels (`soc.culling.dag_select.DagRenderer`), culled by frustum,
-normal cone and two-phase hierarchical z, drawn. `VISLOD_QUICK=1`: a small field (about a
-minute); the full run takes a few minutes. The targets at 10⁸ source triangles are
-`python -m benchmarks.dag`."""
+(`soc.scenes.rock_field`), and a canyon of cliffs that each reach from beside the camera to the
+horizon, seen from its floor and from above its far end; each mesh's cluster DAG (`lod.dag`:
+clusters grouped, simplified with the group border locked, split again, level by level) and
+its cut selected per instance on the GPU by error threshold in pixels
+(`soc.culling.dag_select.DagRenderer`), culled by frustum, normal cone and two-phase
+hierarchical z, drawn; against object LOD at the same FLIP. `VISLOD_QUICK=1`: small scenes
+(about a minute); the full run takes several minutes. The targets at 10⁸ source triangles are
+`python -m benchmarks --only dag`."""
 
 NOTEBOOKS = {  # file name → its builder (no arguments)
     "seed000_methods.ipynb": functools.partial(

@@ -1,0 +1,47 @@
+"""The cluster DAG's section of BENCHMARKS.md (benchmarks.dag): its rows in the table of where
+the targets stand, its markdown, and its place among the sections (no GL: made-up rows)."""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from benchmarks import cli
+from benchmarks import dag as bench_dag
+
+
+def _frames():
+    rows = [
+        bench_dag._row("triangles per covered pixel at 1 px (frustum only)", "<= 2", 1.18, True,
+                       "x"),
+        bench_dag._row("triangles drawn, 100x denser meshes / 1x", "<= 1.3", 1.36, False, "y"),
+        bench_dag._row("object LOD / DAG triangles at the same FLIP, field", "–", 0.65, None,
+                       "z"),
+        bench_dag._row("false culls", "0", 0, True, "w"),
+    ]  # fmt: skip
+    ratios = pd.DataFrame({"view": ["canyon-low"] * 2, "threshold": [0.5, 1.0],
+                           "dag_triangles": [10, 20], "flip": [0.001, 0.002],
+                           "object_triangles": [40.0, float("nan")],
+                           "ratio": [4.0, float("nan")]})  # fmt: skip
+    return {"targets": pd.DataFrame(rows), "equal_flip": ratios}
+
+
+def test_targets_rows_say_met_not_met_and_not_a_target():
+    t = bench_dag.targets(_frames())
+    assert list(t.columns) == ["target", "measured", "met"]
+    assert list(t.met) == ["yes", "no", "–", "yes"]
+    assert t.target.iloc[1] == "triangles drawn, 100x denser meshes / 1x (<= 1.3)"
+    assert list(t.measured) == ["1.18", "1.36", "0.65", "0"]
+
+
+def test_markdown_has_the_command_the_targets_and_the_ratios():
+    md = bench_dag.markdown(_frames(), "python -m benchmarks --only dag --quick", quick=True)
+    assert md.startswith("## Cluster LOD DAG")
+    assert "`python -m benchmarks --only dag --quick`" in md
+    assert "100x denser" in md and "canyon-low" in md and "4.00" in md
+
+
+def test_the_dag_section_is_one_of_the_benchmarks():
+    assert "dag" in cli.SECTIONS
+    section = cli.Section("dag", bench_dag.markdown(_frames(), "c"), bench_dag.targets(_frames()))
+    table = cli.targets_table([section])
+    assert "Cluster LOD DAG" in table and "(<= 1.3)" in table
