@@ -580,9 +580,6 @@ def _case(frames, params) -> dict:
     tri = {m: r.triangles_culled_pct for m, r in one.items()}
     fc = {m: r.false_culls for m, r in one.items()}
     ideal = _one(s, ORACLE, d).triangles_culled_pct
-    beyond = [m for m in methods if tri[m] > ideal]  # culls more than is hidden
-    exact = [m for m in methods if m not in (QUERY, *beyond) and fc[m] == 0]
-    top = max(exact, key=tri.get, default="")
     ours = [_one(s, QUERY, r) for r in params.depth_resolutions()]
     return {
         "s": s,
@@ -593,9 +590,6 @@ def _case(frames, params) -> dict:
         "tri": tri,
         "fc": fc,
         "ideal": ideal,
-        "beyond": ", ".join(beyond) or "none",
-        "top": top,
-        "best": tri.get(top, np.nan),
         "ms": {m: r.ms_total for m, r in one.items()},
         "per": {m: _per_frame(df, m, d) for m in methods},
         "res": params.depth_resolutions(),
