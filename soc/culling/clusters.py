@@ -194,19 +194,59 @@ def _global_faces(scene) -> np.ndarray:
 def _triangle_data(vertices: np.ndarray, gfaces: np.ndarray):
     """Per triangle (float64): centroid (F, 3), unit normal by the winding (F, 3; zero when
     degenerate) and area (F,)."""
-    tri = vertices[gfaces].astype(np.float64)  # (F, 3, 3)
-    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    length = np.linalg.norm(cross, axis=1)
-    normals = cross / np.where(length > 0, length, 1.0)[:, None]
-    return tri.mean(axis=1), normals, 0.5 * length
+    return _triangle_kernel(vertices, np.ascontiguousarray(gfaces))
+
+
+@numba.njit(cache=True, parallel=True)
+def _triangle_kernel(vertices, gfaces):
+    """:func:`_triangle_data`'s loop, in numpy's operation order (``np.cross``, the norm's sum
+    of squares, the mean as a sum over 3): the same values, bit for bit."""
+    n = gfaces.shape[0]
+    centroids = np.empty((n, 3))
+    normals = np.empty((n, 3))
+    areas = np.empty(n)
+    for t in numba.prange(n):
+        a, b, c = gfaces[t, 0], gfaces[t, 1], gfaces[t, 2]
+        ux = np.float64(vertices[b, 0]) - np.float64(vertices[a, 0])
+        uy = np.float64(vertices[b, 1]) - np.float64(vertices[a, 1])
+        uz = np.float64(vertices[b, 2]) - np.float64(vertices[a, 2])
+        vx = np.float64(vertices[c, 0]) - np.float64(vertices[a, 0])
+        vy = np.float64(vertices[c, 1]) - np.float64(vertices[a, 1])
+        vz = np.float64(vertices[c, 2]) - np.float64(vertices[a, 2])
+        cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        length = np.sqrt(cx * cx + cy * cy + cz * cz)
+        d = length if length > 0 else 1.0
+        normals[t, 0], normals[t, 1], normals[t, 2] = cx / d, cy / d, cz / d
+        areas[t] = 0.5 * length
+        for k in range(3):
+            s = np.float64(vertices[a, k]) + np.float64(vertices[b, k])
+            centroids[t, k] = (s + np.float64(vertices[c, k])) / 3.0
+    return centroids, normals, areas
 
 
 def _adjacency(tri_w: np.ndarray, n_welded: int) -> tuple[np.ndarray, np.ndarray]:
     """Triangles around each welded vertex as CSR: triangles ``tris[start[v]:start[v + 1]]``
-    hold vertex v."""
-    corners = tri_w.reshape(-1)
-    start = np.concatenate([[0], np.cumsum(np.bincount(corners, minlength=n_welded))])
-    return start.astype(np.int64), (np.argsort(corners, kind="stable") // 3).astype(np.int64)
+    hold vertex v, in increasing order."""
+    return _adjacency_kernel(np.ascontiguousarray(tri_w), int(n_welded))
+
+
+@numba.njit(cache=True)
+def _adjacency_kernel(tri_w, n_welded):
+    """:func:`_adjacency` by a counting sort of the corners."""
+    start = np.zeros(n_welded + 1, np.int64)
+    for t in range(tri_w.shape[0]):
+        for j in range(3):
+            start[tri_w[t, j] + 1] += 1
+    for v in range(n_welded):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    tris = np.empty(3 * tri_w.shape[0], np.int64)
+    for t in range(tri_w.shape[0]):
+        for j in range(3):
+            v = tri_w[t, j]
+            tris[fill[v]] = t
+            fill[v] += 1
+    return start, tris
 
 
 def _spread_bits(q: np.ndarray) -> np.ndarray:
@@ -228,10 +268,62 @@ def _morton_codes(points: np.ndarray, lo: np.ndarray, size: np.ndarray) -> np.nd
 def _morton_ranks(owner: np.ndarray, centroids: np.ndarray, lo: np.ndarray, size: np.ndarray):
     """(F,) int64 face indices sorted, inside each object's range (``owner`` (F,): the face's
     object, sorted), by the Morton code of their centroid in the object's AABB (``lo``,
-    ``size`` per object); and (F,) int64 the codes in that order."""
-    codes = _morton_codes(centroids, lo[owner], size[owner])
-    by_rank = np.argsort(owner.astype(np.int64) << 30 | codes, kind="stable")
-    return by_rank.astype(np.int64), codes[by_rank]
+    ``size`` per object), ties in face order; and (F,) int64 the codes in that order."""
+    return _morton_ranks_kernel(
+        np.ascontiguousarray(owner, np.int64),
+        np.ascontiguousarray(centroids, np.float64),
+        np.ascontiguousarray(lo, np.float64),
+        np.ascontiguousarray(size, np.float64),
+    )
+
+
+@numba.njit(cache=True, parallel=True)
+def _morton_ranks_kernel(owner, centroids, lo, size):
+    """:func:`_morton_ranks`: the codes (:func:`_morton_code`, the same as
+    :func:`_morton_codes`), then a stable radix sort of each object's range, in parallel."""
+    n = len(owner)
+    codes = np.empty(n, np.int64)
+    for t in numba.prange(n):
+        o = owner[t]
+        codes[t] = _morton_code(centroids[t, 0], centroids[t, 1], centroids[t, 2], lo[o], size[o])
+    runs = [0]
+    for t in range(1, n):
+        if owner[t] != owner[t - 1]:
+            runs.append(t)
+    runs.append(n)
+    by_rank = np.empty(n, np.int64)
+    sorted_codes = np.empty(n, np.int64)
+    for r in numba.prange(len(runs) - 1):
+        f0, f1 = runs[r], runs[r + 1]
+        if f1 - f0 < 4096:  # a radix pass costs its 1024 buckets
+            idx = np.argsort(codes[f0:f1], kind="mergesort")
+        else:
+            idx = _radix_order(codes[f0:f1])
+        for i in range(f1 - f0):
+            by_rank[f0 + i] = f0 + idx[i]
+            sorted_codes[f0 + i] = codes[f0 + idx[i]]
+    return by_rank, sorted_codes
+
+
+@numba.njit(cache=True)
+def _radix_order(codes):
+    """(n,) int64 the stable order of ``codes`` (n,) 30-bit non-negative integers (three
+    passes of 10 bits)."""
+    n = len(codes)
+    idx = np.arange(n)
+    tmp = np.empty(n, np.int64)
+    for shift in (0, 10, 20):
+        cnt = np.zeros(1025, np.int64)
+        for i in range(n):
+            cnt[((codes[idx[i]] >> shift) & 1023) + 1] += 1
+        for b in range(1024):
+            cnt[b + 1] += cnt[b]
+        for i in range(n):
+            b = (codes[idx[i]] >> shift) & 1023
+            tmp[cnt[b]] = idx[i]
+            cnt[b] += 1
+        idx, tmp = tmp, idx
+    return idx
 
 
 @numba.njit(cache=True)
@@ -293,7 +385,7 @@ def _nearest_free(f0, f1, px, py, pz, lo, size, by_rank, codes, emitted, centroi
     return best, first_free
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def _grow(
     face_offsets,
     tri_w,
@@ -310,8 +402,9 @@ def _grow(
     max_tri,
     cone_weight,
 ):
-    """Stage 2 over every object: returns ``order`` (F,) the faces in cluster
-    order and ``starts`` (F,) bool, True where a cluster begins."""
+    """Stage 2 over every object, the objects in parallel (each grows alone, so the result
+    does not depend on the threads): returns ``order`` (F,) the faces in cluster order and
+    ``starts`` (F,) bool, True where a cluster begins."""
     n_faces = tri_w.shape[0]
     order = np.empty(n_faces, np.int64)
     starts = np.zeros(n_faces, np.bool_)
@@ -319,100 +412,118 @@ def _grow(
     # free triangles hold it.
     vstamp = np.zeros(n_welded, np.int64)
     live = np.zeros(n_welded, np.int32)
-    for t in range(n_faces):
+    fstamp = np.zeros(n_faces, np.int64)  # the last cluster whose frontier held the face
+    n_obj = len(face_offsets) - 1
+    # Largest objects first, so that the threads end together.
+    by_size = np.argsort(face_offsets[:-1] - face_offsets[1:])
+    for k in numba.prange(n_obj):
+        _grow_object(
+            by_size[k], face_offsets, tri_w, centroids, normals, areas, adj_start, adj_tris,
+            by_rank, codes, obj_lo, obj_size, max_tri, cone_weight, order, starts, vstamp,
+            live, fstamp,
+        )  # fmt: skip
+    return order, starts
+
+
+@numba.njit(cache=True)
+def _grow_object(
+    obj, face_offsets, tri_w, centroids, normals, areas, adj_start, adj_tris, by_rank, codes,
+    obj_lo, obj_size, max_tri, cone_weight, order, starts, vstamp, live, fstamp,
+):  # fmt: skip
+    """Stage 2 on object ``obj``: writes its range of ``order`` and ``starts`` (and of the
+    per-vertex and per-face scratch arrays, which objects never share)."""
+    f0, f1 = face_offsets[obj], face_offsets[obj + 1]
+    m = f1 - f0
+    if m <= max_tri:  # the whole object is one cluster, in its own order
+        for pos in range(f0, f1):
+            order[pos] = pos
+        if m > 0:
+            starts[f0] = True
+        return
+    for t in range(f0, f1):
         for j in range(3):
             live[tri_w[t, j]] += 1
-    fstamp = np.zeros(n_faces, np.int64)  # the last cluster whose frontier held the face
-    for obj in range(len(face_offsets) - 1):
-        f0, f1 = face_offsets[obj], face_offsets[obj + 1]
-        m = f1 - f0
-        if m <= max_tri:  # the whole object is one cluster, in its own order
-            for pos in range(f0, f1):
-                order[pos] = pos
-            starts[f0] = True
-            continue
-        emitted = np.zeros(m, np.bool_)
-        frontier = np.empty(m, np.int64)
-        n_front = 0
-        area = 0.0
-        for t in range(f0, f1):
-            area += areas[t]
-        # Radius of a round patch of max_tri average triangles: distances are measured in it.
-        radius = max(np.sqrt(area / m * max_tri / np.pi), 1e-30)
-        lo, size = obj_lo[obj], obj_size[obj]
-        cluster = 0
-        filled = max_tri  # triangles in the current cluster (full: the next one starts)
-        sx = sy = sz = 0.0
-        nx = ny = nz = 0.0
-        first_free = f0
-        for pos in range(f0, f1):
-            best = -1
-            if n_front > 0:
-                cx, cy, cz = sx / max(filled, 1), sy / max(filled, 1), sz / max(filled, 1)
-                nl = np.sqrt(nx * nx + ny * ny + nz * nz)
-                ax, ay, az = (nx / nl, ny / nl, nz / nl) if nl > 0 else (0.0, 0.0, 0.0)
-                best_p, best_s = 1 << 30, np.inf
-                i = 0
-                while i < n_front:
-                    t = frontier[i]
-                    if emitted[t - f0]:  # drop it: swap in the last one
-                        n_front -= 1
-                        frontier[i] = frontier[n_front]
+    emitted = np.zeros(m, np.bool_)
+    frontier = np.empty(m, np.int64)
+    n_front = 0
+    area = 0.0
+    for t in range(f0, f1):
+        area += areas[t]
+    # Radius of a round patch of max_tri average triangles: distances are measured in it.
+    radius = max(np.sqrt(area / m * max_tri / np.pi), 1e-30)
+    lo, size = obj_lo[obj], obj_size[obj]
+    cluster = 0
+    filled = max_tri  # triangles in the current cluster (full: the next one starts)
+    sx = sy = sz = 0.0
+    nx = ny = nz = 0.0
+    first_free = f0
+    for pos in range(f0, f1):
+        best = -1
+        if n_front > 0:
+            cx, cy, cz = sx / max(filled, 1), sy / max(filled, 1), sz / max(filled, 1)
+            nl = np.sqrt(nx * nx + ny * ny + nz * nz)
+            ax, ay, az = (nx / nl, ny / nl, nz / nl) if nl > 0 else (0.0, 0.0, 0.0)
+            best_p, best_s = 1 << 30, np.inf
+            i = 0
+            while i < n_front:
+                t = frontier[i]
+                if emitted[t - f0]:  # drop it: swap in the last one
+                    n_front -= 1
+                    frontier[i] = frontier[n_front]
+                    continue
+                i += 1
+                if filled >= max_tri:
+                    # Seeding the next cluster: the triangle with the fewest free
+                    # triangles around it, so that no island is left behind.
+                    p = 0
+                    s = float(live[tri_w[t, 0]] + live[tri_w[t, 1]] + live[tri_w[t, 2]])
+                else:
+                    p = _priority(t, tri_w, vstamp, live, cluster)
+                    if p > best_p:
                         continue
-                    i += 1
-                    if filled >= max_tri:
-                        # Seeding the next cluster: the triangle with the fewest free
-                        # triangles around it, so that no island is left behind.
-                        p = 0
-                        s = float(live[tri_w[t, 0]] + live[tri_w[t, 1]] + live[tri_w[t, 2]])
-                    else:
-                        p = _priority(t, tri_w, vstamp, live, cluster)
-                        if p > best_p:
-                            continue
-                        dx = centroids[t, 0] - cx
-                        dy = centroids[t, 1] - cy
-                        dz = centroids[t, 2] - cz
-                        dist = np.sqrt(dx * dx + dy * dy + dz * dz)
-                        spread = normals[t, 0] * ax + normals[t, 1] * ay + normals[t, 2] * az
-                        s = (1.0 + dist / radius * (1.0 - cone_weight)) * max(
-                            1.0 - spread * cone_weight, 1e-3
-                        )
-                    if p < best_p or (p == best_p and s < best_s):
-                        best, best_p, best_s = t, p, s
-            if best < 0:  # nothing adjacent: the free triangle nearest the cluster's centre
-                k = max(filled, 1) if filled < max_tri else 0
-                px, py, pz = (sx / k, sy / k, sz / k) if k > 0 else (lo[0], lo[1], lo[2])
-                best, first_free = _nearest_free(
-                    f0, f1, px, py, pz, lo, size, by_rank, codes, emitted, centroids, first_free
-                )
-            if filled >= max_tri:  # a new cluster begins with this triangle
-                cluster += 1
-                filled = 0
-                sx = sy = sz = nx = ny = nz = 0.0
-                n_front = 0
-                starts[pos] = True
-            order[pos] = best
-            emitted[best - f0] = True
-            filled += 1
-            sx += centroids[best, 0]
-            sy += centroids[best, 1]
-            sz += centroids[best, 2]
-            nx += normals[best, 0]
-            ny += normals[best, 1]
-            nz += normals[best, 2]
-            for j in range(3):
-                v = tri_w[best, j]
-                live[v] -= 1
-                vstamp[v] = cluster
-            for j in range(3):  # the new frontier: free triangles around the new vertices
-                v = tri_w[best, j]
-                for a in range(adj_start[v], adj_start[v + 1]):
-                    u = adj_tris[a]
-                    if not emitted[u - f0] and fstamp[u] != cluster:
-                        fstamp[u] = cluster
-                        frontier[n_front] = u
-                        n_front += 1
-    return order, starts
+                    dx = centroids[t, 0] - cx
+                    dy = centroids[t, 1] - cy
+                    dz = centroids[t, 2] - cz
+                    dist = np.sqrt(dx * dx + dy * dy + dz * dz)
+                    spread = normals[t, 0] * ax + normals[t, 1] * ay + normals[t, 2] * az
+                    s = (1.0 + dist / radius * (1.0 - cone_weight)) * max(
+                        1.0 - spread * cone_weight, 1e-3
+                    )
+                if p < best_p or (p == best_p and s < best_s):
+                    best, best_p, best_s = t, p, s
+        if best < 0:  # nothing adjacent: the free triangle nearest the cluster's centre
+            k = max(filled, 1) if filled < max_tri else 0
+            px, py, pz = (sx / k, sy / k, sz / k) if k > 0 else (lo[0], lo[1], lo[2])
+            best, first_free = _nearest_free(
+                f0, f1, px, py, pz, lo, size, by_rank, codes, emitted, centroids, first_free
+            )
+        if filled >= max_tri:  # a new cluster begins with this triangle
+            cluster += 1
+            filled = 0
+            sx = sy = sz = nx = ny = nz = 0.0
+            n_front = 0
+            starts[pos] = True
+        order[pos] = best
+        emitted[best - f0] = True
+        filled += 1
+        sx += centroids[best, 0]
+        sy += centroids[best, 1]
+        sz += centroids[best, 2]
+        nx += normals[best, 0]
+        ny += normals[best, 1]
+        nz += normals[best, 2]
+        for j in range(3):
+            v = tri_w[best, j]
+            live[v] -= 1
+            vstamp[v] = cluster
+        for j in range(3):  # the new frontier: free triangles around the new vertices
+            v = tri_w[best, j]
+            for a in range(adj_start[v], adj_start[v + 1]):
+                u = adj_tris[a]
+                if not emitted[u - f0] and fstamp[u] != cluster:
+                    fstamp[u] = cluster
+                    frontier[n_front] = u
+                    n_front += 1
 
 
 # -- stage 3: bounds ------------------------------------------------------------------------------
@@ -445,7 +556,7 @@ def _unit_normal(vertices, gfaces, order, i):
     return nx / nl, ny / nl, nz / nl, True
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def _bounds(vertices, gfaces, order, first, count):
     """Stage 3: per cluster the AABB (C, 2, 3) float32, sphere (C, 4) float32 and cone (axis
     (C, 3), cutoff (C,), apex (C, 3) float32), see :class:`Clusters`."""
@@ -455,98 +566,110 @@ def _bounds(vertices, gfaces, order, first, count):
     axes = np.zeros((c_n, 3), np.float32)
     cutoffs = np.full(c_n, NO_CONE, np.float32)
     apexes = np.zeros((c_n, 3), np.float32)
-    for c in range(c_n):
-        f0, f1 = first[c], first[c] + count[c]
-        for a in range(3):
-            aabbs[c, 0, a] = np.inf
-            aabbs[c, 1, a] = -np.inf
-        # Ritter: of the pairs of vertices extreme along x, y and z, the farthest apart is a
-        # first diameter; the sphere then grows over every vertex outside it.
-        ext = np.empty((6, 3))  # min x, max x, min y, max y, min z, max z vertices
-        for i in range(f0, f1):
-            for j in range(3):
-                p = _corner(vertices, gfaces, order, i, j)
-                v = gfaces[order[i], j]
-                for a in range(3):
-                    aabbs[c, 0, a] = min(aabbs[c, 0, a], vertices[v, a])
-                    aabbs[c, 1, a] = max(aabbs[c, 1, a], vertices[v, a])
-                    if (i == f0 and j == 0) or p[a] < ext[2 * a, a]:
-                        ext[2 * a, 0], ext[2 * a, 1], ext[2 * a, 2] = p
-                    if (i == f0 and j == 0) or p[a] > ext[2 * a + 1, a]:
-                        ext[2 * a + 1, 0], ext[2 * a + 1, 1], ext[2 * a + 1, 2] = p
-        best_d, best_a = -1.0, 0
-        for a in range(3):
-            d = 0.0
-            for k in range(3):
-                d += (ext[2 * a + 1, k] - ext[2 * a, k]) ** 2
-            if d > best_d:
-                best_d, best_a = d, a
-        ox = 0.5 * (ext[2 * best_a, 0] + ext[2 * best_a + 1, 0])
-        oy = 0.5 * (ext[2 * best_a, 1] + ext[2 * best_a + 1, 1])
-        oz = 0.5 * (ext[2 * best_a, 2] + ext[2 * best_a + 1, 2])
-        r = 0.5 * np.sqrt(best_d)
-        for i in range(f0, f1):
-            for j in range(3):
-                px, py, pz = _corner(vertices, gfaces, order, i, j)
-                d = np.sqrt((px - ox) ** 2 + (py - oy) ** 2 + (pz - oz) ** 2)
-                if d > r:  # move the centre towards p just enough to hold it
-                    k = 0.5 * (d - r) / d
-                    ox, oy, oz = ox + (px - ox) * k, oy + (py - oy) * k, oz + (pz - oz) * k
-                    r = 0.5 * (d + r)
-        # The radius: the largest distance from the float32 centre, rounded up, so that every
-        # vertex is inside whatever the growth's rounding did.
-        spheres[c, 0], spheres[c, 1], spheres[c, 2] = ox, oy, oz
-        ox, oy, oz = np.float64(spheres[c, 0]), np.float64(spheres[c, 1]), np.float64(spheres[c, 2])
-        r = 0.0
-        for i in range(f0, f1):
-            for j in range(3):
-                px, py, pz = _corner(vertices, gfaces, order, i, j)
-                r = max(r, np.sqrt((px - ox) ** 2 + (py - oy) ** 2 + (pz - oz) ** 2))
-        r32 = np.float32(r)
-        while np.float64(r32) < r:  # rounded to nearest: step up to the next float32
-            r32 = np.float32(np.float64(r32) + max(np.float64(r32), 1e-30) * 2.4e-7)
-        spheres[c, 3] = r32
-
-        # Normal cone: the mean unit normal as axis; any degenerate triangle, no cone.
-        sx = sy = sz = 0.0
-        ok = True
-        for i in range(f0, f1):
-            nx, ny, nz, good = _unit_normal(vertices, gfaces, order, i)
-            ok = ok and good
-            sx, sy, sz = sx + nx, sy + ny, sz + nz
-        sl = np.sqrt(sx * sx + sy * sy + sz * sz)
-        if not ok or sl == 0.0:
-            continue
-        sx, sy, sz = sx / sl, sy / sl, sz / sl
-        min_dot = 1.0
-        for i in range(f0, f1):
-            nx, ny, nz, _ = _unit_normal(vertices, gfaces, order, i)
-            min_dot = min(min_dot, nx * sx + ny * sy + nz * sz)
-        if min_dot <= MIN_CONE_DOT:
-            continue
-        # The apex: on the axis through the sphere's centre, far enough back to be behind
-        # every triangle's plane (each normal leans towards the axis, so walking back along it
-        # leaves each plane's front side), and a little farther for rounding.
-        back = 0.0
-        for i in range(f0, f1):
-            nx, ny, nz, _ = _unit_normal(vertices, gfaces, order, i)
-            px, py, pz = _corner(vertices, gfaces, order, i, 0)
-            ahead = (ox - px) * nx + (oy - py) * ny + (oz - pz) * nz
-            back = max(back, ahead / (nx * sx + ny * sy + nz * sz))
-        back += 1e-4 * r + 1e-6 * np.sqrt(ox * ox + oy * oy + oz * oz) + 1e-6
-        axes[c, 0], axes[c, 1], axes[c, 2] = sx, sy, sz
-        apexes[c, 0], apexes[c, 1], apexes[c, 2] = ox - sx * back, oy - sy * back, oz - sz * back
-        cutoffs[c] = np.sqrt(1.0 - min_dot * min_dot) + CONE_SLACK
-        # The stored (float32) apex must still be behind every plane; else no cone.
-        ax, ay, az = np.float64(apexes[c, 0]), np.float64(apexes[c, 1]), np.float64(apexes[c, 2])
-        for i in range(f0, f1):
-            nx, ny, nz, _ = _unit_normal(vertices, gfaces, order, i)
-            px, py, pz = _corner(vertices, gfaces, order, i, 0)
-            if (ax - px) * nx + (ay - py) * ny + (az - pz) * nz >= 0.0:
-                cutoffs[c] = NO_CONE
-                axes[c, 0] = axes[c, 1] = axes[c, 2] = 0.0
-                break
+    for c in numba.prange(c_n):
+        _cluster_bounds(
+            c, vertices, gfaces, order, first, count, aabbs, spheres, axes, cutoffs, apexes
+        )
     return aabbs, spheres, axes, cutoffs, apexes
+
+
+@numba.njit(cache=True)
+def _cluster_bounds(
+    c, vertices, gfaces, order, first, count, aabbs, spheres, axes, cutoffs, apexes
+):
+    """Stage 3 on cluster ``c``: writes its row of the bounds arrays."""
+    f0, f1 = first[c], first[c] + count[c]
+    for a in range(3):
+        aabbs[c, 0, a] = np.inf
+        aabbs[c, 1, a] = -np.inf
+    # Ritter: of the pairs of vertices extreme along x, y and z, the farthest apart is a
+    # first diameter; the sphere then grows over every vertex outside it.
+    ext = np.empty((6, 3))  # min x, max x, min y, max y, min z, max z vertices
+    for i in range(f0, f1):
+        for j in range(3):
+            p = _corner(vertices, gfaces, order, i, j)
+            v = gfaces[order[i], j]
+            for a in range(3):
+                aabbs[c, 0, a] = min(aabbs[c, 0, a], vertices[v, a])
+                aabbs[c, 1, a] = max(aabbs[c, 1, a], vertices[v, a])
+                if (i == f0 and j == 0) or p[a] < ext[2 * a, a]:
+                    ext[2 * a, 0], ext[2 * a, 1], ext[2 * a, 2] = p
+                if (i == f0 and j == 0) or p[a] > ext[2 * a + 1, a]:
+                    ext[2 * a + 1, 0], ext[2 * a + 1, 1], ext[2 * a + 1, 2] = p
+    best_d, best_a = -1.0, 0
+    for a in range(3):
+        d = 0.0
+        for k in range(3):
+            d += (ext[2 * a + 1, k] - ext[2 * a, k]) ** 2
+        if d > best_d:
+            best_d, best_a = d, a
+    ox = 0.5 * (ext[2 * best_a, 0] + ext[2 * best_a + 1, 0])
+    oy = 0.5 * (ext[2 * best_a, 1] + ext[2 * best_a + 1, 1])
+    oz = 0.5 * (ext[2 * best_a, 2] + ext[2 * best_a + 1, 2])
+    r = 0.5 * np.sqrt(best_d)
+    for i in range(f0, f1):
+        for j in range(3):
+            px, py, pz = _corner(vertices, gfaces, order, i, j)
+            d = np.sqrt((px - ox) ** 2 + (py - oy) ** 2 + (pz - oz) ** 2)
+            if d > r:  # move the centre towards p just enough to hold it
+                k = 0.5 * (d - r) / d
+                ox, oy, oz = ox + (px - ox) * k, oy + (py - oy) * k, oz + (pz - oz) * k
+                r = 0.5 * (d + r)
+    # The radius: the largest distance from the float32 centre, rounded up, so that every
+    # vertex is inside whatever the growth's rounding did.
+    spheres[c, 0], spheres[c, 1], spheres[c, 2] = ox, oy, oz
+    ox, oy, oz = np.float64(spheres[c, 0]), np.float64(spheres[c, 1]), np.float64(spheres[c, 2])
+    r = 0.0
+    for i in range(f0, f1):
+        for j in range(3):
+            px, py, pz = _corner(vertices, gfaces, order, i, j)
+            r = max(r, np.sqrt((px - ox) ** 2 + (py - oy) ** 2 + (pz - oz) ** 2))
+    r32 = np.float32(r)
+    while np.float64(r32) < r:  # rounded to nearest: step up to the next float32
+        r32 = np.float32(np.float64(r32) + max(np.float64(r32), 1e-30) * 2.4e-7)
+    spheres[c, 3] = r32
+
+    # Normal cone: the mean unit normal as axis; any degenerate triangle, no cone.
+    sx = sy = sz = 0.0
+    ok = True
+    normals = np.empty((f1 - f0, 3))  # each triangle's, computed once
+    for i in range(f0, f1):
+        nx, ny, nz, good = _unit_normal(vertices, gfaces, order, i)
+        normals[i - f0, 0], normals[i - f0, 1], normals[i - f0, 2] = nx, ny, nz
+        ok = ok and good
+        sx, sy, sz = sx + nx, sy + ny, sz + nz
+    sl = np.sqrt(sx * sx + sy * sy + sz * sz)
+    if not ok or sl == 0.0:
+        return
+    sx, sy, sz = sx / sl, sy / sl, sz / sl
+    min_dot = 1.0
+    for i in range(f0, f1):
+        nx, ny, nz = normals[i - f0, 0], normals[i - f0, 1], normals[i - f0, 2]
+        min_dot = min(min_dot, nx * sx + ny * sy + nz * sz)
+    if min_dot <= MIN_CONE_DOT:
+        return
+    # The apex: on the axis through the sphere's centre, far enough back to be behind
+    # every triangle's plane (each normal leans towards the axis, so walking back along it
+    # leaves each plane's front side), and a little farther for rounding.
+    back = 0.0
+    for i in range(f0, f1):
+        nx, ny, nz = normals[i - f0, 0], normals[i - f0, 1], normals[i - f0, 2]
+        px, py, pz = _corner(vertices, gfaces, order, i, 0)
+        ahead = (ox - px) * nx + (oy - py) * ny + (oz - pz) * nz
+        back = max(back, ahead / (nx * sx + ny * sy + nz * sz))
+    back += 1e-4 * r + 1e-6 * np.sqrt(ox * ox + oy * oy + oz * oz) + 1e-6
+    axes[c, 0], axes[c, 1], axes[c, 2] = sx, sy, sz
+    apexes[c, 0], apexes[c, 1], apexes[c, 2] = ox - sx * back, oy - sy * back, oz - sz * back
+    cutoffs[c] = np.sqrt(1.0 - min_dot * min_dot) + CONE_SLACK
+    # The stored (float32) apex must still be behind every plane; else no cone.
+    ax, ay, az = np.float64(apexes[c, 0]), np.float64(apexes[c, 1]), np.float64(apexes[c, 2])
+    for i in range(f0, f1):
+        nx, ny, nz = normals[i - f0, 0], normals[i - f0, 1], normals[i - f0, 2]
+        px, py, pz = _corner(vertices, gfaces, order, i, 0)
+        if (ax - px) * nx + (ay - py) * ny + (az - pz) * nz >= 0.0:
+            cutoffs[c] = NO_CONE
+            axes[c, 0] = axes[c, 1] = axes[c, 2] = 0.0
+            break
 
 
 def build_clusters(
@@ -621,29 +744,292 @@ def _grow_objects(scene, objects, faces, gfaces, max_triangles, cone_weight):
     welded = np.full(len(scene.vertices), -1, np.int64)
     welded[_object_ranges(scene.vertex_offsets, objects)] = weld_vertices(scene, objects)
     tri_w = np.ascontiguousarray(welded[gfaces])
-    centroids, normals, areas = _triangle_data(scene.vertices, gfaces)
+    return _grow_welded(
+        scene.vertices, gfaces, tri_w, face_offsets, scene.aabbs[objects], max_triangles,
+        cone_weight,
+    )  # fmt: skip
+
+
+def _grow_welded(vertices, gfaces, tri_w, face_offsets, boxes, max_triangles, cone_weight):
+    """Stage 2 on the pieces ``gfaces[face_offsets[i]:face_offsets[i + 1]]`` (indices into
+    ``vertices``) with their welded vertex ids ``tri_w`` (no id shared by two pieces) and
+    vertex bounds ``boxes`` (P, 2, 3): ``order`` (F,) and ``starts`` (F,) of :func:`_grow`."""
+    centroids, normals, areas = _triangle_data(vertices, gfaces)
     n_welded = int(tri_w.max()) + 1
     adj_start, adj_tris = _adjacency(tri_w, n_welded)
-    lo = scene.aabbs[objects, 0].astype(np.float64)
-    size = np.maximum(scene.aabbs[objects, 1] - scene.aabbs[objects, 0], 1e-30).astype(np.float64)
-    owner = np.repeat(np.arange(len(objects)), counts)
+    lo = boxes[:, 0].astype(np.float64)
+    size = np.maximum(boxes[:, 1] - boxes[:, 0], 1e-30).astype(np.float64)
+    owner = np.repeat(np.arange(len(face_offsets) - 1), np.diff(face_offsets))
     by_rank, codes = _morton_ranks(owner, centroids, lo, size)
     return _grow(
-        face_offsets,
-        tri_w,
-        centroids,
-        normals,
-        areas,
-        adj_start,
-        adj_tris,
-        by_rank,
-        codes,
-        lo,
-        size,
-        n_welded,
-        max_triangles,
-        float(cone_weight),
+        face_offsets, tri_w, centroids, normals, areas, adj_start, adj_tris, by_rank, codes,
+        lo, size, n_welded, max_triangles, float(cone_weight),
+    )  # fmt: skip
+
+
+@numba.njit(cache=True, parallel=True)
+def _piece_boxes(vertices, faces, face_offsets):
+    """(P, 2, 3) float32 the bounds of the vertices each piece's faces reference (as a
+    :class:`~soc.scenes.scene.Scene`'s object AABB)."""
+    n = len(face_offsets) - 1
+    boxes = np.empty((n, 2, 3), np.float32)
+    for p in numba.prange(n):
+        for k in range(3):
+            boxes[p, 0, k] = np.inf
+            boxes[p, 1, k] = -np.inf
+        for t in range(face_offsets[p], face_offsets[p + 1]):
+            for j in range(3):
+                for k in range(3):
+                    x = vertices[faces[t, j], k]
+                    boxes[p, 0, k] = min(boxes[p, 0, k], x)
+                    boxes[p, 1, k] = max(boxes[p, 1, k], x)
+    return boxes
+
+
+def cluster_pieces(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    face_offsets: np.ndarray,
+    max_triangles: int = MAX_TRIANGLES,
+    cone_weight: float = CONE_WEIGHT,
+    *,
+    connected: bool = False,
+    chunk: int | None = None,
+) -> tuple[np.ndarray, ...]:
+    """Stages 2–3 on meshes that are already welded: what :mod:`lod.dag` clusters at every
+    level. Each piece ``faces[face_offsets[i]:face_offsets[i + 1]]`` is clustered alone (in
+    parallel), as an object of :func:`build_clusters` is; pieces may share vertices.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float32
+        Positions; equal positions must share an index (adjacency is by index).
+    faces : (F, 3) int
+        Triangles, indices into ``vertices``.
+    face_offsets : (P + 1,) int
+        Piece ``i`` is faces ``face_offsets[i]:face_offsets[i + 1]`` (each non-empty).
+    max_triangles : int
+        Most triangles per cluster, >= 1.
+    cone_weight : float
+        0–1: how much the growth prefers triangles facing like the cluster over near ones.
+    connected : bool
+        Split every cluster into its connected pieces (by shared vertex), so that no cluster
+        holds triangles that do not touch: the growth's last triangles of a piece may be taken
+        by distance. The pieces of a cluster follow the smallest vertex index of each.
+    chunk : int, optional
+        Pieces of more triangles are first cut into chunks of at most this many, consecutive
+        in the Morton order of their centroids, each clustered alone: a large piece then grows
+        on several threads (no cluster crosses a chunk's border, so a chunk's last cluster
+        may be short). None: every piece grows whole (as :func:`build_clusters` does).
+
+    Returns
+    -------
+    order : (F,) int64
+        Face indices in cluster order (each piece's faces stay in its range).
+    first : (C,) int64
+    count : (C,) int32
+        Cluster ``k`` is faces ``order[first[k]:first[k] + count[k]]``.
+    aabbs, spheres, cone_axis, cone_cutoff, cone_apex
+        The bounds of every cluster, as in :class:`Clusters`.
+    """
+    max_triangles, cone_weight = _check_params(max_triangles, cone_weight)
+    faces = np.ascontiguousarray(faces, np.int64)
+    face_offsets = np.asarray(face_offsets, np.int64)
+    if (
+        len(face_offsets) < 2
+        or (np.diff(face_offsets) <= 0).any()
+        or face_offsets[-1] != len(faces)
+    ):
+        raise ValueError(
+            "face_offsets must rise strictly from 0 to the number of faces (no empty piece), "
+            f"got {len(face_offsets)} offsets for {len(faces)} faces"
+        )
+    source, perm = faces, None
+    if chunk is not None and (np.diff(face_offsets) > int(chunk)).any():
+        perm, face_offsets = _chunks(vertices, faces, face_offsets, int(chunk))
+        faces = faces[perm]
+    # Vertex ids of their own per piece: the growth's per-vertex counts see one piece.
+    tri_w, _ = _piece_ids(faces, face_offsets, len(vertices))
+    order, starts = _grow_welded(
+        vertices, faces, tri_w, face_offsets, _piece_boxes(vertices, faces, face_offsets),
+        max_triangles, cone_weight,
+    )  # fmt: skip
+    if perm is not None:
+        order = perm[order]
+    if connected:
+        order, starts = _split_connected(source, order, starts, len(vertices))
+    first = np.flatnonzero(starts).astype(np.int64)
+    count = np.diff(np.append(first, len(order))).astype(np.int32)
+    return (order, first, count, *_bounds(vertices, source, order, first, count))
+
+
+def _chunks(vertices, faces, face_offsets, chunk):
+    """(F,) int64 a permutation of the faces and the new piece offsets: each piece of more
+    than ``chunk`` triangles in the Morton order of its centroids (in its centroids' box), cut
+    into equal chunks of at most ``chunk``; smaller pieces unchanged."""
+    sizes = np.diff(face_offsets)
+    centroids = _triangle_data(vertices, faces)[0]
+    boxes = _piece_boxes(vertices, faces, face_offsets).astype(np.float64)
+    lo, size = boxes[:, 0], np.maximum(boxes[:, 1] - boxes[:, 0], 1e-30)
+    owner = np.repeat(np.arange(len(sizes)), sizes)
+    by_rank, _ = _morton_ranks(owner, centroids, lo, size)
+    big = np.repeat(sizes > chunk, sizes)
+    perm = np.where(big, by_rank, np.arange(len(faces)))
+    k = -(-sizes // chunk)
+    piece = np.repeat(np.arange(len(sizes)), k)
+    i = np.arange(int(k.sum())) - np.repeat(np.cumsum(k) - k, k)
+    offsets = face_offsets[piece] + i * sizes[piece] // k[piece]
+    return perm.astype(np.int64), np.append(offsets, len(faces)).astype(np.int64)
+
+
+@numba.njit(cache=True)
+def _piece_ids(faces, face_offsets, n_vertices):
+    """(F, 3) int64 vertex ids numbered anew in each piece (first use first), and their
+    number: a vertex two pieces share gets an id in each."""
+    tri_w = np.empty(faces.shape, np.int64)
+    stamp = np.full(n_vertices, -1, np.int64)
+    local = np.empty(n_vertices, np.int64)
+    n = 0
+    for p in range(len(face_offsets) - 1):
+        for t in range(face_offsets[p], face_offsets[p + 1]):
+            for j in range(3):
+                v = faces[t, j]
+                if stamp[v] != p:
+                    stamp[v] = p
+                    local[v] = n
+                    n += 1
+                tri_w[t, j] = local[v]
+    return tri_w, n
+
+
+@numba.njit(cache=True)
+def _split_connected(faces, order, starts, n_vertices):
+    """``order``, ``starts`` with every cluster split into its connected pieces (triangles
+    joined by a shared vertex), each cluster's pieces in order of their root vertex (union-find
+    over the cluster's triangles in order), triangles in order inside a piece."""
+    n = len(order)
+    out = order.copy()
+    new_starts = starts.copy()
+    parent = np.arange(n_vertices)
+    roots = np.empty(n, np.int64)
+    c0 = 0
+    while c0 < n:
+        c1 = c0 + 1
+        while c1 < n and not starts[c1]:
+            c1 += 1
+        for i in range(c0, c1):  # the cluster's vertices start alone
+            for j in range(3):
+                parent[faces[order[i], j]] = faces[order[i], j]
+        for i in range(c0, c1):
+            r0 = _root(parent, faces[order[i], 0])
+            for j in (1, 2):
+                r = _root(parent, faces[order[i], j])
+                if r != r0:
+                    parent[r] = r0
+        one = True
+        for i in range(c0, c1):
+            roots[i] = _root(parent, faces[order[i], 0])
+            one = one and roots[i] == roots[c0]
+        if not one:
+            sub = np.argsort(roots[c0:c1], kind="mergesort")
+            for k in range(c1 - c0):
+                out[c0 + k] = order[c0 + sub[k]]
+                new_starts[c0 + k] = k == 0 or roots[c0 + sub[k]] != roots[c0 + sub[k - 1]]
+        c0 = c1
+    return out, new_starts
+
+
+def shared_edges(
+    faces: np.ndarray, first: np.ndarray, count: np.ndarray, n_vertices: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The graph of clusters that share an edge (by vertex index), as CSR.
+
+    Parameters
+    ----------
+    faces : (F, 3) int
+        Triangles, indices below ``n_vertices``.
+    first, count : (C,) int
+        Cluster ``k`` is ``faces[first[k]:first[k] + count[k]]``.
+    n_vertices : int
+
+    Returns
+    -------
+    xadj : (C + 1,) int64
+    adjncy : (E,) int64
+        Cluster ``k``'s neighbours ``adjncy[xadj[k]:xadj[k + 1]]``, increasing.
+    weights : (E,) int64
+        Edges shared with each neighbour: an edge held by several triangles joins each to the
+        next in cluster order.
+    """
+    return _shared_edges_kernel(
+        np.ascontiguousarray(faces),
+        np.asarray(first, np.int64),
+        np.asarray(count, np.int64),
+        int(n_vertices),
     )
+
+
+@numba.njit(cache=True)
+def _shared_edges_kernel(faces, first, count, n_vertices):
+    c_n = len(first)
+    n = 0
+    for k in range(c_n):
+        n += count[k]
+    tri = np.empty((n, 3), np.int64)
+    owner = np.empty(n, np.int64)
+    i = 0
+    for k in range(c_n):
+        for t in range(first[k], first[k] + count[k]):
+            for j in range(3):
+                tri[i, j] = faces[t, j]
+            owner[i] = k
+            i += 1
+    start, around = _adjacency_kernel(tri, n_vertices)
+    # Each edge joined to its next holder (the smallest later triangle holding both ends).
+    src = np.empty(6 * n, np.int64)
+    dst = np.empty(6 * n, np.int64)
+    m = 0
+    for t in range(n):
+        for j in range(3):
+            a, b = tri[t, j], tri[t, (j + 1) % 3]
+            lo, hi = min(a, b), max(a, b)
+            if lo == hi:
+                continue
+            for r in range(start[lo], start[lo + 1]):
+                u = around[r]
+                if u <= t or not (tri[u, 0] == hi or tri[u, 1] == hi or tri[u, 2] == hi):
+                    continue
+                if owner[u] != owner[t]:
+                    src[m], dst[m] = owner[t], owner[u]
+                    src[m + 1], dst[m + 1] = owner[u], owner[t]
+                    m += 2
+                break
+    # CSR by source (counting sort), each row sorted by neighbour and run-length counted.
+    xadj = np.zeros(c_n + 1, np.int64)
+    for e in range(m):
+        xadj[src[e] + 1] += 1
+    for k in range(c_n):
+        xadj[k + 1] += xadj[k]
+    fill = xadj[:-1].copy()
+    nb = np.empty(m, np.int64)
+    for e in range(m):
+        nb[fill[src[e]]] = dst[e]
+        fill[src[e]] += 1
+    out_x = np.zeros(c_n + 1, np.int64)
+    adjncy = np.empty(m, np.int64)
+    weights = np.empty(m, np.int64)
+    e = 0
+    for k in range(c_n):
+        row = np.sort(nb[xadj[k] : xadj[k + 1]])
+        for r in range(len(row)):
+            if r > 0 and row[r] == row[r - 1]:
+                weights[e - 1] += 1
+            else:
+                adjncy[e] = row[r]
+                weights[e] = 1
+                e += 1
+        out_x[k + 1] = e
+    return out_x, adjncy[:e].copy(), weights[:e].copy()
 
 
 def whole_objects(scene) -> Clusters:
