@@ -69,6 +69,9 @@ GROUP_SIZE = 8
 # propagate by their maximum: without the cap a denser mesh, with more groups and so more such
 # outliers, draws more triangles at the same threshold; benchmarks/dag.py measures the growth).
 ERROR_CAP = 0.05
+# Pieces of more triangles are clustered in chunks of at most this many (in Morton order), on
+# several threads: the source level, one piece, would otherwise grow on one.
+GROW_CHUNK = 65536
 # A group simplified to more than this share of its triangles is left for the next round.
 MAX_KEEP = 0.85
 # The parent error of clusters that nothing replaces: larger than any projected test passes.
@@ -76,7 +79,7 @@ ROOT_ERROR = np.float32(3.0e38)
 # Children per node of the group hierarchy.
 NODE_WIDTH = 8
 # Bump when the layout or the algorithm changes: cached DAGs of older versions are ignored.
-FORMAT_VERSION = "dag-4"
+FORMAT_VERSION = "dag-5"
 
 
 @dataclass(frozen=True)
@@ -230,13 +233,20 @@ def weld(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarra
         raise ValueError(f"faces index vertices 0..{len(v) - 1}, got {f.min()}..{f.max()}")
     if not np.isfinite(v).all():
         raise ValueError("vertices must be finite")
-    used = np.unique(f)
-    uniq, inv = np.unique(v[used].view(np.dtype((np.void, 12))).ravel(), return_inverse=True)
+    used = np.flatnonzero(np.bincount(f.reshape(-1), minlength=len(v)))
+    # The positions' 12 bytes in memcmp order (as two big-endian integers), sorted.
+    raw = v[used].view(np.uint8).reshape(-1, 12)
+    k1 = np.ascontiguousarray(raw[:, :8]).view(">u8").reshape(-1)
+    k2 = np.ascontiguousarray(raw[:, 8:]).view(">u4").reshape(-1)
+    by_bytes = np.lexsort((k2, k1))
+    k1, k2 = k1[by_bytes], k2[by_bytes]
+    new = np.ones(len(used), bool)
+    new[1:] = (k1[1:] != k1[:-1]) | (k2[1:] != k2[:-1])
     remap = np.full(len(v), -1, np.int64)
-    remap[used] = inv.reshape(-1)
+    remap[used[by_bytes]] = np.cumsum(new) - 1
     wf = remap[f]
     keep = (wf[:, 0] != wf[:, 1]) & (wf[:, 1] != wf[:, 2]) & (wf[:, 2] != wf[:, 0])
-    wv = np.frombuffer(uniq.tobytes(), np.float32).reshape(-1, 3).copy()
+    wv = v[used[by_bytes[new]]]
     return wv, np.ascontiguousarray(wf[keep], np.int32)
 
 
@@ -245,47 +255,24 @@ def weld(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 def _cluster(vertices, pieces, max_triangles):
     """Split each of ``pieces`` (list of (m_i, 3) int64 faces into ``vertices``, welded) into
-    clusters with the clusterizer's stages 2-3 (:mod:`soc.culling.clusters`; its stage 1, the
-    weld, is not needed: the DAG's vertices are welded). Returns faces (F, 3) int64 in cluster
-    order, the clusters' first (C,), count (C,), piece (C,) and their bounds (aabbs, spheres,
-    cone axis, cutoff, apex)."""
-    from soc.culling import clusters as cz
+    clusters with the clusterizer's stages 2-3 (:func:`soc.culling.clusters.cluster_pieces`;
+    its stage 1, the weld, is not needed: the DAG's vertices are welded). Returns faces (F, 3)
+    int64 in cluster order, the clusters' first (C,), count (C,), piece (C,) and their bounds
+    (aabbs, spheres, cone axis, cutoff, apex)."""
+    from soc.culling.clusters import cluster_pieces
 
     faces = np.concatenate(pieces)
     sizes = np.array([len(p) for p in pieces], np.int64)
     face_offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
     owner = np.repeat(np.arange(len(pieces), dtype=np.int64), sizes)
-    # Vertex ids of their own per piece (the growth walks one piece's adjacency at a time).
-    key = np.repeat(owner, 3) * (len(vertices) + 1) + faces.reshape(-1)
-    _, tri_w = np.unique(key, return_inverse=True)
-    tri_w = np.ascontiguousarray(tri_w.reshape(-1, 3).astype(np.int64))
-    n_w = int(tri_w.max()) + 1
-    centroids, normals, areas = cz._triangle_data(vertices, faces)
-    adj_start, adj_tris = cz._adjacency(tri_w, n_w)
-    lo = np.minimum.reduceat(centroids, face_offsets[:-1], axis=0)
-    size = np.maximum(np.maximum.reduceat(centroids, face_offsets[:-1], axis=0) - lo, 1e-30)
-    by_rank, codes = cz._morton_ranks(owner, centroids, lo, size)
-    order, starts = cz._grow(
-        face_offsets, tri_w, centroids, normals, areas, adj_start, adj_tris, by_rank, codes,
-        lo, size, n_w, int(max_triangles), float(cz.CONE_WEIGHT),
-    )  # fmt: skip
-    # A cluster in several pieces (the growth's leftovers, taken by distance) is split into
-    # its connected pieces: its LOD sphere would otherwise span them, and every group above it
-    # would inherit that sphere (projected errors too large, cuts too fine far away).
-    cluster = np.cumsum(starts) - 1  # per position in `order`
-    w = tri_w[order]
-    key = np.repeat(cluster, 3) * (n_w + 1) + w.reshape(-1)
-    _, local = np.unique(key, return_inverse=True)
-    piece = cz._pieces(local.reshape(-1, 3).astype(np.int64), int(local.max()) + 1)
-    resort = np.lexsort((piece, cluster))  # stable inside a piece
-    order = order[resort]
-    piece, cluster = piece[resort], cluster[resort]
-    new = np.ones(len(order), bool)
-    new[1:] = (piece[1:] != piece[:-1]) | (cluster[1:] != cluster[:-1])
-    first = np.flatnonzero(new).astype(np.int64)
-    count = np.diff(np.append(first, len(order))).astype(np.int32)
-    aabbs, spheres, axes, cutoffs, apexes = cz._bounds(vertices, faces, order, first, count)
-    return faces[order], first, count, owner[order[first]], aabbs, spheres, axes, cutoffs, apexes
+    # connected: a cluster in several pieces (the growth's leftovers, taken by distance) is
+    # split into its connected pieces: its LOD sphere would otherwise span them, and every
+    # group above it would inherit that sphere (projected errors too large, cuts too fine).
+    # chunk: the source level (one piece) grows in chunks, on every thread.
+    order, first, count, *bounds = cluster_pieces(
+        vertices, faces, face_offsets, max_triangles, connected=True, chunk=GROW_CHUNK
+    )
+    return (faces[order], first, count, owner[order[first]], *bounds)
 
 
 # -- stage 3: group --------------------------------------------------------------------------------
@@ -293,49 +280,43 @@ def _cluster(vertices, pieces, max_triangles):
 
 def _cluster_adjacency(faces, first, count, n_vertices):
     """CSR adjacency of clusters that share an edge: (xadj, adjncy, weights) with the number
-    of shared edges as weight."""
-    c = len(first)
-    owner = np.repeat(np.arange(c, dtype=np.int64), count)
-    tri = faces[_ranges(first, count)].astype(np.int64)
-    a = tri.reshape(-1)
-    b = tri[:, [1, 2, 0]].reshape(-1)
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    key = lo * n_vertices + hi
-    cl = np.repeat(owner, 3)
-    order = np.argsort(key, kind="stable")
-    key, cl = key[order], cl[order]
-    same = key[1:] == key[:-1]
-    p, q = cl[:-1][same], cl[1:][same]
-    diff = p != q
-    p, q = p[diff], q[diff]
-    pairs = np.concatenate([np.stack([p, q], 1), np.stack([q, p], 1)])
-    if len(pairs) == 0:
-        return np.zeros(c + 1, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64)
-    pk, w = np.unique(pairs[:, 0] * c + pairs[:, 1], return_counts=True)
-    src, dst = pk // c, pk % c
-    xadj = np.concatenate([[0], np.cumsum(np.bincount(src, minlength=c))])
-    return xadj.astype(np.int64), dst.astype(np.int64), w.astype(np.int64)
+    of shared edges as weight (:func:`soc.culling.clusters.shared_edges`)."""
+    from soc.culling.clusters import shared_edges
+
+    return shared_edges(faces, first, count, n_vertices)
 
 
 def _group(faces, first, count, n_vertices, group_size):
-    """(C,) int64 a group per cluster, groups numbered from 0 and each non-empty."""
+    """(C,) int64 a group per cluster, groups numbered from 0, each non-empty and connected
+    by shared edges (unless the level holds at most ``group_size`` clusters: one group)."""
     c = len(first)
     parts = -(-c // group_size)
     if parts <= 1:
         return np.zeros(c, np.int64)
     xadj, adjncy, weights = _cluster_adjacency(faces, first, count, n_vertices)
     import pymetis
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
 
-    opts = pymetis.Options(seed=1)
-    graph = pymetis.CSRAdjacency(xadj, adjncy)
-    try:  # contiguous groups: a group in two pieces would simplify two borders, not one
-        _, membership = pymetis.part_graph(
-            parts, graph, eweights=weights, options=opts, contiguous=True
-        )
-    except Exception:  # METIS refuses contiguity on a disconnected graph
-        _, membership = pymetis.part_graph(parts, graph, eweights=weights, options=opts)
-    _, labels = np.unique(np.asarray(membership), return_inverse=True)
-    return labels.reshape(-1).astype(np.int64)
+    # METIS's recursive bisection: on these graphs (about six neighbours a cluster, a part per
+    # group_size clusters) several times faster than its k-way partition, and it cuts fewer
+    # shared edges (less border locked). A part in several pieces is split into its pieces: a
+    # group in two pieces would simplify two borders, not one.
+    _, membership = pymetis.part_graph(
+        parts,
+        pymetis.CSRAdjacency(xadj, adjncy),
+        eweights=weights,
+        options=pymetis.Options(seed=1),
+        recursive=True,
+    )
+    membership = np.asarray(membership)
+    src = np.repeat(np.arange(c), np.diff(xadj))
+    inside = membership[src] == membership[adjncy]
+    graph = csr_matrix(
+        (np.ones(int(inside.sum()), np.int8), (src[inside], adjncy[inside])), shape=(c, c)
+    )
+    _, labels = connected_components(graph, directed=False)
+    return labels.astype(np.int64)
 
 
 _NO_CAP = float(np.finfo(np.float32).max)
@@ -366,6 +347,47 @@ def _simplify(vertices, tri, max_error=_NO_CAP):
         result_error=err,
     )
     return used[dest[:n].astype(np.int64)].reshape(-1, 3), float(err[0])
+
+
+def _simplify_groups(vertices, faces, first, count, groups, caps, threads):
+    """Every group simplified as :func:`_simplify` does (the same result): ``groups`` a list
+    of cluster id arrays (their triangles ``faces[first[k]:first[k] + count[k]]``), ``caps``
+    their error caps. Returns per group (its triangles, (simplified triangles, error)).
+
+    In one numba loop over ``threads`` threads calling meshoptimizer's C function
+    (:mod:`lod.meshopt`); where that is not available, on Python threads through its Python
+    wrapper (its ctypes calls release the GIL)."""
+    from lod import meshopt
+
+    members = np.concatenate(groups) if groups else np.zeros(0, np.int64)
+    tri = faces[_ranges(first[members], count[members])].astype(np.int64)
+    per_group = np.add.reduceat(count[members], np.cumsum([0] + [len(m) for m in groups[:-1]]))
+    offsets = np.concatenate([[0], np.cumsum(per_group)]).astype(np.int64)
+    parts = [tri[offsets[g] : offsets[g + 1]] for g in range(len(groups))]
+    fn = meshopt.simplify_function()
+    if fn is None:
+        with ThreadPoolExecutor(max_workers=threads) as pool:
+            done = list(pool.map(_simplify, [vertices] * len(parts), parts, caps))
+        return list(zip(parts, done, strict=True))
+    import numba
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    try:
+        out, n_out, errors = meshopt.simplify_ranges(
+            fn,
+            vertices,
+            tri,
+            offsets,
+            np.asarray(caps),
+            meshopt.LOCK_BORDER | meshopt.ERROR_ABSOLUTE,
+        )
+    finally:
+        numba.set_num_threads(before)
+    return [
+        (parts[g], (out[offsets[g] : offsets[g] + n_out[g]], float(errors[g])))
+        for g in range(len(groups))
+    ]
 
 
 def _merge_spheres(spheres: np.ndarray) -> np.ndarray:
@@ -498,13 +520,10 @@ def build_dag(
         groups = [active[order[bounds[g] : bounds[g + 1]]] for g in range(len(bounds) - 1)]
         radius = store.get("spheres")[:, 3]
 
-        def simplify(members, a_faces=a_faces, radius=radius):
-            tri = a_faces[_ranges(store.first_of(members), store.count_of(members))]
-            return tri, _simplify(v, tri, ERROR_CAP * float(radius[members].max()))
-
-        # meshoptimizer runs without the GIL (ctypes): the groups on threads, results in order.
-        with ThreadPoolExecutor(max_workers=threads) as pool:
-            results = list(pool.map(simplify, groups))
+        caps = [ERROR_CAP * float(radius[m].max()) for m in groups]
+        results = _simplify_groups(
+            v, a_faces, store.get("first"), store.get("count"), groups, caps, threads
+        )
         for members, (tri, (simple, err)) in zip(groups, results, strict=True):
             if len(simple) == 0 or len(simple) > MAX_KEEP * len(tri):
                 retry.append(members)
