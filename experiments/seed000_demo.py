@@ -1385,10 +1385,8 @@ CLAIMS = (
 
 EXPERIMENT = harness.experiment(
     "seed000",
-    seed="000",
+    module=__name__,
     title="software occlusion culling: Abb. 1, 4, 6-10",
-    params=Params,
-    compute=compute,
     plots=[
         plot_thesis_frames,
         plot_abb8_left,
@@ -1400,7 +1398,6 @@ EXPERIMENT = harness.experiment(
         plot_abb6,
         plot_abb7,
     ],
-    claims=CLAIMS,
     quick={"frames": common.QUICK_FRAMES, "display": scaled(DISPLAY, common.QUICK_SCALE)},
     minutes=15.0,
     uses_data=True,
