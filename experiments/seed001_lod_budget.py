@@ -16,7 +16,6 @@ reactive, predictive, incremental; order rotated per frame). Frame times are of 
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -321,6 +320,8 @@ def fly(prep: Prepared, params: Params, budget_ms: float, static_scale: float,
     """Every frame, every strategy in a rotating order: select, draw, time (one row each)."""
     from tqdm.auto import tqdm
 
+    from soc.metrics import stage
+
     ls, r, cal = prep.lscene, prep.renderer, prep.calibration
     cams = ls.flight(params.frames, *params.display)
     state, warm = Strategies(ls, static_scale), Strategies(ls, static_scale)
@@ -332,14 +333,14 @@ def fly(prep: Prepared, params: Params, budget_ms: float, static_scale: float,
                                  disable=not progress)):  # fmt: skip
         for k in np.roll(np.arange(len(STRATEGIES)), -i):
             name = STRATEGIES[k]
-            t0 = time.perf_counter()
-            levels, pb = state.levels(name, cam, prep.model, budget_ms, cal.per_frame_ms)
-            select_ms = 1e3 * (time.perf_counter() - t0)
+            select: dict[str, float] = {}
+            with stage(select, "ms"):
+                levels, pb = state.levels(name, cam, prep.model, budget_ms, cal.per_frame_ms)
             ms = r.draw(cam, ls.ids(levels))
             state.record(name, ms)
             rows.append({"frame": i, "strategy": name, "ms": ms,
                          "predicted_ms": predicted_ms(levels, pb, cal.per_frame_ms),
-                         "select_ms": select_ms, "polygons": ls.polygons(levels),
+                         "select_ms": select["ms"], "polygons": ls.polygons(levels),
                          "objects": int((levels >= 0).sum()), "in_view": int(pb.in_view.sum()),
                          "reactive_bias": state.reactive.bias if name == "reactive" else np.nan,
                          "budget_ms": budget_ms})  # fmt: skip

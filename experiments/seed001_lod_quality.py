@@ -17,7 +17,6 @@ the LOD half; it gives no numbers for either).
 from __future__ import annotations
 
 import itertools
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -148,6 +147,7 @@ def compare_simplifiers(
     from lod.chain import quadric_simplify
     from lod.melax import melax_levels
     from lod.mesh_error import SurfaceSamples, hausdorff
+    from soc.metrics import stage
 
     v, f = mesh.vertices, mesh.faces
     targets = [max(4, round(r * len(f))) for r in ratios]
@@ -155,8 +155,10 @@ def compare_simplifiers(
     diag = float(np.linalg.norm(np.ptp(np.asarray(v, np.float64), axis=0)))
     quadric = []
     for t in targets:
-        t0 = time.perf_counter()
-        quadric.append((*quadric_simplify(v, f, t), time.perf_counter() - t0))
+        ms: dict[str, float] = {}
+        with stage(ms, "quadric"):
+            simplified = quadric_simplify(v, f, t)
+        quadric.append((*simplified, ms["quadric"] / 1e3))
     melax = [(lv.result.vertices, lv.result.faces, lv.seconds)
              for lv in melax_levels(v, f, targets)]  # fmt: skip
     rows, kept = [], {}
@@ -282,6 +284,8 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     per (box, camera) the screen-size estimates and their summary per category × estimate."""
     from tqdm.auto import tqdm
 
+    from soc.metrics import stage
+
     meshes = load_meshes(params)
     rows, pictures = [], []
     # the picture: the first file mesh, else the torus (the sphere's bumps are hard to see)
@@ -297,14 +301,14 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     asymmetry = [melax_asymmetry(m, ASYMMETRY_EDGES, params.seed) for m in meshes]
     geomorph = [geomorph_steps(m, GEOMORPH_FRAMES) for m in meshes]
     cases = screen_size_cases(params.boxes, params.cams_per_box, params.resolution, params.seed)
-    t0 = time.perf_counter()
-    with tqdm(total=len(cases), desc="seed 001 screen size", unit="box",
-              disable=not progress) as bar:  # fmt: skip
+    ms: dict[str, float] = {}
+    with stage(ms, "screen"), tqdm(total=len(cases), desc="seed 001 screen size", unit="box",
+                                    disable=not progress) as bar:  # fmt: skip
         screen = measure_screen_size(cases, min_pixels=MIN_PIXELS, bar=bar)
     return {
         "simplifiers": pd.DataFrame(rows),
         "picture": pd.DataFrame(pictures, columns=["mesh", "panel", "png"]),
-        "screen_size": pd.DataFrame(screen).assign(seconds_total=time.perf_counter() - t0),
+        "screen_size": pd.DataFrame(screen).assign(seconds_total=ms["screen"] / 1e3),
         "screen_summary": pd.DataFrame(summarize_screen_size(screen)),
         "asymmetry": pd.DataFrame(asymmetry),
         "geomorph": pd.DataFrame(geomorph),

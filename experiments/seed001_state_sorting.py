@@ -15,7 +15,6 @@ the exact optimum on small streams, LRU's construction exactly.
 from __future__ import annotations
 
 import re
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -245,6 +244,8 @@ def seed_noise(params: Params, real: Sequence[np.ndarray], progress: bool) -> pd
 def timing(params: Params) -> pd.DataFrame:
     """Seconds per strategy for ``timing_n`` Zipf draws (64 materials) at k = 16; Random-Choice
     and Round-Robin :data:`TIMING_REPEATS` times, interleaved (median, and half the range)."""
+    from soc.metrics import stage
+
     stream = synthetic_streams(params.timing_n, params.seed)["zipf"]
     pair = ("random-choice", "round-robin")
     runs: dict[str, list[tuple[float, int]]] = {}
@@ -252,9 +253,10 @@ def timing(params: Params) -> pd.DataFrame:
         for s in (*STRATEGIES[:-1], *OFFLINE[:2]):
             if rep and s not in pair:
                 continue
-            t0 = time.perf_counter()
-            changes = simulate(stream, TIMING_K, s, seed=params.seed).changes
-            runs.setdefault(s, []).append((time.perf_counter() - t0, changes))
+            ms: dict[str, float] = {}
+            with stage(ms, s):
+                changes = simulate(stream, TIMING_K, s, seed=params.seed).changes
+            runs.setdefault(s, []).append((ms[s] / 1e3, changes))
     rows = []
     for s, r in runs.items():
         sec = np.array([x for x, _ in r])

@@ -15,7 +15,6 @@ paper's absolute times (Vulkan on a GTX 1070) are not compared with llvmpipe's; 
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 from contextlib import ExitStack, closing
 from dataclasses import dataclass
@@ -187,6 +186,7 @@ def constants_rows(constants) -> list[dict]:
 def refit_timing(constants, seed: int) -> list[dict]:
     """Time a compiling fit and :data:`REFIT_REPEATS` re-fits of (8)-(10) on synthetic
     statistics of a model with this context's unit times: per fit ms, coefficients, best q."""
+    from soc.metrics import stage
     from soc.models import query_model as qm
 
     truth = qm.QueryModel(
@@ -203,12 +203,12 @@ def refit_timing(constants, seed: int) -> list[dict]:
         # hardly varies and e_0 trades off against e_1.
         q = np.round(np.expm1(rng.uniform(0.0, np.log1p(truth.n_0), REFIT_FRAMES)))
         stats = qm.synthetic_statistics(truth, q, noise=0.02, seed=seed + k)
-        t0 = time.perf_counter()
-        fit = qm.fit_query_model(stats, truth.c_n)
-        ms = 1e3 * (time.perf_counter() - t0)
+        timed: dict[str, float] = {}
+        with stage(timed, "fit"):
+            fit = qm.fit_query_model(stats, truth.c_n)
         model = fit.model(truth.c_n, truth.t_c, truth.t_s, truth.t_e)
         rows.append({
-            "fit": k, "compiling": k == 0, "ms": ms, "frames": REFIT_FRAMES,
+            "fit": k, "compiling": k == 0, "ms": timed["fit"], "frames": REFIT_FRAMES,
             "converged": bool(fit.converged),
             "q_best": qm.best_query_count(model, int(truth.n_0)).q, "q_best_truth": exact,
             **{c: getattr(fit, c) for c in coefs},

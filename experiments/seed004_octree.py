@@ -19,7 +19,6 @@ growth, not level.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -114,6 +113,7 @@ def replay(dyn, glctx, renderer, bar) -> tuple[list[dict], list[dict]]:
     (module docstring): rows per frame, and the last frame's layout rows."""
     from soc.culling.frustum import aabbs_in_frustum
     from soc.culling.octree import Octree
+    from soc.metrics import stage
     from soc.rendering.command_recording import FlatCommands, NodeCommands
 
     scene = dyn.scene
@@ -126,29 +126,27 @@ def replay(dyn, glctx, renderer, bar) -> tuple[list[dict], list[dict]]:
     rows: list[dict] = []
     try:
         for state, cam in zip(dyn, cams, strict=True):
-            t0 = time.perf_counter()
-            octree.remove(state.removed)
-            octree.replace(state.moved_from, state.moved_to, scene.aabbs[state.moved_to])
-            octree.insert(state.added, scene.aabbs[state.added])
-            octree.rebuild_dirty()  # the changed nodes' membership and bounds: upkeep
-            ms_update = 1e3 * (time.perf_counter() - t0)
+            ms: dict[str, float] = {}
+            with stage(ms, "update"):
+                octree.remove(state.removed)
+                octree.replace(state.moved_from, state.moved_to, scene.aabbs[state.moved_to])
+                octree.insert(state.added, scene.aabbs[state.added])
+                octree.rebuild_dirty()  # the changed nodes' membership and bounds: upkeep
             st = nodes_gl.sync()
-            t1 = time.perf_counter()
-            visible_nodes = octree.visible_nodes(cam)
-            ms_fc_h = 1e3 * (time.perf_counter() - t1)
-            t2 = time.perf_counter()
-            alive = np.flatnonzero(state.alive)
-            kept = alive[aabbs_in_frustum(scene.aabbs[alive], cam.planes)]
-            ms_fc_s = 1e3 * (time.perf_counter() - t2)
+            with stage(ms, "fc_h"):
+                visible_nodes = octree.visible_nodes(cam)
+            with stage(ms, "fc_s"):
+                alive = np.flatnonzero(state.alive)
+                kept = alive[aabbs_in_frustum(scene.aabbs[alive], cam.planes)]
             rows.append({
                 "scene": dyn.name, "frame": state.frame, "objects": len(alive),
                 "added": len(state.added), "removed": len(state.removed),
                 "moved": len(state.moved_from), "recoloured": len(state.recoloured),
                 "nodes": int((octree.own_counts > 0).sum()), "dirty_nodes": len(st.nodes),
-                "commands_recorded": st.commands, "ms_update": ms_update,
+                "commands_recorded": st.commands, "ms_update": ms["update"],
                 "ms_buf_h_record": st.ms_record, "ms_buf_h_upload": st.ms_upload,
-                "ms_buf_h": st.ms, "ms_fc_h": ms_fc_h, "visible_nodes": len(visible_nodes),
-                "objects_in_frustum": len(kept), "ms_fc_s": ms_fc_s,
+                "ms_buf_h": st.ms, "ms_fc_h": ms["fc_h"], "visible_nodes": len(visible_nodes),
+                "objects_in_frustum": len(kept), "ms_fc_s": ms["fc_s"],
             })  # fmt: skip
             fs = flat.sync(kept)
             rows[-1].update(ms_buf_s=fs.ms, ms_buf_s_record=fs.ms_record)
@@ -230,17 +228,18 @@ def table2(params: Params, glctx, bar) -> tuple[list[dict], dict, np.ndarray]:
     from soc.culling.frustum import aabbs_in_frustum
     from soc.culling.invisible_estimate import InvisibleEstimator
     from soc.culling.octree import Octree
+    from soc.metrics import stage
     from soc.scenes.dynamic import scene3
 
-    t0 = time.perf_counter()
-    dyn = scene3(params.seed, frames=10, objects=params.objects)
-    scene, _ = dyn.scene_at(dyn.frames - 1)
-    geom = glctx.geometry(scene)
-    octree = Octree.for_scene(scene, max_depth=MAX_DEPTH, leaf_capacity=LEAF_CAPACITY)
-    t1 = time.perf_counter()
-    octree.insert(np.arange(len(scene)), scene.aabbs)
-    build = octree.rebuild_dirty()
-    ms_build = 1e3 * (time.perf_counter() - t1)
+    ms: dict[str, float] = {}
+    with stage(ms, "generate"):
+        dyn = scene3(params.seed, frames=10, objects=params.objects)
+        scene, _ = dyn.scene_at(dyn.frames - 1)
+        geom = glctx.geometry(scene)
+        octree = Octree.for_scene(scene, max_depth=MAX_DEPTH, leaf_capacity=LEAF_CAPACITY)
+    with stage(ms, "build"):
+        octree.insert(np.arange(len(scene)), scene.aabbs)
+        build = octree.rebuild_dirty()
     cams = table2_cameras(dyn, params.cameras, params.resolution)
     doc = dict(zip(DOC_NODES_CHECKED, zip(DOC_ESTIMATE, DOC_MS, strict=True), strict=True))
     budgets = params.nodes_checked
@@ -281,8 +280,9 @@ def table2(params: Params, glctx, bar) -> tuple[list[dict], dict, np.ndarray]:
         "objects": len(scene), "triangles": int(scene.triangle_counts.sum()),
         "occluders": int(scene.occluder.sum()), "octree_nodes": int((octree.own_counts > 0).sum()),
         "octree_nodes_created": octree.nodes, "default_min_objects": octree.default_min_objects(),
-        "expensive_nodes": int(octree.expensive().sum()), "build_ms": ms_build,
-        "record_all_ms": build.ms_record, "generate_s": t1 - t0, "picture_budget": pic_budget,
+        "expensive_nodes": int(octree.expensive().sum()), "build_ms": ms["build"],
+        "record_all_ms": build.ms_record, "generate_s": ms["generate"] / 1e3,
+        "picture_budget": pic_budget,
         "picture_min_objects": shown.min_objects, "picture_estimate": shown.invisible,
     }  # fmt: skip
     return rows, info, image
@@ -312,6 +312,7 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     from tqdm.auto import tqdm
 
     from soc.gl.context import default_context
+    from soc.metrics import stage
     from soc.rendering.renderer import Renderer
     from soc.scenes.dynamic import dynamic_scene
 
@@ -321,12 +322,12 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     total += params.cameras * len(MIN_OBJECTS) * len(params.nodes_checked)
     with tqdm(total=total, desc="seed004 octree", unit="step", disable=not progress) as bar:
         for name in params.scenes:
-            t = time.perf_counter()
-            dyn = dynamic_scene(name, params.seed, frames=params.frames, scale=params.scale)
-            gen = time.perf_counter() - t
+            ms: dict[str, float] = {}
+            with stage(ms, "generate"):
+                dyn = dynamic_scene(name, params.seed, frames=params.frames, scale=params.scale)
             renderer = Renderer(glctx.geometry(dyn.scene), params.resolution)
             try:
-                scenes.append(scene_row(dyn, gen, renderer, params.scale))
+                scenes.append(scene_row(dyn, ms["generate"] / 1e3, renderer, params.scale))
                 rows, lay = replay(dyn, glctx, renderer, bar)
             finally:
                 renderer.release()
