@@ -231,7 +231,8 @@ def targets(frames: dict[str, pd.DataFrame]) -> pd.DataFrame:
 
     out = []
     for r in frames["targets"].itertuples():
-        row = target_row(f"{r.target} ({r.bound})", _measured(r.measured), r.met == "yes")
+        name = r.target if r.bound == "–" else f"{r.target} ({r.bound})"
+        row = target_row(name, _measured(r.measured), r.met == "yes")
         out.append(row | {"met": r.met})
     return pd.DataFrame(out)
 
@@ -261,7 +262,16 @@ def markdown(frames: dict[str, pd.DataFrame], command: str, quick: bool = False)
         parts += [
             "Object LOD's triangles over the cut's at the cut's FLIP, per view and threshold "
             "(nan: object LOD's budget sweep does not reach that FLIP):",
-            markdown_table(ratios, {"flip": ".5f", "object_triangles": ",.0f", "ratio": ".2f"}),
+            markdown_table(
+                ratios,
+                {
+                    "threshold": "g",
+                    "dag_triangles": ",",
+                    "flip": ".5f",
+                    "object_triangles": ",.0f",
+                    "ratio": ".2f",
+                },
+            ),
         ]
     return "\n\n".join(parts)
 
