@@ -72,7 +72,7 @@ def _frames(renderer, cam, frames, **kw):
 def field_targets(instances, triangles, denser, resolution, frames) -> list[dict]:
     """The 10⁸ field's rows: triangles per covered pixel, growth with denser meshes, the
     selection and culling's share, false culls, index memory."""
-    from soc.culling.dag_select import DagRenderer
+    from soc.dag_renderer import DagRenderer
 
     rows = []
     extent = 200.0
@@ -124,7 +124,7 @@ def field_targets(instances, triangles, denser, resolution, frames) -> list[dict
 def _false_culls(r, tables, scene, cam, resolution) -> dict:
     """Pairs of the cut with a pixel in its own id render (no culling) that two-phase culling
     did not draw, over a short walk into the field (the early phase uses the last camera)."""
-    from soc.culling.dag_select import DagRenderer
+    from soc.dag_renderer import DagRenderer
     from soc.scenes.camera import Camera
 
     false = checked = 0

@@ -5,7 +5,7 @@ Three views (:data:`VIEWS`): a field of rocks and statues seen across from its e
 instances small on screen), and a canyon whose cliffs each reach from beside the camera to the
 horizon (the case a per-cluster cut is for: object LOD must draw a whole cliff at the level its
 nearest part needs), from a camera on its floor and from one above its far end. Per view and
-threshold (pixels) the cut is selected on the GPU (:class:`soc.culling.dag_select.DagRenderer`),
+threshold (pixels) the cut is selected on the GPU (:class:`soc.dag_renderer.DagRenderer`),
 culled (frustum, normal cone, two-phase hierarchical z, or frustum only) and drawn; we record
 the triangles drawn, the triangles per covered pixel, the frame's stages in ms, and the image
 error against the full-detail render: NVIDIA's FLIP (``flip-evaluator``, LDR) and the share of
@@ -235,8 +235,9 @@ def _measure(params: Params, view: str, scene, cam, bar):
     """One view's frames: (dag, objects, level picture or None, level counts, info)."""
     import lod
     from lod.dag import mesh_dag, pixel_scale
-    from soc.culling.dag_select import DagRenderer, DagTables, render_instances
+    from soc.culling.dag_select import DagTables, render_instances
     from soc.culling.oracle import may_draw
+    from soc.dag_renderer import DagRenderer
     from soc.scenes.camera import Camera
 
     dags = [mesh_dag(v, f) for v, f in zip(scene.mesh_vertices, scene.mesh_faces, strict=True)]

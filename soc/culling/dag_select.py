@@ -12,17 +12,16 @@ Two backends of one decision:
 * :class:`DagWalk` — OpenGL compute passes (``dag_walk.comp.glsl``): a breadth-first walk of
   the group tree of every instance, one pass per tree depth (the nodes that survive a pass are
   the next one's input), then a pass over the groups reached that appends the selected
-  (instance, cluster) pairs to a GPU buffer with their count, or sets their bits in a
-  candidate bit set.
+  (instance, cluster) pairs to a GPU buffer with their count.
 
 Where the cut is culled and drawn: :class:`DagClusters` plugs it into ``gpu-driven``
 (``soc.Culler(scene.with_dag(tables), "gpu-driven", lod=threshold)``), whose frustum and
-two-phase HiZ passes cull it and draw it, the instances as its objects. Its table of clusters
-holds every DAG cluster of every instance (about 140 bytes each on the GPU with its draw
-commands' room: at most :data:`MAX_TABLE`), which bounds the instances × DAG clusters it can
-hold; :class:`DagRenderer` (``frame``: frustum, normal cone and two-phase hierarchical z of its
-own, ``dag_cull.comp.glsl``, over the selected pairs only) still draws the fields beyond that
-(the benchmarks' 10⁹ and 10¹⁰-triangle fields) and the cut's pictures (``dag_draw.vert.glsl``).
+two-phase HiZ passes cull it and draw it, the instances as its objects. The pipeline's table
+of clusters is the cut itself, rebuilt on the GPU every frame from the walk's list
+(``dag_table.comp.glsl``: at most :data:`DEFAULT_CAPACITY` slots); across frames only one
+bit per (instance, DAG cluster) pair is kept (passed its last test), so any number of
+instances × DAG clusters fits that fits 2³² bits. :class:`soc.dag_renderer.DagRenderer` runs
+such cullers frame by frame and draws the cut's pictures (``dag_draw.vert.glsl``).
 
 **The decision** (:func:`within` here, ``within()`` in the shader, both in float32): a sphere
 (centre c, radius r, object units) with error e, under an instance transform of scale s,
@@ -50,8 +49,6 @@ from soc.scenes.instanced import Instances, check_similarity, make_instances
 
 __all__ = [
     "DagClusters",
-    "DagFrame",
-    "DagRenderer",
     "DagTables",
     "DagWalk",
     "Instances",
@@ -357,22 +354,24 @@ def select_brute(tables: DagTables, instances: Instances, eye, pixel_scale, thre
 # Counters at the start of the work buffer (dag.common.glsl's DAG_COUNT_*).
 DAG_COUNT_GROUPS = 0  # (instance, group) pairs reached by the walk
 DAG_COUNT_SELECTED = 1  # (instance, cluster) pairs of the cut
-DAG_COUNT_EARLY = 2  # + phase: commands drawn by the early (2) and late (3) phase
-DAG_COUNT_RETEST = 4  # pairs the early phase left to the late test
-DAG_COUNT_TRIANGLES = 5  # + phase: triangles drawn by each phase (5, 6)
-DAG_COUNT_CULLED = 7  # pairs outside the frustum or back-facing
-DAG_COUNT_OCCLUDED = 8  # pairs the late test culled
+DAG_COUNT_SLOTS = 2  # slots of gpu-driven's table handed out (dag_table.comp)
 DAG_ARGS = 12  # 3 words: the next pass's indirect dispatch (x, 1, 1), written by stage 3
 DAG_COUNT_NODES = 16  # + depth: (instance, node) pairs of each tree depth
 DAG_MAX_DEPTH = 64
 DAG_HEADER = DAG_COUNT_NODES + DAG_MAX_DEPTH + 1
-# Most pairs a list holds (nodes of one depth, groups, the cut, each phase's commands).
+# Most pairs a list holds (nodes of one depth, groups, the cut), and most clusters (slots) of
+# gpu-driven's table of the cut (DagClusters).
 DEFAULT_CAPACITY = 1 << 21
-# Where the walk sets the cut's bits (a candidate bit set: DagWalk's ``marks``).
-DAG_MARKS_BINDING = 10
-# Most clusters (instances × their meshes' DAG clusters) a DagClusters table holds (about 140
-# bytes each on the GPU: 9 GB).
-MAX_TABLE = 1 << 26
+# The DAG shaders' buffers (dag.common.glsl; dag_table.comp; dag_draw.vert).
+DAG_INSTANCES_BINDING = 0
+DAG_WORK_BINDING = 6
+DAG_BOUNDS_BINDING = 7  # dag_table.comp: per DAG cluster its box and index range
+DAG_LEVELS_BINDING = 7  # dag_draw.vert: per DAG cluster its level
+DAG_TABLE_INFO_BINDING = 8  # dag_table.comp's outputs: gpu-driven's clusters, ...
+DAG_TABLE_BOXES_BINDING = 9  # ... their boxes, ...
+DAG_TABLE_OBJECTS_BINDING = 10  # ... its objects (first slot, slots)
+DAG_TABLE_COUNTS_BINDING = 11  # (I, 2) per instance: slots, cursor
+DAG_PAIRS_BINDING = 9  # dag_draw.vert: the pictures' (instance, cluster) pairs
 # Invocations per work group of the DAG's compute passes (the shaders' COMPUTE_GROUP).
 DAG_GROUP = 64
 # Work groups of a dispatch (each invocation strides through its list).
@@ -383,26 +382,26 @@ DAG_BOX_GROW = 4e-6
 
 def _defines(capacity: int) -> dict[str, object]:
     """The numbers of this module the DAG shaders are compiled with."""
+    from soc.constants import AABB_GROW_RELATIVE
+
     lists = {}
     at = DAG_HEADER
-    for name, pairs in (("NODES", 2), ("GROUPS", 1), ("SELECTED", 1), ("RETEST", 1)):
+    for name, pairs in (("NODES", 2), ("GROUPS", 1), ("SELECTED", 1)):
         lists[f"DAG_LIST_{name}"] = at
         at += 2 * pairs * capacity
     return {
-        "DAG_INSTANCES_BINDING": 0,
+        "DAG_INSTANCES_BINDING": DAG_INSTANCES_BINDING,
         "DAG_INSTANCE_MESH_BINDING": 1,
         "DAG_MESH_ROOT_BINDING": 2,
         "DAG_NODES_BINDING": 3,
         "DAG_GROUPS_BINDING": 4,
         "DAG_LOD_BINDING": 5,
-        "DAG_WORK_BINDING": 6,
-        "DAG_CULL_BINDING": 7,
-        "DAG_COMMANDS_BINDING": 8,
-        "DAG_PAIRS_BINDING": 9,
-        "DAG_MARKS_BINDING": DAG_MARKS_BINDING,
+        "DAG_WORK_BINDING": DAG_WORK_BINDING,
+        **{k: v for k, v in globals().items() if k.startswith("DAG_") and k.endswith("_BINDING")},
         "DAG_CAPACITY": f"{capacity}u",
         "DAG_NODE_SLACK": repr(float(NODE_SLACK)),
         "DAG_BOX_GROW": repr(float(DAG_BOX_GROW)),
+        "DAG_AABB_GROW_RELATIVE": repr(float(AABB_GROW_RELATIVE)),
         "DAG_ARGS": f"{DAG_ARGS}u",
         "DAG_MAX_GROUPS": f"{DISPATCH_GROUPS}u",
         **{k: f"{v}u" for k, v in globals().items() if k.startswith("DAG_COUNT_")},
@@ -420,39 +419,6 @@ def _source(name: str, defines: dict) -> str:
     extra = ["#ifndef COMPUTE_GROUP", f"#define COMPUTE_GROUP {DAG_GROUP}", "#endif"]
     extra += [f"#define {k} {v}" for k, v in defines.items() if k != "DAG_WORK_WORDS"]
     return "\n".join([lines[0], *extra, *lines[1:]])
-
-
-@dataclass(frozen=True)
-class DagFrame:
-    """What one frame of :meth:`DagRenderer.frame` did.
-
-    Attributes
-    ----------
-    selected : int
-        (instance, cluster) pairs of the cut (in the frustum).
-    drawn_early, drawn_late : int
-        Pairs drawn by each phase.
-    culled : int
-        Pairs outside the frustum or back-facing.
-    occluded : int
-        Pairs the late hierarchical-z test culled.
-    triangles : int
-        Triangles drawn, both phases.
-    nodes : int
-        Tree nodes visited, all instances.
-    timings_ms : dict
-        Milliseconds per stage (``select``, ``cull_early``, ``draw_early``, ``pyramid``,
-        ``cull_late``, ``draw_late``, ``total``), each after a ``finish``.
-    """
-
-    selected: int
-    drawn_early: int
-    drawn_late: int
-    culled: int
-    occluded: int
-    triangles: int
-    nodes: int
-    timings_ms: dict
 
 
 def _set(program, name: str, value) -> None:
@@ -474,9 +440,7 @@ class DagWalk:
     uploaded once, a breadth-first walk of every instance's group tree per frame.
 
     The selected (instance, cluster) pairs go to the work buffer's selected list
-    (:meth:`select` reads them back), or, with ``marks``, each sets one bit of a candidate bit
-    set (``gpu-driven``'s frame buffer: :class:`DagClusters`), bit ``first[i] + c -
-    tables.mesh_clusters[mesh[i]]`` for cluster ``c`` of instance ``i``.
+    (:meth:`select` reads them back; :class:`DagClusters` builds gpu-driven's table from it).
 
     Parameters
     ----------
@@ -486,7 +450,8 @@ class DagWalk:
     capacity : int
         Most pairs a work list holds.
     first : (I,) int, optional
-        Each instance's first bit in the marked bit set (default 0: only :meth:`select`).
+        Each instance's first (instance, DAG cluster) pair's bit (:class:`DagClusters`'
+        passed bits; default 0: only :meth:`select`).
     """
 
     def __init__(self, tables: DagTables, instances: Instances, glctx, capacity: int,
@@ -544,21 +509,16 @@ class DagWalk:
         return np.frombuffer(self.work.read(size=4 * n, offset=4 * first), np.uint32).copy()
 
     def run(self, camera, threshold: float, frustum: bool, *, pixel_scale: float | None = None,
-            marks=None, marks_at: int = 0, check: bool = True) -> int:  # fmt: skip
-        """The walk's dispatches. ``pixel_scale`` pixels per unit at distance 1 (default the
-        camera's own resolution's); ``marks`` a GL buffer whose bits from word ``marks_at``
-        the cut sets (else the selected list is written). With ``check`` the counters are
-        read back (a sync), checked against the capacity, and the nodes visited returned
-        (else 0)."""
+            check: bool = True) -> int:  # fmt: skip
+        """The walk's dispatches: the cut into the selected list. ``pixel_scale`` pixels per
+        unit at distance 1 (default the camera's own resolution's). With ``check`` the
+        counters are read back (a sync), checked against the capacity, and the nodes visited
+        returned (else 0)."""
         from soc.culling.hiz_gpu import set_frustum_uniforms
 
         if not threshold > 0:
             raise ValueError(f"threshold must be > 0 pixels, got {threshold!r}")
         self.bind()
-        if marks is not None:
-            marks.bind_to_storage_buffer(DAG_MARKS_BINDING)
-        else:  # never read, but a bound buffer
-            self.work.bind_to_storage_buffer(DAG_MARKS_BINDING)
         self.work.write(np.zeros(DAG_HEADER, np.uint32))
         prog = self.program
         if pixel_scale is None:
@@ -567,8 +527,6 @@ class DagWalk:
         prog["pixel_scale"].value = float(pixel_scale)
         prog["threshold"].value = float(threshold)
         prog["frustum"].value = bool(frustum)
-        _set(prog, "mark", marks is not None)
-        _set(prog, "marks_at", int(marks_at))
         set_frustum_uniforms(prog, camera)
         prog["stage"].value = 0
         prog.run(min(-(-len(self.instances) // DAG_GROUP), DISPATCH_GROUPS))
@@ -599,19 +557,15 @@ class DagWalk:
 
     def check(self, counts: np.ndarray) -> None:
         """Raise RuntimeError when a work list of ``counts`` (the counters) overflowed."""
-        names = {
-            DAG_COUNT_GROUPS: "groups reached",
-            DAG_COUNT_SELECTED: "selected clusters",
-            DAG_COUNT_RETEST: "late retests",
-            DAG_COUNT_EARLY: "early draws",
-            DAG_COUNT_EARLY + 1: "late draws",
-        }
+        names = {DAG_COUNT_GROUPS: "groups reached", DAG_COUNT_SELECTED: "selected clusters"}
         names.update({DAG_COUNT_NODES + d: f"nodes at depth {d}" for d in range(DAG_MAX_DEPTH)})
         for at, name in names.items():
             if counts[at] > self.capacity:
                 raise RuntimeError(
                     f"the DAG's work list of {name} needs {int(counts[at]):,} pairs, more than "
-                    f"its capacity {self.capacity:,}: pass a larger capacity to DagRenderer"
+                    f"its capacity {self.capacity:,}: pass a larger capacity (DagRenderer's; "
+                    "gpu-driven's table: soc.culling.dag_select.DEFAULT_CAPACITY), or a larger "
+                    "threshold"
                 )
 
     def select(self, camera, threshold: float = 1.0, *, frustum: bool = False) -> np.ndarray:
@@ -619,28 +573,18 @@ class DagWalk:
         sorted. ``frustum`` drops instances' subtrees outside the frustum (the CPU
         reference, :func:`select_cpu`, does not)."""
         self.run(camera, threshold, frustum)
-        n = int(self.counters()[DAG_COUNT_SELECTED])
+        pairs = self.select_list()
+        return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+    def select_list(self) -> np.ndarray:
+        """(K, 2) int64 the selected list of the last :meth:`run`, in the order the walk
+        appended it."""
+        n = min(int(self.counters()[DAG_COUNT_SELECTED]), self.capacity)
         if n == 0:
             return np.zeros((0, 2), np.int64)
         at = int(self.defines["DAG_LIST_SELECTED"].rstrip("u"))
         data = np.frombuffer(self.work.read(size=8 * n, offset=4 * at), np.uint32)
-        pairs = data.reshape(-1, 2).astype(np.int64)
-        return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
-
-
-def _world_boxes(local: np.ndarray, matrices: np.ndarray, chunk: int = 1 << 20) -> np.ndarray:
-    """(K, 2, 3) float32 world boxes holding boxes ``local`` (K, 2, 3) under ``matrices``
-    (K, 3, 4) similarity transforms, in float64 and rounded outwards, in chunks."""
-    out = np.empty(local.shape, np.float32)
-    for s in range(0, len(local), chunk):
-        lo, hi = local[s : s + chunk, 0].astype(np.float64), local[s : s + chunk, 1]
-        c, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
-        m = matrices[s : s + chunk].astype(np.float64)
-        wc = np.einsum("ijk,ik->ij", m[:, :, :3], c) + m[:, :, 3]
-        wh = np.einsum("ijk,ik->ij", np.abs(m[:, :, :3]), h)
-        out[s : s + chunk, 0] = np.nextafter((wc - wh).astype(np.float32), np.float32(-np.inf))
-        out[s : s + chunk, 1] = np.nextafter((wc + wh).astype(np.float32), np.float32(np.inf))
-    return out
+        return data.reshape(-1, 2).astype(np.int64)
 
 
 @uses_gl
@@ -649,15 +593,16 @@ class DagClusters:
     (:class:`soc.methods.two_phase.ClusterSource`): ``soc.Culler(scene, "gpu-driven",
     lod=threshold)``.
 
-    The table of clusters that the pipeline culls and keeps state for holds every DAG cluster
-    (of every level) of every instance: instance ``i`` owns clusters ``first[i] ..
-    first[i + 1] - 1``, its mesh's DAG clusters in order, each drawn from the DAG's own index
-    buffer (all levels, mesh-local indices) with the instance's base vertex and transform; the
-    instance is the pipeline's object. Each frame, before the early pass,
-    :meth:`mark_candidates` runs the DAG walk (:class:`DagWalk`) with the frame's camera and
-    sets the candidate bits of the cut's clusters; the pipeline's frustum and two-phase HiZ
-    passes test and draw only those (and last frame's passed clusters only where they are
-    still in the cut).
+    The pipeline's table of clusters is this frame's cut, rebuilt on the GPU each frame by
+    :meth:`build` before the early pass: the DAG walk (:class:`DagWalk`) lists the cut's
+    (instance, DAG cluster) pairs, and ``dag_table.comp.glsl`` gives each pair a slot, an
+    instance's slots contiguous (the instance is the pipeline's object), each drawn from the
+    DAG's own index buffer (all levels, mesh-local indices) with the instance's base vertex
+    and transform, its box the DAG cluster's under the instance. The table holds at most
+    :data:`DEFAULT_CAPACITY` slots (the cut in the frustum, not every instance's DAG). What
+    the pipeline keeps from frame to frame is one bit per pair (passed its last late test:
+    instance ``i``'s pair with its mesh's ``k``-th DAG cluster is bit ``first[i] + k``), which
+    the early pass reads for this frame's slots and the late stage writes.
 
     Parameters
     ----------
@@ -670,25 +615,32 @@ class DagClusters:
         The frame's width and height (its height gives the pixels per unit).
     frustum : bool
         Drop subtrees whose bounding sphere is outside the frustum in the walk.
+    cones : bool
+        Give no slot to a pair whose normal cone faces away from the eye (every triangle
+        back-facing).
 
     Attributes
     ----------
     first : (I + 1,) int64
-        Each instance's first cluster in the table.
+        Each instance's first pair bit.
+    pair_count : int
+        Pairs of every instance with every DAG cluster of its mesh (the bits kept).
     count : int
-        Clusters in the table (C).
+        Slots of the table (C, the pipeline's clusters).
     ibo, vbo, info, boxes, objects : moderngl.Buffer
         The DAG's indices and vertices, and the table as gpu-driven reads it
-        (:class:`soc.gl.geometry.ClusterBuffers`' layout).
+        (:class:`soc.gl.geometry.ClusterBuffers`' layout; an info row's last word is the
+        slot's pair bit).
     clusters : None
-        No :class:`soc.culling.clusters.Clusters` table (the table is this source).
+        No :class:`soc.culling.clusters.Clusters` table (the table is this source's).
     walk : DagWalk
     """
 
     clusters = None
 
-    def __init__(self, geometry, threshold: float, resolution, frustum: bool = True):
-        from soc.gl.geometry import grown_aabbs
+    def __init__(self, geometry, threshold: float, resolution, frustum: bool = True,
+                 cones: bool = False):  # fmt: skip
+        from soc.constants import AABB_GROW_ABSOLUTE, AABB_GROW_RELATIVE
 
         scene = geometry.scene
         tables = getattr(scene, "dag", None)
@@ -704,45 +656,43 @@ class DagClusters:
         self.check_meshes(scene, tables)
         self.glctx, self.scene, self.tables = geometry.glctx, scene, tables
         self.threshold = float(threshold)
-        self.frustum = bool(frustum)
+        self.frustum, self.cones = bool(frustum), bool(cones)
         self.resolution = (int(resolution[0]), int(resolution[1]))
         t = tables
         mesh = np.asarray(scene.mesh, np.int64)
         per_mesh = np.diff(t.mesh_clusters)
-        counts = per_mesh[mesh]
-        self.first = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-        self.count = c = int(self.first[-1])
-        if c > MAX_TABLE:
+        self.first = np.concatenate([[0], np.cumsum(per_mesh[mesh])]).astype(np.int64)
+        self.pair_count = int(self.first[-1])
+        if self.pair_count >= 1 << 32:
             raise ValueError(
-                f"{len(scene):,} instances of DAGs of {per_mesh.tolist()} clusters make a table "
-                f"of {c:,} clusters, more than gpu-driven's {MAX_TABLE:,} (about 140 bytes each "
-                "on the GPU): draw fewer instances, or draw the cut with "
-                "soc.culling.dag_select.DagRenderer (which keeps the selected pairs only)"
+                f"{len(scene):,} instances of DAGs of {per_mesh.tolist()} clusters make "
+                f"{self.pair_count:,} (instance, cluster) pairs, more than the 2^32 a pair's "
+                "bit can name: draw fewer instances"
             )
-        inst = np.repeat(np.arange(len(scene), dtype=np.int64), counts)
-        cluster = t.mesh_clusters[mesh[inst]] + np.arange(c) - self.first[inst]
-        self.cluster, self.instance = cluster, inst
-        info = np.zeros((c, 4), np.uint32)
-        info[:, 0] = 3 * t.first[cluster]
-        info[:, 1] = 3 * t.count[cluster]
-        info[:, 2] = inst
-        boxes = _world_boxes(t.aabbs[cluster], scene.matrices[inst])
-        grown = grown_aabbs(boxes, geometry.diagonal).reshape(-1, 6)
+        self.count = c = int(max(1, min(self.pair_count, DEFAULT_CAPACITY)))
+        bounds = np.zeros((len(t), 4, 4), np.float32)
+        bounds[:, 0, :3], bounds[:, 1, :3] = t.aabbs[:, 0], t.aabbs[:, 1]
+        bounds[:, 0, 3] = (3 * t.first).astype(np.uint32).view(np.float32)
+        bounds[:, 1, 3] = (3 * t.count).astype(np.uint32).view(np.float32)
+        bounds[:, 2, :3], bounds[:, 2, 3] = t.cone_axis, t.cone_cutoff
+        bounds[:, 3, :3] = t.cone_apex
         objects = np.zeros((len(scene), 4), np.uint32)
-        objects[:, 0], objects[:, 1] = self.first[:-1], counts
         objects[:, 2] = t.mesh_vertex[mesh]
         ctx = self.glctx.ctx
         self.vbo = ctx.buffer(t.vertices)
         self.ibo = ctx.buffer(t.faces.astype(np.uint32))
-        self.info = ctx.buffer(info)
-        self.boxes = ctx.buffer(np.ascontiguousarray(grown))
+        self.bounds = ctx.buffer(bounds)
+        self.info = ctx.buffer(reserve=16 * c)
+        self.boxes = ctx.buffer(reserve=24 * c)
         self.objects = ctx.buffer(objects)
-        # A list never holds more pairs than the table has clusters (a tree has fewer nodes
-        # and groups than clusters), so a table within the default capacity never overflows.
-        self.walk = DagWalk(
-            t, scene.instances(), self.glctx, min(max(c, 1), DEFAULT_CAPACITY), self.first[:-1]
-        )
-        self._checked = c <= DEFAULT_CAPACITY
+        self.slots = ctx.buffer(reserve=8 * len(scene))
+        self.walk = DagWalk(t, scene.instances(), self.glctx, c, self.first[:-1])
+        self.table = ctx.compute_shader(_source("dag_table.comp", self.walk.defines))
+        self.box_grow = float(np.float32(AABB_GROW_RELATIVE * geometry.diagonal
+                                         + AABB_GROW_ABSOLUTE))  # fmt: skip
+        # A list never holds more pairs than there are pairs (a tree has fewer nodes and
+        # groups than clusters): a table of every pair never overflows.
+        self._checked = self.pair_count <= c
         self._vaos: dict = {}
         self.geometry = geometry
 
@@ -765,25 +715,46 @@ class DagClusters:
         for vao in self._vaos.values():
             vao.release()
         self._vaos.clear()
-        for b in (self.vbo, self.ibo, self.info, self.boxes, self.objects):
+        for b in (self.vbo, self.ibo, self.bounds, self.info, self.boxes, self.objects,
+                  self.slots):  # fmt: skip
             b.release()
+        self.table.release()
         self.walk.release()
 
     def pixel_scale(self, camera) -> float:
         """Pixels per world unit at distance 1 of the frame's resolution."""
         return float(self.resolution[1]) * 0.5 * float(camera.projection[1, 1])
 
-    def mark_candidates(self, camera, frame, offset: int) -> None:
-        """Set the bits of this frame's cut (one per cluster of the table) in the GPU buffer
-        ``frame`` from byte ``offset`` (zeroed before): the DAG walk, on the GPU."""
-        self.walk.run(
-            camera, self.threshold, self.frustum, pixel_scale=self.pixel_scale(camera),
-            marks=frame, marks_at=offset // 4, check=False,
-        )  # fmt: skip
+    def build(self, camera) -> None:
+        """Rebuild the table (:attr:`info`, :attr:`boxes`, :attr:`objects`) from this frame's
+        cut, on the GPU: the DAG walk, then ``dag_table.comp``'s three passes, sized by the
+        cut's count on the GPU (nothing read back)."""
+        walk = self.walk
+        walk.run(camera, self.threshold, self.frustum, pixel_scale=self.pixel_scale(camera),
+                 check=False)  # fmt: skip
+        self.slots.clear()
+        walk.bind()
+        for buf, binding in (
+            (self.bounds, DAG_BOUNDS_BINDING),
+            (self.info, DAG_TABLE_INFO_BINDING),
+            (self.boxes, DAG_TABLE_BOXES_BINDING),
+            (self.objects, DAG_TABLE_OBJECTS_BINDING),
+            (self.slots, DAG_TABLE_COUNTS_BINDING),
+        ):
+            buf.bind_to_storage_buffer(binding)
+        prog = self.table
+        _set(prog, "eye", tuple(float(x) for x in camera.eye))
+        _set(prog, "cones", self.cones)
+        _set(prog, "box_grow", self.box_grow)
+        walk.sized(prog, DAG_COUNT_SELECTED, stage=0)
+        prog["stage"].value = 1
+        prog.run(min(-(-len(self.scene) // DAG_GROUP), DISPATCH_GROUPS))
+        self.glctx.ctx.memory_barrier()
+        walk.sized(prog, DAG_COUNT_SELECTED, stage=2)
 
     def check(self) -> None:
-        """Raise RuntimeError when the last walk overflowed a work list (a table beyond the
-        default capacity only)."""
+        """Raise RuntimeError when the last walk overflowed a work list (the table's slots:
+        only where the slots are fewer than the pairs)."""
         if not self._checked:
             self.walk.check(self.walk.counters())
 
@@ -792,29 +763,28 @@ class DagClusters:
         read back."""
         return int(self.walk.counters(DAG_COUNT_SELECTED, 1)[0])
 
-    def candidates(self, camera, objects: np.ndarray) -> np.ndarray:
-        """(M,) int64 the table's clusters of ``objects`` (K,) int in ``camera``'s cut (the
-        CPU selection, :func:`select_cpu`, no frustum), each object's in table order."""
-        objects = np.asarray(objects, np.int64)
-        pairs = select_cpu(self.tables, self.scene.instances(), camera.eye,
-                           self.pixel_scale(camera), self.threshold)  # fmt: skip
-        ids = self.table_ids(pairs)
-        keep = np.isin(pairs[:, 0], objects)
-        ids, owner = ids[keep], pairs[keep, 0]
-        rank = np.empty(len(self.scene), np.int64)
-        rank[objects] = np.arange(len(objects))
-        return ids[np.lexsort((ids, rank[owner]))]
+    def table_pairs(self) -> np.ndarray:
+        """(S, 2) int64 (instance, global DAG cluster) of the last frame's table's slots
+        (S of them; with ``cones`` the cut's pairs that do not face away), read back (for
+        tests and measurements; not part of a frame)."""
+        n = int(self.walk.counters(DAG_COUNT_SLOTS, 1)[0])
+        if n == 0:
+            return np.zeros((0, 2), np.int64)
+        info = np.frombuffer(self.info.read(16 * n), np.uint32).reshape(-1, 4).astype(np.int64)
+        inst = info[:, 2]
+        mesh = np.asarray(self.scene.mesh, np.int64)[inst]
+        cluster = info[:, 3] - self.first[inst] + self.tables.mesh_clusters[mesh]
+        return np.stack([inst, cluster], axis=1)
 
-    def table_ids(self, pairs: np.ndarray) -> np.ndarray:
-        """(K,) int64 the table's clusters of (instance, global DAG cluster) ``pairs`` (K, 2)."""
+    def pairs(self, ids: np.ndarray) -> np.ndarray:
+        """(K, 2) int64 (instance, global DAG cluster) of the last frame's slots ``ids`` (K,)."""
+        return self.table_pairs()[np.asarray(ids, np.int64)]
+
+    def pair_bits(self, pairs: np.ndarray) -> np.ndarray:
+        """(K,) int64 the passed bits of (instance, global DAG cluster) ``pairs`` (K, 2)."""
         pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
         mesh = np.asarray(self.scene.mesh, np.int64)[pairs[:, 0]]
         return self.first[pairs[:, 0]] + pairs[:, 1] - self.tables.mesh_clusters[mesh]
-
-    def pairs(self, ids: np.ndarray) -> np.ndarray:
-        """(K, 2) int64 (instance, global DAG cluster) of the table's clusters ``ids`` (K,)."""
-        ids = np.asarray(ids, np.int64)
-        return np.stack([self.instance[ids], self.cluster[ids]], axis=1)
 
     def program(self, camera, shaded: bool):
         """The program drawing the table's clusters (``instanced.vert`` with ``shade.frag``
@@ -834,289 +804,12 @@ class DagClusters:
 
 
 @uses_gl
-class DagRenderer:
-    """The cut of DAG meshes placed by instances, selected, culled and drawn on the GPU.
-
-    Parameters
-    ----------
-    tables : DagTables
-    instances : Instances
-    resolution : (int, int)
-        Width and height of the render targets (colour, instance or slot id, depth).
-    glctx : GLContext, optional
-        Default: the process's context.
-    capacity : int
-        Most pairs a work list holds (:data:`DEFAULT_CAPACITY`); a frame that needs more
-        raises ``RuntimeError`` naming the list.
-
-    Notes
-    -----
-    :meth:`select` is the selection pass alone: inputs the instance transforms and the DAG
-    buffers (uploaded here), the camera and the threshold in pixels; output the selected
-    (instance, cluster) pairs in a GPU buffer (the work buffer's selected list) and their
-    count. :meth:`frame` runs it, then the two-phase culling and the draws.
-    """
-
-    def __init__(self, tables: DagTables, instances: Instances, resolution=(1920, 1080),
-                 glctx=None, *, capacity: int = DEFAULT_CAPACITY):  # fmt: skip
-        from soc.gl.context import default_context
-
-        self.glctx = glctx or default_context()
-        ctx = self.glctx.ctx
-        self.walk = DagWalk(tables, instances, self.glctx, capacity)
-        self.tables, self.instances = tables, instances
-        self.capacity = int(capacity)
-        self.defines = self.walk.defines
-        self.resolution = (int(resolution[0]), int(resolution[1]))
-        self._walk = self.walk.program
-        self._cull = ctx.compute_shader(_source("dag_cull.comp", self.defines))
-        self.program = ctx.program(
-            vertex_shader=_source("dag_draw.vert", self.defines),
-            fragment_shader=_source("dag_draw.frag", self.defines),
-        )
-        t = tables
-        cull = np.zeros((len(t), 5, 4), np.float32)
-        cull[:, 0, :3], cull[:, 1, :3] = t.aabbs[:, 0], t.aabbs[:, 1]
-        cull[:, 0, 3] = t.cone_cutoff
-        cull[:, 2, :3], cull[:, 3, :3] = t.cone_axis, t.cone_apex
-        draw = cull[:, 4].view(np.uint32)
-        draw[:, 0], draw[:, 1] = 3 * t.first, 3 * t.count
-        draw[:, 2] = t.mesh_vertex[t.cluster_mesh]
-        draw[:, 3] = t.level
-        self._own = {
-            7: ctx.buffer(cull),
-            8: ctx.buffer(reserve=2 * self.capacity * 20),
-            9: ctx.buffer(reserve=2 * self.capacity * 8),
-        }
-        self._buffers = {**self.walk.buffers, **self._own}
-        self.work = self.walk.work
-        self.commands = self._buffers[8]
-        self.vbo = ctx.buffer(t.vertices)
-        self.ibo = ctx.buffer(t.faces.astype(np.uint32))
-        self.slots = ctx.buffer(np.arange(2 * self.capacity, dtype=np.uint32))
-        self.vao = ctx.vertex_array(
-            self.program,
-            [(self.vbo, "3f", "in_position"), (self.slots, "u/i", "in_slot")],
-            index_buffer=self.ibo,
-            index_element_size=4,
-        )
-        self._targets = [self._target() for _ in range(2)]
-        self._pyramids = None
-        self._frame = 0
-        self._last_camera = None
-
-    def _target(self):
-        ctx = self.glctx.ctx
-        depth = ctx.depth_texture(self.resolution)
-        self.glctx.raw.float_depth(depth)
-        colour = ctx.renderbuffer(self.resolution, components=4)
-        ids = ctx.renderbuffer(self.resolution, components=1, dtype="u4")
-        return ctx.framebuffer(color_attachments=[colour, ids], depth_attachment=depth)
-
-    def release(self) -> None:
-        """Free every GL object of this renderer."""
-        for b in (*self._own.values(), self.vbo, self.ibo, self.slots):
-            b.release()
-        self.walk.release()
-        self.vao.release()
-        for fbo in self._targets:
-            self.glctx.release_framebuffer(fbo, *fbo.color_attachments, fbo.depth_attachment)
-        for p in self._pyramids or ():
-            p.release()
-        self._cull.release()
-        self.program.release()
-
-    def __enter__(self) -> DagRenderer:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.release()
-
-    # -- selection ---------------------------------------------------------------------------
-
-    def _bind(self) -> None:
-        for binding, buf in self._buffers.items():
-            buf.bind_to_storage_buffer(binding)
-
-    def _counters(self, first: int = 0, n: int = DAG_HEADER) -> np.ndarray:
-        return self.walk.counters(first, n)
-
-    def _run_select(self, camera, threshold: float, frustum: bool) -> int:
-        """The walk's dispatches (selection into the work buffer); returns the nodes visited."""
-        return self.walk.run(camera, threshold, frustum)
-
-    def _sized(self, program, counter: int, **uniforms) -> None:
-        self.walk.sized(program, counter, **uniforms)
-
-    def _check(self, counts: np.ndarray) -> None:
-        self.walk.check(counts)
-
-    def select(self, camera, threshold: float = 1.0, *, frustum: bool = False) -> np.ndarray:
-        """The cut selected on the GPU, read back (:meth:`DagWalk.select`)."""
-        return self.walk.select(camera, threshold, frustum=frustum)
-
-    # -- the frame -----------------------------------------------------------------------------
-
-    def frame(self, camera, threshold: float = 1.0, *, occlusion: bool = True,
-              cones: bool = True, frustum: bool = True, color_kind: int = 0,
-              id_kind: int = 0) -> DagFrame:  # fmt: skip
-        """Select, cull and draw one frame into this renderer's targets (read them with
-        :meth:`read`).
-
-        Parameters
-        ----------
-        camera : Camera
-            Its resolution must be the renderer's.
-        threshold : float
-            Largest projected error of a drawn cluster, pixels.
-        occlusion : bool
-            Two-phase hierarchical-z culling (the early phase against last frame's depth
-            pyramid and camera; without a last frame every frustum-passing pair is drawn
-            early).
-        cones : bool
-            Cull back-facing clusters by their normal cones (vislod's oracle draws back
-            faces: see :mod:`soc.culling.clusters`).
-        frustum : bool
-            Cull subtrees and clusters outside the frustum.
-        color_kind : int
-            0 a colour per instance, 1 per cluster level, 2 per cluster.
-        id_kind : int
-            What the id target holds: 0 the instance, 1 the pair's slot (:meth:`drawn`).
-        """
-        import time
-
-        import moderngl
-
-        from soc.culling.hiz_gpu import DepthPyramid, set_frustum_uniforms, set_test_uniforms
-
-        if tuple(camera.resolution) != self.resolution:
-            raise ValueError(f"camera resolution {camera.resolution} is not {self.resolution}")
-        ctx = self.glctx.ctx
-        if self._pyramids is None:
-            self._pyramids = [DepthPyramid(self.glctx, self.resolution) for _ in range(2)]
-        times = {}
-        t0 = time.perf_counter()
-
-        def lap(name):
-            ctx.finish()
-            times[name] = 1000.0 * (time.perf_counter() - sum(times.values()) / 1000.0 - t0)
-
-        cur = self._frame % 2
-        fbo, pyr = self._targets[cur], self._pyramids[cur]
-        nodes = self._run_select(camera, threshold, frustum)
-        lap("select")
-        cull = self._cull
-        k = float(camera.resolution[1]) * 0.5 * float(camera.projection[1, 1])
-        _set(cull, "eye", tuple(float(x) for x in camera.eye))
-        _set(cull, "pixel_scale", k)
-        _set(cull, "threshold", float(threshold))
-        cull["cones"].value = bool(cones)
-        cull["frustum"].value = bool(frustum)
-        have_last = occlusion and self._last_camera is not None
-        if have_last:
-            last = self._pyramids[1 - cur]
-            set_test_uniforms(cull, last, self._last_camera, 2, 0, None)
-        set_frustum_uniforms(cull, camera)
-        cull["occlusion"].value = have_last
-        self._bind()
-        self._sized(cull, DAG_COUNT_SELECTED, stage=0)
-        lap("cull_early")
-
-        prog = self.program
-        prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
-        _set(prog, "eye", tuple(float(x) for x in camera.eye))
-        _set(prog, "light_dir", (0.4, 0.8, 0.45))
-        prog["id_kind"].value = int(id_kind)
-        prog["color_kind"].value = int(color_kind)
-        fbo.use()
-        fbo.depth_mask = True
-        ctx.enable_only(moderngl.DEPTH_TEST)
-        ctx.depth_func = "<"
-        fbo.clear(0.06, 0.07, 0.09, 1.0, depth=1.0)
-        self.glctx.raw.clear_uint_color(0xFFFFFFFF, draw_buffer=1)
-        counts = self._counters()
-        self._check(counts)
-        n_early = int(counts[DAG_COUNT_EARLY])
-        if n_early:
-            self.vao.render_indirect(self.commands, count=n_early)
-        lap("draw_early")
-        if occlusion:
-            pyr.build(fbo.depth_attachment)
-            lap("pyramid")
-            fbo.use()
-            set_test_uniforms(cull, pyr, camera, 2, 0, None)
-            set_frustum_uniforms(cull, camera)
-            self._bind()
-            self._sized(cull, DAG_COUNT_RETEST, stage=1)
-            lap("cull_late")
-            counts = self._counters()
-            self._check(counts)
-            n_late = int(counts[DAG_COUNT_EARLY + 1])
-            if n_late:
-                fbo.use()
-                prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
-                ctx.enable_only(moderngl.DEPTH_TEST)
-                self.vao.render_indirect(self.commands, count=n_late, first=self.capacity)
-            lap("draw_late")
-            pyr.build(fbo.depth_attachment)  # for next frame's early test
-            lap("pyramid_next")
-        times["total"] = sum(times.values())
-        self._last_camera = camera if occlusion else None
-        self._frame += 1
-        self.glctx.check("dag frame")
-        return DagFrame(
-            selected=int(counts[DAG_COUNT_SELECTED]),
-            drawn_early=int(counts[DAG_COUNT_EARLY]),
-            drawn_late=int(counts[DAG_COUNT_EARLY + 1]),
-            culled=int(counts[DAG_COUNT_CULLED]),
-            occluded=int(counts[DAG_COUNT_OCCLUDED]),
-            triangles=int(counts[DAG_COUNT_TRIANGLES] + counts[DAG_COUNT_TRIANGLES + 1]),
-            nodes=nodes,
-            timings_ms=times,
-        )
-
-    def drawn(self) -> np.ndarray:
-        """(K, 2) int64 the (instance, cluster) pairs the last frame drew, sorted."""
-        counts = self._counters()
-        out = []
-        for phase in (0, 1):
-            n = min(int(counts[DAG_COUNT_EARLY + phase]), self.capacity)
-            if n == 0:
-                continue
-            data = self._buffers[9].read(size=8 * n, offset=8 * phase * self.capacity)
-            out.append(np.frombuffer(data, np.uint32).reshape(-1, 2))
-        pairs = np.concatenate(out).astype(np.int64) if out else np.zeros((0, 2), np.int64)
-        return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
-
-    def read(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The last frame's targets: colour (H, W, 3) uint8, ids (H, W) uint32 (0xFFFFFFFF
-        where empty) and window depth (H, W) float32; row 0 at the bottom."""
-        fbo = self._targets[(self._frame - 1) % 2]
-        w, h = self.resolution
-        rgb = np.frombuffer(fbo.read(components=3, attachment=0), np.uint8).reshape(h, w, 3)
-        ids = np.frombuffer(fbo.read(components=1, attachment=1, dtype="u4"), np.uint32)
-        depth = np.frombuffer(fbo.depth_attachment.read(), np.float32)
-        return rgb.copy(), ids.reshape(h, w).copy(), depth.reshape(h, w).copy()
-
-    def visible_pairs(self) -> np.ndarray:
-        """(K, 2) int64 the (instance, cluster) pairs with a pixel in the last frame, which must
-        have been drawn with ``id_kind=1``: the oracle of the cut when that frame culled
-        nothing (``occlusion``, ``cones`` and ``frustum`` off). Sorted."""
-        _, ids, _ = self.read()
-        slots = np.unique(ids[ids != 0xFFFFFFFF]).astype(np.int64)
-        if len(slots) == 0:
-            return np.zeros((0, 2), np.int64)
-        table = np.frombuffer(self._buffers[9].read(), np.uint32).reshape(-1, 2)
-        pairs = table[slots].astype(np.int64)
-        return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
-
-
-@uses_gl
 def render_instances(
     scene, camera, color_ids=None, glctx=None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Draw every instance of ``scene`` (an :class:`~soc.scenes.instanced.InstancedScene`) with
-    its whole mesh, shaded as :class:`DagRenderer` shades (the same colour per instance), no
+    its whole mesh, shaded as :class:`soc.dag_renderer.DagRenderer`'s pictures (the same
+    colour per instance), no
     culling: the image of object LOD (a scene whose meshes are LOD levels) or of the full
     detail. ``color_ids`` (I,) int: the instance number each instance takes its colour from
     (default its own; a subset of another scene's instances keeps their colours).
@@ -1127,7 +820,7 @@ def render_instances(
     ids : (H, W) uint32
         Instance per pixel, 0xFFFFFFFF where empty.
     depth : (H, W) float32
-        Window depth. Row 0 at the bottom, as :meth:`DagRenderer.read`.
+        Window depth. Row 0 at the bottom, as :meth:`soc.dag_renderer.DagRenderer.read`.
     """
     import moderngl
 

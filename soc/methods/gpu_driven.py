@@ -34,12 +34,14 @@ The kept set (``visible``) is every object with a cluster drawn (early or late);
 ``triangles_drawn`` counts the triangles of the drawn clusters.
 
 **A cluster LOD DAG's cut** (``lod``, on an :class:`~soc.scenes.instanced.InstancedScene` with
-its DAGs): the objects are the instances and the clusters every DAG cluster of every instance
-(:class:`soc.culling.dag_select.DagClusters`); before stage 1 the DAG walk marks this frame's
-cut as the candidate clusters, the early pass draws last frame's passed clusters that are still
-in the cut, and the test judges and draws only the cut's clusters (visited a word of candidate
-bits at a time). The same passes, so the same argument of conservativeness: against the cut's
-own surface (tests/soc/test_dag_culler.py compares with the cut's id render).
+its DAGs): the objects are the instances, and the table of clusters is rebuilt on the GPU
+every frame from the cut (:class:`soc.culling.dag_select.DagClusters`: before stage 1 the DAG
+walk selects the cut and each selected (instance, DAG cluster) pair gets a slot, an instance's
+slots contiguous), so that the table holds the cut, not every instance's DAG. What crosses
+from frame to frame is one bit per pair (passed its last late test; in ``runs``): the early
+pass draws this frame's slots whose pair passed, and the test judges every slot and sets or
+clears its pair's bit. The same passes, so the same argument of conservativeness: against the
+cut's own surface (tests/soc/test_dag_culler.py compares with the cut's id render).
 
 **Conservative in every frame** (the pipeline's argument, :mod:`soc.methods.two_phase`): a
 cluster with a sample the oracle sees lies in its grown box and its object's, each of which
@@ -48,15 +50,16 @@ early. A cluster is culled only when its box is outside the frustum or behind th
 every pixel centre it may cover — no pixel of it can be visible, so a cluster-id render holds
 no culled cluster either (tests/soc/test_gpu_driven.py checks both).
 
-**Normal cones are not used.** vislod's oracle draws without back-face culling, so a
-back-facing cluster is visible wherever no front face covers it. A cone may cull without
-culling an oracle-visible object only for clusters of closed meshes whose every piece faces out
-(:func:`soc.culling.clusters.closed_outward`), seen from outside with no part clipped by the
-near plane; even then a cluster-id render shows such back faces where they tie with the front
-faces at a silhouette. And they would gain nothing here: on the bench's views (castle-2114
-and the market, flight and walk) a cone rejects 0.1 % of the triangles drawn, of any mesh, and
-0.04 % or less of closed outward-facing ones — clusters of 128 triangles of buildings face many
-ways, so 2–4 % of clusters have a usable cone (``results/BENCHMARKS.md``, "GPU-driven").
+**Normal cones are not used** (but with ``cones`` on a DAG's cut). vislod's oracle draws
+without back-face culling, so a back-facing cluster is visible wherever no front face covers
+it. A cone may cull without culling an oracle-visible object only for clusters of closed meshes
+whose every piece faces out (:func:`soc.culling.clusters.closed_outward`), seen from outside
+with no part clipped by the near plane; even then a cluster-id render shows such back faces
+where they tie with the front faces at a silhouette. And they would gain nothing here: on the
+bench's views (castle-2114 and the market, flight and walk) a cone rejects 0.1 % of the
+triangles drawn, of any mesh, and 0.04 % or less of closed outward-facing ones — clusters of
+128 triangles of buildings face many ways, so 2–4 % of clusters have a usable cone
+(``results/BENCHMARKS.md``, "GPU-driven").
 
 **Cull ms** (:attr:`soc.FrameStats.cull_ms`): the early pass, the sorts, the pyramid, the test
 passes and the read back. Static scenes only (no ``set_alive``).
@@ -147,6 +150,11 @@ class GpuDrivenOptions(MethodOptions):
         (:class:`soc.culling.dag_select.DagClusters`), then culled and drawn by the same
         passes; the instances are the objects. None (default): the scene's own meshes (a
         flat scene only). ``cluster_triangles`` is the DAG's then.
+    cones : bool
+        With ``lod``: leave out of the cut's table the clusters whose normal cone faces away
+        from the eye (every triangle back-facing; lod.dag's cones). Default False: vislod's
+        oracle draws back faces (see the module), so a cone may cull an oracle-visible
+        cluster.
     """
 
     granularity: Granularity = "cluster"
@@ -154,6 +162,7 @@ class GpuDrivenOptions(MethodOptions):
     order: Order = "front-to-back"
     sync: bool | None = None
     lod: float | None = option(None, low=0.0)
+    cones: bool = False
 
 
 @register
@@ -168,11 +177,10 @@ class GpuDrivenCulling(TwoPhase):
     source : soc.methods.two_phase.ClusterSource
         Where the clusters come from (:class:`~soc.methods.two_phase.SceneClusters`, or
         :class:`~soc.methods.two_phase.WholeObjects` with ``granularity="object"``). Another
-        one over the same table of clusters plugs in as ``method.source``: a source with a
-        ``mark_candidates(camera, frame, offset)`` method writes each frame's candidate bits
-        into the GPU buffer ``frame`` from byte ``offset`` (one bit per cluster, the buffer
-        zeroed before) ahead of the early pass, and the late stage tests and draws only
-        those.
+        one over the same table of clusters plugs in as ``method.source``. A source with a
+        ``build(camera)`` method rebuilds the table on the GPU each frame ahead of the early
+        pass (:class:`~soc.culling.dag_select.DagClusters`, with ``lod``; its ``info`` rows
+        name one of its ``pair_count`` bits kept across frames).
     clusters : soc.culling.clusters.Clusters
     last_draws_ms : dict
         ``{"early draw": ms, "late draw": ms}`` of the last frame.
@@ -211,8 +219,13 @@ class GpuDrivenCulling(TwoPhase):
                 super().release()
                 raise ValueError("gpu-driven(lod=...) culls the DAG's clusters: granularity "
                                  f"must be 'cluster', got {granularity!r}")  # fmt: skip
-            self.source = DagClusters(geometry, lod, self.renderer.resolution, config.frustum)
-            self.gpu = self.source  # the table of every instance's DAG clusters
+            self.source = DagClusters(geometry, lod, self.renderer.resolution, config.frustum,
+                                      self.options.cones)  # fmt: skip
+            self.gpu = self.source  # the table of the frame's cut
+        elif self.options.cones:
+            super().release()
+            raise ValueError("gpu-driven(cones=True) culls a DAG cut's back-facing clusters: "
+                             "pass lod=<pixels> on an InstancedScene, or drop cones")  # fmt: skip
         elif granularity == "cluster":
             self.source = SceneClusters(scene, self.options.cluster_triangles)
         else:
@@ -234,10 +247,12 @@ class GpuDrivenCulling(TwoPhase):
         n, c = len(scene), self.gpu.count
         self._object_bits = FRAME_HEADER
         self._cluster_bits = FRAME_HEADER + (n + 31) // 32
-        self._candidate_bits = self._cluster_bits + (c + 31) // 32
-        words = self._candidate_bits + (c + 31) // 32
+        words = self._cluster_bits + (c + 31) // 32
+        self.per_frame = hasattr(self.source, "build")  # a table rebuilt every frame
         self.object_state = ctx.buffer(reserve=4 * 2 * n)
-        self.runs = ctx.buffer(reserve=16 * c)
+        # The runs, or a table's pairs' passed bits (a uvec4 holds 128).
+        pairs = -(-self.source.pair_count // 128) if self.per_frame else c
+        self.runs = ctx.buffer(reserve=16 * max(pairs, 1))
         self.cluster_state = ctx.buffer(reserve=4 * c)
         self.commands = ctx.buffer(reserve=2 * c * COMMAND_BYTES)
         self.sorted = ctx.buffer(reserve=2 * c * COMMAND_BYTES) if self.sort_draws else None
@@ -256,7 +271,6 @@ class GpuDrivenCulling(TwoPhase):
             "cluster_bits": self._cluster_bits,
             "cluster_count": c,
             "split_at": self._split_at,
-            "candidate_bits": self._candidate_bits,
         }
         self.last_commands = (0, 0)
         self.last_clusters = (0, 0)
@@ -276,6 +290,8 @@ class GpuDrivenCulling(TwoPhase):
         self.object_state.clear()
         self.cluster_state.clear()
         self.passed.clear()
+        if self.per_frame:
+            self.runs.clear()
 
     # -- the passes --------------------------------------------------------------------------
 
@@ -320,7 +336,6 @@ class GpuDrivenCulling(TwoPhase):
         """Stage 1: the frame's uniforms, then the early pass's commands (none with the depth
         test off: frustum culling only), sorted."""
         camera, timings = f.camera, f.timings
-        marks = hasattr(self.source, "mark_candidates")  # a source that chooses per frame
         self._frame_id += 1
         words = self._list_words
         list_in, list_out = (1 - self._list) * words, self._list * words
@@ -332,7 +347,7 @@ class GpuDrivenCulling(TwoPhase):
             "frustum": bool(self.config.frustum),
             "test_clusters": self.granularity == "cluster",
             "sort_draws": self.sort_draws,
-            "every_candidate": not marks,
+            "table_per_frame": self.per_frame,
             "eye": tuple(float(v) for v in camera.eye),
             "order_near": float(camera.near),
             "order_scale": (ORDER_BUCKETS - 1) / math.log2(camera.far / camera.near),
@@ -347,9 +362,9 @@ class GpuDrivenCulling(TwoPhase):
             self.frame.clear()
             self.passed.write(_ZERO, offset=4 * list_out)
             self.passed.write(_ZERO + _ZERO, offset=4 * self._split_at)
-        if marks:  # the source's choice (a DAG's cut: the walk), a stage of its own
+        if self.per_frame:  # the source's table (a DAG's cut: the walk), a stage of its own
             with stage(timings, "select", self.finish):
-                self.source.mark_candidates(camera, self.frame, 4 * self._candidate_bits)
+                self.source.build(camera)
         with stage(timings, "early", self.finish):
             if f.occlusion:
                 self._run(self.early_pass)
@@ -417,18 +432,10 @@ class GpuDrivenCulling(TwoPhase):
             triangles_drawn=triangles,
         )
 
-    def candidate_clusters(self) -> np.ndarray:
-        """(C,) bool: the last frame's candidate clusters as the cluster source marked them on
-        the GPU (a DAG's cut; all False for a source that does not mark), read back (for
-        tests and measurements; not part of a frame)."""
-        c = self.gpu.count
-        start = 4 * self._candidate_bits
-        words = np.frombuffer(self.frame.read(4 * ((c + 31) // 32), offset=start), "<u4")
-        return np.unpackbits(words.view(np.uint8), bitorder="little")[:c].astype(bool)
-
     def drawn_clusters(self) -> np.ndarray:
         """(C,) bool: the clusters the last frame drew (early or late), read back from the GPU
-        (for tests and measurements; not part of a frame)."""
+        (for tests and measurements; not part of a frame). With a table rebuilt per frame:
+        its slots (``source.pairs``)."""
         c = self.gpu.count
         start = 4 * self._cluster_bits
         words = np.frombuffer(self.frame.read(4 * ((c + 31) // 32), offset=start), "<u4")

@@ -382,13 +382,12 @@ class ClusterSource(Protocol):
     Where it plugs in: ``hiz-2phase``'s :class:`~soc.methods.hiz_2phase.ClusterSets` (its
     ``source``) asks :meth:`candidates` for the objects that passed, tests their boxes and
     draws those that pass; ``gpu-driven`` uploads :attr:`clusters` once
-    (:meth:`soc.gl.geometry.SceneGeometry.clusters`), and a source that chooses on the GPU has
-    a ``mark_candidates(camera, frame, offset)`` method that writes this frame's candidates
-    as bits (one per cluster) into gpu-driven's frame buffer from byte ``offset``, before the
-    early pass; its late and cluster passes test and draw only those (``candidate()`` in
-    ``gpu_driven.common.glsl``; without the method every cluster is one). The early pass draws
-    last frame's passing runs whatever this frame's candidates are (any early subset is
-    conservative).
+    (:meth:`soc.gl.geometry.SceneGeometry.clusters`); a source whose table changes with the
+    view (a cluster LOD DAG's cut: :class:`soc.culling.dag_select.DagClusters`) has instead a
+    ``build(camera)`` method that rebuilds gpu-driven's table on the GPU before the early pass
+    (every cluster of it a candidate), ``pair_count`` bits that name what its clusters stand
+    for across frames (the early pass draws this frame's clusters whose bit passed the last
+    test), and no :meth:`candidates` (it chooses on the GPU only).
     """
 
     clusters: Any  # soc.culling.clusters.Clusters

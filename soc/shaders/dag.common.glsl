@@ -1,8 +1,9 @@
-// The cluster DAG tables and the cut's decision, shared by dag_walk.comp and dag_cull.comp
+// The cluster DAG tables and the cut's decision, shared by dag_walk.comp and dag_table.comp
 // (soc/culling/dag_select.py, which defines the DAG_* numbers and reads the same layouts).
 layout(local_size_x = COMPUTE_GROUP) in;
 
-// (I, 4) vec4 per instance: rows 0-2 of its object-to-world matrix, then (scale, 0, 0, 0).
+// (I, 4) vec4 per instance: rows 0-2 of its object-to-world matrix, then (scale, pair offset
+// as uint bits, 0, 0): the bit of its pair with DAG cluster c is c + pair offset (mod 2^32).
 layout(std430, binding = DAG_INSTANCES_BINDING) readonly buffer Instances { vec4 instances[]; };
 // (I) the mesh each instance places.
 layout(std430, binding = DAG_INSTANCE_MESH_BINDING) readonly buffer InstanceMesh { uint instance_mesh[]; };

@@ -1,5 +1,5 @@
 #version 450
-// The cut's clusters drawn by multi-draw-indirect (soc/culling/dag_select.py): each command's
+// The cut's pictures (soc/culling/dag_select.py, DagRenderer), by multi-draw-indirect: each command's
 // baseInstance is a slot, fetched through in_slot (divisor 1), whose (instance, cluster) pair
 // gives the instance's transform and the cluster's level.
 in vec3 in_position;
@@ -7,7 +7,7 @@ in uint in_slot;
 
 layout(std430, binding = DAG_INSTANCES_BINDING) readonly buffer Instances { vec4 instances[]; };
 layout(std430, binding = DAG_PAIRS_BINDING) readonly buffer Pairs { uvec2 pairs[]; };
-layout(std430, binding = DAG_CULL_BINDING) readonly buffer Cull { vec4 cluster_cull[]; };
+layout(std430, binding = DAG_LEVELS_BINDING) readonly buffer Levels { uint levels[]; };
 
 uniform mat4 view_proj;
 uniform int id_kind;     // what v_object holds: 0 the instance, 1 the slot
@@ -31,7 +31,7 @@ void main() {
     vec4 p = vec4(in_position, 1.0);
     v_world = vec3(dot(r0, p), dot(r1, p), dot(r2, p));
     v_object = id_kind == 0 ? pair.x : in_slot;
-    uint level = floatBitsToUint(cluster_cull[5u * pair.y + 4u]).w;
+    uint level = levels[pair.y];
     if (color_kind == 1) {
         v_color = LEVEL_COLORS[min(level, 7u)];
     } else {

@@ -1,5 +1,5 @@
 #version 450
-// The cut's selection (soc/culling/dag_select.py, DagSelect): a breadth-first walk of every
+// The cut's selection (soc/culling/dag_select.py, DagWalk): a breadth-first walk of every
 // instance's group tree, one dispatch per tree depth, then the clusters of the groups reached.
 //   stage 0: one instance per invocation: its root node (skipped when its sphere is outside
 //            the frustum) appended to the depth-0 node list;
@@ -8,8 +8,6 @@
 //            group list, an inner node's children to the node list of depth + 1;
 //   stage 2: the group list: each group's clusters whose own error is within and whose
 //            parent's is not are appended to the selected list (the cut), with their count;
-//            with `mark`, each sets its bit in `marks` instead (gpu-driven's candidate bits:
-//            bit c + the instance's offset, instances[4i + 3].y, from word marks_at);
 //   stage 3: one invocation: the work groups of the next dispatch over the list counted by
 //            work[args_counter], written at DAG_ARGS for glDispatchComputeIndirect (every
 //            pass strides through its list: any group count is correct, this one fits it).
@@ -23,11 +21,6 @@ uniform float plane_slack;
 uniform float plane_rounding;
 uniform bool frustum;
 uniform uint args_counter;   // stage 3
-uniform bool mark;           // stage 2: set the cut's bits in `marks`, not the selected list
-uniform uint marks_at;       // the first word of those bits
-
-// The candidate bits of gpu-driven's frame buffer (DagWalk's marks).
-layout(std430, binding = DAG_MARKS_BINDING) buffer Marks { uint marks[]; };
 
 // The sphere (object units) under the instance lies entirely outside one frustum plane,
 // beyond the slack and a float32 rounding allowance.
@@ -95,13 +88,7 @@ void main() {
                 vec4 err = cluster_lod[3u * c + 2u];
                 if (within(cluster_lod[3u * c], err.x, m, s, 0.0) &&
                     !within(cluster_lod[3u * c + 1u], err.y, m, s, 0.0)) {
-                    if (mark) {
-                        uint bit = c + floatBitsToUint(instances[4u * i + 3u].y);
-                        atomicOr(marks[marks_at + (bit >> 5)], 1u << (bit & 31u));
-                        atomicAdd(work[DAG_COUNT_SELECTED], 1u);
-                    } else {
-                        append(DAG_COUNT_SELECTED, DAG_LIST_SELECTED, i, c);
-                    }
+                    append(DAG_COUNT_SELECTED, DAG_LIST_SELECTED, i, c);
                 }
             }
         }

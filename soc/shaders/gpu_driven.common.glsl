@@ -9,7 +9,8 @@ layout(local_size_x = COMPUTE_GROUP) in;
 layout(std430, binding = OBJECTS_BINDING) readonly buffer Objects { uvec4 objects[]; };
 // (N, 6) the objects' grown AABBs, lo then hi.
 layout(std430, binding = OBJECT_BOXES_BINDING) readonly buffer ObjectBoxes { float object_boxes[]; };
-// (C) per cluster: first index, index count (in the cluster-ordered index buffer), object, 0.
+// (C) per cluster: first index, index count (in the cluster-ordered index buffer), object, 0
+// (with table_per_frame: its pair's bit, see passed_before).
 layout(std430, binding = CLUSTERS_BINDING) readonly buffer Clusters { uvec4 clusters[]; };
 // (C, 6) the clusters' grown AABBs.
 layout(std430, binding = CLUSTER_BOXES_BINDING) readonly buffer ClusterBoxes { float cluster_boxes[]; };
@@ -30,8 +31,7 @@ layout(std430, binding = COMMANDS_BINDING) buffer Commands { uint commands[]; };
 // The frame's output, zeroed before the frame: the FRAME_* counters, the commands per depth
 // bucket (FRAME_BUCKETS) and gpu_driven_order.comp's cursors (FRAME_CURSORS), each per pass,
 // then the drawn objects' bits (from object_bits), then the drawn clusters' bits (from
-// cluster_bits), then this frame's candidate clusters' bits (from candidate_bits, written by a
-// cluster source that chooses per frame before the early pass).
+// cluster_bits).
 layout(std430, binding = FRAME_BINDING) buffer Frame { uint frame[]; };
 // Two lists of objects with a cluster that passed a late test, list_words apart: a count, then
 // the ids. The early pass reads last frame's (list_in), the late pass appends to this frame's
@@ -41,7 +41,8 @@ layout(std430, binding = FRAME_BINDING) buffer Frame { uint frame[]; };
 // (cluster_count words: the cluster id, bit 31 set when its object is inside the frustum),
 // then the objects.
 layout(std430, binding = PASSED_BINDING) buffer Passed { uint passed[]; };
-// (C) the runs of clusters that passed an object's last late test, for next frame's early pass:
+// (C) the runs of clusters that passed an object's last late test, for next frame's early pass
+// (with table_per_frame: the pairs' bits instead, see passed_before):
 // object o's at runs[objects[o].x + k], k < object_state[N + o]: first index, index count,
 // first cluster, cluster count (written where the states are written, read by the early pass).
 layout(std430, binding = RUNS_BINDING) buffer Runs { uvec4 runs[]; };
@@ -58,10 +59,11 @@ uniform uint list_in;        // first word of last frame's passed list
 uniform uint list_out;       // first word of this frame's passed list
 uniform uint split_at;       // first word of the split lists in `passed`
 uniform uint cluster_count;  // C (also the commands a pass's half of `commands` holds)
-uniform uint candidate_bits; // first word of the candidate clusters' bits
-// Every cluster of an object is a candidate (fixed clusters); else only those whose bit is set
-// (a cluster LOD DAG's cut: soc.methods.two_phase.ClusterSource).
-uniform bool every_candidate;
+// The table is rebuilt every frame (a cluster LOD DAG's cut: soc.culling.dag_select.DagClusters):
+// its clusters are this frame's, in a contiguous range per object, and every one is tested;
+// what passed its last late test is kept per (instance, DAG cluster) pair, one bit each, in
+// `runs` read as words (bit clusters[c].w; runs itself is not written then).
+uniform bool table_per_frame;
 // Draw each pass nearest first (gpu_driven_order.comp): every command gets the depth bucket of
 // its first cluster, the distance from `eye` to the cluster's box on a log scale from
 // order_near (bucket 0) with order_scale buckets per doubling, clamped at the last.
@@ -70,28 +72,26 @@ uniform vec3 eye;
 uniform float order_near;
 uniform float order_scale;
 
-// Whether cluster c is one of this frame's candidates: the late stage tests and draws only them.
-bool candidate(uint c) {
-    return every_candidate || (frame[candidate_bits + (c >> 5)] & (1u << (c & 31u))) != 0u;
+// With table_per_frame: whether cluster c's (instance, DAG cluster) pair passed the last late
+// test that judged it (any frame before: a pair out of the cut keeps its bit).
+bool passed_before(uint c) {
+    uint bit = clusters[c].w, w = bit >> 5;
+    return (runs[w >> 2][w & 3u] & (1u << (bit & 31u))) != 0u;
 }
 
-// The bits of 32-cluster word w that fall in clusters [start, end).
-uint range_mask(uint w, uint start, uint end) {
-    uint lo = max(start, w << 5) - (w << 5);
-    uint hi = min(end, (w + 1u) << 5) - (w << 5);
-    uint upper = hi == 32u ? 0xFFFFFFFFu : (1u << hi) - 1u;
-    return upper & ~((1u << lo) - 1u);
-}
-
-// The candidate bits of word w among object o's clusters ([first, first + count)): a cut
-// holds a few of an object's clusters, visited a word at a time (findLSB over the bits).
-uint candidate_word(uint w, uvec4 obj) {
-    return frame[candidate_bits + w] & range_mask(w, obj.x, obj.x + obj.y);
+// With table_per_frame: record whether cluster c's pair passed this frame's late test.
+void set_passed(uint c, bool pass) {
+    uint bit = clusters[c].w, w = bit >> 5;
+    if (pass) {
+        atomicOr(runs[w >> 2][w & 3u], 1u << (bit & 31u));
+    } else {
+        atomicAnd(runs[w >> 2][w & 3u], ~(1u << (bit & 31u)));
+    }
 }
 
 // Whether this frame's early pass drew cluster c (its drawn bit, before the late stage sets
-// those of the clusters it draws). With a cut chosen per frame (not every_candidate) the late
-// stage reads this instead of the cluster's state, which it writes for candidates only.
+// those of the clusters it draws). With table_per_frame the late stage reads this instead of
+// the cluster's state, which holds last frame's table's.
 bool drawn_early(uint c) {
     return (frame[cluster_bits + (c >> 5)] & (1u << (c & 31u))) != 0u;
 }
@@ -211,7 +211,10 @@ struct Visit { Run run; Passing next; bool passed_any; bool drawn; };
 Visit visit_start(uint o) { return Visit(Run(0u, 0u, 0u, 0u, 0u), passing_start(o), false, false); }
 
 void visit(inout Visit v, uint c, bool pass, bool late, uint base_vertex, uint o) {
-    if (pass) {
+    if (table_per_frame) {
+        set_passed(c, pass);
+        v.passed_any = v.passed_any || pass;
+    } else if (pass) {
         passing_add(v.next, c);
         v.passed_any = true;
     } else {
@@ -227,7 +230,7 @@ void visit(inout Visit v, uint c, bool pass, bool late, uint base_vertex, uint o
 
 void visit_end(inout Visit v, uint base_vertex, uint o) {
     run_flush(v.run, LATE_PASS, base_vertex, o);
-    passing_end(v.next, o);
+    if (!table_per_frame) passing_end(v.next, o);
     if (v.passed_any) list_object(o);
     if (v.drawn) mark_object(o);
 }

@@ -2,7 +2,7 @@
 // gpu-driven's cluster pass, after the late pass with `split`: the clusters of the objects of
 // several clusters that passed the late test, which the late pass listed (the split lists of
 // gpu_driven.common) instead of looping over them. Two stages, one dispatch each:
-//   stage 0: one cluster per invocation (every stride-th of the list): a candidate's box
+//   stage 0: one cluster per invocation (every stride-th of the list): its box
 //            against the frustum (unless its object is inside) and the pyramid; its state for next frame
 //            (bit 0: passed), with bit 2 set when it is to be drawn late (it passed and was
 //            not drawn early);
@@ -29,16 +29,16 @@ void test_clusters() {
         uint c = entry & 0x7FFFFFFFu;
         bool inside = (entry >> 31) != 0u;
         vec3 lo = cluster_lo(c), hi = cluster_hi(c);
-        bool pass = candidate(c);
-        if (pass && frustum && !inside && outside_frustum(lo, hi)) {
+        bool pass = true;
+        if (frustum && !inside && outside_frustum(lo, hi)) {
             pass = false;
-        } else if (pass && occlusion) {
+        } else if (occlusion) {
             ++judged;
             pass = judge(lo, hi) == 1u;
         }
         uint o = clusters[c].z;
-        bool early = every_candidate ? object_state[o] == frame_id && (cluster_state[c] & 1u) != 0u
-                                     : drawn_early(c);
+        bool early = table_per_frame ? drawn_early(c)
+                                     : object_state[o] == frame_id && (cluster_state[c] & 1u) != 0u;
         cluster_state[c] = pass ? (early ? 1u : 5u) : 0u;
     }
     if (judged > 0u) atomicAdd(frame[FRAME_JUDGED], judged);
@@ -51,22 +51,10 @@ void emit_objects() {
         uint o = passed[split_at + 2u + cluster_count + k];
         uvec4 obj = objects[o];
         Visit v = visit_start(o);
-        if (every_candidate) {
-            for (uint c = obj.x; c < obj.x + obj.y; ++c) {
-                uint state = cluster_state[c];
-                cluster_state[c] = state & 1u;
-                visit(v, c, (state & 1u) != 0u, (state & 4u) != 0u, obj.z, o);
-            }
-        } else {  // a cut chosen per frame: stage 0 judged its clusters only, visited in order
-            // (the runs break where the index ranges do, so skipping the others is safe)
-            for (uint w = obj.x >> 5; w <= (obj.x + obj.y - 1u) >> 5; ++w) {
-                for (uint bits = candidate_word(w, obj); bits != 0u; bits &= bits - 1u) {
-                    uint c = (w << 5) + uint(findLSB(bits));
-                    uint state = cluster_state[c];
-                    cluster_state[c] = state & 1u;
-                    visit(v, c, (state & 1u) != 0u, (state & 4u) != 0u, obj.z, o);
-                }
-            }
+        for (uint c = obj.x; c < obj.x + obj.y; ++c) {
+            uint state = cluster_state[c];
+            cluster_state[c] = state & 1u;
+            visit(v, c, (state & 1u) != 0u, (state & 4u) != 0u, obj.z, o);
         }
         visit_end(v, obj.z, o);
     }

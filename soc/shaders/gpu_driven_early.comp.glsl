@@ -3,8 +3,10 @@
 // test and is still in the frustum. Per object of last frame's passed list whose box is in the
 // frustum: the runs of its clusters that passed, as last frame's test wrote them (`runs`), one
 // command each, no test per cluster; the object is flagged drawn early (object_state = this
-// frame) for the late pass, which must not draw those clusters again. With a cut chosen per
-// frame (not every_candidate), a run's clusters that are not in this frame's cut are left out.
+// frame) for the late pass, which must not draw those clusters again. With a
+// table rebuilt per frame (table_per_frame), the object's clusters of this frame's table whose
+// (instance, DAG cluster) pair passed its last late test, merged into runs as the late pass
+// merges them.
 #include "gpu_driven.common"
 #include "hiz_test.common"
 
@@ -18,28 +20,24 @@ void main() {
         if (frustum && outside_frustum(object_lo(o), object_hi(o))) continue;
         uvec4 obj = objects[o];
         uint n = object_state[object_count + o];
-        if (every_candidate) {
+        if (!table_per_frame) {
             for (uint r = 0u; r < n; ++r) {
                 uvec4 run = runs[obj.x + r];
                 emit(EARLY_PASS, run.x, run.y, obj.z, o, run.z);
                 mark_clusters(run.z, run.w);
             }
-        } else {  // a cut chosen per frame: only the runs' clusters still in it
+        } else {  // this frame's clusters whose pair passed before
             Run kept = Run(0u, 0u, 0u, 0u, 0u);
-            bool any = false;
-            for (uint r = 0u; r < n; ++r) {
-                uvec4 run = runs[obj.x + r];
-                for (uint c = run.z; c < run.z + run.w; ++c) {
-                    if (candidate(c)) {
-                        run_add(kept, EARLY_PASS, c, obj.z, o);
-                        any = true;
-                    } else {
-                        run_flush(kept, EARLY_PASS, obj.z, o);
-                    }
+            n = 0u;
+            for (uint c = obj.x; c < obj.x + obj.y; ++c) {
+                if (passed_before(c)) {
+                    run_add(kept, EARLY_PASS, c, obj.z, o);
+                    ++n;
+                } else {
+                    run_flush(kept, EARLY_PASS, obj.z, o);
                 }
             }
             run_flush(kept, EARLY_PASS, obj.z, o);
-            if (!any) n = 0u;
         }
         if (n > 0u) {
             mark_object(o);

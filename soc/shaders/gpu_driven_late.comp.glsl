@@ -41,27 +41,19 @@ void late_object(uint o, bool inside) {
     uvec4 obj = objects[o];
     if (split && test_clusters && obj.y > 1u) {  // to gpu_driven_clusters.comp
         uint flag = inside ? 0x80000000u : 0u;
-        if (every_candidate) {
-            uint at = split_at + 2u + atomicAdd(passed[split_at], obj.y);
-            for (uint i = 0u; i < obj.y; ++i) passed[at + i] = (obj.x + i) | flag;
-        } else {  // a cut chosen per frame: only its clusters (a few of the object's)
-            for (uint w = obj.x >> 5; w <= (obj.x + obj.y - 1u) >> 5; ++w) {
-                for (uint bits = candidate_word(w, obj); bits != 0u; bits &= bits - 1u) {
-                    uint c = (w << 5) + uint(findLSB(bits));
-                    passed[split_at + 2u + atomicAdd(passed[split_at], 1u)] = c | flag;
-                }
-            }
-        }
+        uint at = split_at + 2u + atomicAdd(passed[split_at], obj.y);
+        for (uint i = 0u; i < obj.y; ++i) passed[at + i] = (obj.x + i) | flag;
         passed[split_at + 2u + cluster_count + atomicAdd(passed[split_at + 1u], 1u)] = o;
         return;
     }
     bool early = object_state[o] == frame_id;
-    bool each = test_clusters && obj.y > 1u;
+    // A lone cluster's box is the object's (judged already), unless the table is this frame's.
+    bool each = test_clusters && (obj.y > 1u || table_per_frame);
     Visit v = visit_start(o);
     for (uint c = obj.x; c < obj.x + obj.y; ++c) {
-        bool pass = candidate(c) && (!each || classify(cluster_lo(c), cluster_hi(c), inside) == 1u);
-        bool late = pass && !(every_candidate ? early && (cluster_state[c] & 1u) != 0u
-                                              : drawn_early(c));
+        bool pass = !each || classify(cluster_lo(c), cluster_hi(c), inside) == 1u;
+        bool late = pass && !(table_per_frame ? drawn_early(c)
+                                              : early && (cluster_state[c] & 1u) != 0u);
         cluster_state[c] = pass ? 1u : 0u;
         visit(v, c, pass, late, obj.z, o);
     }

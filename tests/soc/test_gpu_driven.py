@@ -215,47 +215,6 @@ def test_the_draw_order_the_count_and_the_granularity_agree(small_market):
             c.close()
 
 
-def test_a_cluster_source_that_chooses_on_the_gpu_plugs_in(small_market):
-    """A source whose ``mark_candidates`` writes the frame's candidate bits on the GPU: every
-    cluster marked gives the fixed clusters' frames; none marked, nothing is drawn; a random
-    half, only marked clusters are drawn (early ones passed last frame, as candidates)."""
-    res = (333, 197)
-    cams = flight(small_market, frames=100, width=res[0], height=res[1])[30:36]
-
-    class Marking:
-        def __init__(self, clusters, mask):
-            self.clusters, self.mask = clusters, mask
-
-        def candidates(self, camera, objects):  # the CPU side (hiz-2phase's)
-            raise AssertionError("gpu-driven chooses on the GPU")
-
-        def mark_candidates(self, camera, frame, offset):
-            bits = np.packbits(self.mask, bitorder="little")
-            frame.write(np.pad(bits, (0, -len(bits) % 4)).tobytes(), offset=offset)
-
-    def run(mask):
-        out = []
-        with soc.Culler(small_market, "gpu-driven", res) as c:
-            if mask is not None:
-                c.method.source = Marking(c.method.clusters, mask)
-            for cam in cams:
-                r = c.cull(cam)
-                out.append((r.visible, r.stats.triangles_drawn, c.method.drawn_clusters()))
-        return out
-
-    fixed = run(None)
-    count = len(fixed[0][2])
-    for a, b in zip(fixed, run(np.ones(count, bool)), strict=True):
-        np.testing.assert_array_equal(a[0], b[0])
-        np.testing.assert_array_equal(a[2], b[2])
-        assert a[1] == b[1]
-    assert all(not v.any() and t == 0 for v, t, _ in run(np.zeros(count, bool)))
-    half = np.random.default_rng(1).random(count) < 0.5
-    some = run(half)
-    assert all(not (d & ~half).any() for _, _, d in some)
-    assert sum(int(d.sum()) for _, _, d in some) > 0
-
-
 def test_each_pass_draws_its_commands_nearest_first(small_market):
     """order='front-to-back' (the default): each pass draws exactly the commands it appended,
     with one instance, by depth bucket nearest first; a command's bucket is the distance from

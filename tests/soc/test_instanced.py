@@ -1,7 +1,7 @@
 """Instanced scenes (soc.scenes.instanced), the oracle over instances, and the DAG cut selected,
-culled and drawn on the GPU (soc.culling.dag_select.DagRenderer): the GPU's cut is the CPU's,
-culling is conservative per instance and per (instance, cluster) against the cut's own id
-render, and the cut looks like the full meshes."""
+culled and drawn on the GPU (soc.dag_renderer.DagRenderer over gpu-driven cullers): the GPU's
+cut is the CPU's, culling is conservative per instance and per (instance, cluster) against the
+cut's own id render, and the cut looks like the full meshes."""
 
 from __future__ import annotations
 
@@ -85,7 +85,8 @@ def test_oracle_sees_instances_as_objects(field):
 def test_gpu_selection_is_the_cpu_selection(dag_parts):
     """The compute walk selects the CPU walk's pairs, from random eyes and thresholds."""
     from lod.dag import pixel_scale
-    from soc.culling.dag_select import DagRenderer, select_cpu
+    from soc.culling.dag_select import select_cpu
+    from soc.dag_renderer import DagRenderer
 
     tables, inst = dag_parts
     rng = np.random.default_rng(2)
@@ -105,7 +106,7 @@ def test_culling_is_conservative_per_instance_and_cluster(dag_parts):
     """Along a path, two-phase culling (last frame's pyramid, then this frame's) draws every
     (instance, cluster) pair of the cut that has a pixel in the cut's own id render (no
     culling), and every instance that has one; the culling culls something."""
-    from soc.culling.dag_select import DagRenderer
+    from soc.dag_renderer import DagRenderer
 
     tables, inst = dag_parts
     # A low orbit across the field: near instances hide far ones.
@@ -137,7 +138,7 @@ def test_culling_is_conservative_per_instance_and_cluster(dag_parts):
 def test_cut_looks_like_the_full_meshes(field, dag_parts):
     """At a small threshold the cut's instance-id image is the oracle's (full meshes) up to a
     few silhouette pixels."""
-    from soc.culling.dag_select import DagRenderer
+    from soc.dag_renderer import DagRenderer
 
     tables, inst = dag_parts
     with DagRenderer(tables, inst, RES, capacity=1 << 16) as r, Oracle(field) as o:
