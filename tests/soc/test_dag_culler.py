@@ -229,7 +229,8 @@ def test_the_frame_is_the_cuts_image(field):
 
 def test_fly_flies_the_dag_culler(field):
     """soc.fly over a few frames: a row per frame judged against the instanced oracle; the
-    cut draws fewer triangles than the source holds."""
+    cut draws fewer triangles than the source holds; the reference frames (flat scenes only)
+    are refused saying what to do."""
     cams = _orbit(3)
     with soc.Culler(field, "gpu-driven", resolution=RES, lod=1.0) as c:
         df = soc.fly(c, cams, truth="oracle", progress=False)
@@ -237,6 +238,10 @@ def test_fly_flies_the_dag_culler(field):
     assert (df["models_visible"] > 0).all() and (df["triangles_drawn"] > 0).all()
     assert "false_culls" in df
     assert (df["triangles_drawn"] < 0.5 * field.source_triangles).all()
+    with soc.Culler(field, "gpu-driven", resolution=RES, lod=1.0) as c:
+        for kw in ({"everything": True}, {"ideal": True}):
+            with pytest.raises(ValueError, match="InstancedScene: drop them"):
+                soc.fly(c, cams, truth="oracle", progress=False, **kw)
 
 
 def test_wrong_scenes_and_options_say_what_to_do(field):
