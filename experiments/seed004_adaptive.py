@@ -206,7 +206,8 @@ class Shaded:
 def animate(dyn, params: Params, renderer, progress: bool = True) -> pd.DataFrame:
     """Play ``dyn``'s animation ``repeats`` times by :func:`soc.fly`, fresh methods in each
     play, interleaved per frame in an order drawn from the seed and the play (the oracle every
-    ``oracle_every`` frames); one row per frame, method and play (``repeat``)."""
+    ``oracle_every`` frames of the first play); one row per frame, method and play
+    (``repeat``)."""
     import soc
 
     clip = SimpleNamespace(scene=dyn.scene, state=None)
@@ -227,8 +228,8 @@ def animate(dyn, params: Params, renderer, progress: bool = True) -> pd.DataFram
         f = soc.fly(
             plays, dyn.cameras(*params.resolution), progress=progress, warmup=0,
             truth=None if oracle is None else lambda cam: oracle.visible(cam, params.resolution),
-            truth_every=max(params.oracle_every, 1), repeats=params.repeats, order="shuffle",
-            seed=params.seed, before_frame=before_frame, extra=row,
+            truth_every=max(params.oracle_every, 1), truth_repeats=1, repeats=params.repeats,
+            order="shuffle", seed=params.seed, before_frame=before_frame, extra=row,
         )  # fmt: skip
     finally:
         for play in plays.values():

@@ -41,6 +41,7 @@ def fly(
     ideal: bool = False,
     everything: bool = False,
     truth_every: int = 1,
+    truth_repeats: int | None = None,
     order: str = "rotate",
     seed: int = 0,
     before_frame: Callable[[int, object], None] | None = None,
@@ -89,6 +90,9 @@ def fly(
         (``method`` "ideal" and "everything") have ``ms_draw`` only.
     truth_every : int
         Judge every ``truth_every``-th frame only (the others have no truth: NaN false culls).
+    truth_repeats : int, optional
+        Judge the first ``truth_repeats`` repeats only (all when None); the others have no
+        truth, and no ideal frame can be drawn there.
     order : {"rotate", "shuffle"}
         How the cullers' order changes per frame: rotated by one, or a permutation drawn from
         ``(seed, repeat)``.
@@ -131,6 +135,8 @@ def fly(
         raise ValueError(f"order must be one of {ORDERS}, got {order!r}")
     if repeats < 1 or truth_every < 1:
         raise ValueError(f"repeats and truth_every must be >= 1, got {repeats}, {truth_every}")
+    if truth_repeats is not None and truth_repeats < 0:
+        raise ValueError(f"truth_repeats must be >= 0 or None, got {truth_repeats}")
     if ideal and truth is None:
         raise ValueError("ideal=True draws the oracle's visible set: give truth too")
     cameras = list(cameras)
@@ -160,6 +166,7 @@ def fly(
                     if before_frame is not None:
                         before_frame(i, cam)
                     judged = truth_of is not None and i % truth_every == 0
+                    judged &= truth_repeats is None or rep < truth_repeats
                     known_at: dict = {}  # the truth per resolution (the oracle's) or one
                     truth_ms: dict[str, float] = {}  # the truth's wall time this frame
                     if order == "rotate":

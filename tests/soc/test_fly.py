@@ -179,3 +179,17 @@ def test_a_given_truth_is_computed_once_per_frame_for_every_resolution(scene):
     assert len(calls) == 3 + 1
     assert (df.false_culls[df.method == "a"] == 0).all()
     assert (df.oracle_ms[df.method == "ideal"] > 0).all()
+
+
+def test_truth_repeats_judges_the_first_repeats_only(scene):
+    """A later repeat replays the flight without the oracle (its rows not judged), the first as
+    before; a negative count is refused."""
+    cams = random_cameras(scene, 3, seed=7, width=160, height=96)
+    with soc.Culler(scene, "frustum", (160, 96)) as c:
+        df = soc.fly(c, cams, truth="oracle", repeats=3, truth_repeats=1, progress=False)
+        with pytest.raises(ValueError, match="truth_repeats must be >= 0"):
+            soc.fly(c, cams, truth="oracle", truth_repeats=-1, progress=False)
+    judged = df.false_culls.notna()
+    assert list(df.loc[judged, "repeat"]) == [0, 0, 0]
+    assert (df.loc[judged, "false_culls"] == 0).all()
+    assert df.loc[~judged, "oracle_visible"].isna().all() and len(df) == 9
