@@ -3,7 +3,9 @@ the targets stand, its markdown, and its place among the sections (no GL: made-u
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
+import pytest
 
 from benchmarks import cli
 from benchmarks import dag as bench_dag
@@ -45,3 +47,26 @@ def test_the_dag_section_is_one_of_the_benchmarks():
     section = cli.Section("dag", bench_dag.markdown(_frames(), "c"), bench_dag.targets(_frames()))
     table = cli.targets_table([section])
     assert "Cluster LOD DAG" in table and "(<= 1.3)" in table
+
+
+def test_equal_flip_ratio_interpolates_object_lods_curve_on_log_scales():
+    """Object LOD's triangles at the cut's FLIP, read off its budget sweep on log-log axes;
+    nan outside the sweep."""
+    from experiments.dag_lod import equal_flip_ratios
+
+    objects = pd.DataFrame(
+        {
+            "view": "v",
+            "method": "funkhouser-sequin",
+            "triangles": [100, 1000, 10000],
+            "flip": [1e-1, 1e-3, 0.0],
+        }
+    )
+    dag = pd.DataFrame({"view": "v", "occlusion": False, "threshold": [1.0, 2.0, 4.0],
+                        "triangles": [50, 100, 10], "flip": [1e-2, 1e-3, 0.5]})  # fmt: skip
+    r = equal_flip_ratios({"dag": dag, "objects": objects}, "v")
+    # FLIP 1e-2 is halfway between 1e-1 and 1e-3 on a log scale: sqrt(100 * 1000) triangles.
+    assert r.object_triangles.iloc[0] == pytest.approx(np.sqrt(1e5))
+    assert r.ratio.iloc[0] == pytest.approx(np.sqrt(1e5) / 50)
+    assert r.ratio.iloc[1] == pytest.approx(10.0)
+    assert np.isnan(r.ratio.iloc[2])  # worse than object LOD's coarsest budget: not reached
