@@ -38,7 +38,7 @@ its DAGs): the objects are the instances, and the table of clusters is rebuilt o
 every frame from the cut (:class:`soc.culling.dag_select.DagClusters`: before stage 1 the DAG
 walk selects the cut and each selected (instance, DAG cluster) pair gets a slot, an instance's
 slots contiguous), so that the table holds the cut, not every instance's DAG. What crosses
-from frame to frame is one bit per pair (passed its last late test; in ``runs``): the early
+from frame to frame is one bit per pair (passed its last late test; in ``passed``): the early
 pass draws this frame's slots whose pair passed, and the test judges every slot and sets or
 clears its pair's bit. The same passes, so the same argument of conservativeness: against the
 cut's own surface (tests/soc/test_dag_culler.py compares with the cut's id render).
@@ -250,16 +250,16 @@ class GpuDrivenCulling(TwoPhase):
         words = self._cluster_bits + (c + 31) // 32
         self.per_frame = hasattr(self.source, "build")  # a table rebuilt every frame
         self.object_state = ctx.buffer(reserve=4 * 2 * n)
-        # The runs, or a table's pairs' passed bits (a uvec4 holds 128).
-        pairs = -(-self.source.pair_count // 128) if self.per_frame else c
-        self.runs = ctx.buffer(reserve=16 * max(pairs, 1))
+        self.runs = ctx.buffer(reserve=16 * (1 if self.per_frame else c))
         self.cluster_state = ctx.buffer(reserve=4 * c)
         self.commands = ctx.buffer(reserve=2 * c * COMMAND_BYTES)
         self.sorted = ctx.buffer(reserve=2 * c * COMMAND_BYTES) if self.sort_draws else None
         self.frame = ctx.buffer(reserve=4 * words)
         self._list_words = n + 1
         self._split_at = 2 * self._list_words  # gpu_driven.common.glsl's split lists
-        self.passed = ctx.buffer(reserve=4 * (self._split_at + 2 + c + n))
+        self._pair_bits = self._split_at + 2 + c + n  # a table's pairs' passed bits
+        pairs = -(-self.source.pair_count // 32) if self.per_frame else 0
+        self.passed = ctx.buffer(reserve=4 * (self._pair_bits + pairs))
         self._frame_id = 0  # frames culled (object_state holds frame ids; 0 = never)
         self._list = 0  # which of the two passed lists this frame appends to
         self.reset()
@@ -271,6 +271,7 @@ class GpuDrivenCulling(TwoPhase):
             "cluster_bits": self._cluster_bits,
             "cluster_count": c,
             "split_at": self._split_at,
+            "pair_bits": self._pair_bits,
         }
         self.last_commands = (0, 0)
         self.last_clusters = (0, 0)
@@ -290,8 +291,6 @@ class GpuDrivenCulling(TwoPhase):
         self.object_state.clear()
         self.cluster_state.clear()
         self.passed.clear()
-        if self.per_frame:
-            self.runs.clear()
 
     # -- the passes --------------------------------------------------------------------------
 

@@ -39,10 +39,10 @@ layout(std430, binding = FRAME_BINDING) buffer Frame { uint frame[]; };
 // zeroed before the late pass): at split_at the number of clusters and at split_at + 1 the
 // number of objects the late pass left to gpu_driven_clusters.comp, then the clusters
 // (cluster_count words: the cluster id, bit 31 set when its object is inside the frustum),
-// then the objects.
+// then the objects; with table_per_frame, from pair_bits, the pairs' passed bits.
 layout(std430, binding = PASSED_BINDING) buffer Passed { uint passed[]; };
 // (C) the runs of clusters that passed an object's last late test, for next frame's early pass
-// (with table_per_frame: the pairs' bits instead, see passed_before):
+// (not with table_per_frame):
 // object o's at runs[objects[o].x + k], k < object_state[N + o]: first index, index count,
 // first cluster, cluster count (written where the states are written, read by the early pass).
 layout(std430, binding = RUNS_BINDING) buffer Runs { uvec4 runs[]; };
@@ -62,8 +62,9 @@ uniform uint cluster_count;  // C (also the commands a pass's half of `commands`
 // The table is rebuilt every frame (a cluster LOD DAG's cut: soc.culling.dag_select.DagClusters):
 // its clusters are this frame's, in a contiguous range per object, and every one is tested;
 // what passed its last late test is kept per (instance, DAG cluster) pair, one bit each, in
-// `runs` read as words (bit clusters[c].w; runs itself is not written then).
+// `passed` from word pair_bits (bit clusters[c].w; `runs` is not used then).
 uniform bool table_per_frame;
+uniform uint pair_bits;
 // Draw each pass nearest first (gpu_driven_order.comp): every command gets the depth bucket of
 // its first cluster, the distance from `eye` to the cluster's box on a log scale from
 // order_near (bucket 0) with order_scale buckets per doubling, clamped at the last.
@@ -75,17 +76,17 @@ uniform float order_scale;
 // With table_per_frame: whether cluster c's (instance, DAG cluster) pair passed the last late
 // test that judged it (any frame before: a pair out of the cut keeps its bit).
 bool passed_before(uint c) {
-    uint bit = clusters[c].w, w = bit >> 5;
-    return (runs[w >> 2][w & 3u] & (1u << (bit & 31u))) != 0u;
+    uint bit = clusters[c].w;
+    return (passed[pair_bits + (bit >> 5)] & (1u << (bit & 31u))) != 0u;
 }
 
 // With table_per_frame: record whether cluster c's pair passed this frame's late test.
 void set_passed(uint c, bool pass) {
-    uint bit = clusters[c].w, w = bit >> 5;
+    uint bit = clusters[c].w, w = pair_bits + (bit >> 5);
     if (pass) {
-        atomicOr(runs[w >> 2][w & 3u], 1u << (bit & 31u));
+        atomicOr(passed[w], 1u << (bit & 31u));
     } else {
-        atomicAnd(runs[w >> 2][w & 3u], ~(1u << (bit & 31u)));
+        atomicAnd(passed[w], ~(1u << (bit & 31u)));
     }
 }
 
