@@ -219,6 +219,7 @@ def weld(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarra
     Returns
     -------
     vertices : (V, 3) float32
+        The distinct positions, in the order the faces first use them.
     faces : (M, 3) int32
     """
     v = np.ascontiguousarray(vertices, np.float32)
@@ -244,9 +245,14 @@ def weld(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarra
     new[1:] = (k1[1:] != k1[:-1]) | (k2[1:] != k2[:-1])
     remap = np.full(len(v), -1, np.int64)
     remap[used[by_bytes]] = np.cumsum(new) - 1
-    wf = remap[f]
+    # Numbered by first use in the faces: nearby triangles index nearby vertices (every later
+    # pass reads the vertices through the triangles).
+    from soc.culling.clusters import _piece_ids
+
+    wf, _ = _piece_ids(remap[f], np.array([0, len(f)]), int(new.sum()))
+    wv = np.empty((int(new.sum()), 3), np.float32)
+    wv[wf.reshape(-1)] = v[f.reshape(-1)]
     keep = (wf[:, 0] != wf[:, 1]) & (wf[:, 1] != wf[:, 2]) & (wf[:, 2] != wf[:, 0])
-    wv = v[used[by_bytes[new]]]
     return wv, np.ascontiguousarray(wf[keep], np.int32)
 
 

@@ -308,21 +308,22 @@ def _morton_ranks_kernel(owner, centroids, lo, size):
 @numba.njit(cache=True)
 def _radix_order(codes):
     """(n,) int64 the stable order of ``codes`` (n,) 30-bit non-negative integers (three
-    passes of 10 bits)."""
+    passes of 10 bits, the keys moved with their indices)."""
     n = len(codes)
-    idx = np.arange(n)
-    tmp = np.empty(n, np.int64)
+    idx, keys = np.arange(n), codes.copy()
+    idx2, keys2 = np.empty(n, np.int64), np.empty(n, np.int64)
     for shift in (0, 10, 20):
         cnt = np.zeros(1025, np.int64)
         for i in range(n):
-            cnt[((codes[idx[i]] >> shift) & 1023) + 1] += 1
+            cnt[((keys[i] >> shift) & 1023) + 1] += 1
         for b in range(1024):
             cnt[b + 1] += cnt[b]
         for i in range(n):
-            b = (codes[idx[i]] >> shift) & 1023
-            tmp[cnt[b]] = idx[i]
+            b = (keys[i] >> shift) & 1023
+            idx2[cnt[b]], keys2[cnt[b]] = idx[i], keys[i]
             cnt[b] += 1
-        idx, tmp = tmp, idx
+        idx, idx2 = idx2, idx
+        keys, keys2 = keys2, keys
     return idx
 
 
@@ -331,9 +332,12 @@ def _morton_code(px, py, pz, lo, size):
     """The Morton code of one point as :func:`_morton_codes` computes it."""
     code = 0
     for axis, p in enumerate((px, py, pz)):
-        q = min(max(int((p - lo[axis]) / size[axis] * 1023.0), 0), 1023)
-        for b in range(10):
-            code |= ((q >> b) & 1) << (3 * b + axis)
+        q = int(min(max((p - lo[axis]) / size[axis] * 1023.0, 0.0), 1023.0))
+        q = (q | (q << 16)) & 0x030000FF
+        q = (q | (q << 8)) & 0x0300F00F
+        q = (q | (q << 4)) & 0x030C30C3
+        q = (q | (q << 2)) & 0x09249249
+        code |= q << axis
     return code
 
 
@@ -975,26 +979,41 @@ def _shared_edges_kernel(faces, first, count, n_vertices):
     n = 0
     for k in range(c_n):
         n += count[k]
+    # The triangles in cluster order, their vertices numbered by first use (nearby ids for
+    # nearby triangles: the adjacency below is read in about the order it is stored), and per
+    # vertex its cluster, or -2 where it is in several.
     tri = np.empty((n, 3), np.int64)
     owner = np.empty(n, np.int64)
+    local = np.full(n_vertices, -1, np.int64)
+    cluster_of = np.empty(3 * n, np.int64)
+    n_local = 0
     i = 0
     for k in range(c_n):
         for t in range(first[k], first[k] + count[k]):
             for j in range(3):
-                tri[i, j] = faces[t, j]
+                w = local[faces[t, j]]
+                if w < 0:
+                    w = n_local
+                    local[faces[t, j]] = w
+                    cluster_of[w] = k
+                    n_local += 1
+                elif cluster_of[w] != k:
+                    cluster_of[w] = -2
+                tri[i, j] = w
             owner[i] = k
             i += 1
-    start, around = _adjacency_kernel(tri, n_vertices)
-    # Each edge joined to its next holder (the smallest later triangle holding both ends).
+    start, around = _adjacency_kernel(tri, n_local)
+    # Each edge joined to its next holder (the smallest later triangle holding both ends); an
+    # edge with an end in one cluster only has all its holders in that cluster.
     src = np.empty(6 * n, np.int64)
     dst = np.empty(6 * n, np.int64)
     m = 0
     for t in range(n):
         for j in range(3):
             a, b = tri[t, j], tri[t, (j + 1) % 3]
-            lo, hi = min(a, b), max(a, b)
-            if lo == hi:
+            if a == b or cluster_of[a] != -2 or cluster_of[b] != -2:
                 continue
+            lo, hi = min(a, b), max(a, b)
             for r in range(start[lo], start[lo + 1]):
                 u = around[r]
                 if u <= t or not (tri[u, 0] == hi or tri[u, 1] == hi or tri[u, 2] == hi):

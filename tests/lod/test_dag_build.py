@@ -12,23 +12,20 @@ from lod import dag, meshopt
 from soc.scenes.dense import rock
 
 
-def test_weld_merges_equal_bits_in_byte_order():
-    """Vertices equal bit for bit are merged (not -0.0 and 0.0), the welded vertices sorted as
-    their 12 bytes, unreferenced vertices and collapsed triangles dropped."""
+def test_weld_merges_equal_bits_numbered_by_first_use():
+    """Vertices equal bit for bit are merged (not -0.0 and 0.0) and numbered in the order the
+    faces first use them; unreferenced vertices and collapsed triangles are dropped."""
     rng = np.random.default_rng(0)
     values = np.array([-1.5, -0.0, 0.0, 1e-30, -2.0, 3.0, 1e30, -1e-30], np.float32)
     v = rng.choice(values, size=(400, 3))
     f = rng.integers(0, 300, size=(900, 3))  # vertices 300.. unreferenced
     wv, wf = dag.weld(v, f)
-    used = np.unique(f)
-    uniq, inv = np.unique(v[used].view(np.dtype((np.void, 12))).ravel(), return_inverse=True)
-    want_v = np.frombuffer(uniq.tobytes(), np.uint32).reshape(-1, 3)
-    assert np.array_equal(wv.view(np.uint32), want_v)
-    remap = np.full(len(v), -1)
-    remap[used] = inv.reshape(-1)
-    want = remap[f]
+    ids: dict[bytes, int] = {}
+    want = np.array([[ids.setdefault(v[i].tobytes(), len(ids)) for i in t] for t in f])
     keep = (want[:, 0] != want[:, 1]) & (want[:, 1] != want[:, 2]) & (want[:, 0] != want[:, 2])
-    assert np.array_equal(wf, want[keep])
+    assert np.array_equal(wf, want[keep]) and wf.dtype == np.int32
+    positions = np.array([np.frombuffer(b, np.float32) for b in ids])
+    assert np.array_equal(wv.view(np.uint32), positions.view(np.uint32))
 
 
 def test_groups_are_connected_and_about_group_size():
