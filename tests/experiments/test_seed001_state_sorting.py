@@ -71,8 +71,24 @@ def test_claims_and_pictures(tiny):
     assert "Random-Choice" in rr.basis and rr.margin  # a bound with its origin
     worst = c.loc["the worst case says little about practical performance"]
     assert worst.basis.endswith(("holds", "does not hold"))
+    rc = c.loc["Random-Choice's random numbers against Round-Robin's pointer"]
+    assert "a good random number per decision" in rc.ours and "ns per decision" in rc.margin
     for plot in (exp.plot_changes, exp.plot_ratio):
         assert len(plot(frames, params).axes) == 5
+
+
+def test_decision_timing_times_the_three_ways_for_random_choices_decisions(tiny):
+    """As many decisions as Random-Choice makes on the speed check's stream, each of the
+    three ways (a random number per decision, all at once, the pointer) timed on every
+    repeat."""
+    params, frames = tiny
+    d = frames["decisions"].set_index("way")
+    assert list(d.index) == list(exp.DECISION_WAYS)
+    stream = exp.synthetic_streams(params.timing_n, params.seed)["zipf"]
+    want = simulate(stream, exp.TIMING_K, "random-choice", seed=params.seed).decisions
+    assert (d.decisions == want).all() and want > 0
+    assert (d.repeats == 3 * exp.TIMING_REPEATS).all()
+    assert (d.ns_per_decision > 0).all() and (d.ns_spread >= 0).all()
 
 
 def test_materials_are_mesh_families():
