@@ -967,7 +967,7 @@ def _recording(frames: dict[str, pd.DataFrame], params: Params):
                 float(three.ms_record.median()),
             )
         )
-    yield {"rec": fixed, "worst": float(fixed.ns_per_command.max()), "premise": premise,
+    yield {"rec": fixed, "premise": premise,
            "ratio": min(p[1] / max(p[2], 1e-9) for p in premise)}  # fmt: skip
 
 
@@ -991,14 +991,6 @@ def _faster(frames):
     """Every play's adaptive method twice as fast as the better method, every window too."""
     return {**frames, **{n: frames[n].assign(mean_ratio=0.5, worst_window_ratio=0.5)
                          for n in ("criterion", "repeats") if n in frames}}  # fmt: skip
-
-
-def _follow_paper(frames):
-    """The adaptive method's decisions replaced by the paper's rule on their own terms."""
-    f = frames["frames"].copy()
-    dec = (f.method == "adaptive") & f.pred_T1.notna()
-    f.loc[dec, "next_mode"] = _paper_next(f[dec])
-    return {**frames, "frames": f}
 
 
 DOC_SINGLE_THREAD = (
@@ -1074,12 +1066,12 @@ CLAIMS = (
             "«использует второй способ рендеринга до тех пор, пока выполняется условие: (6)»",
             lambda q: f"the paper's rule: {q.off[0]} of {q.off[1]} decisions go elsewhere than "
             "mode 1 while (5) holds, else 2 while (6) holds, else 3" + _ours_cost(q, "off"),
-            TREND,
-            Rule(lambda q: q.off[0], "==", 0, "decisions", flips=(
-                alter("frames", "next_mode", plus=1, where=_ADAPTIVE), _follow_paper)),
-            basis="every decision of the paper's method is the paper's rule on the terms it "
-            "recorded (a check of the implementation: the rule is its decision)",
-            why="the recorded next modes are not the rule's on the recorded terms",
+            MEASURED,
+            basis="true by construction, not a finding: the paper's method decides by this rule "
+            "on the terms it records (soc.models.adaptive.paper_mode; tests/soc/test_adaptive.py "
+            "checks it against a hand evaluation of (5) and (6)), so its decisions follow the "
+            "recorded conditions; the count shows the run kept to it, and our cost rule beside "
+            "it",
             when=lambda q: len(q.ad[q.ad.pred_T1.notna()]) > 0,
         ),
         Row(
@@ -1128,15 +1120,12 @@ CLAIMS = (
                            if np.isfinite(getattr(r, "us_per_call", np.nan)) else "")
                         for r in q.rec.itertuples())
             + f"; the paper's whole frame per object (Table 1's slope): {PAPER_NS_PER_OBJECT:.0f}",
-            TREND,
-            Rule(lambda q: q.worst, "<=", PAPER_NS_PER_OBJECT, "ns",
-                 flips=(alter("recording", "ns_per_command", 100.0),)),
-            basis="recording one command costs us no more than the paper's renderer pays per "
-            "object for its whole frame (recording, submission and drawing: an upper bound of "
-            "its recording; it gives no recording time of its own); ours: the slope of the "
+            MEASURED,
+            basis="the paper gives no recording time of its own: ours is shown beside its "
+            "renderer's whole frame per object (recording, submission and drawing: an upper "
+            "bound of its recording), not judged against a claim; ours: the slope of the "
             "recorder's ms over the commands it wrote, frame by frame (the fixed cost of a call "
             "apart)",
-            why="our recorder is slower per command than the paper's whole frame per object",
         ),
         Row(
             "Figs. 3-5, recording: mode 2's premise T_buf(S) ≫ T_buf(H)", DOC_PREMISE,

@@ -96,6 +96,9 @@ CHANGED: dict[tuple[str, str], str] = {
     ("seed002", r"cap 0\.75x .*|cap 0\.5x .*"): "paired per frame, bootstrap noise",
     ("seed002", r"the frustum traversal.*"): "front to back: true by construction",
     ("seed003", r"PRAM.*|buffering triangles.*"): "the lecture's bounds not measurable here",
+    # an independent reading of seeds 001-004 (H8): a lead inside its noise does not hold
+    ("seed002", r"grid \d+ \(in between\) gives the most even.*"): "a lead inside its noise",
+    ("seed003", r"deferred-(loop|passes) overtakes forward.*"): "a fall inside its noise",
 }
 
 
