@@ -42,6 +42,12 @@ object anyway, so culling it cannot cull an object, but a cluster-id render may 
 back face where the two tie at a silhouette. :func:`cone_culls` is the test; ``gpu-driven``
 does not use it by default (see :mod:`soc.methods.gpu_driven` for what it would gain).
 
+Objects grow on numba's threads, each alone (and the bounds cluster by cluster), so the clusters
+do not depend on the thread count. :func:`cluster_pieces` runs stages 2–3 on meshes that are
+already welded — what :mod:`lod.dag` clusters at every level — with two options the scenes do not
+use: clusters split into their connected pieces, and large pieces cut into chunks in Morton
+order so that one large mesh also grows on several threads.
+
 Clusters depend only on the scene's geometry and the parameters: :func:`scene_clusters` keeps
 them per scene in memory and in the user cache (``<cache_root>/clusters``, keyed by a SHA-256 of
 the scene's arrays and the parameters).
