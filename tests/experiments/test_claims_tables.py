@@ -99,6 +99,8 @@ CHANGED: dict[tuple[str, str], str] = {
     # an independent reading of seeds 001-004 (H8): a lead inside its noise does not hold
     ("seed002", r"grid \d+ \(in between\) gives the most even.*"): "a lead inside its noise",
     ("seed003", r"deferred-(loop|passes) overtakes forward.*"): "a fall inside its noise",
+    ("seed002", r"with occlusion culling frame time rises.*"): "a row for the relationship",
+    ("seed002", r"where culling is slower, few objects.*"): "a row for «very few objects»",
 }
 
 

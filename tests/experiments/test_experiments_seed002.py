@@ -4,10 +4,15 @@ and the CLI's handling of mistakes: exit status 2, one line on stderr and no fil
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
 import pytest
 from conftest import cli_usage_error
 
 from experiments import harness
+from experiments import seed002_grid as grid_exp
 
 FRAMES = 4
 DISPLAY = (240, 136)
@@ -100,3 +105,35 @@ def test_cli_mistakes_exit_2_with_one_line_and_no_files(argv, tmp_path, monkeypa
     out = tmp_path / "results"
     cli_usage_error([*argv, "--out", str(out), "--no-progress"], capsys)
     assert not out.exists() or not any(out.rglob("*.csv"))
+
+
+def _walls_case(removed_slow: float, removed_fast: float):
+    """A segment of 20 frames at the middle size: frustum draws 1,000 objects a frame, the grid
+    is slower on the even frames; its queries remove ``removed_slow`` objects there and
+    ``removed_fast`` on the odd ones (± 10 by frame)."""
+    n = 20
+    frame = np.arange(n)
+    jitter = 10.0 * np.sin(frame)
+    removed = np.where(frame % 2 == 0, removed_slow, removed_fast) + jitter
+    fr = pd.DataFrame({"frame": frame, "method": "frustum", "grid_size": np.nan,
+                       "cap_rule": "none", "drawn": 1000.0, "ms_total": 100.0})  # fmt: skip
+    grid = pd.DataFrame({"frame": frame, "method": "grid", "grid_size": 32.0, "cap_rule": "none",
+                         "drawn": 1000.0 - removed,
+                         "ms_total": np.where(frame % 2 == 0, 150.0, 50.0)})  # fmt: skip
+    return SimpleNamespace(rows=pd.concat([fr, grid], ignore_index=True), mid=32), removed
+
+
+def test_few_objects_behind_the_walls_compares_the_slower_frames_with_the_others():
+    """The slower frames' removed objects against the others', with Welch's standard error:
+    the means and counts by hand; equal groups give a difference within it."""
+    q, removed = _walls_case(100.0, 900.0)
+    b = grid_exp._behind(q)
+    slow, fast = removed[::2], removed[1::2]
+    assert (b["n_slow"], b["n_fast"]) == (10, 10)
+    assert b["slow"] == pytest.approx(slow.mean()) and b["fast"] == pytest.approx(fast.mean())
+    want = np.sqrt(slow.var(ddof=1) / 10 + fast.var(ddof=1) / 10)
+    assert b["se"] == pytest.approx(want)
+    assert b["fast"] - b["slow"] > 2 * b["se"]  # the row's rule holds
+    q, _ = _walls_case(500.0, 500.0)
+    b = grid_exp._behind(q)
+    assert abs(b["fast"] - b["slow"]) <= 2 * b["se"]  # no difference: the rule fails
