@@ -713,7 +713,8 @@ CLAIMS = (Each(_viewpoint, (
     ),
     Row(
         "predictive holds the measured budget (fewer frames over it than reactive)",
-        f"«{DOC_PREDICTIVE}» — Tr is the estimate; the lecture does not claim measured times",
+        f"«Reaktive vs. Prädiktive LOD-Selektion»: «{DOC_REACTIVE}»; "
+        f"predictive: «{DOC_PREDICTIVE}» (Tr the estimate; no measured times given)",
         lambda q: f"measured over budget: predictive {q.pr.frac_over_budget:.0%}, reactive "
         f"{q.re_.frac_over_budget:.0%}, incremental {q.inc.frac_over_budget:.0%} of frames; "
         f"predictive's measured ÷ model: median {q.pr.measured_over_predicted:.2f}, p90 "
@@ -723,7 +724,9 @@ CLAIMS = (Each(_viewpoint, (
              flips=(
             alter("summary", "frac_over_budget", to=0.0, where=_strategy("predictive")),
             alter("summary", "frac_over_budget", to=1.0, where=_strategy("predictive")))),
-        basis="predictive is over the measured budget on fewer frames than reactive",
+        basis="the lecture's contrast, asserted on measured frame times: predictive (its "
+        "estimate kept within Tb) is over the measured budget on fewer frames than reactive, "
+        "whose outliers the lecture names",
         why=lambda q: "predictive fills the budget to the model's estimate, so every "
         f"underestimate is an overrun: its frames run {q.pr.measured_over_predicted:.2f}× the "
         f"model (median, p90 {q.pr.measured_over_predicted_p90:.2f}); reactive corrects from "

@@ -101,6 +101,7 @@ CHANGED: dict[tuple[str, str], str] = {
     ("seed003", r"deferred-(loop|passes) overtakes forward.*"): "a fall inside its noise",
     ("seed002", r"with occlusion culling frame time rises.*"): "a row for the relationship",
     ("seed002", r"where culling is slower, few objects.*"): "a row for «very few objects»",
+    ("seed001-lod", r"predictive holds the measured budget.*"): "the lecture's contrast quoted",
 }
 
 

@@ -77,6 +77,7 @@ def test_measured_budget_verdict_follows_the_numbers(quick_run):
     ]
     better = s.frac_over_budget.predictive < s.frac_over_budget.reactive
     assert row.verdict == (harness.TREND if better else harness.DIFFERS)
+    assert "Reaktive vs. Prädiktive" in row.document  # the lecture's contrast, quoted
 
 
 def test_level_greys_darker_means_finer():
