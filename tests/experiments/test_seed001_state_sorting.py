@@ -91,6 +91,29 @@ def test_decision_timing_times_the_three_ways_for_random_choices_decisions(tiny)
     assert (d.ns_per_decision > 0).all() and (d.ns_spread >= 0).all()
 
 
+def test_state_draws_count_the_changes_of_the_market_stream(tiny):
+    """The three orders draw the same kept objects; stream order changes state wherever the
+    material changes (an independent count), sorted once per material, and the control makes
+    stream order's draw calls without a state change; every order timed on every repeat."""
+    params, frames = tiny
+    g = frames["state_draws"].set_index("order")
+    assert list(g.index) == list(exp.STATE_ORDERS)
+    real, _ = exp.draw_stream(params)
+    kept = real[: exp.STATE_FRAMES]
+    runs = sum(1 + int(np.count_nonzero(np.diff(f))) for f in kept if len(f))
+    assert (g.draws == sum(len(f) for f in kept)).all()
+    assert g.state_changes.tolist() == [runs, 0, sum(len(np.unique(f)) for f in kept)]
+    assert g.draw_calls.tolist() == [runs, runs, g.state_changes["sorted"]]
+    assert (g.repeats == exp.STATE_REPEATS).all() and (g.ms > 0).all()
+    row = (
+        exp.claims(frames, params)
+        .set_index("item")
+        .loc["state changes are a major performance killer (the market's draws on GL)"]
+    )
+    assert row.document == exp.DOC_STATE and row.verdict in (harness.TREND, harness.DIFFERS)
+    assert "stream ≥ 2 × sorted" in row.margin
+
+
 def test_materials_are_mesh_families():
     ids, names = exp.material_ids(
         ["stall_012/apple_031", "wall_07/merlon_2", "house_040", "stall_001/basket_flat_179",
