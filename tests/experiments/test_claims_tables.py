@@ -102,6 +102,8 @@ CHANGED: dict[tuple[str, str], str] = {
     ("seed002", r"with occlusion culling frame time rises.*"): "a row for the relationship",
     ("seed002", r"where culling is slower, few objects.*"): "a row for «very few objects»",
     ("seed001-lod", r"predictive holds the measured budget.*"): "the lecture's contrast quoted",
+    ("seed001-state-sorting", r"state changes are a major.*"): "a row for «Performance-Killer»",
+    ("seed004-model", r"Table 1: the first stage.*"): "a row for «Первый этап … лимитирующим»",
 }
 
 

@@ -125,6 +125,23 @@ def test_our_readings_error_gets_a_measured_cause_or_says_none_was_measured(fram
     assert "not timing noise" in why and "cause not measured" in why
 
 
+def test_first_stage_row_judges_submission_against_the_other_stages(frames):
+    """The first stage (T_buf + T_state per command) is limiting only where it exceeds the
+    vertex and fragment stages at the most objects; computed by hand from the table."""
+    item = "Table 1: the first stage (command submission) limits scenes with many objects"
+    t = frames["table1"]
+    last = t[t.kind == "random"].iloc[-1]
+    first = last["ms_T_buf(S)"] + last["ms_T_state(S)"]
+    row = seed004_model.claims(frames, _params()).set_index("item").loc[item]
+    assert "лимитирующим" in row.document
+    limiting = first > max(last["ms_T_vert(S)"], last["ms_T_frag(S)"])
+    assert (row.verdict == "differs") if not limiting else row.verdict in ("trend", "differs")
+    bad = {k: v.copy() for k, v in frames.items()}
+    bad["table1"]["ms_T_state(S)"] = bad["table1"]["ms_T_state(S)"] * 0 + 1e6  # share flat
+    row = seed004_model.claims(bad, _params()).set_index("item").loc[item]
+    assert row.verdict == "differs" and "does not grow" in row.why
+
+
 def test_document_rows_are_self_consistent():
     """The copied Table 1: each error % is |model − measured| / measured within the paper's
     rounding (its rows are rounded to 3-4 digits; the 50,000 row is off by 0.5 point)."""
