@@ -8,14 +8,16 @@ nearest part needs), from a camera on its floor and from one above its far end. 
 threshold (pixels) the cut is selected on the GPU (:class:`soc.dag_renderer.DagRenderer`),
 culled (frustum, normal cone, two-phase hierarchical z, or frustum only) and drawn; we record
 the triangles drawn, the triangles per covered pixel, the frame's stages in ms, and the image
-error against the full-detail render: NVIDIA's FLIP (``flip-evaluator``, LDR) and the share of
-covered pixels whose instance differs or whose depth differs by more than 1 %. Object LOD is
-the same view with one discrete LOD chain per mesh (:func:`lod.build_chain`), a level per
-instance chosen by Funkhouser and Séquin's greedy (:func:`lod.select`, benefit the instance's
-projected area discounted by its level's projected error, cost its triangles) over a sweep of
-triangle budgets, and by the DAG's own rule at object granularity (the coarsest level whose
-projected error is within the threshold); :func:`equal_flip_ratios` compares the two at equal
-FLIP. The pictures show the cut at 1 px coloured by level, with the colours' key.
+error against the full-detail render (each method's images against its own renderer's full
+detail; the two renderers' own difference is info's ``flip_renderers``): NVIDIA's FLIP
+(``flip-evaluator``, LDR) and the share of covered pixels whose instance differs or whose
+depth differs by more than 1 %. Object LOD is the same view with one discrete LOD chain per mesh
+(:func:`lod.build_chain`), a level per instance chosen by Funkhouser and Séquin's greedy
+(:func:`lod.select`, benefit the instance's projected area discounted by its level's projected
+error, cost its triangles) over a sweep of triangle budgets, and by the DAG's own rule at object
+granularity (the coarsest level whose projected error is within the threshold);
+:func:`equal_flip_ratios` compares the two at equal FLIP. The pictures show the cut at 1 px
+coloured by level, with the colours' key.
 """
 
 from __future__ import annotations
@@ -33,6 +35,9 @@ from experiments.common import decode, encode
 FRAMES = ("dag", "objects", "info", "levels")
 # A pixel's depth differs when the linear depths differ by more than this share.
 DEPTH_TOLERANCE = 0.01
+# The threshold (pixels) of the cut that is the DAG renderer's full detail: below every error
+# of a simplified level, so every instance is drawn at level 0.
+FULL_DETAIL = 1e-9
 # FLIPs below this are taken as this on the log scale of the equal-FLIP comparison (the
 # full-detail level's FLIP is 0).
 FLIP_FLOOR = 1e-6
@@ -247,6 +252,14 @@ def _measure(params: Params, view: str, scene, cam, bar):
     rows = []
     picture = None
     with DagRenderer(tables, scene.instances(), params.resolution) as r:
+        # The cut's images are compared with the DAG renderer's own full detail (every
+        # instance at level 0), object LOD's with the full meshes drawn as object LOD is drawn:
+        # each against its own renderer, so that the two renderers' difference (draw order at
+        # equal depths, back-facing clusters left out), which no threshold removes, counts for
+        # neither; it is recorded as info's flip_renderers.
+        r.frame(cam, FULL_DETAIL, occlusion=False)
+        dag_ref = r.read()
+        renderers = image_errors(ref, dag_ref, near, far)["flip"]
         for t in params.thresholds:
             for occlusion in (False, True):
                 frames = [r.frame(cam, t, occlusion=occlusion) for _ in range(params.repeats + 1)]
@@ -261,7 +274,7 @@ def _measure(params: Params, view: str, scene, cam, bar):
                     "culled": f.culled, "occluded": f.occluded, "nodes": f.nodes,
                     **{f"ms_{k}": float(v) for k, v in ms.items()},
                     "select_cull_share": cull_ms / float(ms["total"]),
-                    **image_errors(ref, img, near, far),
+                    **image_errors(dag_ref, img, near, far),
                 })  # fmt: skip
                 bar.update()
         # The pictures: the cut at 1 px coloured by level, the field's seen from above its
@@ -319,6 +332,7 @@ def _measure(params: Params, view: str, scene, cam, bar):
         "instances": len(scene), "meshes": len(dags), "source_triangles": scene.source_triangles,
         "dag_clusters": len(tables), "dag_index_ratio": sum(len(d.faces) for d in dags)
         / sum(d.source_triangles for d in dags), "full_triangles_in_view": full,
+        "flip_renderers": renderers,
     }])  # fmt: skip
     return dag, objects, picture, levels_frame, info
 
