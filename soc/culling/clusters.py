@@ -203,7 +203,7 @@ def _triangle_data(vertices: np.ndarray, gfaces: np.ndarray):
     return _triangle_kernel(vertices, np.ascontiguousarray(gfaces))
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _triangle_kernel(vertices, gfaces):
     """:func:`_triangle_data`'s loop, in numpy's operation order (``np.cross``, the norm's sum
     of squares, the mean as a sum over 3): the same values, bit for bit."""
@@ -211,7 +211,7 @@ def _triangle_kernel(vertices, gfaces):
     centroids = np.empty((n, 3))
     normals = np.empty((n, 3))
     areas = np.empty(n)
-    for t in numba.prange(n):
+    for t in range(n):
         a, b, c = gfaces[t, 0], gfaces[t, 1], gfaces[t, 2]
         ux = np.float64(vertices[b, 0]) - np.float64(vertices[a, 0])
         uy = np.float64(vertices[b, 1]) - np.float64(vertices[a, 1])
@@ -283,13 +283,13 @@ def _morton_ranks(owner: np.ndarray, centroids: np.ndarray, lo: np.ndarray, size
     )
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _morton_ranks_kernel(owner, centroids, lo, size):
     """:func:`_morton_ranks`: the codes (:func:`_morton_code`, the same as
-    :func:`_morton_codes`), then a stable radix sort of each object's range, in parallel."""
+    :func:`_morton_codes`), then a stable sort of each object's range."""
     n = len(owner)
     codes = np.empty(n, np.int64)
-    for t in numba.prange(n):
+    for t in range(n):
         o = owner[t]
         codes[t] = _morton_code(centroids[t, 0], centroids[t, 1], centroids[t, 2], lo[o], size[o])
     runs = [0]
@@ -299,7 +299,7 @@ def _morton_ranks_kernel(owner, centroids, lo, size):
     runs.append(n)
     by_rank = np.empty(n, np.int64)
     sorted_codes = np.empty(n, np.int64)
-    for r in numba.prange(len(runs) - 1):
+    for r in range(len(runs) - 1):
         f0, f1 = runs[r], runs[r + 1]
         if f1 - f0 < 4096:  # a radix pass costs its 1024 buckets
             idx = np.argsort(codes[f0:f1], kind="mergesort")
@@ -777,13 +777,13 @@ def _grow_welded(vertices, gfaces, tri_w, face_offsets, boxes, max_triangles, co
     )  # fmt: skip
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _piece_boxes(vertices, faces, face_offsets):
     """(P, 2, 3) float32 the bounds of the vertices each piece's faces reference (as a
     :class:`~soc.scenes.scene.Scene`'s object AABB)."""
     n = len(face_offsets) - 1
     boxes = np.empty((n, 2, 3), np.float32)
-    for p in numba.prange(n):
+    for p in range(n):
         for k in range(3):
             boxes[p, 0, k] = np.inf
             boxes[p, 1, k] = -np.inf
