@@ -170,9 +170,9 @@ A field of rocks and statues, each mesh held once and placed many times
 horizon, seen from its floor and from above its far end; each mesh's cluster DAG (`lod.dag`:
 clusters grouped, simplified with the group border locked, split again, level by level) and
 its cut selected per instance on the GPU by error threshold in pixels
-(`soc.culling.dag_select.DagRenderer`), culled by frustum, normal cone and two-phase
-hierarchical z, drawn; against object LOD at the same FLIP. `VISLOD_QUICK=1`: small scenes
-(about a minute); the full run takes several minutes. The targets at 10⁸ source triangles are
+(`soc.Culler(scene, "gpu-driven", lod=pixels)`), then culled by frustum, normal cone and
+two-phase hierarchical z and drawn in the same passes as any gpu-driven frame; against object
+LOD at the same FLIP. `VISLOD_QUICK=1`: small scenes (about a minute); the full run takes several minutes. The targets at 10⁸ source triangles are
 `python -m benchmarks --only dag`."""
 
 NOTEBOOKS = {  # file name → its builder (no arguments)
