@@ -172,8 +172,8 @@ clusters grouped, simplified with the group border locked, split again, level by
 its cut selected per instance on the GPU by error threshold in pixels
 (`soc.Culler(scene, "gpu-driven", lod=pixels)`), then culled by frustum, normal cone and
 two-phase hierarchical z and drawn in the same passes as any gpu-driven frame; against object
-LOD at the same FLIP. `VISLOD_QUICK=1`: small scenes (about a minute); the full run takes several minutes. The targets at 10⁸ source triangles are
-`python -m benchmarks --only dag`."""
+LOD at the same FLIP. `VISLOD_QUICK=1`: small scenes (about a minute); the full run takes
+several minutes. The targets at 10⁸ source triangles are `python -m benchmarks --only dag`."""
 
 NOTEBOOKS = {  # file name → its builder (no arguments)
     "seed000_methods.ipynb": functools.partial(
