@@ -502,8 +502,9 @@ def _ratio_text(q, view):
     r = equal_flip_ratios(q.frames, view)
     one = r[r.threshold == 1.0].iloc[0]
     rest = ", ".join(f"{t:g} px {x:.2f}" for t, x in zip(r.threshold, r.ratio, strict=True))
+    w, h = q.params.resolution  # thresholds are pixels of this resolution
     return (f"{one.ratio:.2f}× the triangles ({one.dag_triangles:,} DAG triangles at FLIP "
-            f"{one.flip:.4f}); by threshold {rest}")  # fmt: skip
+            f"{one.flip:.4f}, {w}×{h}); by threshold {rest}")  # fmt: skip
 
 
 CLAIMS = (
