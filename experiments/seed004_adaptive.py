@@ -263,9 +263,13 @@ def _row(scene: str, name: str, state, ms_apply: float, fr, truth) -> dict:
 
 def sweep(dyn, params: Params, renderer, progress: bool = True):
     """The regression's points (with the triangles the queries hid in each frame), fit row and
-    T(0)/T(n_0)/T(q*) rows at the last frame, flown by :func:`soc.fly` on its camera. The
-    distinct counts among 0, n_0 and q* are timed in turn, ``SWEEP_REPEATS`` rounds (a count
-    two terms share is timed once and given to both)."""
+    T(0)/T(n_0)/T(q*) rows at the last frame, flown by :func:`soc.fly` on its camera. Mode 3
+    as the paper's test runs it: the queries test the frame's depth buffer (every object
+    drawn) and are read ``LATENCY`` frames late, each frame's point pairing the count whose
+    results decided it with what they hid. The distinct counts among 0, n_0 and q* are timed
+    in turn, ``SWEEP_REPEATS`` rounds, each count held ``LATENCY`` frames before its timed
+    frame (so its own results decide it; a count two terms share is timed once and given to
+    both)."""
     import soc
     from soc.models.adaptive import MAX_FIT_RMS
     from soc.models.query_model import best_query_count, fit_query_model
@@ -273,7 +277,7 @@ def sweep(dyn, params: Params, renderer, progress: bool = True):
     last = dyn.frames - 1
     cam = dyn.cameras(*params.resolution)[last]
     clip = SimpleNamespace(scene=dyn.scene, state=None)
-    play = Shaded(clip, renderer, dyn.alive(last), mode=3, temporal=False, queries="auto")
+    play = Shaded(clip, renderer, dyn.alive(last), mode=3, queries="auto")
     m = play.method
     base = 0.0
 
@@ -304,14 +308,17 @@ def sweep(dyn, params: Params, renderer, progress: bool = True):
                  ("T(q*)", int(choice.candidates.get("q*", (choice.q,))[0])))  # fmt: skip
         counts = list(dict.fromkeys(q for _, q in terms))
 
-        def count(i: int, _camera) -> None:  # the counts in turn: drift falls on all alike
-            m.queries = int(counts[i % len(counts)])
+        hold = LATENCY + 1  # frames per count: its results arrive, then the timed frame
 
-        timed = soc.fly({"count": play}, [cam] * (SWEEP_REPEATS * len(counts)), warmup=0,
-                        before_frame=count, extra=hidden, progress=False)  # fmt: skip
+        def count(i: int, _camera) -> None:  # the counts in turn: drift falls on all alike
+            m.queries = int(counts[(i // hold) % len(counts)])
+
+        timed = soc.fly({"count": play}, [cam] * (SWEEP_REPEATS * len(counts) * hold),
+                        warmup=0, before_frame=count, extra=hidden, progress=False)  # fmt: skip
     finally:
         play.close()
-    ms = {q: timed.ms.to_numpy()[i :: len(counts)].tolist() for i, q in enumerate(counts)}
+    last_of_hold = timed.ms.to_numpy()[hold - 1 :: hold]
+    ms = {q: last_of_hold[i :: len(counts)].tolist() for i, q in enumerate(counts)}
     compare = [{"scene": dyn.name, "term": label, "q": int(q), "model_ms": float(model.time(q)),
                 "measured_ms": float(np.median(ms[q])), "measured_min": min(ms[q]),
                 "measured_max": max(ms[q]), "same_as": next(t for t, k in terms if k == q)}

@@ -11,7 +11,15 @@ section 4; decisions in :mod:`soc.models.adaptive`, octree in :mod:`soc.culling.
    uploaded (T_buf(H)), the non-empty nodes' boxes frustum-tested (T_fc(H)), every node in
    the frustum drawn with its own multi-draw.
 3. ``queries`` — mode 2 plus ``GL_ANY_SAMPLES_PASSED`` queries on the boxes of up to ``q``
-   nodes in the frustum (the most triangles first); a node found occluded is not drawn.
+   nodes in the frustum; a node found occluded is not drawn. Which ``q`` nodes
+   (``query_order``): ``"top-down"`` (default, the paper's section 3: "checks are made while
+   traversing the hierarchy top-down", nodes holding many objects being the ones worth
+   checking) — the nodes whose subtree is non-empty and in the frustum, level by level from
+   the root, the biggest subtrees first within a level, each queried on its subtree box; one
+   found occluded hides its whole subtree, and the descendants of nodes found occluded by the
+   latest results are skipped (their ancestor is queried again). ``"objects"`` (ours before):
+   the nodes' own boxes, the most own objects first. ``queries="all"`` (the paper's baseline,
+   "all leaf nodes") queries the own box of every node in the frustum.
    ``temporal=True`` (default, the paper's test: "results are read with a delay of several
    frames to avoid CPU stalls"): the queries are issued after the frame is drawn, against its
    depth buffer, and read ``LATENCY`` frames later — **not conservative** (a node that comes
@@ -239,6 +247,10 @@ class AdaptiveOptions(MethodOptions):
     queries : "auto", "all" or int
         Node queries per frame in mode 3: fitted by formulas (7)-(11) (default), every node
         in the frustum, or at most this many.
+    query_order : {"top-down", "objects"}
+        Which nodes get mode 3's ``q`` queries (module docstring, mode 3): ``"top-down"``
+        (default, the paper's: subtree boxes, level by level from the root, the biggest
+        subtrees first) or ``"objects"`` (own boxes, the most own objects first).
     temporal : bool
         Mode 3 reads query results ``LATENCY`` frames late (default True, the paper's; not
         conservative) or waits for them in the same frame (False; conservative, used by the
@@ -252,6 +264,7 @@ class AdaptiveOptions(MethodOptions):
     rule: Literal["paper", "cost"] = "paper"
     mode: Literal[1, 2, 3] | None = None
     queries: Literal["auto", "all"] | int = option("auto", low=0)
+    query_order: Literal["top-down", "objects"] = "top-down"
     temporal: bool = True
     leaf_capacity: int = option(DEFAULT_LEAF_CAPACITY, low=1)
 
@@ -283,6 +296,7 @@ class AdaptiveCulling(CullMethod):
         self.conservative = not self.temporal or mode in (1, 2)
         self.latency = LATENCY
         self.queries = queries
+        self.query_order = opts.query_order
         # The cost rule's margin and dwell; the paper's rule has neither.
         self.margin = DEFAULT_MARGIN if rule == "cost" else 0.0
         self.dwell = DWELL if rule == "cost" else 1
@@ -373,6 +387,7 @@ class AdaptiveCulling(CullMethod):
         self._since_switch = self.dwell  # the first decision may switch at once
         self._hidden = np.zeros(0, np.int64)  # nodes the latest collected queries found occluded
         self._hidden_version = np.zeros(0, np.int64)
+        self._hidden_roots = np.zeros(0, np.int64)  # queried nodes found occluded (latest)
         self._queried_effective = 0
         self._estimate: dict | None = None  # the latest invisible estimate, in draw units
         self._rate = {"commands": 0.0, "nodes": 0.0}  # node-buffer changes per frame
@@ -591,18 +606,19 @@ class AdaptiveCulling(CullMethod):
             drawn = in_nodes
             chosen = np.zeros(0, np.int64)
             if mode == 3 and self.config.depth_test and len(in_nodes):
-                # The most expensive nodes (most objects, section 3) are queried first.
-                order = np.argsort(-octree.own_counts[in_nodes], kind="stable")
-                chosen = in_nodes[order[: self._plan(len(in_nodes))]]
+                chosen, boxes, subtree = self._choose_queried(camera, in_nodes)
                 if self.temporal:
                     ok = self._hidden_version == octree.version[self._hidden]
                     hidden = self._hidden[ok]
                     effective = self._queried_effective
                 else:
-                    hidden = self._same_frame_queries(camera, chosen, timings)
+                    roots = self._same_frame_queries(camera, chosen, boxes, timings)
+                    self._hidden_roots = roots
+                    hidden = self._covered(roots) if subtree else roots
                     issued = effective = len(chosen)
                     # Kept for the predictions of (6) (this frame's savings).
                     self._hidden, self._hidden_version = hidden, octree.version[hidden].copy()
+                hidden = np.intersect1d(hidden, in_nodes, assume_unique=True)
                 drawn = np.setdiff1d(in_nodes, hidden, assume_unique=True)
                 hidden_count = len(in_nodes) - len(drawn)
             canvas.begin(camera)
@@ -610,7 +626,7 @@ class AdaptiveCulling(CullMethod):
                 commands, calls = nodes_gl.draw(canvas.program, drawn)
             if mode == 3 and self.temporal and len(chosen):
                 with stage(timings, "queries", finish):
-                    self._issue(canvas, camera, chosen)
+                    self._issue(canvas, camera, chosen, boxes, subtree)
                 issued = len(chosen)
             ids = octree.objects_in(drawn)
             visible[ids] = True
@@ -696,6 +712,7 @@ class AdaptiveCulling(CullMethod):
             self._release_pending()
             self._hidden = np.zeros(0, np.int64)
             self._hidden_version = np.zeros(0, np.int64)
+            self._hidden_roots = np.zeros(0, np.int64)
             self._queried_effective = 0
         self.mode = next_mode
         self._since_switch = 0
@@ -709,9 +726,53 @@ class AdaptiveCulling(CullMethod):
             return min(self.queries, candidates)
         return self.planner.plan(candidates)
 
-    def _same_frame_queries(self, camera, chosen: np.ndarray, timings) -> np.ndarray:
-        """Strict mode 3: occluder prepass, queries on ``chosen`` nodes, waited for. Returns
-        the nodes found occluded."""
+    def _choose_queried(self, camera, in_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+        """This frame's queried nodes, their query boxes and whether a box covers the node's
+        subtree (``query_order``, module docstring).
+
+        ``"top-down"``: candidates are the nodes with a non-empty subtree whose subtree box is
+        in the frustum, less the descendants of the nodes the latest results found occluded;
+        ordered by level (root first), then by subtree objects (most first), the first ``q``
+        queried (``q`` planned over the candidates). ``"objects"`` and ``queries="all"``: the
+        nodes in the frustum (``in_nodes``) on their own boxes, most own objects first.
+        """
+        octree = self.octree
+        if self.query_order == "objects" or self.queries == "all":
+            order = np.argsort(-octree.own_counts[in_nodes], kind="stable")
+            chosen = in_nodes[order[: self._plan(len(in_nodes))]]
+            return chosen, octree.own_bounds[chosen], False
+        counts, bounds = octree.subtree_counts, octree.subtree_bounds
+        cand = np.flatnonzero(counts > 0)
+        if self.config.frustum:
+            cand = cand[aabbs_in_frustum(bounds[cand], camera.planes)]
+        roots = self._hidden_roots[self._hidden_roots < octree.nodes]
+        if len(roots):
+            below = self._covered(roots, own_only=False)
+            below[roots] = False  # the occluded nodes themselves are queried again
+            cand = cand[~below[cand]]
+        order = np.lexsort((-counts[cand], octree.level[cand]))
+        chosen = cand[order[: self._plan(len(cand))]]
+        return chosen, bounds[chosen], True
+
+    def _covered(self, roots: np.ndarray, *, own_only: bool = True):
+        """The nodes in the subtrees of ``roots`` (themselves included): with ``own_only`` the
+        sorted (K,) int64 ids of those holding objects themselves, else an (M,) bool mask."""
+        octree = self.octree
+        m = octree.nodes
+        mark = np.zeros(m, bool)
+        mark[roots] = True
+        level, parent = octree.level, octree.parent
+        order = np.argsort(level, kind="stable")
+        cuts = np.searchsorted(level[order], np.arange(1, int(level.max()) + 1))
+        for at in np.split(order, cuts)[1:]:  # top-down: one level per step
+            mark[at] |= mark[parent[at]]
+        if not own_only:
+            return mark
+        return np.flatnonzero(mark & (octree.own_counts > 0))
+
+    def _same_frame_queries(self, camera, chosen: np.ndarray, boxes, timings) -> np.ndarray:
+        """Strict mode 3: occluder prepass, queries on ``chosen`` nodes' ``boxes``, waited for.
+        Returns the nodes found occluded."""
         from soc.culling.depth_prepass import render_occluders
 
         target = self._prepass_target()
@@ -723,25 +784,33 @@ class AdaptiveCulling(CullMethod):
         with stage(timings, "queries", self.glctx.finish):
             if len(chosen) == 0:
                 return chosen
-            batch = self._queries().issue(target, camera, self.octree.own_bounds[chosen])
+            batch = self._queries().issue(target, camera, boxes)
             return chosen[~batch.results()]
 
-    def _issue(self, canvas, camera, chosen: np.ndarray) -> None:
-        """Temporal mode 3: query ``chosen`` nodes against the frame just drawn."""
+    def _issue(self, canvas, camera, chosen: np.ndarray, boxes, subtree: bool) -> None:
+        """Temporal mode 3: query ``chosen`` nodes' ``boxes`` against the frame just drawn;
+        the nodes' versions then are kept (a node changed since is drawn)."""
         canvas.mask_color(False)
         try:
-            batch = self._queries().issue(canvas, camera, self.octree.own_bounds[chosen])
+            batch = self._queries().issue(canvas, camera, boxes)
         finally:
             canvas.mask_color(True)
-        self._pending.append((self.frame, batch, chosen, self.octree.version[chosen].copy()))
+        versions = self.octree.version.copy()
+        self._pending.append((self.frame, batch, (chosen, subtree), versions))
 
     def _collect(self) -> None:
-        """Read the batches issued at least ``LATENCY`` frames ago; the latest decides."""
+        """Read the batches issued at least ``LATENCY`` frames ago; the latest decides. A
+        subtree box found occluded hides the nodes of its subtree that existed when it was
+        issued."""
         while self._pending and self._pending[0][0] <= self.frame - self.latency:
-            _, batch, nodes, versions = self._pending.popleft()
+            _, batch, (nodes, subtree), versions = self._pending.popleft()
             passed = batch.results()
-            self._hidden = nodes[~passed]
-            self._hidden_version = versions[~passed]
+            roots = nodes[~passed]
+            hidden = self._covered(roots) if subtree else roots
+            hidden = hidden[hidden < len(versions)]
+            self._hidden_roots = roots
+            self._hidden = hidden
+            self._hidden_version = versions[hidden]
             self._queried_effective = len(nodes)
 
     def fit_queries(self):

@@ -40,9 +40,11 @@ def _costs(**kw) -> ModeCosts:
 @pytest.mark.parametrize(
     "options",
     [{"mode": 1}, {"mode": 2}, {"mode": 3, "temporal": False, "queries": "all"},
-     {"mode": 3, "temporal": False, "queries": 3}, {"temporal": False},
-     {"temporal": False, "rule": "cost"}],
-    ids=["mode1", "mode2", "mode3-wait-all", "mode3-wait-3", "adaptive-wait", "cost-wait"],
+     {"mode": 3, "temporal": False, "queries": 3}, {"mode": 3, "temporal": False, "queries": 12},
+     {"mode": 3, "temporal": False, "queries": 3, "query_order": "objects"},
+     {"temporal": False}, {"temporal": False, "rule": "cost"}],
+    ids=["mode1", "mode2", "mode3-wait-all", "mode3-wait-3", "mode3-wait-12", "mode3-objects-3",
+         "adaptive-wait", "cost-wait"],
 )  # fmt: skip
 def test_conservative_on_random_cameras(clutter_scenes, options):
     """2 clutter scenes × 40 random cameras (some inside boxes) in each forced mode."""
@@ -358,14 +360,66 @@ def test_render_draws_the_same_set_as_cull(small_dynamic):
 # -- late results: popping only while the view changes -----------------------------------------
 
 
-def test_late_results_do_not_pop_for_a_static_camera(clutter_scenes):
+@pytest.mark.parametrize("queries", ["all", 6])
+def test_late_results_do_not_pop_for_a_static_camera(clutter_scenes, queries):
     scene = clutter_scenes[1]
     cam = random_cameras(scene, 1, seed=2, width=RES[0], height=RES[1], inside_fraction=0)[0]
     truth = soc.exact_visibility(scene, cam, RES)
-    with soc.Culler(scene, method="adaptive", resolution=RES, mode=3, queries="all",
+    with soc.Culler(scene, method="adaptive", resolution=RES, mode=3, queries=queries,
                     leaf_capacity=2) as c:  # fmt: skip
         results = [c.cull(cam, truth=truth) for _ in range(6)]
     effective = [r.stats.queries for r in results]
     assert effective[0] > 0  # queries issued from the first frame
     assert all(r.stats.false_culls == 0 for r in results)
     assert c.method.last.queries_effective > 0  # results LATENCY frames old decide by now
+
+
+# -- which nodes get the queries ----------------------------------------------------------------
+
+
+def test_top_down_queries_subtrees_level_by_level_biggest_first(clutter_scenes):
+    """The paper's order (section 3, top-down): the q queried nodes are the first q of the
+    candidates (non-empty subtree, subtree box in the frustum) by level, then by subtree
+    objects; each on its subtree box; below a node found occluded nothing is queried."""
+    from soc.culling.frustum import aabbs_in_frustum
+
+    scene = clutter_scenes[2]
+    cam = random_cameras(scene, 1, seed=4, width=RES[0], height=RES[1], inside_fraction=0)[0]
+    with soc.Culler(scene, method="adaptive", resolution=RES, mode=3, temporal=False,
+                    queries=10, leaf_capacity=2) as c:  # fmt: skip
+        c.cull(cam)
+        m = c.method
+        o = m.octree
+        counts, bounds = o.subtree_counts, o.subtree_bounds
+        cand = np.flatnonzero(counts > 0)
+        cand = cand[aabbs_in_frustum(bounds[cand], cam.planes)]
+        key = {int(n): (int(o.level[n]), -int(counts[n])) for n in cand}
+        m._hidden_roots = np.zeros(0, np.int64)
+        chosen, boxes, subtree = m._choose_queried(cam, o.visible_nodes(cam))
+        assert subtree and len(chosen) == 10 and chosen[0] == 0
+        ranks = [key[int(n)] for n in chosen]
+        assert ranks == sorted(ranks)
+        assert max(ranks) <= min(key[int(n)] for n in np.setdiff1d(cand, chosen))
+        np.testing.assert_array_equal(boxes, bounds[chosen])
+        # A node "found occluded": its descendants drop out, it is queried again.
+        inner = next(int(n) for n in chosen[1:] if (o.children[n] >= 0).any())
+        m._hidden_roots = np.array([inner])
+        again, _, _ = m._choose_queried(cam, o.visible_nodes(cam))
+        below = m._covered(np.array([inner]), own_only=False)
+        assert inner in again and not below[np.setdiff1d(again, [inner])].any()
+        assert below.sum() > 1
+
+
+def test_objects_order_queries_own_boxes_most_objects_first(clutter_scenes):
+    scene = clutter_scenes[2]
+    cam = random_cameras(scene, 1, seed=4, width=RES[0], height=RES[1], inside_fraction=0)[0]
+    with soc.Culler(scene, method="adaptive", resolution=RES, mode=3, temporal=False,
+                    queries=5, leaf_capacity=2, query_order="objects") as c:  # fmt: skip
+        c.cull(cam)
+        o = c.method.octree
+        in_nodes = o.visible_nodes(cam)
+        chosen, boxes, subtree = c.method._choose_queried(cam, in_nodes)
+    own = o.own_counts
+    assert not subtree and len(chosen) == 5
+    assert own[chosen].min() >= np.delete(own[in_nodes], np.searchsorted(in_nodes, chosen)).max()
+    np.testing.assert_array_equal(boxes, o.own_bounds[chosen])
