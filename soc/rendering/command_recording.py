@@ -23,7 +23,9 @@ Stages, top-down:
    commands) of one shared buffer; a node whose objects changed is re-recorded into its slot
    (moved to the end when it outgrew it; the buffer is laid out afresh, every node re-recorded,
    when it fills up), the written slots uploaded by runs of adjacent slots, each node drawn
-   with its own multi-draw call.
+   with its own multi-draw call. All the changed nodes are re-recorded in one compiled call
+   (:func:`record_node_commands`: one pass over the objects' nodes, each object of a changed
+   node written at its node's next row), so no node pays a Python call of its own.
 
 Both report the recording and the upload apart (:class:`RecordStats`), so that the cost per
 recorded command can be read off (``ms_record / commands``).
@@ -55,6 +57,65 @@ def _record(out: np.ndarray, rows: np.ndarray, ids: np.ndarray, table: np.ndarra
         out[r, 2] = table[i, 2]  # first index
         out[r, 3] = table[i, 3]  # base vertex
         out[r, 4] = i  # base instance: the object id (its transform and colour)
+
+
+@numba.njit(cache=True, nogil=True)
+def _record_nodes(
+    out: np.ndarray, node_of: np.ndarray, mark: np.ndarray, offset: np.ndarray, table: np.ndarray
+) -> int:
+    # One pass over the id space: each object of a marked node is written at its node's next
+    # row (objects in id order within a node, as the octree lists them). Returns the count.
+    cursor = np.zeros(mark.shape[0], np.int64)
+    k = 0
+    for i in range(node_of.shape[0]):
+        n = node_of[i]
+        if n >= 0 and mark[n]:
+            r = offset[n] + cursor[n]
+            cursor[n] += 1
+            out[r, 0] = table[i, 0]
+            out[r, 1] = 1
+            out[r, 2] = table[i, 2]
+            out[r, 3] = table[i, 3]
+            out[r, 4] = i
+            k += 1
+    return k
+
+
+def record_node_commands(
+    out: np.ndarray, node_of: np.ndarray, nodes: np.ndarray, offset: np.ndarray, table: np.ndarray
+) -> int:
+    """Write the draw commands of every object living in ``nodes`` into their nodes' slots,
+    one command at a time on one thread, in one compiled call for all the nodes (the node
+    recorder of :class:`NodeCommands`: no per-node call).
+
+    Parameters
+    ----------
+    out : (R, 5) uint32
+        The CPU copy of the shared indirect buffer, written in place.
+    node_of : (N,) int64
+        The node each object lives in (-1: none), ``Octree.node_of``.
+    nodes : (D,) int64
+        Nodes to record.
+    offset : (M,) int64
+        First row of each node's slot; a node's objects go to ``offset[n]``, ``offset[n] + 1``,
+        … in id order (the slot must hold them).
+    table : (N, 5) uint32
+        The objects' draw parameters (``SceneGeometry.commands``).
+
+    Returns
+    -------
+    int
+        Commands written.
+    """
+    node_of = np.ascontiguousarray(node_of, np.int64)
+    offset = np.ascontiguousarray(offset, np.int64)
+    if out.dtype != np.uint32 or out.ndim != 2 or out.shape[1] != COMMAND_WORDS:
+        raise ValueError(f"out must be (R, 5) uint32, got {out.shape} {out.dtype}")
+    if len(node_of) > len(table):
+        raise ValueError(f"node_of names {len(node_of)} objects, the table {len(table)}")
+    mark = np.zeros(len(offset), np.bool_)
+    mark[np.asarray(nodes, np.int64)] = True
+    return int(_record_nodes(out, node_of, mark, offset, table))
 
 
 def record_commands(out: np.ndarray, rows: np.ndarray, ids: np.ndarray, table: np.ndarray) -> None:
@@ -90,6 +151,11 @@ def warm_up() -> None:
     """Compile the recorder (or load it from numba's cache) before any frame is timed."""
     out = np.zeros((1, COMMAND_WORDS), np.uint32)
     _record(out, np.zeros(1, np.int64), np.zeros(1, np.int64), out.copy())
+    zero = np.zeros(1, np.int64)
+    frozen = zero.view()
+    frozen.flags.writeable = False  # Octree.node_of is a read-only view: its own compile
+    for node_of in (zero, frozen):
+        _record_nodes(out, node_of, np.ones(1, np.bool_), zero, out.copy())
 
 
 @dataclass(frozen=True)
@@ -250,12 +316,12 @@ class NodeCommands:
             self._offset[g] = self._end + np.r_[0, np.cumsum(need[grow])[:-1]]
             self._end += int(need[grow].sum())
             fresh = False
-        ids = [octree.node_ids[n] for n in nodes.tolist()]
-        ids = np.concatenate(ids) if ids else np.zeros(0, np.int64)
         starts = self._offset[nodes]
-        rows = np.repeat(starts - np.r_[0, np.cumsum(sizes)[:-1]], sizes) + np.arange(len(ids))
+        mark = np.zeros(len(self._offset), np.bool_)
+        mark[nodes] = True
+        node_of = octree.node_of
         t1 = time.perf_counter()
-        _record(self._cpu, rows, ids.astype(np.int64), self._table)
+        written = _record_nodes(self._cpu, node_of, mark, self._offset, self._table)
         t2 = time.perf_counter()
         self._count[nodes] = sizes
         self._uploaded[: len(version)] = version
@@ -264,13 +330,13 @@ class NodeCommands:
                 self._buffer.release()
             self._buffer = self.glctx.ctx.buffer(self._cpu, dynamic=True)
         else:
-            written = sizes > 0
-            a, b = _runs(starts[written], starts[written] + sizes[written], MERGE_GAP)
+            full = sizes > 0
+            a, b = _runs(starts[full], starts[full] + sizes[full], MERGE_GAP)
             for s, e in zip(a.tolist(), b.tolist(), strict=True):
                 self._buffer.write(self._cpu[s:e], offset=s * COMMAND_BYTES)
         self.glctx.finish()
         t3 = time.perf_counter()
-        return RecordStats(nodes, len(ids), 1e3 * (t2 - t1), 1e3 * ((t1 - t0) + (t3 - t2)))
+        return RecordStats(nodes, written, 1e3 * (t2 - t1), 1e3 * ((t1 - t0) + (t3 - t2)))
 
     def draw(self, program, nodes) -> tuple[int, int]:
         """Draw the objects of ``nodes`` with ``program`` (uniforms set): one multi-draw call

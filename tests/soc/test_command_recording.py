@@ -15,6 +15,7 @@ from soc.rendering.command_recording import (
     NodeCommands,
     _runs,
     record_commands,
+    record_node_commands,
 )
 from soc.scenes.dynamic import dynamic_scene
 
@@ -40,6 +41,25 @@ def test_recorder_writes_each_command_into_its_row():
         record_commands(out, np.array([20]), np.array([0]), table)
     with pytest.raises(ValueError, match="ids must lie"):
         record_commands(out, np.array([0]), np.array([50]), table)
+
+
+def test_node_recorder_writes_each_nodes_objects_into_its_slot_in_one_call():
+    rng = np.random.default_rng(1)
+    table = rng.integers(0, 2**31, (60, 5)).astype(np.uint32)
+    node_of = rng.integers(-1, 6, 60)  # 6 nodes, some objects in none
+    offset = np.array([0, 20, 40, 60, 80, 100])
+    out = np.full((120, 5), 7, np.uint32)
+    nodes = np.array([1, 4])
+    written = record_node_commands(out, node_of, nodes, offset, table)
+    want_rows = []
+    for n in nodes:  # by hand: the node's objects in id order from its slot's first row
+        ids = np.flatnonzero(node_of == n)
+        rows = offset[n] + np.arange(len(ids))
+        assert np.array_equal(out[rows], _expected(table, ids))
+        want_rows += rows.tolist()
+    assert written == len(want_rows)
+    untouched = np.setdiff1d(np.arange(120), want_rows)
+    assert (out[untouched] == 7).all()  # other nodes' slots and the gaps are not written
 
 
 def test_runs_merge_close_ranges_only():
