@@ -294,6 +294,7 @@ def sweep(dyn, params: Params, renderer, progress: bool = True):
     try:
         f = soc.fly({"sweep": play}, [cam] * params.sweep_frames, warmup=[cam],
                     before_frame=fresh_planner, extra=hidden, progress=progress)  # fmt: skip
+        content = _hideable(dyn, m, cam, params.resolution)
         m.fit_queries()  # once more, with every frame's statistics and the latest unit costs
         stats = m.planner.statistics(m.planner.per_command, m.planner.per_query)
         own = m.octree.own_counts
@@ -336,8 +337,32 @@ def sweep(dyn, params: Params, renderer, progress: bool = True):
         "max_rms": MAX_FIT_RMS, "converged": bool(fit.converged), "trusted": trusted,
         **{f"model_{k}": float(getattr(model, k)) for k in model.__dataclass_fields__},
         "c_n": c_n, "n0_nodes": n0, "q_star": float(choice.q_star), "q_best": int(choice.q),
+        **content,
     }  # fmt: skip
     return points, fit_row, compare
+
+
+def _hideable(dyn, method, cam, resolution) -> dict:
+    """What node queries could hide at the last frame, by the exact oracle (alive objects,
+    ``resolution``): the triangles of the nodes in the frustum (``node_triangles``: what q = 0
+    draws), of those among them none of whose objects the oracle sees (``node_hideable``: the
+    most any choice of queried nodes can hide) and of the objects in those nodes the oracle
+    does not see (``oracle_hidden``)."""
+    octree = method.octree
+    oracle = AliveOracle(dyn.scene)
+    oracle.alive = method.alive
+    try:
+        seen = oracle.visible(cam, resolution)
+    finally:
+        oracle.close()
+    nodes = octree.visible_nodes(cam)
+    ids = octree.objects_in(nodes)
+    tri = dyn.scene.triangle_counts.astype(np.float64)
+    seen_in = np.bincount(octree.node_of[ids], weights=seen[ids], minlength=octree.nodes)
+    node_tris = method._node_triangles()
+    return {"node_triangles": float(node_tris[nodes].sum()),
+            "node_hideable": float(node_tris[nodes][seen_in[nodes] == 0].sum()),
+            "oracle_hidden": float(tri[ids][~seen[ids]].sum())}  # fmt: skip
 
 
 # -- 3. summaries and the benchmark criterion --------------------------------------------------
@@ -940,16 +965,35 @@ def _growth(frames: dict[str, pd.DataFrame], params: Params):
     """Per scene with the hidden triangles recorded: their mean per query count tried, the
     largest fall from one count to the next, the spread of repeated frames at one count, and
     the gain per query over the first and over the last step between counts."""
+    fits = frames.get("fits")
     for sc, g in frames["regression"].groupby("scene", sort=False):
         if "hidden_triangles" not in g or g.q.nunique() < 3:
             continue
+        content = None
+        if fits is not None and "node_hideable" in fits:
+            content = fits[fits.scene == sc].iloc[0]
         by = g.groupby("q").hidden_triangles
         mean = by.mean().sort_index()
         noise = float(by.std(ddof=1).dropna().max()) if (by.size() >= 2).any() else None
         qs, h = mean.index.to_numpy(float), mean.to_numpy(float)
         slopes = np.diff(h) / np.diff(qs)
         yield {"sc": sc, "mean": mean, "drop": float(max((-np.diff(h)).max(), 0.0)),
-               "h_noise": noise, "first": float(slopes[0]), "last": float(slopes[-1])}  # fmt: skip
+               "h_noise": noise, "first": float(slopes[0]), "last": float(slopes[-1]),
+               "content": content}  # fmt: skip
+
+
+def _content_why(c) -> str:
+    """The scene's content at the last frame (:func:`_hideable`), when recorded."""
+    if c is None or not np.isfinite(c.node_triangles):
+        return ""
+    share = c.node_hideable / max(c.node_triangles, 1.0)
+    return (
+        f"; the scene's content at that frame: of the {c.node_triangles:,.0f} triangles of "
+        f"the nodes in the frustum, {c.node_hideable:,.0f} ({100 * share:.1f} %) lie in nodes "
+        "of which the exact oracle sees no object (the most any choice of queried nodes can "
+        f"hide), though {c.oracle_hidden:,.0f} are hidden object by object (visible and "
+        "hidden objects share nodes)"
+    )
 
 
 def _recording(frames: dict[str, pd.DataFrame], params: Params):
@@ -974,7 +1018,11 @@ def _recording(frames: dict[str, pd.DataFrame], params: Params):
                 float(three.ms_record.median()),
             )
         )
-    yield {"rec": fixed, "premise": premise,
+    commands = [(sc, float(f[(f.scene == sc) & (f.method == "frustum")].recorded.median()),
+                 float(f[(f.scene == sc) & (f.method == "queries")].recorded.median()),
+                 float(f[(f.scene == sc) & (f.method == "queries")].recorded_nodes.median()))
+                for sc, *_ in premise]  # fmt: skip
+    yield {"rec": fixed, "premise": premise, "commands": commands,
            "ratio": min(p[1] / max(p[2], 1e-9) for p in premise)}  # fmt: skip
 
 
@@ -1146,9 +1194,12 @@ CLAIMS = (
                         alter("frames", "ms_buf", 0.0, "method == 'queries'"))),
             basis="in every scene mode 1's recording takes longer than re-recording the changed "
             "nodes (the document's ≫ names no factor; margin: the smallest ratio less 1)",
-            why="the recorder's own loop is the smaller part of T_buf on both sides (brackets): "
-            "re-recording nodes pays for finding the changed nodes, laying out their slots and "
-            "uploading them by runs, more than the commands it saves",
+            why=lambda q: "commands recorded a frame (medians), mode 1 vs mode 3: " + "; ".join(
+                f"{sc} {a:,.0f} vs {b:,.0f} ({n:,.0f} nodes)" for sc, a, b, n in q.commands)
+            + ": the events touch many nodes every frame and a changed node is re-recorded "
+            "whole (one compiled call for all of them), so mode 3 saves few commands, or none, "
+            "and pays besides for finding the changed nodes, laying out their slots and "
+            "uploading them by runs",
         ),
     )),
     Each(_fits, (Row(
@@ -1185,7 +1236,10 @@ CLAIMS = (
         "query count to the next by more than the spread of repeated frames at one count, and "
         "each query hides fewer over the last step than over the first",
         why=lambda q: ("they fall by " + f"{q.drop:,.0f} between two counts"
-                       if q.drop > (q.h_noise or 0) else "they grow as fast at large q"),
+                       if q.drop > (q.h_noise or 0) else "the first step hides nothing (its "
+                       "queries are the octree's top levels, top-down)" if q.first <= 0
+                       else "they grow as fast at large q")
+        + _content_why(q.content),
     ),)),
     Each(_shapes, (
         Row(
