@@ -12,12 +12,15 @@ Two backends of one decision:
 * :class:`DagWalk` — OpenGL compute passes (``dag_walk.comp.glsl``): a breadth-first walk of
   the group tree of every instance, one pass per tree depth (the nodes that survive a pass are
   the next one's input), then a pass over the groups reached that appends the selected
-  (instance, cluster) pairs to a GPU buffer with their count.
+  (instance, cluster) pairs to a GPU buffer with their count;
+* ``dag_table.comp.glsl`` (:class:`DagClusters`) — one compute pass, a depth-first walk of
+  each instance's tree per invocation with the same node and cluster tests
+  (``dag.common.glsl``), that writes the cut straight into gpu-driven's table.
 
 Where the cut is culled and drawn: :class:`DagClusters` plugs it into ``gpu-driven``
 (``soc.Culler(scene.with_dag(tables), "gpu-driven", lod=threshold)``), whose frustum and
 two-phase HiZ passes cull it and draw it, the instances as its objects. The pipeline's table
-of clusters is the cut itself, rebuilt on the GPU every frame from the walk's list
+of clusters is the cut itself, rebuilt on the GPU every frame by that walk
 (``dag_table.comp.glsl``: at most :data:`DEFAULT_CAPACITY` slots); across frames only one
 bit per (instance, DAG cluster) pair is kept (passed its last test), so any number of
 instances × DAG clusters fits that fits 2³² bits. :class:`soc.dag_renderer.DagRenderer` runs
@@ -355,13 +358,21 @@ def select_brute(tables: DagTables, instances: Instances, eye, pixel_scale, thre
 DAG_COUNT_GROUPS = 0  # (instance, group) pairs reached by the walk
 DAG_COUNT_SELECTED = 1  # (instance, cluster) pairs of the cut
 DAG_COUNT_SLOTS = 2  # slots of gpu-driven's table handed out (dag_table.comp)
-DAG_ARGS = 12  # 3 words: the next pass's indirect dispatch (x, 1, 1), written by stage 3
-DAG_COUNT_NODES = 16  # + depth: (instance, node) pairs of each tree depth
+DAG_COUNT_DONE = 3  # dag_table.comp's work groups of the walk that have finished
+# 3 words: the next pass's indirect dispatch (x, 1, 1), written by dag_walk's stage 3 and
+# dag_table's walk
+DAG_ARGS = 12
+# + depth: (instance, node) pairs of each tree depth (dag_table.comp: all at depth 0)
+DAG_COUNT_NODES = 16
 DAG_MAX_DEPTH = 64
 DAG_HEADER = DAG_COUNT_NODES + DAG_MAX_DEPTH + 1
 # Most pairs a list holds (nodes of one depth, groups, the cut), and most clusters (slots) of
 # gpu-driven's table of the cut (DagClusters).
 DEFAULT_CAPACITY = 1 << 21
+# Slots each invocation of the table's slot stage fills (at most; its dispatch has a work
+# group per this many times the group size): on llvmpipe a work group of its own costs more
+# than the slots it would fill.
+DAG_SLOTS_PER_INVOCATION = 16
 # The DAG shaders' buffers (dag.common.glsl; dag_table.comp; dag_draw.vert).
 DAG_INSTANCES_BINDING = 0
 DAG_WORK_BINDING = 6
@@ -370,7 +381,9 @@ DAG_LEVELS_BINDING = 7  # dag_draw.vert: per DAG cluster its level
 DAG_TABLE_INFO_BINDING = 8  # dag_table.comp's outputs: gpu-driven's clusters, ...
 DAG_TABLE_BOXES_BINDING = 9  # ... their boxes, ...
 DAG_TABLE_OBJECTS_BINDING = 10  # ... its objects (first slot, slots)
-DAG_TABLE_COUNTS_BINDING = 11  # (I, 2) per instance: slots, cursor
+DAG_SCRATCH_BINDING = 11  # dag_table.comp: per invocation, its instance's cut
+# Clusters of an instance's cut the table pass keeps while it walks (more: it walks again).
+DAG_SCRATCH = 64
 DAG_PAIRS_BINDING = 9  # dag_draw.vert: the pictures' (instance, cluster) pairs
 # Invocations per work group of the DAG's compute passes (the shaders' COMPUTE_GROUP).
 DAG_GROUP = 64
@@ -380,8 +393,9 @@ DISPATCH_GROUPS = 256
 DAG_BOX_GROW = 4e-6
 
 
-def _defines(capacity: int) -> dict[str, object]:
-    """The numbers of this module the DAG shaders are compiled with."""
+def _defines(capacity: int, depth: int = DAG_MAX_DEPTH) -> dict[str, object]:
+    """The numbers of this module the DAG shaders are compiled with (``depth``: the tables'
+    tree depth, the depth-first walk's stack)."""
     from soc.constants import AABB_GROW_RELATIVE
 
     lists = {}
@@ -406,6 +420,9 @@ def _defines(capacity: int) -> dict[str, object]:
         "DAG_MAX_GROUPS": f"{DISPATCH_GROUPS}u",
         **{k: f"{v}u" for k, v in globals().items() if k.startswith("DAG_COUNT_")},
         **{k: f"{v}u" for k, v in lists.items()},
+        "DAG_DEPTH": max(int(depth), 1),
+        "DAG_SCRATCH": f"{DAG_SCRATCH}u",
+        "DAG_SLOTS_PER_INVOCATION": f"{DAG_SLOTS_PER_INVOCATION}u",
         "DAG_WORK_WORDS": at,
     }
 
@@ -466,7 +483,7 @@ class DagWalk:
             )
         self.glctx, self.tables, self.instances = glctx, tables, instances
         self.capacity = int(capacity)
-        self.defines = _defines(self.capacity)
+        self.defines = _defines(self.capacity, tables.depth)
         self.program = ctx.compute_shader(_source("dag_walk.comp", self.defines))
         t = tables
         nodes = np.zeros((len(t.node_first), 2, 4), np.float32)
@@ -594,9 +611,10 @@ class DagClusters:
     lod=threshold)``.
 
     The pipeline's table of clusters is this frame's cut, rebuilt on the GPU each frame by
-    :meth:`build` before the early pass: the DAG walk (:class:`DagWalk`) lists the cut's
-    (instance, DAG cluster) pairs, and ``dag_table.comp.glsl`` gives each pair a slot, an
-    instance's slots contiguous (the instance is the pipeline's object), each drawn from the
+    :meth:`build` before the early pass: ``dag_table.comp.glsl`` walks each instance's tree
+    depth first (the decisions of :class:`DagWalk`, whose buffers it reads) and gives each of
+    the cut's (instance, DAG cluster) pairs a slot, an instance's slots contiguous in walk
+    order (the instance is the pipeline's object), each drawn from the
     DAG's own index buffer (all levels, mesh-local indices) with the instance's base vertex
     and transform, its box the DAG cluster's under the instance. The table holds at most
     :data:`DEFAULT_CAPACITY` slots (the cut in the frustum, not every instance's DAG). What
@@ -634,6 +652,8 @@ class DagClusters:
     clusters : None
         No :class:`soc.culling.clusters.Clusters` table (the table is this source's).
     walk : DagWalk
+        The DAG's tables on the GPU and the counters (``DAG_COUNT_*``: nodes visited are
+        counted at ``DAG_COUNT_NODES``).
     """
 
     clusters = None
@@ -685,7 +705,9 @@ class DagClusters:
         self.info = ctx.buffer(reserve=16 * c)
         self.boxes = ctx.buffer(reserve=24 * c)
         self.objects = ctx.buffer(objects)
-        self.slots = ctx.buffer(reserve=8 * len(scene))
+        self.info.clear()  # rows past a cut beyond the table are read, never garbage
+        self._groups = min(-(-len(scene) // DAG_GROUP), DISPATCH_GROUPS)
+        self.scratch = ctx.buffer(reserve=4 * DAG_SCRATCH * DAG_GROUP * self._groups)
         self.walk = DagWalk(t, scene.instances(), self.glctx, c, self.first[:-1])
         self.table = ctx.compute_shader(_source("dag_table.comp", self.walk.defines))
         self.box_grow = float(np.float32(AABB_GROW_RELATIVE * geometry.diagonal
@@ -716,7 +738,7 @@ class DagClusters:
             vao.release()
         self._vaos.clear()
         for b in (self.vbo, self.ibo, self.bounds, self.info, self.boxes, self.objects,
-                  self.slots):  # fmt: skip
+                  self.scratch):  # fmt: skip
             b.release()
         self.table.release()
         self.walk.release()
@@ -727,36 +749,49 @@ class DagClusters:
 
     def build(self, camera) -> None:
         """Rebuild the table (:attr:`info`, :attr:`boxes`, :attr:`objects`) from this frame's
-        cut, on the GPU: the DAG walk, then ``dag_table.comp``'s three passes, sized by the
-        cut's count on the GPU (nothing read back)."""
+        cut, on the GPU, in ``dag_table.comp``'s two dispatches: a depth-first walk of each
+        instance's tree that gives its cut a contiguous range of slots, then the slots' rows,
+        that dispatch sized on the GPU (nothing read back)."""
+        from soc.culling.hiz_gpu import set_frustum_uniforms
+
         walk = self.walk
-        walk.run(camera, self.threshold, self.frustum, pixel_scale=self.pixel_scale(camera),
-                 check=False)  # fmt: skip
-        self.slots.clear()
+        walk.work.write(np.zeros(DAG_HEADER, np.uint32))
         walk.bind()
         for buf, binding in (
             (self.bounds, DAG_BOUNDS_BINDING),
             (self.info, DAG_TABLE_INFO_BINDING),
             (self.boxes, DAG_TABLE_BOXES_BINDING),
             (self.objects, DAG_TABLE_OBJECTS_BINDING),
-            (self.slots, DAG_TABLE_COUNTS_BINDING),
+            (self.scratch, DAG_SCRATCH_BINDING),
         ):
             buf.bind_to_storage_buffer(binding)
         prog = self.table
-        _set(prog, "eye", tuple(float(x) for x in camera.eye))
-        _set(prog, "cones", self.cones)
-        _set(prog, "box_grow", self.box_grow)
-        walk.sized(prog, DAG_COUNT_SELECTED, stage=0)
-        prog["stage"].value = 1
-        prog.run(min(-(-len(self.scene) // DAG_GROUP), DISPATCH_GROUPS))
+        prog["eye"].value = tuple(float(x) for x in camera.eye)
+        prog["pixel_scale"].value = self.pixel_scale(camera)
+        prog["threshold"].value = self.threshold
+        prog["frustum"].value = self.frustum
+        set_frustum_uniforms(prog, camera)
+        prog["cones"].value = self.cones
+        prog["box_grow"].value = self.box_grow
+        prog["stage"].value = 0
+        prog.run(self._groups)
         self.glctx.ctx.memory_barrier()
-        walk.sized(prog, DAG_COUNT_SELECTED, stage=2)
+        prog["stage"].value = 1
+        prog.run_indirect(walk.work, offset=4 * DAG_ARGS)
+        self.glctx.ctx.memory_barrier()
 
     def check(self) -> None:
-        """Raise RuntimeError when the last walk overflowed a work list (the table's slots:
-        only where the slots are fewer than the pairs)."""
-        if not self._checked:
-            self.walk.check(self.walk.counters())
+        """Raise RuntimeError when the last frame's cut needed more slots than the table has
+        (only where the slots are fewer than the pairs)."""
+        if self._checked:
+            return
+        n = int(self.walk.counters(DAG_COUNT_SLOTS, 1)[0])
+        if n > self.count:
+            raise RuntimeError(
+                f"the cut needs {n:,} (instance, cluster) slots, more than gpu-driven's table "
+                f"holds ({self.count:,}): raise soc.culling.dag_select.DEFAULT_CAPACITY, or "
+                "pass a larger lod threshold"
+            )
 
     def selected(self) -> int:
         """(instance, cluster) pairs of the last frame's cut (in the frustum with ``frustum``),

@@ -22,6 +22,10 @@ layout(std430, binding = DAG_WORK_BINDING) buffer Work { uint work[]; };
 uniform vec3 eye;            // world
 uniform float pixel_scale;   // pixels per world unit at distance 1
 uniform float threshold;     // pixels
+uniform vec4 planes[6];      // inward frustum planes, unit normals
+uniform float plane_slack;
+uniform float plane_rounding;
+uniform bool frustum;        // drop tree nodes whose sphere is outside the frustum
 
 mat4x3 instance_matrix(uint i) {
     vec4 r0 = instances[4u * i], r1 = instances[4u * i + 1u], r2 = instances[4u * i + 2u];
@@ -41,6 +45,30 @@ bool within(vec4 sphere, float error, mat4x3 m, float s, float slack) {
     float d = dist - rs - slack * (dist + rs);
     float lhs = error * s * pixel_scale * (1.0 + slack);
     return lhs <= threshold * max(d, 0.0);
+}
+
+// The sphere (object units) under the instance lies entirely outside one frustum plane,
+// beyond the slack and a float32 rounding allowance (false without `frustum`). Node spheres
+// hold every cluster under them (lod.dag), so dropping such a node is conservative.
+bool sphere_outside(vec4 sphere, mat4x3 m, float s) {
+    if (!frustum) return false;
+    vec3 c = m * vec4(sphere.xyz, 1.0);
+    float r = s * sphere.w;
+    for (int i = 0; i < 6; ++i) {
+        vec3 n = planes[i].xyz;
+        float d = dot(c, n) + planes[i].w;
+        float rounding = plane_rounding * (dot(abs(c), abs(n)) + abs(planes[i].w) + r);
+        if (d < -(r + plane_slack * (1.0 + r) + rounding)) return true;
+    }
+    return false;
+}
+
+// Is cluster c (global id) of an instance with transform m, scale s in the cut: its own error
+// within the threshold and its parent's not?
+bool selected(uint c, mat4x3 m, float s) {
+    vec4 err = cluster_lod[3u * c + 2u];
+    return within(cluster_lod[3u * c], err.x, m, s, 0.0) &&
+           !within(cluster_lod[3u * c + 1u], err.y, m, s, 0.0);
 }
 
 // Append the pair (a, b) to the list at `list` counted by work[counter]; false when full

@@ -1,29 +1,33 @@
 #version 450
 // gpu-driven's table of clusters rebuilt every frame from the DAG's cut
-// (soc/culling/dag_select.py, DagClusters.build): the walk's selected (instance, cluster)
-// pairs, each a slot of the table, an instance's slots contiguous (the pipeline's object).
-//   stage 0: one pair per invocation: its instance's slot count (counts[2i]), unless the pair
-//            faces away by its normal cone (with `cones`; then it gets no slot);
-//   stage 1: one instance per invocation: a range of that many slots (its first slot taken
-//            from the total at DAG_COUNT_SLOTS), written to its object row (first slot, slot
-//            count) and as its cursor (counts[2i + 1]);
-//   stage 2: one pair per invocation (but those stage 0 dropped): the next slot of its instance's range gets its info
-//            (first index, index count, instance, pair bit: gpu_driven.common.glsl's clusters)
-//            and its world box (the DAG cluster's box under the instance, grown for float32
-//            rounding, then by the pipeline's margin as soc.gl.geometry.grown_aabbs grows).
-// The slots' order within an instance is the atomics'; the walk's list holds at most
-// DAG_CAPACITY pairs, so the slots never pass it.
+// (soc/culling/dag_select.py, DagClusters.build), in two dispatches: the cut's
+// (instance, cluster) pairs each get a slot of the table, an instance's slots contiguous
+// (the instance is the pipeline's object).
+//   stage 0: one instance per invocation: its cut by a depth-first walk of its group tree
+//            (the decisions of dag_walk.comp's breadth-first walk, node by node, so the same
+//            cut), but the pairs whose normal cone faces away (with `cones`: no slot); a
+//            range of that many slots taken from the total at DAG_COUNT_SLOTS, written to its
+//            object row (first slot, slots) and each slot's info as (0, 0, instance, DAG
+//            cluster), in walk order. The last work group to finish writes the indirect
+//            dispatch of stage 1 (a group per DAG_SLOTS_PER_INVOCATION × group size slots).
+//   stage 1: every slot (each invocation strides through them): its info (first index,
+//            index count, instance, pair bit: gpu_driven.common.glsl's clusters) and its world
+//            box (the DAG cluster's box under the instance, grown for float32 rounding, then
+//            by the pipeline's margin as soc.gl.geometry.grown_aabbs grows).
+// One walk per instance instead of a dispatch per tree depth: on llvmpipe a dispatch and its
+// barrier cost more than the whole walk of a thousand instances. A cut beyond DAG_CAPACITY
+// slots gets none for the instances past it (the count still grows: DagClusters.check raises).
 #include "dag.common"
 
 // (C, 4) per DAG cluster, object units: (box lo, 3 * first triangle as uint bits), (box hi,
 // 3 * triangles as uint bits), (cone axis, cone cutoff), (cone apex, 0).
 layout(std430, binding = DAG_BOUNDS_BINDING) readonly buffer Bounds { vec4 bounds[]; };
-layout(std430, binding = DAG_TABLE_INFO_BINDING) writeonly buffer Info { uvec4 info[]; };
+layout(std430, binding = DAG_TABLE_INFO_BINDING) buffer Info { uvec4 info[]; };
 layout(std430, binding = DAG_TABLE_BOXES_BINDING) writeonly buffer Boxes { float boxes[]; };
 // (I) the pipeline's object rows: first slot, slots, base vertex (written once), 0.
 layout(std430, binding = DAG_TABLE_OBJECTS_BINDING) buffer Objects { uvec4 objects[]; };
-// (I, 2) per instance: its slots, then its cursor (zeroed before stage 0).
-layout(std430, binding = DAG_TABLE_COUNTS_BINDING) buffer Counts { uint counts[]; };
+// DAG_SCRATCH words per invocation of stage 0: the DAG clusters of its instance's cut.
+layout(std430, binding = DAG_SCRATCH_BINDING) buffer Scratch { uint scratch[]; };
 
 uniform int stage;
 uniform bool cones;      // drop pairs whose every triangle faces away from the eye
@@ -58,27 +62,102 @@ bool back_facing(uint i, uint c) {
     return dot(d, normalize(axis)) < -cone.w * length(d);
 }
 
-void main() {
-    uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
-    uint me = gl_GlobalInvocationID.x;
-    if (stage == 1) {
-        uint n = instance_mesh.length();
-        for (uint i = me; i < n; i += stride) {
-            uint k = counts[2u * i];
-            uint first = k > 0u ? atomicAdd(work[DAG_COUNT_SLOTS], k) : 0u;
-            objects[i].xy = uvec2(first, k);
-            counts[2u * i + 1u] = first;
+// Instance i's cut by a depth-first walk of its group tree: the pairs selected, but those
+// facing away with `cones`, counted; their clusters kept in this invocation's scratch while
+// they fit, and with `write` written to the slots' info from `slot` instead. Returns that
+// count; adds the nodes visited, the groups reached and the pairs selected (facing away or
+// not) to `counted`.
+uint walk_instance(uint i, bool write, uint slot, inout uvec3 counted) {
+    uint base = DAG_SCRATCH * gl_GlobalInvocationID.x;
+    mat4x3 m = instance_matrix(i);
+    float s = instance_scale(i);
+    uint root = mesh_root[instance_mesh[i]];
+    if (sphere_outside(node_sphere_info[2u * root], m, s)) return 0u;
+    // Per tree depth: the next node of the run of siblings the walk is in, and the run's end.
+    uint cursor[DAG_DEPTH], end[DAG_DEPTH];
+    int top = 0;
+    cursor[0] = root;
+    end[0] = root + 1u;
+    uint k = 0u;
+    while (top >= 0) {
+        if (cursor[top] == end[top]) {
+            --top;
+            continue;
         }
-        return;
+        uint node = cursor[top]++;
+        ++counted.x;
+        vec4 sphere = node_sphere_info[2u * node];
+        uvec4 node_info = floatBitsToUint(node_sphere_info[2u * node + 1u]);
+        if (within(sphere, uintBitsToFloat(node_info.w), m, s, DAG_NODE_SLACK)) continue;
+        if (sphere_outside(sphere, m, s)) continue;
+        if (node_info.z == 0u) {  // an inner node: its children, one depth down
+            ++top;
+            cursor[top] = node_info.x;
+            end[top] = node_info.x + node_info.y;
+            continue;
+        }
+        counted.y += node_info.y;  // a leaf: its groups, whose clusters are contiguous
+        for (uint c = group_first[node_info.x]; c < group_first[node_info.x + node_info.y]; ++c) {
+            if (!selected(c, m, s)) continue;
+            ++counted.z;
+            if (cones && back_facing(i, c)) continue;
+            if (write) {
+                info[slot + k] = uvec4(0u, 0u, i, c);
+            } else if (k < DAG_SCRATCH) {
+                scratch[base + k] = c;
+            }
+            ++k;
+        }
     }
-    uint count = min(work[DAG_COUNT_SELECTED], DAG_CAPACITY);
-    for (uint k = me; k < count; k += stride) {
-        uint i = work[DAG_LIST_SELECTED + 2u * k], c = work[DAG_LIST_SELECTED + 2u * k + 1u];
-        if (cones && back_facing(i, c)) continue;
-        if (stage == 0) {
-            atomicAdd(counts[2u * i], 1u);
+    return k;
+}
+
+void walk_instances() {
+    uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    uint n = instance_mesh.length();
+    for (uint i = gl_GlobalInvocationID.x; i < n; i += stride) {
+        uvec3 counted = uvec3(0u);
+        uint k = walk_instance(i, false, 0u, counted);
+        uint first = k > 0u ? atomicAdd(work[DAG_COUNT_SLOTS], k) : 0u;
+        if (first + k > DAG_CAPACITY) k = 0u;  // beyond the table
+        if (k > DAG_SCRATCH) {  // more than the scratch held: walk again, writing
+            uvec3 again = uvec3(0u);
+            walk_instance(i, true, first, again);
         } else {
-            write_slot(atomicAdd(counts[2u * i + 1u], 1u), i, c);
+            uint base = DAG_SCRATCH * gl_GlobalInvocationID.x;
+            for (uint j = 0u; j < k; ++j) info[first + j] = uvec4(0u, 0u, i, scratch[base + j]);
         }
+        objects[i].xy = uvec2(first, k);
+        if (counted.x > 0u) atomicAdd(work[DAG_COUNT_NODES], counted.x);
+        if (counted.y > 0u) atomicAdd(work[DAG_COUNT_GROUPS], counted.y);
+        if (counted.z > 0u) atomicAdd(work[DAG_COUNT_SELECTED], counted.z);
+    }
+    // The last work group to finish sizes stage 1's dispatch by the slots handed out.
+    memoryBarrierBuffer();
+    barrier();
+    if (gl_LocalInvocationIndex == 0u &&
+        atomicAdd(work[DAG_COUNT_DONE], 1u) == gl_NumWorkGroups.x - 1u) {
+        uint slots = min(atomicAdd(work[DAG_COUNT_SLOTS], 0u), DAG_CAPACITY);
+        uint per_group = gl_WorkGroupSize.x * DAG_SLOTS_PER_INVOCATION;
+        work[DAG_ARGS] = clamp((slots + per_group - 1u) / per_group, 1u, DAG_MAX_GROUPS);
+        work[DAG_ARGS + 1u] = 1u;
+        work[DAG_ARGS + 2u] = 1u;
+    }
+}
+
+void fill_slots() {
+    uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    uint slots = min(work[DAG_COUNT_SLOTS], DAG_CAPACITY);
+    for (uint k = gl_GlobalInvocationID.x; k < slots; k += stride) {
+        uvec4 e = info[k];
+        write_slot(k, e.z, e.w);
+    }
+}
+
+void main() {
+    if (stage == 0) {
+        walk_instances();
+    } else {
+        fill_slots();
     }
 }

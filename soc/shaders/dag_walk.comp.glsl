@@ -11,31 +11,11 @@
 //   stage 3: one invocation: the work groups of the next dispatch over the list counted by
 //            work[args_counter], written at DAG_ARGS for glDispatchComputeIndirect (every
 //            pass strides through its list: any group count is correct, this one fits it).
-// Node spheres hold every cluster under them (lod.dag), so the frustum test is conservative.
 #include "dag.common"
 
 uniform int stage;
 uniform uint depth;          // stage 1: the node list read (DAG_LIST_NODES + depth % 2)
-uniform vec4 planes[6];      // inward frustum planes, unit normals
-uniform float plane_slack;
-uniform float plane_rounding;
-uniform bool frustum;
 uniform uint args_counter;   // stage 3
-
-// The sphere (object units) under the instance lies entirely outside one frustum plane,
-// beyond the slack and a float32 rounding allowance.
-bool sphere_outside(vec4 sphere, mat4x3 m, float s) {
-    if (!frustum) return false;
-    vec3 c = m * vec4(sphere.xyz, 1.0);
-    float r = s * sphere.w;
-    for (int i = 0; i < 6; ++i) {
-        vec3 n = planes[i].xyz;
-        float d = dot(c, n) + planes[i].w;
-        float rounding = plane_rounding * (dot(abs(c), abs(n)) + abs(planes[i].w) + r);
-        if (d < -(r + plane_slack * (1.0 + r) + rounding)) return true;
-    }
-    return false;
-}
 
 void main() {
     uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
@@ -85,11 +65,7 @@ void main() {
             mat4x3 m = instance_matrix(i);
             float s = instance_scale(i);
             for (uint c = group_first[g]; c < group_first[g + 1u]; ++c) {
-                vec4 err = cluster_lod[3u * c + 2u];
-                if (within(cluster_lod[3u * c], err.x, m, s, 0.0) &&
-                    !within(cluster_lod[3u * c + 1u], err.y, m, s, 0.0)) {
-                    append(DAG_COUNT_SELECTED, DAG_LIST_SELECTED, i, c);
-                }
+                if (selected(c, m, s)) append(DAG_COUNT_SELECTED, DAG_LIST_SELECTED, i, c);
             }
         }
     }
