@@ -90,12 +90,17 @@ ACC_DEPTH_IMAGE = 1  # r32f window depth
 ACC_IDS_IMAGE = 2  # r32ui object ids
 # warp_*.glsl (warping.py).
 MODELS_BINDING = 0  # warp_gbuffer.vert: (N,) mat4 world <- object
-WARPS_BINDING = 0  # warp_map.common: (N + 1,) mat4 per object's warp, then the background's
+WARPS_BINDING = 0  # warp_map.common: mat4 the static warp, the background's, each moved object's
+WARP_ROWS_BINDING = 3  # warp_map.common: (N,) uint32 each object's row of the warps
+SPLATS_BINDING = 4  # warp_scatter: (H * W, 3) uint32 per source pixel its footprint and depth
 NEAREST_BINDING = 1  # warp_scatter/resolve: (H * W,) uint32 nearest depth bits per pixel
-WINNER_BINDING = 2  # warp_scatter/resolve: (H * W,) uint32 winning source pixel
+WINNER_BINDING = 2  # warp_scatter/resolve: (H * W,) uint32 winning source pixel, y << 16 | x
 OUT_COLOR_IMAGE = 0  # warp_resolve: rgba8 target colour
 OUT_IDS_IMAGE = 1  # warp_resolve: r32ui target object ids
 OUT_DEPTH_IMAGE = 2  # warp_resolve: r32f target window depth
+# warp_map.common: the rows of the warps every static object and the background use.
+STATIC_WARP_ROW = 0
+BACKGROUND_WARP_ROW = 1
 # forward_lighting.common, gbuffer_fill and deferred_*.glsl (shading.py).
 LIGHTS_BINDING = 0  # (L,) lights, two vec4 each
 MATERIAL_COUNT = 8  # material id = object id mod MATERIAL_COUNT

@@ -53,12 +53,16 @@ from soc.errors import check_choice
 from soc.gl.context import ReleasedOnExit, shader_source, uses_gl
 from soc.gl.raw import GL_COLOR
 from soc.gl.shader_defines import (
+    BACKGROUND_WARP_ROW,
     MODELS_BINDING,
     NEAREST_BINDING,
     OUT_COLOR_IMAGE,
     OUT_DEPTH_IMAGE,
     OUT_IDS_IMAGE,
     PIXEL_GROUP,
+    SPLATS_BINDING,
+    STATIC_WARP_ROW,
+    WARP_ROWS_BINDING,
     WARPS_BINDING,
     WINNER_BINDING,
 )
@@ -75,6 +79,9 @@ BACKGROUND_NDC_Z = 1.0 - 2.0**-20
 
 # Colour of holes in warped images (the target is cleared to it).
 HOLE_COLOR = (0.0, 0.0, 0.0, 1.0)
+
+# Row of :func:`warp_table` holding the first moved object's matrix (after the shared ones).
+_FIRST_MOVED_ROW = max(STATIC_WARP_ROW, BACKGROUND_WARP_ROW) + 1
 
 
 # -- results ----------------------------------------------------------------------------------
@@ -242,24 +249,63 @@ def warp_matrices(
         ``P_new · [R_new R_old^T, 0; 0, 0] · P_old^-1``; its clip z is meaningless and is
         replaced by the shader.
     """
+    table, rows = warp_table(old_camera, new_camera, old_transforms, new_transforms)
+    return np.concatenate([table[rows], table[BACKGROUND_WARP_ROW : BACKGROUND_WARP_ROW + 1]])
+
+
+def warp_table(
+    old_camera: Camera,
+    new_camera: Camera,
+    old_transforms: np.ndarray | None = None,
+    new_transforms: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`warp_matrices` without repeats: the distinct matrices and each object's row.
+
+    Returns
+    -------
+    table : (2 + M, 4, 4) float64
+        Row ``STATIC_WARP_ROW`` (0): ``VP_new · VP_old^-1``, shared by every object whose
+        transform did not change; row ``BACKGROUND_WARP_ROW`` (1): the background's; then
+        one row per object whose transform changed (M of them, ascending id).
+    rows : (N,) uint32
+        Each object's row of ``table``.
+    """
     given = [t for t in (old_transforms, new_transforms) if t is not None]
     n = len(np.asarray(given[0])) if given else 0
     t_old, t_new = _transforms(old_transforms, n), _transforms(new_transforms, n)
     back = np.linalg.inv(old_camera.view_proj)
-    static = new_camera.view_proj @ back
-    out = np.empty((n + 1, 4, 4))
-    out[:n] = static
     moved = np.flatnonzero((t_old != t_new).any(axis=(1, 2)))
+    table = np.empty((_FIRST_MOVED_ROW + len(moved), 4, 4))
+    table[STATIC_WARP_ROW] = new_camera.view_proj @ back
+    rotate = np.zeros((4, 4))
+    rotate[:3, :3] = new_camera.basis @ old_camera.basis.T
+    table[BACKGROUND_WARP_ROW] = (
+        new_camera.projection @ rotate @ np.linalg.inv(old_camera.projection)
+    )
+    rows = np.full(n, STATIC_WARP_ROW, np.uint32)
     if len(moved):
         if (np.abs(np.linalg.det(t_old[moved])) < 1e-12).any():
             bad = int(moved[np.abs(np.linalg.det(t_old[moved])) < 1e-12][0])
             raise ValueError(f"old transform of object {bad} is singular: {t_old[bad].tolist()}")
         delta = t_new[moved] @ np.linalg.inv(t_old[moved])
-        out[moved] = new_camera.view_proj @ delta @ back
-    rotate = np.zeros((4, 4))
-    rotate[:3, :3] = new_camera.basis @ old_camera.basis.T
-    out[n] = new_camera.projection @ rotate @ np.linalg.inv(old_camera.projection)
-    return out
+        table[_FIRST_MOVED_ROW:] = new_camera.view_proj @ delta @ back
+        rows[moved] = _FIRST_MOVED_ROW + np.arange(len(moved), dtype=np.uint32)
+    return table, rows
+
+
+def _with_defines(source: str, defines: dict[str, int]) -> str:
+    """``source`` with a ``#define`` line for each of ``defines`` after its ``#version``."""
+    head, rest = source.split("\n", 1)
+    return "\n".join([head, *(f"#define {k} {v}" for k, v in defines.items()), rest])
+
+
+def _upload(buffer, array: np.ndarray, dtype) -> None:
+    """Write ``array`` as ``dtype`` to the start of ``buffer``, growing it when too small."""
+    data = np.ascontiguousarray(array, dtype=dtype)
+    if data.nbytes > buffer.size:
+        buffer.orphan(data.nbytes)
+    if data.nbytes:
+        buffer.write(data)
 
 
 def outside_source_view(
@@ -506,24 +552,20 @@ class Warper(ReleasedOnExit):
         self.glctx = glctx or default_context()
         self.resolution = _resolution(*resolution)
         ctx = self.glctx.ctx
-        self.warps = ctx.buffer(reserve=64, dynamic=True)
-        self._programs: list[Any] = []
+        self.warps = ctx.buffer(reserve=64 * _FIRST_MOVED_ROW, dynamic=True)
+        self.warp_rows = ctx.buffer(reserve=4, dynamic=True)
+        # (kind, parallel) -> program (and its vertex array for points), compiled on first use
+        self._programs: dict[tuple[str, bool], Any] = {}
+        self._vaos: dict[bool, Any] = {}
         if engine == "points":
             self.target = _Target(self.glctx, resolution)
-            self.program = ctx.program(
-                vertex_shader=shader_source("warp_splat.vert"),
-                fragment_shader=shader_source("warp_splat.frag"),
-            )
-            self._vao = ctx.vertex_array(self.program, [])
-            self._programs = [self.program]
         else:
             self.target = _Target(self.glctx, resolution, depth_attachment=False)
-            self.scatter = ctx.compute_shader(shader_source("warp_scatter.comp"))
-            self.resolve = ctx.compute_shader(shader_source("warp_resolve.comp"))
-            self._programs = [self.scatter, self.resolve]
             w, h = self.resolution
             self.nearest = ctx.buffer(reserve=4 * w * h)
             self.winner = ctx.buffer(reserve=4 * w * h)
+            self.splats = ctx.buffer(reserve=12 * w * h)
+            self._clear_scatter()
         self._point_size_flag = moderngl.PROGRAM_POINT_SIZE
 
     color = property(lambda self: self.target.color)
@@ -531,14 +573,15 @@ class Warper(ReleasedOnExit):
     ids = property(lambda self: self.target.ids)
 
     def release(self) -> None:
-        if self.engine == "points":
-            self._vao.release()
-        else:
-            self.nearest.release()
-            self.winner.release()
-        for p in self._programs:
+        if self.engine == "scatter":
+            for b in (self.nearest, self.winner, self.splats):
+                b.release()
+        for v in self._vaos.values():
+            v.release()
+        for p in self._programs.values():
             p.release()
         self.warps.release()
+        self.warp_rows.release()
         self.target.release()
 
     # -- the two warps ------------------------------------------------------------------------
@@ -574,12 +617,12 @@ class Warper(ReleasedOnExit):
             raise ValueError(f"camera resolution {camera.resolution} != {self.resolution}")
         n = len(source.scene)
         t0 = time.perf_counter()
-        m = warp_matrices(source.camera, camera, source.transforms, _transforms(transforms, n))
-        data = np.ascontiguousarray(m.transpose(0, 2, 1), dtype=np.float32)  # column-major
-        if data.nbytes > self.warps.size:
-            self.warps.orphan(data.nbytes)
-        self.warps.write(data)
-        self._run(source, splat_size, {"parallel": False, "objects": n})
+        table, rows = warp_table(
+            source.camera, camera, source.transforms, _transforms(transforms, n)
+        )
+        _upload(self.warps, table.transpose(0, 2, 1), np.float32)  # column-major
+        _upload(self.warp_rows, rows, np.uint32)
+        self._run(source, splat_size, {"objects": n}, parallel=False)
         ms = 1e3 * (time.perf_counter() - t0)
         self.glctx.check("warp")
         return ms
@@ -597,13 +640,12 @@ class Warper(ReleasedOnExit):
         cam = source.camera
         t0 = time.perf_counter()
         uniforms = {
-            "parallel": True,
             "objects": 0,
             "focal_baseline": focal_length_px(cam) * float(separation),
             "near": cam.near,
             "far": cam.far,
         }
-        self._run(source, splat_size, uniforms)
+        self._run(source, splat_size, uniforms, parallel=True)
         ms = 1e3 * (time.perf_counter() - t0)
         self.glctx.check("stereo warp")
         return ms
@@ -636,7 +678,38 @@ class Warper(ReleasedOnExit):
                 tex.use(location=unit)
                 program[name].value = unit
 
-    def _run(self, source: FrameRenderer, splat_size: float, uniforms: dict[str, Any]) -> None:
+    def _program(self, kind: str, parallel: bool = False):
+        """The program ``kind`` ("points", "scatter0", "scatter1" or "resolve") for the
+        stereo shift (``parallel``) or the matrices, compiled on first use: which warp and
+        which scatter stage are fixed at compile time (``WARP_PARALLEL``, ``WARP_STAGE``)
+        because llvmpipe runs both sides of a branch on a uniform."""
+        key = (kind, parallel and kind != "resolve")
+        if key not in self._programs:
+            defines = {"WARP_PARALLEL": int(key[1])}
+            ctx = self.glctx.ctx
+            if kind == "points":
+                prog = ctx.program(
+                    vertex_shader=_with_defines(shader_source("warp_splat.vert"), defines),
+                    fragment_shader=shader_source("warp_splat.frag"),
+                )
+                self._vaos[key[1]] = ctx.vertex_array(prog, [])
+            elif kind == "resolve":
+                prog = ctx.compute_shader(shader_source("warp_resolve.comp"))
+            else:
+                defines["WARP_STAGE"] = int(kind[-1])
+                prog = ctx.compute_shader(
+                    _with_defines(shader_source("warp_scatter.comp"), defines)
+                )
+            self._programs[key] = prog
+        return self._programs[key]
+
+    def _run(
+        self,
+        source: FrameRenderer,
+        splat_size: float,
+        uniforms: dict[str, Any],
+        parallel: bool,
+    ) -> None:
         import moderngl
 
         if not (splat_size >= 1.0 and math.isfinite(splat_size)):
@@ -651,31 +724,43 @@ class Warper(ReleasedOnExit):
         }
         ctx = self.glctx.ctx
         self.warps.bind_to_storage_buffer(WARPS_BINDING)
+        self.warp_rows.bind_to_storage_buffer(WARP_ROWS_BINDING)
         if self.engine == "points":
+            program = self._program("points", parallel)
             self.target.clear(HOLE_COLOR, HOLE)
             ctx.enable_only(moderngl.DEPTH_TEST | self._point_size_flag)
             ctx.depth_func = "<"
-            self._set(self.program, uniforms)
-            self._bind_source(self.program, source)
-            self._vao.render(moderngl.POINTS, vertices=w * h)
+            self._set(program, uniforms)
+            self._bind_source(program, source)
+            self._vaos[parallel].render(moderngl.POINTS, vertices=w * h)
             ctx.finish()
             return
+        stages = [self._program(f"scatter{k}", parallel) for k in (0, 1)]
+        resolve = self._program("resolve")
         groups = (-(-w // PIXEL_GROUP), -(-h // PIXEL_GROUP))
-        self.nearest.clear(chunk=b"\xff" * 4)
-        self.winner.clear(chunk=b"\xff" * 4)
+        if not self._cleared:  # a warp stopped before its resolve
+            self._clear_scatter()
         self.nearest.bind_to_storage_buffer(NEAREST_BINDING)
         self.winner.bind_to_storage_buffer(WINNER_BINDING)
-        self._set(self.scatter, uniforms)
-        self._bind_source(self.scatter, source)
-        for stage in (0, 1):
-            self.scatter["stage"].value = stage
-            self.scatter.run(*groups)
+        self.splats.bind_to_storage_buffer(SPLATS_BINDING)
+        self._cleared = False
+        for stage in stages:
+            self._set(stage, uniforms)
+            self._bind_source(stage, source)
+            stage.run(*groups)
             ctx.memory_barrier()
-        self._set(self.resolve, {"size": (w, h), "hole_color": HOLE_COLOR, "hole": HOLE})
-        self._bind_source(self.resolve, source)
+        self._set(resolve, {"size": (w, h), "hole_color": HOLE_COLOR, "hole": HOLE})
+        self._bind_source(resolve, source)
         self.target.color.bind_to_image(OUT_COLOR_IMAGE, read=False, write=True)
         self.target.ids.bind_to_image(OUT_IDS_IMAGE, read=False, write=True)
         self.target.depth.bind_to_image(OUT_DEPTH_IMAGE, read=False, write=True)
-        self.resolve.run(*groups)
+        resolve.run(*groups)  # also clears nearest and winner for the next warp
         ctx.memory_barrier()
+        self._cleared = True
         ctx.finish()
+
+    def _clear_scatter(self) -> None:
+        """Every pixel's nearest depth and winner to ~0 (no splat)."""
+        self.nearest.clear(chunk=b"\xff" * 4)
+        self.winner.clear(chunk=b"\xff" * 4)
+        self._cleared = True
