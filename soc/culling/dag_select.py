@@ -382,6 +382,7 @@ DAG_TABLE_INFO_BINDING = 8  # dag_table.comp's outputs: gpu-driven's clusters, .
 DAG_TABLE_BOXES_BINDING = 9  # ... their boxes, ...
 DAG_TABLE_OBJECTS_BINDING = 10  # ... its objects (first slot, slots)
 DAG_SCRATCH_BINDING = 11  # dag_table.comp: per invocation, its instance's cut
+DAG_SKIP_BINDING = 12  # (M,) per tree node: the depth-first walk's next node past its subtree
 # Clusters of an instance's cut the table pass keeps while it walks (more: it walks again).
 DAG_SCRATCH = 64
 DAG_PAIRS_BINDING = 9  # dag_draw.vert: the pictures' (instance, cluster) pairs
@@ -393,9 +394,8 @@ DISPATCH_GROUPS = 256
 DAG_BOX_GROW = 4e-6
 
 
-def _defines(capacity: int, depth: int = DAG_MAX_DEPTH) -> dict[str, object]:
-    """The numbers of this module the DAG shaders are compiled with (``depth``: the tables'
-    tree depth, the depth-first walk's stack)."""
+def _defines(capacity: int) -> dict[str, object]:
+    """The numbers of this module the DAG shaders are compiled with."""
     from soc.constants import AABB_GROW_RELATIVE
 
     lists = {}
@@ -420,7 +420,7 @@ def _defines(capacity: int, depth: int = DAG_MAX_DEPTH) -> dict[str, object]:
         "DAG_MAX_GROUPS": f"{DISPATCH_GROUPS}u",
         **{k: f"{v}u" for k, v in globals().items() if k.startswith("DAG_COUNT_")},
         **{k: f"{v}u" for k, v in lists.items()},
-        "DAG_DEPTH": max(int(depth), 1),
+        "DAG_NONE": f"{DAG_NONE}u",
         "DAG_SCRATCH": f"{DAG_SCRATCH}u",
         "DAG_SLOTS_PER_INVOCATION": f"{DAG_SLOTS_PER_INVOCATION}u",
         "DAG_WORK_WORDS": at,
@@ -442,6 +442,25 @@ def _set(program, name: str, value) -> None:
     """Set a uniform the compiler kept (unused ones are optimized out)."""
     if name in program:
         program[name].value = value
+
+
+# The depth-first walk's "no next node" (dag_table.comp).
+DAG_NONE = 0xFFFFFFFF
+
+
+@numba.njit(cache=True)
+def _skips(node_first, node_count, node_leaf):  # pragma: no cover - compiled
+    """(M,) uint32 per tree node the node a depth-first walk goes to when it does not descend
+    into it (its next sibling, else its parent's, and so on; :data:`DAG_NONE` after the last
+    node of its tree). Parents come before their children (breadth-first layout)."""
+    skip = np.full(len(node_first), DAG_NONE, np.uint32)
+    for n in range(len(node_first)):
+        if not node_leaf[n]:
+            f, k = node_first[n], node_count[n]
+            for j in range(k - 1):
+                skip[f + j] = f + j + 1
+            skip[f + k - 1] = skip[n]
+    return skip
 
 
 def _instance_rows(instances: Instances) -> np.ndarray:
@@ -483,7 +502,7 @@ class DagWalk:
             )
         self.glctx, self.tables, self.instances = glctx, tables, instances
         self.capacity = int(capacity)
-        self.defines = _defines(self.capacity, tables.depth)
+        self.defines = _defines(self.capacity)
         self.program = ctx.compute_shader(_source("dag_walk.comp", self.defines))
         t = tables
         nodes = np.zeros((len(t.node_first), 2, 4), np.float32)
@@ -507,6 +526,7 @@ class DagWalk:
             4: ctx.buffer(t.group_first.astype(np.uint32)),
             5: ctx.buffer(lod),
             6: ctx.buffer(reserve=4 * int(self.defines["DAG_WORK_WORDS"])),
+            DAG_SKIP_BINDING: ctx.buffer(_skips(t.node_first, t.node_count, t.node_leaf)),
         }
         self.work = self.buffers[6]
 

@@ -28,6 +28,8 @@ layout(std430, binding = DAG_TABLE_BOXES_BINDING) writeonly buffer Boxes { float
 layout(std430, binding = DAG_TABLE_OBJECTS_BINDING) buffer Objects { uvec4 objects[]; };
 // DAG_SCRATCH words per invocation of stage 0: the DAG clusters of its instance's cut.
 layout(std430, binding = DAG_SCRATCH_BINDING) buffer Scratch { uint scratch[]; };
+// (M) per tree node: where the walk goes when it does not descend into it (DAG_NONE: done).
+layout(std430, binding = DAG_SKIP_BINDING) readonly buffer Skip { uint skip[]; };
 
 uniform int stage;
 uniform bool cones;      // drop pairs whose every triangle faces away from the eye
@@ -71,29 +73,20 @@ uint walk_instance(uint i, bool write, uint slot, inout uvec3 counted) {
     uint base = DAG_SCRATCH * gl_GlobalInvocationID.x;
     mat4x3 m = instance_matrix(i);
     float s = instance_scale(i);
-    uint root = mesh_root[instance_mesh[i]];
-    if (sphere_outside(node_sphere_info[2u * root], m, s)) return 0u;
-    // Per tree depth: the next node of the run of siblings the walk is in, and the run's end.
-    uint cursor[DAG_DEPTH], end[DAG_DEPTH];
-    int top = 0;
-    cursor[0] = root;
-    end[0] = root + 1u;
+    uint node = mesh_root[instance_mesh[i]];
+    if (sphere_outside(node_sphere_info[2u * node], m, s)) return 0u;
     uint k = 0u;
-    while (top >= 0) {
-        if (cursor[top] == end[top]) {
-            --top;
-            continue;
-        }
-        uint node = cursor[top]++;
+    while (node != DAG_NONE) {
         ++counted.x;
         vec4 sphere = node_sphere_info[2u * node];
         uvec4 node_info = floatBitsToUint(node_sphere_info[2u * node + 1u]);
-        if (within(sphere, uintBitsToFloat(node_info.w), m, s, DAG_NODE_SLACK)) continue;
-        if (sphere_outside(sphere, m, s)) continue;
-        if (node_info.z == 0u) {  // an inner node: its children, one depth down
-            ++top;
-            cursor[top] = node_info.x;
-            end[top] = node_info.x + node_info.y;
+        if (within(sphere, uintBitsToFloat(node_info.w), m, s, DAG_NODE_SLACK) ||
+            sphere_outside(sphere, m, s)) {
+            node = skip[node];  // not into its subtree
+            continue;
+        }
+        if (node_info.z == 0u) {  // an inner node: its first child
+            node = node_info.x;
             continue;
         }
         counted.y += node_info.y;  // a leaf: its groups, whose clusters are contiguous
@@ -108,6 +101,7 @@ uint walk_instance(uint i, bool write, uint slot, inout uvec3 counted) {
             }
             ++k;
         }
+        node = skip[node];
     }
     return k;
 }
