@@ -732,7 +732,7 @@ class Warper(ReleasedOnExit):
             ctx.depth_func = "<"
             self._set(program, uniforms)
             self._bind_source(program, source)
-            self._vaos[parallel].render(moderngl.POINTS, vertices=w * h)
+            self._vaos[parallel].render(moderngl.POINTS, vertices=w, instances=h)  # a row each
             ctx.finish()
             return
         stages = [self._program(f"scatter{k}", parallel) for k in (0, 1)]
