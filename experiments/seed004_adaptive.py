@@ -1171,7 +1171,7 @@ CLAIMS = (
             DOC_SINGLE_THREAD,
             lambda q: "ns per recorded command, ours (one thread, one command at a time): "
             + "; ".join(f"{r.scene} mode {int(r.mode)} {r.ns_per_command:.0f}"
-                        + (f" (+{r.us_per_call:.1f} µs a call)"
+                        + (f" ({r.us_per_call:+.1f} µs a call)"
                            if np.isfinite(getattr(r, "us_per_call", np.nan)) else "")
                         for r in q.rec.itertuples())
             + f"; the paper's whole frame per object (Table 1's slope): {PAPER_NS_PER_OBJECT:.0f}",
@@ -1180,7 +1180,8 @@ CLAIMS = (
             "renderer's whole frame per object (recording, submission and drawing: an upper "
             "bound of its recording), not judged against a claim; ours: the slope of the "
             "recorder's ms over the commands it wrote, frame by frame (the fixed cost of a call "
-            "apart)",
+            "apart; modes 2-3 re-record all changed nodes in one call, which passes once over "
+            "every object's node: part of that fixed cost)",
         ),
         Row(
             "Figs. 3-5, recording: mode 2's premise T_buf(S) ≫ T_buf(H)", DOC_PREMISE,

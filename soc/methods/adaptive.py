@@ -402,7 +402,8 @@ class AdaptiveCulling(CullMethod):
 
     def _release_pending(self) -> None:
         for _, batch, _, _ in getattr(self, "_pending", ()):
-            batch.results()  # hands the query objects back to the pool
+            if batch is not None:
+                batch.results()  # hands the query objects back to the pool
         self._pending: deque = deque()
 
     def release(self) -> None:
@@ -628,6 +629,8 @@ class AdaptiveCulling(CullMethod):
                 with stage(timings, "queries", finish):
                     self._issue(canvas, camera, chosen, boxes, subtree)
                 issued = len(chosen)
+            elif mode == 3 and self.temporal:  # no query: LATENCY frames on, nothing hidden
+                self._pending.append((self.frame, None, (chosen, False), np.zeros(0, np.int64)))
             ids = octree.objects_in(drawn)
             visible[ids] = True
             triangles = int(self._tri[ids].sum())
@@ -804,7 +807,7 @@ class AdaptiveCulling(CullMethod):
         issued."""
         while self._pending and self._pending[0][0] <= self.frame - self.latency:
             _, batch, (nodes, subtree), versions = self._pending.popleft()
-            passed = batch.results()
+            passed = batch.results() if batch is not None else np.zeros(0, bool)
             roots = nodes[~passed]
             hidden = self._covered(roots) if subtree else roots
             hidden = hidden[hidden < len(versions)]

@@ -423,3 +423,22 @@ def test_objects_order_queries_own_boxes_most_objects_first(clutter_scenes):
     assert not subtree and len(chosen) == 5
     assert own[chosen].min() >= np.delete(own[in_nodes], np.searchsorted(in_nodes, chosen)).max()
     np.testing.assert_array_equal(boxes, o.own_bounds[chosen])
+
+
+def test_a_frame_without_queries_hides_nothing_once_its_turn_comes(clutter_scenes):
+    """Late results: the frame that issued no query decides, ``LATENCY`` frames on, that
+    nothing is hidden (the results of earlier counts do not linger)."""
+    from soc.methods.adaptive import LATENCY
+
+    scene = clutter_scenes[1]
+    cam = random_cameras(scene, 1, seed=2, width=RES[0], height=RES[1], inside_fraction=0)[0]
+    with soc.Culler(scene, method="adaptive", resolution=RES, mode=3, queries="all",
+                    leaf_capacity=2) as c:  # fmt: skip
+        for _ in range(LATENCY + 2):
+            c.cull(cam)
+        assert c.method.last.hidden_nodes > 0  # the scene hides nodes from this camera
+        c.method.queries = 0
+        for _ in range(LATENCY):
+            c.cull(cam)  # still decided by the results issued before
+        last = c.cull(cam)
+        assert last.stats.queries == 0 and c.method.last.hidden_nodes == 0
