@@ -232,12 +232,39 @@ def age_sweep(world: World, params: Params, gl, pics: dict, bar) -> list[dict]:
     return rows
 
 
+def overview(scene, like) -> tuple[Any, Any]:
+    """Two cameras of ``like``'s resolution and field of view that see every object of
+    ``scene`` (from above at a slant, the whole ground in the frame), the second a step to the
+    side of the first: a model wholly in view, as a 12 M-polygon model shown at 800×600 is,
+    where the flight inside the town keeps most of the tiled copies outside the frustum."""
+    lo, hi = scene.aabbs[:, 0].min(axis=0), scene.aabbs[:, 1].max(axis=0)
+    c, radius = (lo + hi) / 2.0, 0.5 * float(np.linalg.norm(hi - lo))
+    distance = radius / math.sin(math.radians(like.fov_y) / 2.0)  # the bounding sphere fits
+    eye = c + distance * np.array([0.0, 0.92, 0.39])  # about 67° above the horizon
+    cam = like.replace(eye=tuple(map(float, eye)), target=tuple(map(float, c)),
+                       far=2.0 * distance + radius)  # fmt: skip
+    step = 0.001 * radius * cam.basis[0]
+    return cam, cam.replace(
+        eye=tuple(np.add(cam.eye, step)), target=tuple(np.add(cam.target, step))
+    )
+
+
+def in_view_pct(scene, camera) -> float:
+    """Percent of ``scene``'s triangles whose object's box meets ``camera``'s view frustum."""
+    from soc.culling.frustum import aabbs_in_frustum
+
+    inside = aabbs_in_frustum(scene.aabbs, camera)
+    tri = scene.triangle_counts
+    return 100.0 * float(tri[inside].sum()) / float(tri.sum())
+
+
 def _time_view(source, engines: dict, world: World, i: int, j: int, repeats: int,
-               pad: int = 0) -> dict[str, Any]:  # fmt: skip
+               pad: int = 0, cameras: tuple | None = None) -> dict[str, Any]:  # fmt: skip
     """Render frame ``i`` with ``source`` and warp it to frame ``j`` by each engine,
     ``repeats`` times interleaved after a warm-up; medians in ms and the spread (half the
-    range). ``pad``: objects beyond the world's, kept still (identity transforms)."""
-    cam, nxt = world.cameras[i], world.cameras[j]
+    range). ``pad``: objects beyond the world's, kept still (identity transforms);
+    ``cameras``: (old, new) in place of the flight's cameras of frames ``i`` and ``j``."""
+    cam, nxt = cameras or (world.cameras[i], world.cameras[j])
     t_old, t_new = world.movers.transforms(i), world.movers.transforms(j)
     if pad:
         eye = np.broadcast_to(np.eye(4), (pad, 4, 4))
@@ -251,7 +278,7 @@ def _time_view(source, engines: dict, world: World, i: int, j: int, repeats: int
         for k, w in engines.items():
             ms[k].append(w.reproject(source, nxt, t_new))
     med = {k: float(np.median(v)) for k, v in ms.items()}
-    return {"frame": i, "render_ms": med["render"],
+    return {"frame": i, "in_view_pct": in_view_pct(source.scene, cam), "render_ms": med["render"],
             "render_spread_ms": float(np.ptp(ms["render"])) / 2,
             **{f"warp_{k}_ms": med[k] for k in engines},
             **{f"warp_{k}_spread_ms": float(np.ptp(ms[k])) / 2 for k in engines},
@@ -262,8 +289,10 @@ def timing(world: World, params: Params, gl, bar) -> list[dict]:
     """Per view: a full render against one warp by each engine (splat 1, to the next flight
     frame), repeated and interleaved; medians in ms, their ratios, the engines' agreement —
     on the market (``scene`` "market", every view) and on it tiled to
-    ``params.timing_triangles`` (``scene`` "lecture size", the first ``timing_views`` of the
-    views spread over the flight), each row with its triangles."""
+    ``params.timing_triangles`` (``scene`` "lecture size", ``timing_views`` of the views
+    spread over the flight; and "lecture size, in view": seen whole, :func:`overview`, with
+    the first of those views' object transforms), each row with its triangles and the
+    percentage of them in the view frustum."""
     from soc.rendering.warping import FrameRenderer
 
     engines = {"points": gl.points, "scatter": gl.scatter}
@@ -288,6 +317,12 @@ def timing(world: World, params: Params, gl, bar) -> list[dict]:
             rows.append({"scene": "lecture size", "triangles": int(big.triangle_counts.sum()),
                          **row, "engines_agree_pct": np.nan})  # fmt: skip
             bar.update(1)
+        i = views[round(float(pick[0]))]
+        row = _time_view(source, engines, world, i, min(i + 1, params.flight_frames - 1),
+                         params.repeats, pad, cameras=overview(big, world.cameras[i]))  # fmt: skip
+        rows.append({"scene": "lecture size, in view", "triangles": int(big.triangle_counts.sum()),
+                     **row, "engines_agree_pct": np.nan})  # fmt: skip
+        bar.update(1)
     return rows
 
 
@@ -329,7 +364,7 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     n_views = len(view_frames(params))
     n_targets = len(view_frames(params, lead=max(params.ages)))
     total = n_views * len(params.separations) + n_targets * len(params.ages) + n_views
-    total += min(params.timing_views, n_views) if params.timing_triangles > 0 else 0
+    total += min(params.timing_views, n_views) + 1 if params.timing_triangles > 0 else 0
     pics: dict[str, tuple[int, list]] = {}  # picture -> (frame, [(title, image)])
     with (
         FrameRenderer(scene, d) as source,
@@ -482,12 +517,14 @@ def _sweeps(frames: dict[str, pd.DataFrame], params: Params):
     scene_of = tm.scene if "scene" in tm else pd.Series("market", index=tm.index)
     small = tm[scene_of == "market"]
     big = tm[scene_of == "lecture size"]
+    whole = tm[scene_of == "lecture size, in view"]
     med, info = small.median(numeric_only=True), frames["scene"].iloc[0]
     # the same views in both scenes: the warp's and the render's growth with the polygons
     same = small.set_index("frame").loc[big.frame] if len(big) else None
     lmed = big.median(numeric_only=True) if len(big) else None
     yield {
         "big": lmed, "same": None if same is None else same.median(numeric_only=True),
+        "whole": whole.median(numeric_only=True) if len(whole) else None,
         "bigtri": int(big.triangles.iloc[0]) if len(big) else 0, "nbig": len(big),
         "lbest": max(lmed.speedup_points, lmed.speedup_scatter) if len(big) else np.nan,
         "st": st, "one": one, "ign": ign, "ks": [k for k in one.index if k > 0 and k in ign.index],
@@ -531,6 +568,21 @@ def _warp_noise(q) -> float:
     return max(float(np.hypot(q.big.get(f"warp_{e}_spread_ms", np.nan),
                               q.same.get(f"warp_{e}_spread_ms", np.nan)))
                for e in ("points", "scatter"))  # fmt: skip
+
+
+def _whole_text(q) -> str:
+    """The lecture-size scene's triangles in view at the flight's views, and its timing seen
+    whole (not judged: the rule is on the flight's views)."""
+    if "in_view_pct" not in q.big:  # frames from before the column existed
+        return ""
+    text = f"; in the view frustum at those views: {q.big.in_view_pct:.0f} % of the triangles"
+    if q.whole is None:
+        return text
+    w = q.whole
+    return text + (
+        f"; seen whole ({w.in_view_pct:.0f} % in view, not judged): render "
+        f"{w.render_ms:.0f} ms, {w.speedup_points:.2f}× / {w.speedup_scatter:.2f}×"
+    )
 
 
 def _big_why(q) -> str:
@@ -637,7 +689,7 @@ CLAIMS = (Each(_sweeps, (
         f"({q.bigtri:,} triangles: the market tiled, at "
         f"{q.display}; render {q.big.render_ms:.0f} ms, warp {q.big.warp_points_ms:.1f} / "
         f"{q.big.warp_scatter_ms:.1f} ms); the market alone ({q.tri:,}): "
-        f"{q.med.speedup_points:.2f}× / {q.med.speedup_scatter:.2f}×",
+        f"{q.med.speedup_points:.2f}× / {q.med.speedup_scatter:.2f}×" + _whole_text(q),
         TREND,
         Rule(lambda q: q.lbest, ">=", DOC_SPEEDUP, "×",
              noise=lambda q: q.lbest * float(np.hypot(

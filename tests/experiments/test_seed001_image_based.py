@@ -108,3 +108,19 @@ def test_tiled_scene_reaches_the_triangles_and_keeps_the_original_ids():
     np.testing.assert_array_equal(big.aabbs[: len(m)], m.aabbs)
     assert not (big.aabbs[len(m) :, 0, 0] == m.aabbs[0, 0, 0]).all()  # moved copies
     assert exp.tiled(m, n) is m
+
+
+def test_overview_sees_the_whole_tiled_scene_and_the_flight_does_not():
+    """The lecture-size timing seen whole: every object's box inside the overview's frustum,
+    the second camera a small step aside; a flight camera inside the town sees the middle
+    only."""
+    import soc
+
+    m = soc.scenes.market(seed=0, occludees=200)
+    big = exp.tiled(m, 3 * int(m.triangle_counts.sum()))
+    flight = soc.scenes.paths.flight(m, frames=30, width=160, height=120)
+    cam, nxt = exp.overview(big, flight[5])
+    assert exp.in_view_pct(big, cam) == 100.0 == exp.in_view_pct(big, nxt)
+    assert cam.resolution == flight[5].resolution and cam.fov_y == flight[5].fov_y
+    assert 0 < np.linalg.norm(np.subtract(nxt.eye, cam.eye)) < 0.01 * cam.far
+    assert exp.in_view_pct(big, flight[5]) < 60.0
