@@ -587,12 +587,24 @@ def _whole_text(q) -> str:
 
 def _big_why(q) -> str:
     w = min(q.big.warp_points_ms, q.big.warp_scatter_ms)
-    return (
+    text = (
         f"the render of {q.bigtri:,} triangles takes {q.big.render_ms:.0f} ms on llvmpipe "
         f"(CPU cores), the warp {w:.0f} ms for {q.px:,} points: llvmpipe's per-pixel and "
         "per-point work runs on the same cores as its triangle setup, where the lecture's GPU "
         "had the render at 12 M polygons far slower than its point pass"
     )
+    if "in_view_pct" in q.big:
+        text += (
+            f"; and at the flight's views only {q.big.in_view_pct:.0f} % of the triangles lie "
+            "in the view frustum (the tiled copies surround the town), the rest leaving "
+            "llvmpipe after their vertices"
+        )
+    if q.whole is not None:
+        text += (
+            f" (seen whole the render takes {q.whole.render_ms:.0f} ms: "
+            f"{max(q.whole.speedup_points, q.whole.speedup_scatter):.1f}× the faster warp)"
+        )
+    return text
 
 
 def _speed_why(q) -> str:
