@@ -328,3 +328,23 @@ def test_a_scatter_stopped_before_its_resolve_does_not_leak_into_the_next(setup)
     w._cleared = False
     w.reproject(source, cam, splat_size=1.0)
     _assert_same(w.frame(), oracle.reproject("scatter", source, cam, None, 1.0), "after a stop")
+
+
+def test_warp_table_holds_the_shared_rows_and_one_per_moved_object():
+    """Still objects share row 0, the background is row 1, moved objects get a row each in
+    ascending id; expanded by the rows it is warp_matrices, to the bit."""
+    from soc.gl.shader_defines import BACKGROUND_WARP_ROW, STATIC_WARP_ROW
+    from soc.rendering.warping import warp_table
+
+    cam = _cameras(2, seed=3)
+    n = 7
+    t_old = np.broadcast_to(np.eye(4), (n, 4, 4)).copy()
+    t_new = t_old.copy()
+    t_new[[5, 2], :3, 3] = (0.5, 0.0, 1.0)
+    table, rows = warp_table(cam[0], cam[1], t_old, t_new)
+    assert (STATIC_WARP_ROW, BACKGROUND_WARP_ROW) == (0, 1)
+    assert table.shape == (4, 4, 4) and rows.dtype == np.uint32
+    assert rows.tolist() == [0, 0, 2, 0, 0, 3, 0]
+    dense = warp_matrices(cam[0], cam[1], t_old, t_new)
+    assert np.array_equal(dense[:n], table[rows]) and np.array_equal(dense[n], table[1])
+    assert warp_table(cam[0], cam[1])[0].shape == (2, 4, 4)  # no objects: the shared rows
