@@ -383,6 +383,7 @@ DAG_TABLE_BOXES_BINDING = 9  # ... their boxes, ...
 DAG_TABLE_OBJECTS_BINDING = 10  # ... its objects (first slot, slots)
 DAG_SCRATCH_BINDING = 11  # dag_table.comp: per invocation, its instance's cut
 DAG_SKIP_BINDING = 12  # (M,) per tree node: the depth-first walk's next node past its subtree
+DAG_ORDER_BINDING = 13  # dag_table.comp: (I,) the instances in the walk's order
 # Clusters of an instance's cut the table pass keeps while it walks (more: it walks again).
 DAG_SCRATCH = 64
 DAG_PAIRS_BINDING = 9  # dag_draw.vert: the pictures' (instance, cluster) pairs
@@ -461,6 +462,19 @@ def _skips(node_first, node_count, node_leaf):  # pragma: no cover - compiled
                 skip[f + j] = f + j + 1
             skip[f + k - 1] = skip[n]
     return skip
+
+
+def _walk_order(instances: Instances) -> np.ndarray:
+    """(I,) uint32 the instances in the order the table's walk takes them: by the Morton code
+    of their position, so that the invocations that run side by side (llvmpipe's SIMD lanes,
+    a GPU's warp) walk neighbours, at similar distances from most eyes, whose walks go as
+    deep: a lane waits for the deepest walk of its batch."""
+    from soc.culling.clusters import _morton_codes
+
+    centres = np.asarray(instances.matrices[:, :, 3], np.float64)
+    lo = centres.min(axis=0)
+    size = np.maximum(centres.max(axis=0) - lo, 1e-9)
+    return np.argsort(_morton_codes(centres, lo, size), kind="stable").astype(np.uint32)
 
 
 def _instance_rows(instances: Instances) -> np.ndarray:
@@ -726,10 +740,16 @@ class DagClusters:
         self.boxes = ctx.buffer(reserve=24 * c)
         self.objects = ctx.buffer(objects)
         self.info.clear()  # rows past a cut beyond the table are read, never garbage
+        self.order = ctx.buffer(_walk_order(scene.instances()))
         self._groups = min(-(-len(scene) // DAG_GROUP), DISPATCH_GROUPS)
         self.scratch = ctx.buffer(reserve=4 * DAG_SCRATCH * DAG_GROUP * self._groups)
         self.walk = DagWalk(t, scene.instances(), self.glctx, c, self.first[:-1])
-        self.table = ctx.compute_shader(_source("dag_table.comp", self.walk.defines))
+        # One program per stage: llvmpipe runs both sides of a branch on a uniform.
+        self._table_passes = [
+            ctx.compute_shader(_source("dag_table.comp", {**self.walk.defines,
+                                                          "DAG_TABLE_STAGE": stage}))
+            for stage in (0, 1)
+        ]  # fmt: skip
         self.box_grow = float(np.float32(AABB_GROW_RELATIVE * geometry.diagonal
                                          + AABB_GROW_ABSOLUTE))  # fmt: skip
         # A list never holds more pairs than there are pairs (a tree has fewer nodes and
@@ -758,9 +778,10 @@ class DagClusters:
             vao.release()
         self._vaos.clear()
         for b in (self.vbo, self.ibo, self.bounds, self.info, self.boxes, self.objects,
-                  self.scratch):  # fmt: skip
+                  self.scratch, self.order):  # fmt: skip
             b.release()
-        self.table.release()
+        for prog in self._table_passes:
+            prog.release()
         self.walk.release()
 
     def pixel_scale(self, camera) -> float:
@@ -783,21 +804,20 @@ class DagClusters:
             (self.boxes, DAG_TABLE_BOXES_BINDING),
             (self.objects, DAG_TABLE_OBJECTS_BINDING),
             (self.scratch, DAG_SCRATCH_BINDING),
+            (self.order, DAG_ORDER_BINDING),
         ):
             buf.bind_to_storage_buffer(binding)
-        prog = self.table
+        prog, slots = self._table_passes
         prog["eye"].value = tuple(float(x) for x in camera.eye)
         prog["pixel_scale"].value = self.pixel_scale(camera)
         prog["threshold"].value = self.threshold
         prog["frustum"].value = self.frustum
         set_frustum_uniforms(prog, camera)
         prog["cones"].value = self.cones
-        prog["box_grow"].value = self.box_grow
-        prog["stage"].value = 0
         prog.run(self._groups)
         self.glctx.ctx.memory_barrier()
-        prog["stage"].value = 1
-        prog.run_indirect(walk.work, offset=4 * DAG_ARGS)
+        slots["box_grow"].value = self.box_grow
+        slots.run_indirect(walk.work, offset=4 * DAG_ARGS)
         self.glctx.ctx.memory_barrier()
 
     def check(self) -> None:

@@ -1,22 +1,24 @@
 #version 450
 // gpu-driven's table of clusters rebuilt every frame from the DAG's cut
-// (soc/culling/dag_select.py, DagClusters.build), in two dispatches: the cut's
+// (soc/culling/dag_select.py, DagClusters.build), in two dispatches, each its own program
+// (DAG_TABLE_STAGE; llvmpipe runs both sides of a branch on a uniform): the cut's
 // (instance, cluster) pairs each get a slot of the table, an instance's slots contiguous
 // (the instance is the pipeline's object).
-//   stage 0: one instance per invocation: its cut by a depth-first walk of its group tree
-//            (the decisions of dag_walk.comp's breadth-first walk, node by node, so the same
-//            cut), but the pairs whose normal cone faces away (with `cones`: no slot); a
-//            range of that many slots taken from the total at DAG_COUNT_SLOTS, written to its
-//            object row (first slot, slots) and each slot's info as (0, 0, instance, DAG
-//            cluster), in walk order. The last work group to finish writes the indirect
-//            dispatch of stage 1 (a group per DAG_SLOTS_PER_INVOCATION × group size slots).
+//   stage 0: one instance per invocation, in the order of `order` (neighbours side by side):
+//            its cut by a depth-first walk of its group tree (the decisions of dag_walk.comp's
+//            breadth-first walk, node by node, so the same cut; without a stack: `skip` says
+//            where to go past a subtree), but the pairs whose normal cone faces away (with
+//            `cones`: no slot); a range of that many slots taken from the total at
+//            DAG_COUNT_SLOTS, written to its object row (first slot, slots) and each slot's
+//            info as (0, 0, instance, DAG cluster), in walk order. The last work group to
+//            finish writes the indirect dispatch of stage 1 (a group per
+//            DAG_SLOTS_PER_INVOCATION × group size slots).
 //   stage 1: every slot (each invocation strides through them): its info (first index,
 //            index count, instance, pair bit: gpu_driven.common.glsl's clusters) and its world
 //            box (the DAG cluster's box under the instance, grown for float32 rounding, then
 //            by the pipeline's margin as soc.gl.geometry.grown_aabbs grows).
-// One walk per instance instead of a dispatch per tree depth: on llvmpipe a dispatch and its
-// barrier cost more than the whole walk of a thousand instances. A cut beyond DAG_CAPACITY
-// slots gets none for the instances past it (the count still grows: DagClusters.check raises).
+// One walk per instance instead of a dispatch per tree depth. A cut beyond DAG_CAPACITY slots
+// gets none for the instances past it (the count still grows: DagClusters.check raises).
 #include "dag.common"
 
 // (C, 4) per DAG cluster, object units: (box lo, 3 * first triangle as uint bits), (box hi,
@@ -28,10 +30,11 @@ layout(std430, binding = DAG_TABLE_BOXES_BINDING) writeonly buffer Boxes { float
 layout(std430, binding = DAG_TABLE_OBJECTS_BINDING) buffer Objects { uvec4 objects[]; };
 // DAG_SCRATCH words per invocation of stage 0: the DAG clusters of its instance's cut.
 layout(std430, binding = DAG_SCRATCH_BINDING) buffer Scratch { uint scratch[]; };
+// (I) the instances in the order the walk's invocations take them.
+layout(std430, binding = DAG_ORDER_BINDING) readonly buffer Order { uint order[]; };
 // (M) per tree node: where the walk goes when it does not descend into it (DAG_NONE: done).
 layout(std430, binding = DAG_SKIP_BINDING) readonly buffer Skip { uint skip[]; };
 
-uniform int stage;
 uniform bool cones;      // drop pairs whose every triangle faces away from the eye
 uniform float box_grow;  // the pipeline's absolute margin (AABB_GROW_RELATIVE * diagonal + ABSOLUTE)
 
@@ -109,7 +112,8 @@ uint walk_instance(uint i, bool write, uint slot, inout uvec3 counted) {
 void walk_instances() {
     uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
     uint n = instance_mesh.length();
-    for (uint i = gl_GlobalInvocationID.x; i < n; i += stride) {
+    for (uint at = gl_GlobalInvocationID.x; at < n; at += stride) {
+        uint i = order[at];
         uvec3 counted = uvec3(0u);
         uint k = walk_instance(i, false, 0u, counted);
         uint first = k > 0u ? atomicAdd(work[DAG_COUNT_SLOTS], k) : 0u;
@@ -149,9 +153,9 @@ void fill_slots() {
 }
 
 void main() {
-    if (stage == 0) {
-        walk_instances();
-    } else {
-        fill_slots();
-    }
+#if DAG_TABLE_STAGE == 0
+    walk_instances();
+#else
+    fill_slots();
+#endif
 }
