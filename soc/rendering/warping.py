@@ -224,6 +224,12 @@ def _transforms(transforms: Any, n: int) -> np.ndarray:
     return t
 
 
+def _changed(t_old: np.ndarray, t_new: np.ndarray) -> np.ndarray:
+    """Ids of the objects whose (N, 4, 4) transforms differ, compared as floats."""
+    neq = np.not_equal(t_old, t_new).reshape(len(t_old), 16).view(np.uint64)  # 16 bools: 2 words
+    return np.flatnonzero(neq[:, 0] | neq[:, 1])
+
+
 def warp_matrices(
     old_camera: Camera,
     new_camera: Camera,
@@ -274,7 +280,7 @@ def warp_table(
     n = len(np.asarray(given[0])) if given else 0
     t_old, t_new = _transforms(old_transforms, n), _transforms(new_transforms, n)
     back = np.linalg.inv(old_camera.view_proj)
-    moved = np.flatnonzero((t_old != t_new).any(axis=(1, 2)))
+    moved = _changed(t_old, t_new)
     table = np.empty((_FIRST_MOVED_ROW + len(moved), 4, 4))
     table[STATIC_WARP_ROW] = new_camera.view_proj @ back
     rotate = np.zeros((4, 4))
@@ -617,9 +623,7 @@ class Warper(ReleasedOnExit):
             raise ValueError(f"camera resolution {camera.resolution} != {self.resolution}")
         n = len(source.scene)
         t0 = time.perf_counter()
-        table, rows = warp_table(
-            source.camera, camera, source.transforms, _transforms(transforms, n)
-        )
+        table, rows = warp_table(source.camera, camera, source.transforms, transforms)
         _upload(self.warps, table.transpose(0, 2, 1), np.float32)  # column-major
         _upload(self.warp_rows, rows, np.uint32)
         self._run(source, splat_size, {"objects": n}, parallel=False)
