@@ -881,7 +881,7 @@ class AdaptiveCulling(CullMethod):
             with stage(timings, "estimate", self.glctx.finish):
                 estimate = self._run_estimate(camera)
             self._estimated_alive = len(alive_ids)
-        hid = self._hidden_units(mode)
+        hid = self._hidden_units(mode, in_nodes)
         nodes_n = len(in_nodes)
         extra = max(nodes_n - 1, 0)  # multi-draw calls beyond the first (mode 1 has one)
         if self.queries == "auto" and self.planner.choice is not None:
@@ -916,15 +916,16 @@ class AdaptiveCulling(CullMethod):
             self._next_estimate = self.frame + wait
         return estimate, costs
 
-    def _hidden_units(self, mode: int) -> dict[str, float]:
+    def _hidden_units(self, mode: int, in_nodes: np.ndarray) -> dict[str, float]:
         """Objects, triangles and node draws the queries save: measured in mode 3 (the
-        nodes found occluded), else — and in mode 3 until its first results arrive, ``LATENCY``
-        frames after it began — the latest invisible estimate (conservative)."""
+        nodes in the frustum, ``in_nodes``, found occluded), else — and in mode 3 until its
+        first results arrive, ``LATENCY`` frames after it began — the latest invisible
+        estimate (conservative)."""
         if mode == 3 and (not self.temporal or self._queried_effective > 0):
             hidden = self._hidden
             octree = self.octree
             ok = self._hidden_version == octree.version[hidden]
-            hidden = hidden[ok]
+            hidden = np.intersect1d(hidden[ok], in_nodes)
             return {
                 "commands": float(octree.own_counts[hidden].sum()),
                 "triangles": float(self._node_triangles()[hidden].sum()),

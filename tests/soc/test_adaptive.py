@@ -442,3 +442,22 @@ def test_a_frame_without_queries_hides_nothing_once_its_turn_comes(clutter_scene
             c.cull(cam)  # still decided by the results issued before
         last = c.cull(cam)
         assert last.stats.queries == 0 and c.method.last.hidden_nodes == 0
+
+
+def test_mode3_savings_count_only_hidden_nodes_in_the_frustum(clutter_scenes):
+    """What (6) is told the queries save: nodes found occluded that lie in the frustum."""
+    scene = clutter_scenes[2]
+    cam = random_cameras(scene, 1, seed=4, width=RES[0], height=RES[1], inside_fraction=0)[0]
+    with soc.Culler(scene, method="adaptive", resolution=RES, mode=3, temporal=False,
+                    leaf_capacity=2) as c:  # fmt: skip
+        c.cull(cam)
+        m = c.method
+        o = m.octree
+        full = np.flatnonzero(o.own_counts > 0)
+        in_nodes = o.visible_nodes(cam)
+        outside = np.setdiff1d(full, in_nodes)
+        assert len(outside) and len(in_nodes) > 1
+        m._hidden = np.sort(np.r_[in_nodes[:1], outside[:1]])
+        m._hidden_version = o.version[m._hidden].copy()
+        got = m._hidden_units(3, in_nodes)
+    assert got["calls"] == 1 and got["commands"] == o.own_counts[in_nodes[0]]
