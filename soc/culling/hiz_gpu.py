@@ -315,7 +315,10 @@ class DepthPyramid:
 
 def set_frustum_uniforms(program, camera: Camera) -> None:
     """Set the uniforms that ``outside_frustum`` of ``hiz_test.common.glsl`` reads in
-    ``program``: ``camera``'s planes and the slack of the test."""
+    ``program``: ``camera``'s planes and the slack of the test (none where the program does not
+    read them: compiled without the frustum test)."""
+    if "planes" not in program:
+        return
     program["planes"].write(np.ascontiguousarray(camera.planes, np.float32).tobytes())
     program["plane_slack"].value = FRUSTUM_SLACK
     program["plane_rounding"].value = PLANE_ROUNDING

@@ -67,7 +67,10 @@ passes and the read back. Static scenes only (no ``set_alive``).
 
 from __future__ import annotations
 
+import functools
 import math
+import re
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -116,6 +119,49 @@ from soc.methods.two_phase import (
 )
 
 _ZERO = bytes(4)
+
+# Each context's passes compiled for one configuration: (pass, constants) -> program.
+_PROGRAMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _pass(glctx, name: str, constants: dict[str, bool | int]):
+    """The compute shader ``soc/shaders/<name>.glsl`` with its switches ``constants`` (uniform
+    ``bool``/``int``/``uint`` names) compiled in as constants, cached per context.
+
+    llvmpipe runs both sides of a branch on a uniform (every lane, the other side masked), so
+    a pass whose configuration is known when the culler is built runs only its own code: the
+    same decisions, for less (tests/soc/test_gpu_driven.py and test_two_phase_frames.py
+    compare the frames)."""
+    from soc.gl.context import shader_source
+
+    cache = _PROGRAMS.setdefault(glctx, {})
+    key = (name, tuple(sorted(constants.items())))
+    if key not in cache:
+        src = shader_source(name)
+        for k, v in constants.items():
+            value = ("true" if v else "false") if isinstance(v, bool) else str(int(v))
+            src, n = re.subn(rf"^uniform (bool|int|uint) {k};", rf"const \1 {k} = {value};",
+                             src, flags=re.M)  # fmt: skip
+            if n != 1:
+                raise RuntimeError(f"{name}.glsl declares uniform {k} {n} times, expected once")
+        with glctx.current():
+            cache[key] = glctx.ctx.compute_shader(src)
+    return cache[key]
+
+
+@functools.cache
+def _declared(name: str) -> frozenset[str]:
+    """The names of the ``bool``/``int``/``uint`` uniforms ``soc/shaders/<name>.glsl`` (with its
+    includes) declares."""
+    from soc.gl.context import shader_source
+
+    return frozenset(re.findall(r"^uniform (?:bool|int|uint) (\w+);", shader_source(name), re.M))
+
+
+def _set(program, name: str, value) -> None:
+    """Set uniform ``name`` of ``program`` unless it was compiled in (:func:`_pass`)."""
+    if name in program:
+        program[name].value = value
 
 
 @dataclass(frozen=True)
@@ -235,12 +281,31 @@ class GpuDrivenCulling(TwoPhase):
             self.gpu = geometry.clusters(self.clusters)
         self.hierarchy = gpu_hierarchy(geometry)
         self.pyramid = DepthPyramid(self.glctx, self.renderer.resolution)
-        self.early_pass = self.glctx.compute("gpu_driven_early.comp")
-        self.late_pass = self.glctx.compute("gpu_driven_late.comp")
-        self.cluster_pass = self.glctx.compute("gpu_driven_clusters.comp")
-        self.order_pass = self.glctx.compute("gpu_driven_order.comp")
+        self.per_frame = hasattr(self.source, "build")  # a table rebuilt every frame
+        # The passes' switches that are fixed for this culler, compiled in (_pass).
+        fixed = {
+            "frustum": bool(config.frustum),
+            "occlusion": bool(config.depth_test),
+            "test_clusters": granularity == "cluster",
+            "split": self.split,
+            "table_per_frame": self.per_frame,
+            "sort_draws": self.sort_draws,
+        }
+
+        def compiled(name, **more):  # with the switches this pass declares
+            switches = {**fixed, **more}
+            return _pass(
+                self.glctx, name, {k: switches[k] for k in _declared(name) & switches.keys()}
+            )
+
+        self.early_pass = compiled("gpu_driven_early.comp")
+        self.late_pass = compiled("gpu_driven_late.comp")
+        self.cluster_pass = compiled("gpu_driven_clusters.comp", stage=0)  # its two stages
+        self.cluster_emit = compiled("gpu_driven_clusters.comp", stage=1)
+        self.order_pass = compiled("gpu_driven_order.comp")
         # Each pass with its uniforms' names: `name in program` scans them all, every time.
-        programs = (self.early_pass, self.late_pass, self.cluster_pass, self.order_pass)
+        programs = (self.early_pass, self.late_pass, self.cluster_pass, self.cluster_emit,
+                    self.order_pass)  # fmt: skip
         self._passes = [(p, frozenset(p)) for p in programs]
         self.draws = CountedDraws(self.glctx)
         ctx = self.glctx.ctx
@@ -248,7 +313,6 @@ class GpuDrivenCulling(TwoPhase):
         self._object_bits = FRAME_HEADER
         self._cluster_bits = FRAME_HEADER + (n + 31) // 32
         words = self._cluster_bits + (c + 31) // 32
-        self.per_frame = hasattr(self.source, "build")  # a table rebuilt every frame
         self.object_state = ctx.buffer(reserve=4 * 2 * n)
         self.runs = ctx.buffer(reserve=16 * (1 if self.per_frame else c))
         self.cluster_state = ctx.buffer(reserve=4 * c)
@@ -392,18 +456,14 @@ class GpuDrivenCulling(TwoPhase):
             late = self.late_pass
             if occlusion:
                 set_test_uniforms(late, self.pyramid, camera, FOOTPRINT, REFINE)
-            late["occlusion"].value = occlusion
-            late["split"].value = self.split
+            _set(late, "occlusion", occlusion)
             self._run(late, walk=True)
             if self.split:
                 cp = self.cluster_pass
                 if occlusion:
                     set_test_uniforms(cp, self.pyramid, camera, FOOTPRINT, REFINE)
-                cp["occlusion"].value = occlusion
-                cp["stage"].value = 0
                 self._run(cp, items=self.gpu.count)
-                cp["stage"].value = 1
-                self._run(cp)
+                self._run(self.cluster_emit)
         if self.sort_draws:
             with stage(timings, "sort", finish):
                 self._sort(True)
