@@ -107,7 +107,7 @@ DOC_SPIKES = (
     "с перезаписыванием командных буферов узлов иерархии при появлении новых объектов» (its "
     "spikes come mainly from re-recording the node buffers when new objects appear)"
 )
-FRAMES = ("frames", "summary", "criterion", "switches", "regression", "fits", "q_compare",
+FRAMES = ("frames", "summary", "criterion", "switches", "regression", "orders", "fits", "q_compare",
           "scenes", "repeats", "recording", "stages")  # fmt: skip
 
 
@@ -269,7 +269,8 @@ def sweep(dyn, params: Params, renderer, progress: bool = True):
     results decided it with what they hid. The distinct counts among 0, n_0 and q* are timed
     in turn, ``SWEEP_REPEATS`` rounds, each count held ``LATENCY`` frames before its timed
     frame (so its own results decide it; a count two terms share is timed once and given to
-    both)."""
+    both). Beside them, the hidden triangles of our former choice of queried nodes
+    (``query_order="objects"``) at the counts the planner tried (:func:`other_order`)."""
     import soc
     from soc.models.adaptive import MAX_FIT_RMS
     from soc.models.query_model import best_query_count, fit_query_model
@@ -320,6 +321,8 @@ def sweep(dyn, params: Params, renderer, progress: bool = True):
         play.close()
     last_of_hold = timed.ms.to_numpy()[hold - 1 :: hold]
     ms = {q: last_of_hold[i :: len(counts)].tolist() for i, q in enumerate(counts)}
+    tried = sorted({int(q) for q in stats.q})
+    orders = other_order(dyn, renderer, cam, tried, "objects")
     compare = [{"scene": dyn.name, "term": label, "q": int(q), "model_ms": float(model.time(q)),
                 "measured_ms": float(np.median(ms[q])), "measured_min": min(ms[q]),
                 "measured_max": max(ms[q]), "same_as": next(t for t, k in terms if k == q)}
@@ -339,7 +342,33 @@ def sweep(dyn, params: Params, renderer, progress: bool = True):
         "c_n": c_n, "n0_nodes": n0, "q_star": float(choice.q_star), "q_best": int(choice.q),
         **content,
     }  # fmt: skip
-    return points, fit_row, compare
+    return points, fit_row, compare, orders
+
+
+def other_order(dyn, renderer, cam, counts: list[int], order: str) -> pd.DataFrame:
+    """The triangles hidden at the last frame from ``cam`` by mode 3 choosing its queried
+    nodes by ``order`` (:class:`soc.methods.adaptive.AdaptiveOptions`), each count of
+    ``counts`` held ``LATENCY`` + 1 frames (its own results decide the last one); one row per
+    count: ``scene``, ``order``, ``q`` (the count asked for), ``queries`` (issued: at most the
+    candidates) and ``hidden_triangles``."""
+    clip = SimpleNamespace(scene=dyn.scene, state=None)
+    play = Shaded(clip, renderer, dyn.alive(dyn.frames - 1), mode=3, queries=0,
+                  query_order=order)  # fmt: skip
+    m = play.method
+    rows = []
+    try:
+        m.render(cam, renderer)  # records every node buffer
+        base = float(m._node_triangles()[m.octree.visible_nodes(cam)].sum())
+        for q in counts:
+            m.queries = int(q)
+            for _ in range(LATENCY + 1):
+                fr = m.render(cam, renderer)
+            rows.append({"scene": dyn.name, "order": order, "q": int(q),
+                         "queries": int(fr.queries_effective),
+                         "hidden_triangles": base - fr.triangles})  # fmt: skip
+    finally:
+        play.close()
+    return pd.DataFrame(rows)
 
 
 def _hideable(dyn, method, cam, resolution) -> dict:
@@ -487,7 +516,7 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
 
     glctx = default_context()
     warm_up_fit()  # compile the jitted regression once, before any frame is timed
-    plays, points, fits, compare, scenes, repeats = [], [], [], [], [], []
+    plays, points, fits, compare, scenes, repeats, orders = [], [], [], [], [], [], []
     for name in params.scenes:
         ms: dict[str, float] = {}
         with stage(ms, "generate"):
@@ -495,13 +524,14 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
         renderer = Renderer(glctx.geometry(dyn.scene), params.resolution)
         try:
             played = animate(dyn, params, renderer, progress)
-            p, fit, cmp = sweep(dyn, params, renderer, progress)
+            p, fit, cmp, other = sweep(dyn, params, renderer, progress)
         finally:
             renderer.release()
         for k, one in played.groupby("repeat"):
             repeats.append(repeat_row(one, int(k)))
         plays.append(played[played.repeat == 0].drop(columns="repeat"))
         points.append(p)
+        orders.append(other)
         fits.append(fit)
         compare += cmp
         obj, tri = (dyn.counts()[k] for k in ("objects", "triangles"))
@@ -515,6 +545,7 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
         "frames": f, "summary": summary, "criterion": crit, "switches": switches,
         "recording": recording(f), "stages": stage_means(f),
         "regression": pd.concat(points, ignore_index=True), "fits": pd.DataFrame(fits),
+        "orders": pd.concat(orders, ignore_index=True),
         "q_compare": pd.DataFrame(compare), "scenes": pd.DataFrame(scenes),
         "repeats": pd.DataFrame(repeats),
     }  # fmt: skip
@@ -972,6 +1003,9 @@ def _growth(frames: dict[str, pd.DataFrame], params: Params):
         content = None
         if fits is not None and "node_hideable" in fits:
             content = fits[fits.scene == sc].iloc[0]
+        other = frames.get("orders")
+        if other is not None and len(other):
+            other = other[other.scene == sc].groupby("q").hidden_triangles.mean().sort_index()
         by = g.groupby("q").hidden_triangles
         mean = by.mean().sort_index()
         noise = float(by.std(ddof=1).dropna().max()) if (by.size() >= 2).any() else None
@@ -979,7 +1013,7 @@ def _growth(frames: dict[str, pd.DataFrame], params: Params):
         slopes = np.diff(h) / np.diff(qs)
         yield {"sc": sc, "mean": mean, "drop": float(max((-np.diff(h)).max(), 0.0)),
                "h_noise": noise, "first": float(slopes[0]), "last": float(slopes[-1]),
-               "content": content}  # fmt: skip
+               "content": content, "other": other}  # fmt: skip
 
 
 def _content_why(c) -> str:
@@ -1224,7 +1258,11 @@ CLAIMS = (
         "Figs. 3-5, {sc}: invisible vertices grow monotonically and saturate", DOC_LOG,
         lambda q: "hidden triangles per query count: " + ", ".join(
             f"q={int(k)}: {v:,.0f}" for k, v in q.mean.items())
-        + f"; gain per query {q.first:,.1f} over the first step, {q.last:,.1f} over the last",
+        + f"; gain per query {q.first:,.1f} over the first step, {q.last:,.1f} over the last"
+        + (" (the paper's choice of queried nodes: top-down from the root, subtree boxes); ours "
+           "before (own boxes, most objects first): " + ", ".join(
+               f"q={int(k)}: {v:,.0f}" for k, v in q.other.items())
+           if q.other is not None and len(q.other) else ""),
         TREND,
         (Rule(lambda q: q.drop - (q.h_noise or 0.0), "<=", 0, "triangles", name="monotone",
               noise=lambda q: q.h_noise,

@@ -58,6 +58,10 @@ def test_summary_and_switches_match_the_rows(tiny):
     for s in set(f.scene):
         assert set(cmp[cmp.scene == s].term) == {"T(0)", "T(n0)", "T(q*)"}
         assert (frames["regression"].scene == s).sum() == 12
+        other = frames["orders"][frames["orders"].scene == s]
+        tried = set(frames["regression"][frames["regression"].scene == s].q.astype(int))
+        assert set(other.order) == {"objects"} and set(other.q) == tried
+        assert (other.queries <= other.q).all()
 
 
 def test_claims_give_causes_for_modes_and_quote_the_paper(tiny):
