@@ -60,6 +60,8 @@ def test_composite_timing_and_claims(tiny):
     tm = frames["timing"]
     assert len(tm) == len(exp.view_frames(params))
     assert (tm.render_ms > 0).all() and (tm.warp_scatter_ms > 0).all()
+    assert (tm.render_cpu_ms > 0).all() and (tm.warp_points_cpu_ms > 0).all()
+    assert (tm.in_view_pct > 0).all() and (tm.in_view_pct <= 100).all()
     assert (tm.engines_agree_pct > 95.0).all()
     cl = exp.claims(frames, params).set_index("item")
     assert set(cl.verdict) <= set(harness.VERDICTS)
