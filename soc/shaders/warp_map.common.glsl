@@ -18,9 +18,9 @@
 // the matrices; soc/rendering/warping.py defines it), not chosen by a uniform: llvmpipe runs
 // both sides of a branch, the untaken one with every lane masked off.
 //
-// Background pixels (the sky) are directions: the last matrix rotates them (translation
-// does not move what is infinitely far), their disparity is 0, and they are put at
-// background_z, behind every object.
+// Background pixels (the sky) are directions: their row (BACKGROUND_WARP_ROW) rotates them
+// (translation does not move what is infinitely far), their disparity is 0, and they are put
+// at background_z, behind every object.
 
 uniform sampler2D depth;        // source window depth (compare mode off)
 uniform usampler2D ids;         // source object ids (no_object = background)
