@@ -490,7 +490,9 @@ class DagWalk:
     uploaded once, a breadth-first walk of every instance's group tree per frame.
 
     The selected (instance, cluster) pairs go to the work buffer's selected list
-    (:meth:`select` reads them back; :class:`DagClusters` builds gpu-driven's table from it).
+    (:meth:`select` reads them back). :class:`DagClusters` walks the same tables with
+    ``dag_table.comp`` instead (its buffers and counters are this walk's; this walk's own
+    program is compiled on its first :meth:`run`).
 
     Parameters
     ----------
@@ -517,7 +519,7 @@ class DagWalk:
         self.glctx, self.tables, self.instances = glctx, tables, instances
         self.capacity = int(capacity)
         self.defines = _defines(self.capacity)
-        self.program = ctx.compute_shader(_source("dag_walk.comp", self.defines))
+        self._program = None  # dag_walk.comp, compiled on first use
         t = tables
         nodes = np.zeros((len(t.node_first), 2, 4), np.float32)
         nodes[:, 0] = t.node_sphere
@@ -544,11 +546,19 @@ class DagWalk:
         }
         self.work = self.buffers[6]
 
+    @property
+    def program(self):
+        """``dag_walk.comp`` compiled with this walk's defines."""
+        if self._program is None:
+            self._program = self.glctx.ctx.compute_shader(_source("dag_walk.comp", self.defines))
+        return self._program
+
     def release(self) -> None:
         """Free the walk's GL objects."""
         for b in self.buffers.values():
             b.release()
-        self.program.release()
+        if self._program is not None:
+            self._program.release()
 
     def bind(self) -> None:
         """Bind the tables and the work buffer at their DAG_* binding points."""
