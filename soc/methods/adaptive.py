@@ -16,8 +16,9 @@ section 4; decisions in :mod:`soc.models.adaptive`, octree in :mod:`soc.culling.
    traversing the hierarchy top-down", nodes holding many objects being the ones worth
    checking) — the nodes whose subtree is non-empty and in the frustum, level by level from
    the root, the biggest subtrees first within a level, each queried on its subtree box; one
-   found occluded hides its whole subtree, and the descendants of nodes found occluded by the
-   latest results are skipped (their ancestor is queried again). ``"objects"`` (ours before):
+   found occluded hides its whole subtree. The order does not depend on earlier results, so
+   more queries never hide less (the paper prunes below occluded nodes within one traversal,
+   which results read frames late cannot do). ``"objects"`` (ours before):
    the nodes' own boxes, the most own objects first. ``queries="all"`` (the paper's baseline,
    "all leaf nodes") queries the own box of every node in the frustum.
    ``temporal=True`` (default, the paper's test: "results are read with a delay of several
@@ -387,7 +388,6 @@ class AdaptiveCulling(CullMethod):
         self._since_switch = self.dwell  # the first decision may switch at once
         self._hidden = np.zeros(0, np.int64)  # nodes the latest collected queries found occluded
         self._hidden_version = np.zeros(0, np.int64)
-        self._hidden_roots = np.zeros(0, np.int64)  # queried nodes found occluded (latest)
         self._queried_effective = 0
         self._estimate: dict | None = None  # the latest invisible estimate, in draw units
         self._rate = {"commands": 0.0, "nodes": 0.0}  # node-buffer changes per frame
@@ -614,7 +614,6 @@ class AdaptiveCulling(CullMethod):
                     effective = self._queried_effective
                 else:
                     roots = self._same_frame_queries(camera, chosen, boxes, timings)
-                    self._hidden_roots = roots
                     hidden = self._covered(roots) if subtree else roots
                     issued = effective = len(chosen)
                     # Kept for the predictions of (6) (this frame's savings).
@@ -715,7 +714,6 @@ class AdaptiveCulling(CullMethod):
             self._release_pending()
             self._hidden = np.zeros(0, np.int64)
             self._hidden_version = np.zeros(0, np.int64)
-            self._hidden_roots = np.zeros(0, np.int64)
             self._queried_effective = 0
         self.mode = next_mode
         self._since_switch = 0
@@ -734,10 +732,10 @@ class AdaptiveCulling(CullMethod):
         subtree (``query_order``, module docstring).
 
         ``"top-down"``: candidates are the nodes with a non-empty subtree whose subtree box is
-        in the frustum, less the descendants of the nodes the latest results found occluded;
-        ordered by level (root first), then by subtree objects (most first), the first ``q``
-        queried (``q`` planned over the candidates). ``"objects"`` and ``queries="all"``: the
-        nodes in the frustum (``in_nodes``) on their own boxes, most own objects first.
+        in the frustum, ordered by level (root first), then by subtree objects (most first),
+        the first ``q`` queried (``q`` planned over the candidates). ``"objects"`` and
+        ``queries="all"``: the nodes in the frustum (``in_nodes``) on their own boxes, most
+        own objects first.
         """
         octree = self.octree
         if self.query_order == "objects" or self.queries == "all":
@@ -748,18 +746,13 @@ class AdaptiveCulling(CullMethod):
         cand = np.flatnonzero(counts > 0)
         if self.config.frustum:
             cand = cand[aabbs_in_frustum(bounds[cand], camera.planes)]
-        roots = self._hidden_roots[self._hidden_roots < octree.nodes]
-        if len(roots):
-            below = self._covered(roots, own_only=False)
-            below[roots] = False  # the occluded nodes themselves are queried again
-            cand = cand[~below[cand]]
         order = np.lexsort((-counts[cand], octree.level[cand]))
         chosen = cand[order[: self._plan(len(cand))]]
         return chosen, bounds[chosen], True
 
-    def _covered(self, roots: np.ndarray, *, own_only: bool = True):
-        """The nodes in the subtrees of ``roots`` (themselves included): with ``own_only`` the
-        sorted (K,) int64 ids of those holding objects themselves, else an (M,) bool mask."""
+    def _covered(self, roots: np.ndarray) -> np.ndarray:
+        """Sorted (K,) int64 ids of the nodes in the subtrees of ``roots`` (themselves
+        included) that hold objects themselves."""
         octree = self.octree
         m = octree.nodes
         mark = np.zeros(m, bool)
@@ -769,8 +762,6 @@ class AdaptiveCulling(CullMethod):
         cuts = np.searchsorted(level[order], np.arange(1, int(level.max()) + 1))
         for at in np.split(order, cuts)[1:]:  # top-down: one level per step
             mark[at] |= mark[parent[at]]
-        if not own_only:
-            return mark
         return np.flatnonzero(mark & (octree.own_counts > 0))
 
     def _same_frame_queries(self, camera, chosen: np.ndarray, boxes, timings) -> np.ndarray:
@@ -811,7 +802,6 @@ class AdaptiveCulling(CullMethod):
             roots = nodes[~passed]
             hidden = self._covered(roots) if subtree else roots
             hidden = hidden[hidden < len(versions)]
-            self._hidden_roots = roots
             self._hidden = hidden
             self._hidden_version = versions[hidden]
             self._queried_effective = len(nodes)

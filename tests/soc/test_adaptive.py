@@ -380,7 +380,8 @@ def test_late_results_do_not_pop_for_a_static_camera(clutter_scenes, queries):
 def test_top_down_queries_subtrees_level_by_level_biggest_first(clutter_scenes):
     """The paper's order (section 3, top-down): the q queried nodes are the first q of the
     candidates (non-empty subtree, subtree box in the frustum) by level, then by subtree
-    objects; each on its subtree box; below a node found occluded nothing is queried."""
+    objects, each on its subtree box; fewer queries are a prefix of more (more never hide
+    less); a subtree found occluded hides the nodes under it."""
     from soc.culling.frustum import aabbs_in_frustum
 
     scene = clutter_scenes[2]
@@ -394,20 +395,29 @@ def test_top_down_queries_subtrees_level_by_level_biggest_first(clutter_scenes):
         cand = np.flatnonzero(counts > 0)
         cand = cand[aabbs_in_frustum(bounds[cand], cam.planes)]
         key = {int(n): (int(o.level[n]), -int(counts[n])) for n in cand}
-        m._hidden_roots = np.zeros(0, np.int64)
-        chosen, boxes, subtree = m._choose_queried(cam, o.visible_nodes(cam))
-        assert subtree and len(chosen) == 10 and chosen[0] == 0
-        ranks = [key[int(n)] for n in chosen]
-        assert ranks == sorted(ranks)
-        assert max(ranks) <= min(key[int(n)] for n in np.setdiff1d(cand, chosen))
-        np.testing.assert_array_equal(boxes, bounds[chosen])
-        # A node "found occluded": its descendants drop out, it is queried again.
+        in_nodes = o.visible_nodes(cam)
+        chosen, boxes, subtree = m._choose_queried(cam, in_nodes)
+        m.queries = 4
+        fewer, _, _ = m._choose_queried(cam, in_nodes)
         inner = next(int(n) for n in chosen[1:] if (o.children[n] >= 0).any())
-        m._hidden_roots = np.array([inner])
-        again, _, _ = m._choose_queried(cam, o.visible_nodes(cam))
-        below = m._covered(np.array([inner]), own_only=False)
-        assert inner in again and not below[np.setdiff1d(again, [inner])].any()
-        assert below.sum() > 1
+        covered = m._covered(np.array([inner]))
+    assert subtree and len(chosen) == 10 and chosen[0] == 0
+    ranks = [key[int(n)] for n in chosen]
+    assert ranks == sorted(ranks)
+    assert max(ranks) <= min(key[int(n)] for n in np.setdiff1d(cand, chosen))
+    np.testing.assert_array_equal(boxes, bounds[chosen])
+    np.testing.assert_array_equal(fewer, chosen[:4])
+
+    # the subtree by hand: nodes whose chain of parents reaches ``inner``
+    def under(n):
+        while n >= 0:
+            if n == inner:
+                return True
+            n = int(o.parent[n])
+        return False
+
+    want = [n for n in np.flatnonzero(o.own_counts > 0) if under(int(n))]
+    assert covered.tolist() == want and len(want) >= 1
 
 
 def test_objects_order_queries_own_boxes_most_objects_first(clutter_scenes):
