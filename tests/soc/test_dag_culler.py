@@ -81,6 +81,30 @@ def test_the_culler_selects_the_cpu_cut(field):
                     assert n == (table[:, 0] == i).sum()
 
 
+def test_an_instance_cut_beyond_the_walks_scratch_is_walked_again(field, monkeypatch):
+    """The table's walk keeps an instance's clusters in a scratch of DAG_SCRATCH words and walks
+    again, writing, when its cut holds more: with a scratch of 2 the table is still the CPU's
+    cut, each instance's slots contiguous."""
+    from lod.dag import pixel_scale
+    from soc.culling import dag_select
+
+    monkeypatch.setattr(dag_select, "DAG_SCRATCH", 2)
+    cam = _orbit(3)[1]
+    with soc.Culler(field, "gpu-driven", resolution=RES, config=CullConfig(frustum=False),
+                    lod=0.1) as c:  # fmt: skip
+        c.cull(cam)
+        source = c.method.source
+        table = source.table_pairs()
+        with c.method.glctx.current():
+            rows = np.frombuffer(source.objects.read(), np.uint32).reshape(-1, 4)
+    assert rows[:, 1].max() > 2  # some instance walked again
+    cpu = dag_select.select_cpu(field.dag, field.instances(), cam.eye, pixel_scale(cam), 0.1)
+    assert len(set(map(tuple, table.tolist())) ^ set(map(tuple, cpu.tolist()))) <= 2
+    for i in range(len(field)):
+        first, n = int(rows[i, 0]), int(rows[i, 1])
+        assert (table[first : first + n, 0] == i).all() and n == (table[:, 0] == i).sum()
+
+
 def test_culling_is_conservative_against_the_cuts_id_render(field):
     """Along the orbit, every (instance, cluster) pair of the cut with a pixel in the cut's own
     id render (nothing culled) is drawn, early or late; every instance the instanced oracle
