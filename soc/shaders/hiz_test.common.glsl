@@ -64,14 +64,14 @@ int node_frustum(vec3 lo, vec3 hi) {
     return inside ? NODE_INSIDE : NODE_CROSSING;
 }
 
+// Texel (x, y) of level k. Levels 1 and 2 share one fetch of `quads` (llvmpipe runs every
+// side of a branch, so a fetch per level would cost two).
 float texel(int k, int x, int y) {
     if (k == 0) return texelFetch(depth, ivec2(x, y), 0).r;
-    if (k == 1) return texelFetch(quads, ivec2(x, y) >> 1, 0)[(x & 1) + 2 * (y & 1)];
-    if (k == 2) {
-        vec4 q = texelFetch(quads, ivec2(x, y), 0);
-        return max(max(q.x, q.y), max(q.z, q.w));
-    }
-    return texelFetch(atlas, level_info[k].xy + ivec2(x, y), 0).r;
+    if (k > 2) return texelFetch(atlas, level_info[k].xy + ivec2(x, y), 0).r;
+    ivec2 p = ivec2(x, y);
+    vec4 q = texelFetch(quads, k == 1 ? p >> 1 : p, 0);
+    return k == 1 ? q[(x & 1) + 2 * (y & 1)] : max(max(q.x, q.y), max(q.z, q.w));
 }
 
 // Does any texel of level `leaf` holding a level-0 texel of [p0, p1] reach `nearest` (max

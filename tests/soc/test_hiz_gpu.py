@@ -67,6 +67,78 @@ def test_pyramid_levels_are_the_max_over_their_footprint(size):
         np.testing.assert_allclose(got, want, rtol=0, atol=1.2e-7, err_msg=f"level {k}")
 
 
+# Every texel of every level as the box test reads it: texel(k, x, y) of hiz_test.common, one
+# invocation per texel of level `k`.
+_TEXEL_READER = """
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) writeonly buffer Out { float texels[]; };
+uniform int k;
+uniform ivec2 k_size;
+#include "hiz_test.common"
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i < uint(k_size.x * k_size.y)) {
+        texels[i] = texel(k, int(i) % k_size.x, int(i) / k_size.x);
+    }
+}
+"""
+
+
+def _texels_as_the_test_reads_them(pyramid: DepthPyramid) -> list[np.ndarray]:
+    """Every level of ``pyramid`` (built) read through ``texel()`` of hiz_test.common."""
+    from soc.gl.context import _included_source
+    from soc.gl.shader_defines import preamble
+
+    glctx = pyramid.glctx
+    body = "\n".join(
+        _included_source("hiz_test.common") if line.startswith("#include") else line
+        for line in _TEXEL_READER.splitlines()
+    )
+    out = []
+    with glctx.current():
+        prog = glctx.ctx.compute_shader("#version 450\n" + preamble() + body)
+        buf = glctx.ctx.buffer(reserve=4 * pyramid.resolution[0] * pyramid.resolution[1])
+        try:
+            pyramid.bind(prog)
+            prog["level_info"].write(pyramid.level_info)
+            for level, (w, h) in enumerate(pyramid.sizes):
+                prog["k"].value = level
+                prog["k_size"].value = (w, h)
+                buf.bind_to_storage_buffer(0)
+                prog.run(group_x=(w * h + 63) // 64)
+                glctx.ctx.memory_barrier()
+                out.append(np.frombuffer(buf.read(size=4 * w * h), np.float32).reshape(h, w))
+        finally:
+            buf.release()
+            prog.release()
+    return out
+
+
+@pytest.mark.parametrize("size", [(7, 5), (13, 9), (61, 45), (333, 197), (1, 6), (9, 1)])
+def test_box_test_reads_every_level_as_the_max_over_its_footprint(size):
+    """The layout the pyramid is built in and the one the box test reads agree: every texel of
+    every level read through ``texel()`` of hiz_test.common (random depths, odd sizes, their
+    clamped last rows and columns) is at least the max over the level-0 texels it stands for,
+    and equal to it within the float rounding of unorm-24 → float. A texel below that max
+    would be a false cull."""
+    w, h = size
+    depth = np.random.default_rng(w + 7 * h).random((h, w)).astype(np.float32)
+    glctx = default_context()
+    target = DepthTarget(glctx, (w, h))
+    pyramid = DepthPyramid(glctx, (w, h))
+    try:
+        target.texture.write(depth.tobytes())
+        pyramid.build(target.texture)
+        stored = target.read()
+        read = _texels_as_the_test_reads_them(pyramid)
+    finally:
+        pyramid.release()
+        target.release()
+    for k, (got, want) in enumerate(zip(read, reference_pyramid(stored), strict=True)):
+        assert np.all(got >= want - 1.2e-7), f"level {k}: a texel below its footprint's max"
+        np.testing.assert_allclose(got, want, rtol=0, atol=1.2e-7, err_msg=f"level {k}")
+
+
 def test_footprint_option_is_checked():
     with pytest.raises(ValueError, match="footprint"):
         HizTest(default_context(), footprint=3)
