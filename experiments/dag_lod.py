@@ -203,6 +203,30 @@ def _object_lod_scene(scene, chains, levels):
     return InstancedScene(meshes, scene.matrices[keep], mesh), keep
 
 
+def facing_away(tables, instances, pairs: np.ndarray, eye) -> np.ndarray:
+    """(K,) int the triangles of each drawn (instance, cluster) pair of ``pairs`` (K, 2) whose
+    front (counter-clockwise) side faces away from ``eye``: on a closed mesh such a triangle is
+    hidden by the mesh's own front, so it costs a draw and no pixel. ``tables`` the
+    :class:`soc.culling.dag_select.DagTables`, ``instances`` their placements."""
+    from lod.dag import _ranges
+
+    pairs = np.asarray(pairs, np.int64)
+    out = np.zeros(len(pairs), np.int64)
+    for lo in range(0, len(pairs), 4096):  # chunks of pairs: bounded memory on large cuts
+        p = pairs[lo : lo + 4096]
+        n = tables.count[p[:, 1]].astype(np.int64)
+        owner = np.repeat(np.arange(len(p)), n)
+        inst = p[owner, 0]
+        f = tables.faces[_ranges(tables.first[p[:, 1]], n)].astype(np.int64)
+        v = tables.vertices[f + tables.mesh_vertex[instances.mesh[inst]][:, None]]
+        m = instances.matrices[inst]  # (T, 3, 4)
+        w = np.einsum("tij,tkj->tki", m[:, :, :3], v) + m[:, None, :, 3]
+        normal = np.cross(w[:, 1] - w[:, 0], w[:, 2] - w[:, 0])
+        away = (normal * (np.asarray(eye, np.float32) - w[:, 0])).sum(1) < 0
+        out[lo : lo + len(p)] = np.bincount(owner, away, len(p)).astype(np.int64)
+    return out
+
+
 def _remap(ids, keep):
     out = np.full(ids.shape, 0xFFFFFFFF, np.uint32)
     hit = ids != 0xFFFFFFFF
@@ -213,7 +237,8 @@ def _remap(ids, keep):
 def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
     """Per view (:data:`VIEWS`): per threshold × culling the DAG's frame; per budget and
     threshold object LOD's image; the level pictures (the field's cut from above its edge, the
-    canyon's from its low camera)."""
+    canyon's from its low camera); the 1 px cut's clusters, triangles and triangles facing away
+    per level."""
     from tqdm.auto import tqdm
 
     dag, objects, pictures, levels, info = [], [], [], [], []
@@ -289,7 +314,13 @@ def _measure(params: Params, view: str, scene, cam, bar):
             r.frame(cam, 1.0, occlusion=False, color_kind=1)
             picture = r.read()[0][::-1]
         r.frame(cam, 1.0, occlusion=False)
-        level_counts = np.bincount(tables.level[r.drawn()[:, 1]], minlength=tables.level.max() + 1)
+        drawn = r.drawn()
+        n_levels = int(tables.level.max()) + 1
+        at = tables.level[drawn[:, 1]]
+        level_counts = np.bincount(at, minlength=n_levels)
+        level_tris = np.bincount(at, tables.count[drawn[:, 1]], n_levels).astype(np.int64)
+        level_away = np.bincount(at, facing_away(tables, scene.instances(), drawn, cam.eye),
+                                 n_levels).astype(np.int64)  # fmt: skip
     dag = pd.DataFrame(rows)
     dag["tris_per_px"] = dag.triangles / dag.covered_px.clip(lower=1)
     dag["source_triangles"] = scene.source_triangles
@@ -327,7 +358,8 @@ def _measure(params: Params, view: str, scene, cam, bar):
         })  # fmt: skip
         bar.update()
     objects = pd.DataFrame(obj_rows)
-    levels_frame = pd.DataFrame({"level": np.arange(len(level_counts)), "clusters": level_counts})
+    levels_frame = pd.DataFrame({"level": np.arange(len(level_counts)), "clusters": level_counts,
+                                 "triangles": level_tris, "facing_away": level_away})  # fmt: skip
     info = pd.DataFrame([{
         "instances": len(scene), "meshes": len(dags), "source_triangles": scene.source_triangles,
         "dag_clusters": len(tables), "dag_index_ratio": sum(len(d.faces) for d in dags)
