@@ -5,10 +5,13 @@ from two cameras; its field beside them for comparison), the share of selection 
 the frame, false culls against the cut's own id render, the DAG build's time and index memory.
 
     python -m benchmarks.dag [--quick] [--out results] [--only field|object-lod|build]
+                             [--shading flat|smooth]
     python -m benchmarks --only dag [--quick]     # the same as a section of BENCHMARKS.md
 
 Writes ``<out>/dag/targets.csv`` (and ``<out>/dag/equal-flip.csv``: object LOD's triangles
-over the cut's at the cut's FLIP, per view and threshold) and prints the targets table
+over the cut's at the cut's FLIP, per view and threshold; ``--shading smooth``: both methods'
+images shaded from area-weighted vertex normals instead of vislod's flat facets, written as
+``equal-flip-smooth.csv``, ``targets-smooth.csv``) and prints the targets table
 (markdown), each row with its measured figure and whether it is met. The DAGs are cached by
 content (``<cache>/dag``): the first run builds them (the 100× denser meshes take long), later
 runs read them.
@@ -142,11 +145,14 @@ def _false_culls(r, tables, scene, cam, resolution) -> dict:
                 false == 0, f"{checked:,} visible pairs over {len(cams)} frames")  # fmt: skip
 
 
-def object_lod_targets(quick: bool) -> tuple[list[dict], pd.DataFrame]:
+def object_lod_targets(quick: bool,
+                       shading: str = "flat") -> tuple[list[dict], pd.DataFrame]:  # fmt: skip
     """Object LOD's triangles over the DAG's at the DAG's FLIP at 1 px (frustum culling), on
     the dag-lod experiment's canyon from its two cameras (the target's views: every cliff
-    spans near to far) and on its field (not the target's view: shown beside). Returns the
-    rows and the ratio at every threshold (:func:`experiments.dag_lod.equal_flip_ratios`)."""
+    spans near to far) and on its field (not the target's view: shown beside), both methods'
+    images in ``shading`` (:data:`soc.dag_renderer.SHADINGS`; the rows name it unless
+    ``"flat"``). Returns the rows and the ratio at every threshold
+    (:func:`experiments.dag_lod.equal_flip_ratios`, with a ``shading`` column)."""
     from experiments.dag_lod import VIEWS, Params, compute, equal_flip_ratios
 
     params = Params()
@@ -157,8 +163,10 @@ def object_lod_targets(quick: bool) -> tuple[list[dict], pd.DataFrame]:
     else:
         params = dataclasses.replace(params, resolution=RESOLUTION,
                                      thresholds=OBJECT_LOD_THRESHOLDS, repeats=1)  # fmt: skip
-    frames = compute(params, progress=False)
+    frames = compute(params, progress=False, shading=shading)
     ratios = pd.concat([equal_flip_ratios(frames, v) for v in VIEWS], ignore_index=True)
+    ratios["shading"] = shading
+    named = "" if shading == "flat" else f", {shading} shading"
     rows = []
     for view in VIEWS:
         r = ratios[ratios.view == view]
@@ -167,7 +175,8 @@ def object_lod_targets(quick: bool) -> tuple[list[dict], pd.DataFrame]:
         rest = ", ".join(f"{t:g} px {x:.2f}" for t, x in zip(r.threshold, r.ratio, strict=True))
         rows.append(_row(
             f"object LOD (Funkhouser-Sequin) / DAG triangles at the same FLIP, {view}"
-            + ("" if span else " (not a near-to-far view)"), ">= 3" if span else "–", one.ratio,
+            + named + ("" if span else " (not a near-to-far view)"), ">= 3" if span else "–",
+            one.ratio,
             one.ratio >= 3 if span else None,
             f"DAG {one.dag_triangles:,} triangles at FLIP {one.flip:.4f} (1 px); by threshold: "
             f"{rest}; {params.resolution[0]}x{params.resolution[1]}"))  # fmt: skip
@@ -200,10 +209,11 @@ def _row(target, bound, value, met, detail) -> dict:
             "met": "–" if met is None else ("yes" if met else "no"), "detail": detail}  # fmt: skip
 
 
-def run(quick: bool = False, only: str | None = None,
-        denser: tuple[int, ...] | None = None) -> dict[str, pd.DataFrame]:  # fmt: skip
+def run(quick: bool = False, only: str | None = None, denser: tuple[int, ...] | None = None,
+        shading: str = "flat") -> dict[str, pd.DataFrame]:  # fmt: skip
     """The targets (``only``: one group of them, ``"field"``, ``"object-lod"`` or ``"build"``)
-    as ``{"targets": rows, "equal_flip": ratios}``."""
+    as ``{"targets": rows, "equal_flip": ratios}``; ``shading`` that of the object LOD
+    comparison's images (:func:`object_lod_targets`)."""
     q = dict(QUICK) if quick else dict(instances=INSTANCES, triangles=TRIANGLES, denser=DENSER,
                                        resolution=RESOLUTION, frames=FRAMES)  # fmt: skip
     if denser is not None:
@@ -214,7 +224,7 @@ def run(quick: bool = False, only: str | None = None,
     if only in (None, "field"):
         rows += field_targets(**q)
     if only in (None, "object-lod"):
-        more, ratios = object_lod_targets(quick)
+        more, ratios = object_lod_targets(quick, shading)
         rows += more
     return {"targets": pd.DataFrame(rows), "equal_flip": ratios}
 
@@ -283,11 +293,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", choices=("field", "object-lod", "build"), default=None)
     ap.add_argument("--denser", type=int, nargs="*", default=None,
                     help=f"density factors of the field's meshes (default {DENSER})")  # fmt: skip
+    ap.add_argument("--shading", choices=("flat", "smooth"), default="flat",
+                    help="shading of the object LOD comparison's images (default flat, "
+                    "vislod's; smooth: area-weighted vertex normals per level)")  # fmt: skip
     args = ap.parse_args(argv)
-    frames = run(args.quick, args.only, args.denser)
+    frames = run(args.quick, args.only, args.denser, args.shading)
     folder = Path(args.out) / "dag"
     folder.mkdir(parents=True, exist_ok=True)
     suffix = "" if args.only is None else f"-{args.only}"
+    suffix += "" if args.shading == "flat" else f"-{args.shading}"
     frames["targets"].to_csv(folder / f"targets{suffix}.csv", index=False)
     if len(frames["equal_flip"]):
         frames["equal_flip"].to_csv(folder / f"equal-flip{suffix}.csv", index=False)

@@ -234,11 +234,22 @@ def _remap(ids, keep):
     return out
 
 
-def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
+def compute(params: Params, progress: bool = True, *,
+            shading: str = "flat") -> dict[str, pd.DataFrame]:  # fmt: skip
     """Per view (:data:`VIEWS`): per threshold × culling the DAG's frame; per budget and
     threshold object LOD's image; the level pictures (the field's cut from above its edge, the
     canyon's from its low camera); the 1 px cut's clusters, triangles and triangles facing away
-    per level."""
+    per level.
+
+    ``shading`` (:data:`soc.dag_renderer.SHADINGS`) shades every image of both methods, their
+    full-detail references included: ``"flat"`` (default, vislod's: each facet alone) or
+    ``"smooth"`` (interpolated vertex normals, area-weighted over each level's own triangles:
+    the DAG's cluster levels, :func:`soc.dag_renderer.level_normals`, and object LOD's chain
+    levels, :func:`soc.dag_renderer.vertex_normals`; neither simplifier keeps the source's
+    normals, the chains' levels not even its vertices). Recorded as info's ``shading``."""
+    from soc.dag_renderer import _check_shading
+
+    _check_shading(shading)
     from tqdm.auto import tqdm
 
     dag, objects, pictures, levels, info = [], [], [], [], []
@@ -247,7 +258,7 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
                                   + len(params.thresholds)), desc="dag-lod",
                disable=not progress)  # fmt: skip
     for view, scene, cam in todo:
-        d, o, pic, lv, inf = _measure(params, view, scene, cam, bar)
+        d, o, pic, lv, inf = _measure(params, view, scene, cam, bar, shading)
         dag.append(d.assign(view=view))
         objects.append(o.assign(view=view))
         levels.append(lv.assign(view=view))
@@ -261,22 +272,30 @@ def compute(params: Params, progress: bool = True) -> dict[str, pd.DataFrame]:
             "info": pd.concat(info, ignore_index=True)}  # fmt: skip
 
 
-def _measure(params: Params, view: str, scene, cam, bar):
-    """One view's frames: (dag, objects, level picture or None, level counts, info)."""
+def _measure(params: Params, view: str, scene, cam, bar, shading: str = "flat"):
+    """One view's frames in ``shading``: (dag, objects, level picture or None, level counts,
+    info)."""
     import lod
     from lod.dag import mesh_dag, pixel_scale
     from soc.culling.dag_select import DagTables, render_instances
     from soc.culling.oracle import may_draw
-    from soc.dag_renderer import DagRenderer
+    from soc.dag_renderer import DagRenderer, render_meshes, vertex_normals
     from soc.scenes.camera import Camera
+
+    def render(sub, color_ids=None, normals=None):
+        """Object LOD's image of ``sub`` in ``shading`` (``normals`` per mesh of ``sub``,
+        default :func:`vertex_normals` of each), ids those of ``color_ids``."""
+        if shading == "flat":  # vislod's own instanced draw
+            return render_instances(sub, cam, color_ids=color_ids)
+        return render_meshes(sub, cam, color_ids, shading=shading, normals=normals)
 
     dags = [mesh_dag(v, f) for v, f in zip(scene.mesh_vertices, scene.mesh_faces, strict=True)]
     tables = DagTables.from_dags(dags)
-    ref = render_instances(scene, cam)
+    ref = render(scene)
     near, far = cam.near, cam.far
     rows = []
     picture = None
-    with DagRenderer(tables, scene.instances(), params.resolution) as r:
+    with DagRenderer(tables, scene.instances(), params.resolution, shading=shading) as r:
         # The cut's images are compared with the DAG renderer's own full detail (every
         # instance at level 0), object LOD's with the full meshes drawn as object LOD is drawn:
         # each against its own renderer, so that the two renderers' difference (draw order at
@@ -328,6 +347,10 @@ def _measure(params: Params, view: str, scene, cam, bar):
     # Object LOD: one chain per mesh; a level per instance by the greedy or by the error rule.
     chains = [lod.build_chain(v, f, ratios=params.ratios) for v, f in
               zip(scene.mesh_vertices, scene.mesh_faces, strict=True)]  # fmt: skip
+    chain_normals = None  # per mesh of _object_lod_scene's scenes: every chain's levels
+    if shading != "flat":
+        chain_normals = [vertex_normals(lv.vertices, lv.faces) for ch in chains
+                         for lv in ch.levels]  # fmt: skip
     errors = np.array([[lv.error for lv in ch.levels] for ch in chains])  # (D, L) object units
     tris = np.array([[len(lv.faces) for lv in ch.levels] for ch in chains], np.float64)
     in_view = may_draw(scene.aabbs, cam.view_proj)
@@ -350,11 +373,12 @@ def _measure(params: Params, view: str, scene, cam, bar):
             levels = np.where(in_view, ok.shape[1] - 1 - np.argmax(ok[:, ::-1], axis=1), -1)
             levels = np.where(ok.any(axis=1) | ~in_view, levels, 0)
         sub, keep = _object_lod_scene(scene, chains, levels)
-        rgb, ids, z = render_instances(sub, cam, color_ids=keep)
+        rgb, ids, z = render(sub, keep, chain_normals)
+        ids = _remap(ids, keep) if shading == "flat" else ids  # render_meshes': keep's already
         obj_rows.append({
             "method": method, "budget": budget, "threshold": t,
             "triangles": int(tris[scene.mesh[keep], levels[keep]].sum()),
-            **image_errors(ref, (rgb, _remap(ids, keep), z), near, far),
+            **image_errors(ref, (rgb, ids, z), near, far),
         })  # fmt: skip
         bar.update()
     objects = pd.DataFrame(obj_rows)
@@ -364,7 +388,7 @@ def _measure(params: Params, view: str, scene, cam, bar):
         "instances": len(scene), "meshes": len(dags), "source_triangles": scene.source_triangles,
         "dag_clusters": len(tables), "dag_index_ratio": sum(len(d.faces) for d in dags)
         / sum(d.source_triangles for d in dags), "full_triangles_in_view": full,
-        "flip_renderers": renderers,
+        "flip_renderers": renderers, "shading": shading,
     }])  # fmt: skip
     return dag, objects, picture, levels_frame, info
 

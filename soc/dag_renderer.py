@@ -5,6 +5,12 @@ each frame's threshold, and draws
 the cut's pictures beside it (colour by instance, level or cluster; instance or pair ids) for
 image errors, level pictures and the cut's own id render (the oracle of the cut's clusters).
 The selection and its tables are :mod:`soc.culling.dag_select`'s.
+
+Shading (:data:`SHADINGS`): ``"flat"`` (vislod's default, as every other pass: Lambert from
+screen-space derivatives, so each facet shades alone) or ``"smooth"``: Lambert from interpolated
+per-vertex normals, area-weighted over each level's own triangles (:func:`level_normals` for a
+DAG's cluster levels, :func:`vertex_normals` for any mesh), the same way for the DAG's cut and
+for object LOD's meshes (:func:`render_meshes`), so that the two are compared alike.
 """
 
 from __future__ import annotations
@@ -23,12 +29,75 @@ from soc.culling.dag_select import (
     DagTables,
     DagWalk,
     Instances,
+    _defines,
+    _instance_rows,
     _set,
     _source,
 )
 from soc.gl.context import uses_gl
 
-__all__ = ["DagFrame", "DagRenderer"]
+__all__ = ["SHADINGS", "DagFrame", "DagRenderer", "level_normals", "render_meshes",
+           "vertex_normals"]  # fmt: skip
+
+# The shadings of the DAG's pictures and of :func:`render_meshes` (the first is the default).
+SHADINGS = ("flat", "smooth")
+# dag_draw.vert's per-vertex normals under ``"smooth"`` (a binding the draw leaves free).
+DAG_NORMALS_BINDING = 14
+
+
+def vertex_normals(vertices, faces) -> np.ndarray:
+    """(V, 3) float32 unit per-vertex normals of a mesh: the sum of its triangles' normals
+    weighted by their areas (each triangle's cross product), normalised; (0, 0, 0) at a vertex
+    no triangle uses or whose triangles cancel (the smooth shading draws it flat)."""
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64).reshape(-1, 3)
+    return _normalised(_accumulate(v[f], f, len(v)))
+
+
+def _accumulate(corners: np.ndarray, index: np.ndarray, n: int) -> np.ndarray:
+    """(n, 3) the area-weighted normal sums: ``corners`` (T, 3, 3) the triangles' positions,
+    ``index`` (T, 3) the slot of each corner (< n)."""
+    c = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    out = np.zeros((n, 3))
+    flat = np.asarray(index, np.int64).ravel()
+    for k in range(3):
+        out[:, k] = np.bincount(flat, np.repeat(c[:, k], 3), n)
+    return out
+
+
+def _normalised(sums: np.ndarray) -> np.ndarray:
+    length = np.linalg.norm(sums, axis=1, keepdims=True)
+    return np.where(length > 0, sums / np.where(length > 0, length, 1.0), 0.0).astype(np.float32)
+
+
+def level_normals(tables: DagTables) -> np.ndarray:
+    """(L, V, 3) float32 per cluster level and vertex of ``tables`` (V: every mesh's vertices,
+    as :attr:`DagTables.vertices`) the area-weighted unit normal over that level's triangles of
+    the vertex's mesh (:func:`vertex_normals` of the level's clusters; level 0: the source's
+    normals); (0, 0, 0) where the level does not use the vertex."""
+    t = tables
+    n_levels = int(t.level.max()) + 1
+    n = len(t.vertices)
+    tri_cluster = np.repeat(np.arange(len(t.count)), t.count)  # the faces are in cluster order
+    f = t.faces.astype(np.int64).reshape(-1, 3)[: len(tri_cluster)]
+    f = f + t.mesh_vertex[t.cluster_mesh[tri_cluster]][:, None]
+    slot = f + (n * t.level[tri_cluster].astype(np.int64))[:, None]
+    v = np.asarray(t.vertices, np.float64)
+    return _normalised(_accumulate(v[f], slot, n_levels * n)).reshape(n_levels, n, 3)
+
+
+def _check_shading(shading: str) -> None:
+    if shading not in SHADINGS:
+        raise ValueError(f"no shading {shading!r}: the shadings are {SHADINGS}")
+
+
+def _draw_program(ctx, defines: dict, shading: str):
+    """dag_draw's program, with ``DAG_SMOOTH`` under ``"smooth"``."""
+    _check_shading(shading)
+    if shading == "smooth":
+        defines = {**defines, "DAG_SMOOTH": 1, "DAG_NORMALS_BINDING": DAG_NORMALS_BINDING}
+    return ctx.program(vertex_shader=_source("dag_draw.vert", defines),
+                       fragment_shader=_source("dag_draw.frag", defines))  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -98,6 +167,12 @@ class DagRenderer:
         Most pairs a work list of the walk of :meth:`select` and of the unculled frames holds
         (:data:`DEFAULT_CAPACITY`); a frame that needs more raises ``RuntimeError`` naming the
         list.
+    shading : str
+        The pictures' shading (:data:`SHADINGS`): ``"flat"`` (default) or ``"smooth"``, with
+        the normals :func:`level_normals` gives unless ``normals`` are given.
+    normals : (L, V, 3) or (V, 3) float, optional
+        ``"smooth"``'s normals per cluster level and vertex of ``tables``, or one per vertex
+        for every level.
 
     Notes
     -----
@@ -110,7 +185,8 @@ class DagRenderer:
     """
 
     def __init__(self, tables: DagTables, instances: Instances, resolution=(1920, 1080),
-                 glctx=None, *, capacity: int = DEFAULT_CAPACITY):  # fmt: skip
+                 glctx=None, *, capacity: int = DEFAULT_CAPACITY, shading: str = "flat",
+                 normals=None):  # fmt: skip
         from soc.gl.context import default_context
 
         self.glctx = glctx or default_context()
@@ -121,11 +197,18 @@ class DagRenderer:
         self.defines = self.walk.defines
         self.resolution = (int(resolution[0]), int(resolution[1]))
         self.scene = _instanced_scene(tables, instances)
-        self.program = ctx.program(
-            vertex_shader=_source("dag_draw.vert", self.defines),
-            fragment_shader=_source("dag_draw.frag", self.defines),
-        )
+        self.shading = shading
+        self.program = _draw_program(ctx, self.defines, shading)
         t = tables
+        self.normals = None
+        if shading == "smooth":
+            nrm = level_normals(t) if normals is None else np.asarray(normals, np.float32)
+            if nrm.shape[-2:] != (len(t.vertices), 3):
+                v = len(t.vertices)
+                raise ValueError(f"normals {nrm.shape} are not (levels, {v}, 3) or ({v}, 3): "
+                                 "one per vertex of the tables")  # fmt: skip
+            self.normal_stride = len(t.vertices) if nrm.ndim == 3 else 0
+            self.normals = ctx.buffer(np.ascontiguousarray(nrm, np.float32))
         self.levels = ctx.buffer(t.level.astype(np.uint32))
         self.pairs_buffer = ctx.buffer(reserve=8 * 1024, dynamic=True)
         self.slots = ctx.buffer(reserve=4 * 1024, dynamic=True)
@@ -160,6 +243,8 @@ class DagRenderer:
         self._cullers.clear()
         for b in (self.levels, self.pairs_buffer, self.slots, self.indirect, self.vbo, self.ibo):
             b.release()
+        if self.normals is not None:
+            self.normals.release()
         self.vao.release()
         fbo = self.fbo
         self.glctx.release_framebuffer(fbo, *fbo.color_attachments, fbo.depth_attachment)
@@ -294,6 +379,9 @@ class DagRenderer:
         self.walk.buffers[0].bind_to_storage_buffer(DAG_INSTANCES_BINDING)
         self.pairs_buffer.bind_to_storage_buffer(DAG_PAIRS_BINDING)
         self.levels.bind_to_storage_buffer(DAG_LEVELS_BINDING)
+        if self.normals is not None:
+            self.normals.bind_to_storage_buffer(DAG_NORMALS_BINDING)
+            prog["normal_stride"].value = self.normal_stride
         fbo = self.fbo
         fbo.use()
         fbo.depth_mask = True
@@ -335,3 +423,111 @@ class DagRenderer:
             return np.zeros((0, 2), np.int64)
         pairs = self._slot_pairs[slots]
         return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+
+def render_meshes(scene, camera, color_ids=None, glctx=None, *, shading: str = "smooth",
+                  normals=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """Every instance of ``scene`` (an :class:`~soc.scenes.instanced.InstancedScene`) with its
+    whole mesh, drawn by the DAG's pictures' shaders (``dag_draw``, a colour per instance) in
+    ``shading``, no culling: object LOD's image (a scene whose meshes are LOD levels) shaded as
+    :class:`DagRenderer`'s with the same ``shading``. Under ``"flat"`` the picture is
+    :func:`soc.culling.dag_select.render_instances`'s.
+
+    Parameters
+    ----------
+    scene : InstancedScene
+    camera : Camera
+    color_ids : (I,) int, optional
+        Distinct numbers the instances take their colours and ids from (default their own).
+    glctx : GLContext, optional
+    shading : str
+        Of :data:`SHADINGS`.
+    normals : list of (V_m, 3) float, optional
+        ``"smooth"``'s normals per mesh of ``scene``; default :func:`vertex_normals` of each.
+
+    Returns
+    -------
+    rgb : (H, W, 3) uint8
+    ids : (H, W) uint32
+        The colour id per pixel (``color_ids``'), 0xFFFFFFFF where empty.
+    depth : (H, W) float32
+        Window depth. Row 0 at the bottom.
+    """
+    import moderngl
+
+    from soc.gl.context import default_context
+
+    _check_shading(shading)
+    glctx = glctx or default_context()
+    ctx = glctx.ctx
+    n = len(scene)
+    ids = np.arange(n) if color_ids is None else np.asarray(color_ids, np.int64)
+    if len(ids) != n or len(np.unique(ids)) != n:
+        raise ValueError(f"color_ids must be {n} distinct numbers, one per instance")
+    verts = [np.asarray(v, np.float32) for v in scene.mesh_vertices]
+    faces = [np.asarray(f, np.uint32).reshape(-1, 3) for f in scene.mesh_faces]
+    first_vertex = np.concatenate([[0], np.cumsum([len(v) for v in verts])])
+    first_face = np.concatenate([[0], np.cumsum([len(f) for f in faces])])
+    if shading == "smooth":
+        if normals is None:
+            normals = [vertex_normals(v, f) for v, f in zip(verts, faces, strict=True)]
+        nrm = normals
+        nrm = np.concatenate([np.asarray(x, np.float32).reshape(-1, 3) for x in nrm])
+        if len(nrm) != first_vertex[-1]:
+            raise ValueError(f"normals hold {len(nrm)} vertices, the meshes {first_vertex[-1]}")
+    mesh = np.asarray(scene.mesh, np.int64)
+    rows = np.zeros((int(ids.max()) + 1 if n else 1, 4, 4), np.float32)
+    rows[ids] = _instance_rows(scene.instances())
+    m_tris = np.array([len(f) for f in faces], np.int64)
+    cmd = np.stack([3 * m_tris[mesh], np.ones(n, np.int64), 3 * first_face[mesh],
+                    first_vertex[mesh], np.arange(n)], axis=1)  # fmt: skip
+    pairs = np.stack([ids, np.zeros(n, np.int64)], axis=1)
+    program = _draw_program(ctx, _defines(DEFAULT_CAPACITY), shading)
+    buffers = [ctx.buffer(np.concatenate(verts) if n else np.zeros((1, 3), np.float32)),
+               ctx.buffer(np.concatenate(faces) if n else np.zeros(3, np.uint32)),
+               ctx.buffer(np.arange(max(n, 1), dtype=np.uint32)),
+               ctx.buffer(cmd.astype(np.uint32) if n else np.zeros(5, np.uint32)),
+               ctx.buffer(rows),
+               ctx.buffer(pairs.astype(np.uint32) if n else np.zeros(2, np.uint32)),
+               ctx.buffer(np.zeros(1, np.uint32))]  # fmt: skip
+    vbo, ibo, slots, indirect, inst, pair_buf, levels = buffers
+    if shading == "smooth":
+        buffers.append(ctx.buffer(nrm))
+    vao = ctx.vertex_array(program, [(vbo, "3f", "in_position"), (slots, "u/i", "in_slot")],
+                           index_buffer=ibo, index_element_size=4)  # fmt: skip
+    w, h = camera.resolution
+    depth = ctx.depth_texture((w, h))
+    glctx.raw.float_depth(depth)
+    fbo = ctx.framebuffer(color_attachments=[ctx.renderbuffer((w, h), components=4),
+                                             ctx.renderbuffer((w, h), components=1, dtype="u4")],
+                          depth_attachment=depth)  # fmt: skip
+    try:
+        program["view_proj"].write(camera.gl_bytes(camera.view_proj))
+        _set(program, "eye", tuple(float(x) for x in camera.eye))
+        _set(program, "light_dir", (0.4, 0.8, 0.45))
+        program["id_kind"].value = 0
+        program["color_kind"].value = 0
+        inst.bind_to_storage_buffer(DAG_INSTANCES_BINDING)
+        pair_buf.bind_to_storage_buffer(DAG_PAIRS_BINDING)
+        levels.bind_to_storage_buffer(DAG_LEVELS_BINDING)
+        if shading == "smooth":
+            buffers[-1].bind_to_storage_buffer(DAG_NORMALS_BINDING)
+            program["normal_stride"].value = 0
+        fbo.use()
+        ctx.enable_only(moderngl.DEPTH_TEST)
+        ctx.depth_func = "<"
+        fbo.clear(0.06, 0.07, 0.09, 1.0, depth=1.0)
+        glctx.raw.clear_uint_color(0xFFFFFFFF, draw_buffer=1)
+        if n:
+            vao.render_indirect(indirect, count=n)
+        rgb = np.frombuffer(fbo.read(components=3, attachment=0), np.uint8).reshape(h, w, 3)
+        out = np.frombuffer(fbo.read(components=1, attachment=1, dtype="u4"), np.uint32)
+        z = np.frombuffer(depth.read(), np.float32)
+        glctx.check("render_meshes")
+        return rgb.copy(), out.reshape(h, w).copy(), z.reshape(h, w).copy()
+    finally:
+        glctx.release_framebuffer(fbo, *fbo.color_attachments, depth)
+        vao.release()
+        program.release()
+        for b in buffers:
+            b.release()

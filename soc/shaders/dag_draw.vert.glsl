@@ -1,7 +1,9 @@
 #version 450
 // The cut's pictures (soc/culling/dag_select.py, DagRenderer), by multi-draw-indirect: each command's
 // baseInstance is a slot, fetched through in_slot (divisor 1), whose (instance, cluster) pair
-// gives the instance's transform and the cluster's level.
+// gives the instance's transform and the cluster's level. With DAG_SMOOTH (the smooth shading
+// option of soc.dag_renderer) each vertex also takes a normal from DAG_NORMALS_BINDING: the
+// vertex's normal at the cluster's level (normal_stride floats × 3 a level; 0: one table).
 in vec3 in_position;
 in uint in_slot;
 
@@ -12,6 +14,12 @@ layout(std430, binding = DAG_LEVELS_BINDING) readonly buffer Levels { uint level
 uniform mat4 view_proj;
 uniform int id_kind;     // what v_object holds: 0 the instance, 1 the slot
 uniform int color_kind;  // 0 a colour per instance, 1 per cluster level, 2 per cluster
+
+#ifdef DAG_SMOOTH
+layout(std430, binding = DAG_NORMALS_BINDING) readonly buffer Normals { float normals[]; };
+uniform uint normal_stride;
+out vec3 v_normal;
+#endif
 
 out vec3 v_world;
 flat out uint v_object;
@@ -37,5 +45,12 @@ void main() {
     } else {
         v_color = palette(fract(float(color_kind == 0 ? pair.x : pair.y) * 0.6180339887));
     }
+#ifdef DAG_SMOOTH
+    // gl_VertexID includes the command's base vertex: the index into every mesh's vertices.
+    uint at = 3u * (level * normal_stride + uint(gl_VertexID));
+    vec3 n = vec3(normals[at], normals[at + 1u], normals[at + 2u]);
+    // Normals by the inverse transpose of the instance's linear part.
+    v_normal = transpose(inverse(mat3(r0.xyz, r1.xyz, r2.xyz))) * n;
+#endif
     gl_Position = view_proj * vec4(v_world, 1.0);
 }

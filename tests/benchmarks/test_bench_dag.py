@@ -1,5 +1,6 @@
 """The cluster DAG's section of BENCHMARKS.md (benchmarks.dag): its rows in the table of where
-the targets stand, its markdown, and its place among the sections (no GL: made-up rows)."""
+the targets stand, its markdown, and its place among the sections (no GL: made-up rows); the
+equal-FLIP comparison's pieces, its smooth shading (GL) among them."""
 
 from __future__ import annotations
 
@@ -114,3 +115,105 @@ def test_facing_away_counts_the_triangles_whose_front_turns_from_the_eye():
         a = facing_away(tables, inst, pairs[mine], far[i] + 1e6 * (eye - far[i]))
         b = facing_away(tables, inst, pairs[mine], far[i] - 1e6 * (eye - far[i]))
         assert np.array_equal(a + b, total[mine])
+
+
+def _lit(color, normal, eye_side) -> np.ndarray:
+    """dag_draw.frag's colour for a unit ``normal`` (flipped to face ``eye_side``), 0..255."""
+    n = normal if np.dot(normal, eye_side) >= 0 else -normal
+    light = np.array([0.4, 0.8, 0.45]) / np.linalg.norm([0.4, 0.8, 0.45])
+    return 255.0 * np.asarray(color, np.float64) * (0.35 + 0.65 * max(float(n @ light), 0.0))
+
+
+def test_smooth_shading_lights_each_pixel_by_the_vertex_normals_turned_with_the_instance():
+    """A square whose vertices all carry one normal, tilted from its face: every covered pixel
+    of the smooth render has the colour of that normal after the instance's rotation (by the
+    inverse transpose, so its scale does not matter); the flat render that of the face."""
+    from soc.dag_renderer import render_meshes
+    from soc.gl.geometry import object_colors
+    from soc.scenes.camera import Camera
+    from soc.scenes.instanced import InstancedScene
+
+    square = np.array([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], np.float32)
+    faces = np.array([[0, 2, 1], [0, 3, 2]])
+    tilt = np.array([0.6, 0.0, 0.8])  # in the square's frame; its face normal is +y or -y
+    angle = 0.7
+    c, s_ = np.cos(angle), np.sin(angle)
+    rot = np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]])  # about z
+    mats = np.zeros((1, 3, 4))
+    mats[0, :, :3] = 2.5 * rot
+    mats[0, :, 3] = [0.0, 0.0, 5.0]
+    scene = InstancedScene([(square, faces)], mats, [0])
+    cam = Camera.look_at((0.3, 4.0, 1.0), (0.0, 0.0, 5.0), width=64, height=48, near=0.1,
+                         far=50.0)  # fmt: skip
+    color = object_colors(8, np.zeros(8, bool))[7]
+    eye_side = np.asarray(cam.eye) - np.array([0.0, 0.0, 5.0])
+    smooth = render_meshes(scene, cam, [7], normals=[np.tile(tilt, (4, 1))])
+    flat = render_meshes(scene, cam, [7], shading="flat")
+    covered = smooth[1] != 0xFFFFFFFF
+    assert covered.sum() > 300 and set(np.unique(smooth[1][covered])) == {7}
+    want = _lit(color, rot @ tilt, eye_side)
+    assert np.abs(smooth[0][covered] - want).max() <= 1.0
+    face = _lit(color, rot @ np.array([0.0, 1.0, 0.0]), eye_side)
+    assert np.abs(flat[0][covered] - face).max() <= 1.0
+    assert np.abs(want - face).max() > 20  # the two normals light differently
+
+
+def test_level_normals_are_each_levels_area_weighted_vertex_normals():
+    """Per cluster level, a vertex's normal is the normalised sum of the cross products of the
+    level's triangles that use it (brute force, triangle by triangle); level 0 is the
+    source's normals; a vertex a level does not use has none."""
+    from lod.dag import build_dag
+    from soc.culling.dag_select import DagTables
+    from soc.dag_renderer import level_normals, vertex_normals
+    from soc.scenes.dense import rock
+
+    dags = [build_dag(*rock(1500, seed=4)), build_dag(*rock(900, seed=5))]
+    tables = DagTables.from_dags(dags)
+    got = level_normals(tables)
+    assert got.shape == (int(tables.level.max()) + 1, len(tables.vertices), 3)
+    want = np.zeros(got.shape)
+    for m, dag in enumerate(dags):
+        base = int(tables.mesh_vertex[m])
+        for k in range(len(dag.count)):
+            for tri in dag.cut_faces([k]):
+                p = dag.vertices[tri].astype(np.float64)
+                want[dag.level[k], base + np.asarray(tri)] += np.cross(p[1] - p[0], p[2] - p[0])
+    length = np.linalg.norm(want, axis=2, keepdims=True)
+    want = np.where(length > 0, want / np.where(length > 0, length, 1), 0)
+    assert np.abs(got - want).max() < 1e-5
+    for m, dag in enumerate(dags):
+        v0 = tables.mesh_vertex[m]
+        source = vertex_normals(dag.vertices, dag.cut_faces(np.flatnonzero(dag.level == 0)))
+        assert np.abs(got[0, v0 : v0 + len(dag.vertices)] - source).max() < 1e-5
+
+
+def test_smooth_full_detail_cut_is_the_source_meshes_smooth_render():
+    """The DAG renderer's smooth picture at full detail (every instance at level 0, its
+    normals the source's) is render_meshes' smooth picture of the source meshes with their
+    area-weighted normals, pixel for pixel; flat, render_meshes is render_instances'; smooth
+    and flat differ."""
+    from experiments.dag_lod import FULL_DETAIL
+    from lod.dag import build_dag
+    from soc.culling.dag_select import DagTables, render_instances
+    from soc.dag_renderer import DagRenderer, render_meshes
+    from soc.scenes.camera import Camera
+    from soc.scenes.instanced import rock_field
+
+    scene = rock_field(12, 1500, kinds=2, extent=8.0, sizes=(1.0, 2.5), seed=1)
+    cam = Camera.look_at((0.0, 2.5, -9.0), (0.0, 1.0, 0.0), width=160, height=90, near=0.1,
+                         far=40.0)  # fmt: skip
+    meshes = zip(scene.mesh_vertices, scene.mesh_faces, strict=True)
+    tables = DagTables.from_dags([build_dag(v, f) for v, f in meshes])
+    with DagRenderer(tables, scene.instances(), (160, 90), shading="smooth") as r:
+        r.frame(cam, FULL_DETAIL, occlusion=False)
+        dag_rgb, dag_ids, dag_z = r.read()
+    rgb, ids, z = render_meshes(scene, cam)
+    assert (ids != 0xFFFFFFFF).sum() > 2000
+    assert np.array_equal(ids, dag_ids) and np.array_equal(z, dag_z)
+    assert np.abs(rgb.astype(int) - dag_rgb).max() <= 1
+    flat = render_meshes(scene, cam, shading="flat")
+    ref = render_instances(scene, cam)
+    assert all(np.array_equal(a, b) for a, b in zip(flat, ref, strict=True))
+    assert (np.abs(flat[0].astype(int) - rgb).max(axis=2) > 8).sum() > 500
+    with pytest.raises(ValueError, match="no shading 'phong'"):
+        render_meshes(scene, cam, shading="phong")
