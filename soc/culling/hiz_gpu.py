@@ -20,8 +20,8 @@ Stages, in the order a frame runs them:
    By induction texel ``x`` of level k stands for exactly the level-0 columns
    ``[x·2^k, min((x+1)·2^k, W))`` (likewise rows), so the levels cover every pixel at every
    resolution, powers of two or not. Levels 1–2 are packed in one RGBA texture and levels
-   >= 3 are rectangles of one R32F texture (:func:`atlas_layout`), so the test shader can
-   pick any level per box.
+   >= 3 are rectangles right of them in the same texture (:func:`atlas_layout`), so the test
+   shader can pick any level per box and read every level but 0 with one texture fetch.
 2. :meth:`HizTest.classify` — one invocation per candidate box (``hiz_test.comp.glsl``):
    outside the frustum (the p-vertex test of :mod:`soc.culling.frustum` on the grown box, with a
    slack
@@ -178,12 +178,13 @@ class DepthPyramid:
     """Max-depth pyramid of a ``resolution = (W, H)`` depth texture, built on the GPU.
 
     Level 0 is the depth texture given to :meth:`build` (not copied). Levels 1 and 2 are packed
-    in one RGBA32F texture (:attr:`quads`) of level 2's size: texel ``d`` holds the level-1
-    texels ``2d + (0, 0), (1, 0), (0, 1), (1, 1)`` and level-2 texel ``d`` is their max. Levels
-    3.. are disjoint rectangles of one R32F texture (:attr:`atlas`), level k with its lower-left
-    texel at :attr:`corners` ``[k]``. Level k has :attr:`sizes` ``[k]`` texels (row 0 is the
-    bottom row, as in the depth texture), and each texel is >= every level-0 depth it stands
-    for. Float32 window depths throughout.
+    in one RGBA32F texture (:attr:`quads`), level 2's size at its origin: texel ``d`` holds the
+    level-1 texels ``2d + (0, 0), (1, 0), (0, 1), (1, 1)`` and level-2 texel ``d`` is their
+    max. Levels 3.. are disjoint rectangles of the same texture right of level 2 (in ``.x``;
+    :attr:`atlas` is :attr:`quads`), level k with its lower-left texel at :attr:`corners`
+    ``[k]``. Level k has :attr:`sizes` ``[k]`` texels (row 0 is the bottom row, as in the depth
+    texture), and each texel is >= every level-0 depth it stands for. Float32 window depths
+    throughout.
     """
 
     def __init__(self, glctx, resolution: tuple[int, int]):
@@ -194,17 +195,19 @@ class DepthPyramid:
         self.sizes = pyramid_sizes(self.resolution)
         if len(self.sizes) > MAX_LEVELS:
             raise ValueError(f"resolution {self.resolution} needs more than {MAX_LEVELS} levels")
-        self.corners, atlas_size = atlas_layout(self.sizes)
+        corners, atlas_size = atlas_layout(self.sizes)
         ctx = glctx.ctx
         # Level 2's size, also when the pyramid stops at level 1 (its 1×1 quad then holds it).
         w1, h1 = self.sizes[min(1, len(self.sizes) - 1)]
-        quads_size = ((w1 + 1) // 2, (h1 + 1) // 2)
-        self.quads = ctx.texture(quads_size, 4, dtype="f4")
-        self.atlas = ctx.texture(atlas_size, 1, dtype="f4")
-        for t in (self.quads, self.atlas):
-            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.quads_fbo = ctx.framebuffer(color_attachments=[self.quads])
-        self.atlas_fbo = ctx.framebuffer(color_attachments=[self.atlas])
+        self.quads_size = ((w1 + 1) // 2, (h1 + 1) // 2)
+        # One RGBA32F texture: the quads at the origin, the atlas to their right (levels >= 3
+        # in .x): the test then reads every level but 0 with one fetch of one texture.
+        x0 = self.quads_size[0]
+        self.corners = [c if k < 3 else (c[0] + x0, c[1]) for k, c in enumerate(corners)]
+        size = (x0 + atlas_size[0], max(self.quads_size[1], atlas_size[1]))
+        self.quads = self.atlas = ctx.texture(size, 4, dtype="f4")
+        self.quads.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.quads_fbo = self.atlas_fbo = ctx.framebuffer(color_attachments=[self.quads])
         self.programs = [
             glctx.program("hiz_reduce.vert", f"{name}.frag")
             for name in ("hiz_reduce_depth", "hiz_reduce_quad", "hiz_reduce", "hiz_reduce_levels")
@@ -223,7 +226,6 @@ class DepthPyramid:
         for vao in self.vaos:
             vao.release()
         self.glctx.release_framebuffer(self.quads_fbo, self.quads)
-        self.glctx.release_framebuffer(self.atlas_fbo, self.atlas)
 
     def bind(self, program) -> None:
         """Bind the depth texture, quads and atlas to the texture units of the samplers
@@ -265,16 +267,16 @@ class DepthPyramid:
         depth_prog, quad_prog, level_prog, top_prog = self.programs
         depth_vao, quad_vao, level_vao, top_vao = self.vaos
 
-        self.quads_fbo.use()  # levels 1 and 2
+        fbo = self.quads_fbo
+        fbo.viewport = fbo.scissor = (0, 0, *self.quads_size)  # levels 1 and 2
+        fbo.use()
         self.bind(depth_prog)
         depth_vao.render(moderngl.TRIANGLES, vertices=3)
         if len(self.sizes) <= 3:
+            fbo.scissor = None
             return
-        fbo = self.atlas_fbo
-        fbo.use()
         for k in range(3, len(self.sizes)):
-            if k > 3:
-                self.glctx.raw.glTextureBarrier()  # level k-1 was rendered, now it is read
+            self.glctx.raw.glTextureBarrier()  # level k-1 was rendered, now it is read
             w, h = self.sizes[k - 1]
             if k > 4 and w * h <= TOP_SOURCE_TEXELS:  # the rest at once from level k-1
                 self.bind(top_prog)
@@ -289,7 +291,7 @@ class DepthPyramid:
             prog, vao = (quad_prog, quad_vao) if k == 3 else (level_prog, level_vao)
             if k > 3:
                 prog["src_offset"].value = self.corners[k - 1]
-                prog["src_size"].value = self.sizes[k - 1]
+            prog["src_size"].value = self.sizes[k - 1]
             self.bind(prog)
             prog["dst_offset"].value = self.corners[k]
             fbo.viewport = fbo.scissor = (*self.corners[k], *self.sizes[k])
@@ -301,16 +303,16 @@ class DepthPyramid:
         w, h = self.sizes[k]
         if k == 0:
             return np.frombuffer(self.depth.read(), np.float32).reshape(h, w).copy()
+        tw, th = self.quads.size
+        texels = np.frombuffer(self.quads.read(), np.float32).reshape(th, tw, 4)
         if k <= 2:
-            qw, qh = self.quads.size
-            q = np.frombuffer(self.quads.read(), np.float32).reshape(qh, qw, 2, 2)  # y, x, j, i
+            qw, qh = self.quads_size
+            q = texels[:qh, :qw].reshape(qh, qw, 2, 2)  # y, x, j, i
             if k == 2:
                 return q.max(axis=(2, 3))[:h, :w].copy()
             return q.transpose(0, 2, 1, 3).reshape(2 * qh, 2 * qw)[:h, :w].copy()
-        aw, ah = self.atlas.size
-        atlas = np.frombuffer(self.atlas.read(), np.float32).reshape(ah, aw)
         x, y = self.corners[k]
-        return atlas[y : y + h, x : x + w].copy()
+        return texels[y : y + h, x : x + w, 0].copy()
 
 
 def set_frustum_uniforms(program, camera: Camera) -> None:

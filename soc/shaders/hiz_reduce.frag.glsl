@@ -1,5 +1,5 @@
 #version 450
-// One level >= 4 of the max-depth pyramid, drawn into its rectangle of the R32F atlas: texel
+// One level >= 4 of the max-depth pyramid, drawn into its rectangle of the atlas (.x): texel
 // (x, y) of level k+1 = max of texels (2x..2x+1, 2y..2y+1) of level k, reads past the odd
 // last row/column clamped to it (so that texel stands alone). A level-k texel thus stands for
 // exactly the level-0 texels [x·2^k, min((x+1)·2^k, W)) per axis, and together they cover

@@ -6,8 +6,8 @@
 
 uniform sampler2D depth;    // level 0: the occluder depth buffer (compare mode off)
 uniform sampler2D quads;    // levels 1 and 2: texel d holds level-1 texels 2d + (0,0), (1,0),
-                            // (0,1), (1,1) in .xyzw; level-2 texel d is their max
-uniform sampler2D atlas;    // levels >= 3, each a rectangle of this R32F texture
+                            // (0,1), (1,1) in .xyzw, level-2 texel d is their max; levels >= 3
+                            // in .x, each a rectangle (the atlas) right of those
 uniform vec4 planes[6];     // inward frustum planes (a, b, c, d), unit normals
 uniform float plane_slack;  // relative slack of the plane test (soc.constants.FRUSTUM_SLACK)
 uniform float plane_rounding;  // relative float32 rounding allowance of the plane test
@@ -21,7 +21,7 @@ uniform float pixel_margin; // pixels added around the projected rectangle
 uniform int footprint;      // texels per axis at the chosen level (2 or 4)
 uniform int refine;         // levels finer than its own a box is judged at (0 = classic)
 uniform int levels;         // number of levels including level 0
-uniform ivec4 level_info[MAX_LEVELS];  // per level: corner in `atlas` (levels 0-2: unused), width, height
+uniform ivec4 level_info[MAX_LEVELS];  // per level: corner in `quads` (levels 0-2: unused), width, height
 
 // Whether the box [lo, hi] lies entirely outside one frustum plane: the signed distance of its
 // most-inside corner is negative beyond the slack and beyond a bound on the float32 rounding
@@ -64,14 +64,13 @@ int node_frustum(vec3 lo, vec3 hi) {
     return inside ? NODE_INSIDE : NODE_CROSSING;
 }
 
-// Texel (x, y) of level k. Levels 1 and 2 share one fetch of `quads` (llvmpipe runs every
-// side of a branch, so a fetch per level would cost two).
+// Texel (x, y) of level k. Levels >= 1 share one fetch of `quads` (llvmpipe runs every side of
+// a branch, so a fetch per level would cost one each).
 float texel(int k, int x, int y) {
     if (k == 0) return texelFetch(depth, ivec2(x, y), 0).r;
-    if (k > 2) return texelFetch(atlas, level_info[k].xy + ivec2(x, y), 0).r;
     ivec2 p = ivec2(x, y);
-    vec4 q = texelFetch(quads, k == 1 ? p >> 1 : p, 0);
-    return k == 1 ? q[(x & 1) + 2 * (y & 1)] : max(max(q.x, q.y), max(q.z, q.w));
+    vec4 q = texelFetch(quads, k == 1 ? p >> 1 : (k == 2 ? p : level_info[k].xy + p), 0);
+    return k == 1 ? q[(x & 1) + 2 * (y & 1)] : (k == 2 ? max(max(q.x, q.y), max(q.z, q.w)) : q.x);
 }
 
 // Does any texel of level `leaf` holding a level-0 texel of [p0, p1] reach `nearest` (max
