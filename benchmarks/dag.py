@@ -9,9 +9,10 @@ the frame, false culls against the cut's own id render, the DAG build's time and
     python -m benchmarks --only dag [--quick]     # the same as a section of BENCHMARKS.md
 
 Writes ``<out>/dag/targets.csv`` (and ``<out>/dag/equal-flip.csv``: object LOD's triangles
-over the cut's at the cut's FLIP, per view and threshold; ``--shading smooth``: both methods'
-images shaded from area-weighted vertex normals instead of vislod's flat facets, written as
-``equal-flip-smooth.csv``, ``targets-smooth.csv``) and prints the targets table
+over the cut's at the cut's FLIP, per view and threshold; ``--shading smooth`` or ``source``:
+both methods' images shaded from vertex normals instead of vislod's flat facets, written as
+``equal-flip-smooth.csv``, ``targets-smooth.csv``; see ``experiments.dag_lod.compute``) and
+prints the targets table
 (markdown), each row with its measured figure and whether it is met. The DAGs are cached by
 content (``<cache>/dag``): the first run builds them (the 100× denser meshes take long), later
 runs read them.
@@ -293,9 +294,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", choices=("field", "object-lod", "build"), default=None)
     ap.add_argument("--denser", type=int, nargs="*", default=None,
                     help=f"density factors of the field's meshes (default {DENSER})")  # fmt: skip
-    ap.add_argument("--shading", choices=("flat", "smooth"), default="flat",
+    ap.add_argument("--shading", choices=("flat", "smooth", "source"), default="flat",
                     help="shading of the object LOD comparison's images (default flat, "
-                    "vislod's; smooth: area-weighted vertex normals per level)")  # fmt: skip
+                    "vislod's; smooth: area-weighted vertex normals per level; source: the "
+                    "source's vertex normals at every level)")  # fmt: skip
     args = ap.parse_args(argv)
     frames = run(args.quick, args.only, args.denser, args.shading)
     folder = Path(args.out) / "dag"

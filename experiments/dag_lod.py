@@ -242,11 +242,13 @@ def compute(params: Params, progress: bool = True, *,
     per level.
 
     ``shading`` (:data:`soc.dag_renderer.SHADINGS`) shades every image of both methods, their
-    full-detail references included: ``"flat"`` (default, vislod's: each facet alone) or
+    full-detail references included: ``"flat"`` (default, vislod's: each facet alone),
     ``"smooth"`` (interpolated vertex normals, area-weighted over each level's own triangles:
     the DAG's cluster levels, :func:`soc.dag_renderer.level_normals`, and object LOD's chain
-    levels, :func:`soc.dag_renderer.vertex_normals`; neither simplifier keeps the source's
-    normals, the chains' levels not even its vertices). Recorded as info's ``shading``."""
+    levels, :func:`soc.dag_renderer.vertex_normals`) or ``"source"`` (the source's vertex
+    normals at every level: the DAG's by index, its levels' vertices being the source's;
+    object LOD's chain levels, whose simplifier moves the vertices, from the nearest source
+    vertex, :func:`soc.dag_renderer.transferred_normals`). Recorded as info's ``shading``."""
     from soc.dag_renderer import _check_shading
 
     _check_shading(shading)
@@ -279,7 +281,7 @@ def _measure(params: Params, view: str, scene, cam, bar, shading: str = "flat"):
     from lod.dag import mesh_dag, pixel_scale
     from soc.culling.dag_select import DagTables, render_instances
     from soc.culling.oracle import may_draw
-    from soc.dag_renderer import DagRenderer, render_meshes, vertex_normals
+    from soc.dag_renderer import DagRenderer, render_meshes, transferred_normals, vertex_normals
     from soc.scenes.camera import Camera
 
     def render(sub, color_ids=None, normals=None):
@@ -348,9 +350,13 @@ def _measure(params: Params, view: str, scene, cam, bar, shading: str = "flat"):
     chains = [lod.build_chain(v, f, ratios=params.ratios) for v, f in
               zip(scene.mesh_vertices, scene.mesh_faces, strict=True)]  # fmt: skip
     chain_normals = None  # per mesh of _object_lod_scene's scenes: every chain's levels
-    if shading != "flat":
+    if shading == "smooth":
         chain_normals = [vertex_normals(lv.vertices, lv.faces) for ch in chains
                          for lv in ch.levels]  # fmt: skip
+    elif shading == "source":
+        chain_normals = [transferred_normals(lv.vertices, v, vertex_normals(v, f))
+                         for v, f, ch in zip(scene.mesh_vertices, scene.mesh_faces, chains,
+                                             strict=True) for lv in ch.levels]  # fmt: skip
     errors = np.array([[lv.error for lv in ch.levels] for ch in chains])  # (D, L) object units
     tris = np.array([[len(lv.faces) for lv in ch.levels] for ch in chains], np.float64)
     in_view = may_draw(scene.aabbs, cam.view_proj)

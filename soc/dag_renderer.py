@@ -7,10 +7,13 @@ image errors, level pictures and the cut's own id render (the oracle of the cut'
 The selection and its tables are :mod:`soc.culling.dag_select`'s.
 
 Shading (:data:`SHADINGS`): ``"flat"`` (vislod's default, as every other pass: Lambert from
-screen-space derivatives, so each facet shades alone) or ``"smooth"``: Lambert from interpolated
+screen-space derivatives, so each facet shades alone), ``"smooth"``: Lambert from interpolated
 per-vertex normals, area-weighted over each level's own triangles (:func:`level_normals` for a
 DAG's cluster levels, :func:`vertex_normals` for any mesh), the same way for the DAG's cut and
-for object LOD's meshes (:func:`render_meshes`), so that the two are compared alike.
+for object LOD's meshes (:func:`render_meshes`), so that the two are compared alike; or
+``"source"``: every level lit by the source's vertex normals, which the DAG's levels carry by
+index (their vertices are the source's) and a mesh whose simplifier moved its vertices takes
+from the nearest source vertex (:func:`transferred_normals`).
 """
 
 from __future__ import annotations
@@ -37,11 +40,11 @@ from soc.culling.dag_select import (
 from soc.gl.context import uses_gl
 
 __all__ = ["SHADINGS", "DagFrame", "DagRenderer", "level_normals", "render_meshes",
-           "vertex_normals"]  # fmt: skip
+           "transferred_normals", "vertex_normals"]  # fmt: skip
 
 # The shadings of the DAG's pictures and of :func:`render_meshes` (the first is the default).
-SHADINGS = ("flat", "smooth")
-# dag_draw.vert's per-vertex normals under ``"smooth"`` (a binding the draw leaves free).
+SHADINGS = ("flat", "smooth", "source")
+# dag_draw.vert's per-vertex normals unless ``"flat"`` (a binding the draw leaves free).
 DAG_NORMALS_BINDING = 14
 
 
@@ -86,15 +89,27 @@ def level_normals(tables: DagTables) -> np.ndarray:
     return _normalised(_accumulate(v[f], slot, n_levels * n)).reshape(n_levels, n, 3)
 
 
+def transferred_normals(vertices, source_vertices, source_normals) -> np.ndarray:
+    """(V, 3) float32 the normal of each of ``vertices``' nearest vertex of the source
+    (``source_vertices`` (S, 3), ``source_normals`` (S, 3)): the source's normals on a level
+    whose simplifier placed its vertices anew (a vertex the source has keeps its own)."""
+    from scipy.spatial import cKDTree
+
+    _, nearest = cKDTree(np.asarray(source_vertices, np.float64)).query(
+        np.asarray(vertices, np.float64)
+    )
+    return np.asarray(source_normals, np.float32)[nearest]
+
+
 def _check_shading(shading: str) -> None:
     if shading not in SHADINGS:
         raise ValueError(f"no shading {shading!r}: the shadings are {SHADINGS}")
 
 
 def _draw_program(ctx, defines: dict, shading: str):
-    """dag_draw's program, with ``DAG_SMOOTH`` under ``"smooth"``."""
+    """dag_draw's program, with ``DAG_SMOOTH`` unless ``"flat"``."""
     _check_shading(shading)
-    if shading == "smooth":
+    if shading != "flat":
         defines = {**defines, "DAG_SMOOTH": 1, "DAG_NORMALS_BINDING": DAG_NORMALS_BINDING}
     return ctx.program(vertex_shader=_source("dag_draw.vert", defines),
                        fragment_shader=_source("dag_draw.frag", defines))  # fmt: skip
@@ -168,11 +183,12 @@ class DagRenderer:
         (:data:`DEFAULT_CAPACITY`); a frame that needs more raises ``RuntimeError`` naming the
         list.
     shading : str
-        The pictures' shading (:data:`SHADINGS`): ``"flat"`` (default) or ``"smooth"``, with
-        the normals :func:`level_normals` gives unless ``normals`` are given.
+        The pictures' shading (:data:`SHADINGS`): ``"flat"`` (default), ``"smooth"`` (unless
+        ``normals`` are given, :func:`level_normals`) or ``"source"`` (unless given, level 0's:
+        the source's normals at every level).
     normals : (L, V, 3) or (V, 3) float, optional
-        ``"smooth"``'s normals per cluster level and vertex of ``tables``, or one per vertex
-        for every level.
+        The normals per cluster level and vertex of ``tables``, or one per vertex for every
+        level.
 
     Notes
     -----
@@ -201,8 +217,9 @@ class DagRenderer:
         self.program = _draw_program(ctx, self.defines, shading)
         t = tables
         self.normals = None
-        if shading == "smooth":
+        if shading != "flat":
             nrm = level_normals(t) if normals is None else np.asarray(normals, np.float32)
+            nrm = nrm[0] if shading == "source" and normals is None else nrm
             if nrm.shape[-2:] != (len(t.vertices), 3):
                 v = len(t.vertices)
                 raise ValueError(f"normals {nrm.shape} are not (levels, {v}, 3) or ({v}, 3): "
@@ -443,7 +460,8 @@ def render_meshes(scene, camera, color_ids=None, glctx=None, *, shading: str = "
     shading : str
         Of :data:`SHADINGS`.
     normals : list of (V_m, 3) float, optional
-        ``"smooth"``'s normals per mesh of ``scene``; default :func:`vertex_normals` of each.
+        The normals per mesh of ``scene`` (not ``"flat"``); default :func:`vertex_normals` of
+        each (under ``"source"`` give a level's source normals, :func:`transferred_normals`).
 
     Returns
     -------
@@ -468,7 +486,7 @@ def render_meshes(scene, camera, color_ids=None, glctx=None, *, shading: str = "
     faces = [np.asarray(f, np.uint32).reshape(-1, 3) for f in scene.mesh_faces]
     first_vertex = np.concatenate([[0], np.cumsum([len(v) for v in verts])])
     first_face = np.concatenate([[0], np.cumsum([len(f) for f in faces])])
-    if shading == "smooth":
+    if shading != "flat":
         if normals is None:
             normals = [vertex_normals(v, f) for v, f in zip(verts, faces, strict=True)]
         nrm = normals
@@ -491,7 +509,7 @@ def render_meshes(scene, camera, color_ids=None, glctx=None, *, shading: str = "
                ctx.buffer(pairs.astype(np.uint32) if n else np.zeros(2, np.uint32)),
                ctx.buffer(np.zeros(1, np.uint32))]  # fmt: skip
     vbo, ibo, slots, indirect, inst, pair_buf, levels = buffers
-    if shading == "smooth":
+    if shading != "flat":
         buffers.append(ctx.buffer(nrm))
     vao = ctx.vertex_array(program, [(vbo, "3f", "in_position"), (slots, "u/i", "in_slot")],
                            index_buffer=ibo, index_element_size=4)  # fmt: skip
@@ -510,7 +528,7 @@ def render_meshes(scene, camera, color_ids=None, glctx=None, *, shading: str = "
         inst.bind_to_storage_buffer(DAG_INSTANCES_BINDING)
         pair_buf.bind_to_storage_buffer(DAG_PAIRS_BINDING)
         levels.bind_to_storage_buffer(DAG_LEVELS_BINDING)
-        if shading == "smooth":
+        if shading != "flat":
             buffers[-1].bind_to_storage_buffer(DAG_NORMALS_BINDING)
             program["normal_stride"].value = 0
         fbo.use()

@@ -217,3 +217,49 @@ def test_smooth_full_detail_cut_is_the_source_meshes_smooth_render():
     assert (np.abs(flat[0].astype(int) - rgb).max(axis=2) > 8).sum() > 500
     with pytest.raises(ValueError, match="no shading 'phong'"):
         render_meshes(scene, cam, shading="phong")
+
+
+def test_transferred_normals_are_the_nearest_source_vertexs():
+    from soc.dag_renderer import transferred_normals
+
+    rng = np.random.default_rng(7)
+    src = rng.normal(size=(300, 3))
+    normals = rng.normal(size=(300, 3)).astype(np.float32)
+    pts = rng.normal(size=(50, 3))
+    nearest = np.argmin(((pts[:, None] - src[None]) ** 2).sum(2), axis=1)
+    assert np.array_equal(transferred_normals(pts, src, normals), normals[nearest])
+    assert np.array_equal(transferred_normals(src[::7], src, normals), normals[::7])
+
+
+def test_source_shading_lights_a_coarse_cut_with_the_source_normals_by_index():
+    """Under ``"source"`` the DAG's cut, coarse levels included, is lit by the source's vertex
+    normals by vertex index: its picture is render_meshes' of the cut's triangles as one mesh
+    with the source's normals; ``"smooth"`` (each level's own normals) lights it otherwise."""
+    from lod.dag import build_dag
+    from soc.culling.dag_select import DagTables, make_instances
+    from soc.dag_renderer import DagRenderer, render_meshes, vertex_normals
+    from soc.scenes.camera import Camera
+    from soc.scenes.dense import rock
+    from soc.scenes.instanced import InstancedScene
+
+    dag = build_dag(*rock(6000, seed=8))
+    tables = DagTables.from_dags([dag])
+    mats = np.zeros((1, 3, 4))
+    mats[0, :, :3] = 2.0 * np.eye(3)
+    inst = make_instances(mats, [0])
+    cam = Camera.look_at((0.5, 1.5, -6.0), (0.0, 0.0, 0.0), width=160, height=120, near=0.1,
+                         far=40.0)  # fmt: skip
+    pics = {}
+    for shading in ("source", "smooth"):
+        with DagRenderer(tables, inst, (160, 120), shading=shading) as r:
+            r.frame(cam, 6.0, occlusion=False)
+            pics[shading] = r.read()
+            drawn = r.drawn()
+    assert tables.level[drawn[:, 1]].max() >= 2  # coarse levels in the cut
+    source_n = vertex_normals(dag.vertices, dag.cut_faces(np.flatnonzero(dag.level == 0)))
+    cut = InstancedScene([(dag.vertices, dag.cut_faces(drawn[:, 1]))], mats, [0])
+    rgb, ids, _ = render_meshes(cut, cam, shading="source", normals=[source_n])
+    assert (ids != 0xFFFFFFFF).sum() > 3000
+    assert np.array_equal(ids, pics["source"][1])
+    assert np.abs(rgb.astype(int) - pics["source"][0]).max() <= 1
+    assert (np.abs(rgb.astype(int) - pics["smooth"][0]).max(axis=2) > 8).sum() > 100
