@@ -13,15 +13,17 @@ Stages, in the order a frame runs them:
 1. :meth:`DepthPyramid.build` — level 0 is the occluder depth texture itself; level k+1 has
    ``ceil(size_k / 2)`` texels per axis and each texel is the max of its 2×2 texels of level k,
    with the odd last row/column clamped away (``hiz_reduce*.frag.glsl``, one full-viewport
-   triangle a level, levels 1 and 2 in one pass: llvmpipe writes render targets faster than
+   triangle a level, levels 2 and 3 in one pass; level 1 is not stored, the test reads it
+   with one ``textureGather`` of level 0: llvmpipe writes render targets faster than
    SSBOs or images, and its cost is mostly per fragment; the small top levels in one pass
    from the first level of at most :data:`TOP_SOURCE_TEXELS` texels, each texel the max of
    its block of that level: a pass has a fixed cost on llvmpipe however small).
    By induction texel ``x`` of level k stands for exactly the level-0 columns
    ``[x·2^k, min((x+1)·2^k, W))`` (likewise rows), so the levels cover every pixel at every
-   resolution, powers of two or not. Levels 1–2 are packed in one RGBA texture and levels
-   >= 3 are rectangles right of them in the same texture (:func:`atlas_layout`), so the test
-   shader can pick any level per box and read every level but 0 with one texture fetch.
+   resolution, powers of two or not. Levels 2–3 are packed in one RGBA texture and levels
+   >= 4 are rectangles right of them in the same texture (:func:`atlas_layout`), so the test
+   shader can pick any level per box and read it with one gather of the depth (levels 0-1) or
+   one fetch of that texture (levels 2..).
 2. :meth:`HizTest.classify` — one invocation per candidate box (``hiz_test.comp.glsl``):
    outside the frustum (the p-vertex test of :mod:`soc.culling.frustum` on the grown box, with a
    slack
@@ -177,14 +179,15 @@ def atlas_layout(sizes: list[tuple[int, int]]) -> tuple[list[tuple[int, int]], t
 class DepthPyramid:
     """Max-depth pyramid of a ``resolution = (W, H)`` depth texture, built on the GPU.
 
-    Level 0 is the depth texture given to :meth:`build` (not copied). Levels 1 and 2 are packed
-    in one RGBA32F texture (:attr:`quads`), level 2's size at its origin: texel ``d`` holds the
-    level-1 texels ``2d + (0, 0), (1, 0), (0, 1), (1, 1)`` and level-2 texel ``d`` is their
-    max. Levels 3.. are disjoint rectangles of the same texture right of level 2 (in ``.x``;
-    :attr:`atlas` is :attr:`quads`), level k with its lower-left texel at :attr:`corners`
-    ``[k]``. Level k has :attr:`sizes` ``[k]`` texels (row 0 is the bottom row, as in the depth
-    texture), and each texel is >= every level-0 depth it stands for. Float32 window depths
-    throughout.
+    Level 0 is the depth texture given to :meth:`build` (not copied); level 1 is not stored
+    (the test gathers it from level 0). Levels 2 and 3 are packed in one RGBA32F texture
+    (:attr:`quads`), level 3's size in level 3's rectangle of :func:`atlas_layout` (the
+    origin): texel ``e`` holds the level-2 texels ``2e + (0, 0), (1, 0), (0, 1), (1, 1)`` and
+    level-3 texel ``e`` is their max. Levels 4.. are disjoint rectangles of the same texture
+    right of it (in ``.x``; :attr:`atlas` is :attr:`quads`), level k with its lower-left texel
+    at :attr:`corners` ``[k]``. Level k has :attr:`sizes` ``[k]`` texels (row 0 is the bottom
+    row, as in the depth texture), and each texel is >= every level-0 depth it stands for.
+    Float32 window depths throughout.
     """
 
     def __init__(self, glctx, resolution: tuple[int, int]):
@@ -195,16 +198,14 @@ class DepthPyramid:
         self.sizes = pyramid_sizes(self.resolution)
         if len(self.sizes) > MAX_LEVELS:
             raise ValueError(f"resolution {self.resolution} needs more than {MAX_LEVELS} levels")
-        corners, atlas_size = atlas_layout(self.sizes)
+        self.corners, atlas_size = atlas_layout(self.sizes)
         ctx = glctx.ctx
-        # Level 2's size, also when the pyramid stops at level 1 (its 1×1 quad then holds it).
+        # Level 3's size, also when the pyramid stops before it (its 1×1 quad then holds them).
         w1, h1 = self.sizes[min(1, len(self.sizes) - 1)]
-        self.quads_size = ((w1 + 1) // 2, (h1 + 1) // 2)
-        # One RGBA32F texture: the quads at the origin, the atlas to their right (levels >= 3
-        # in .x): the test then reads every level but 0 with one fetch of one texture.
-        x0 = self.quads_size[0]
-        self.corners = [c if k < 3 else (c[0] + x0, c[1]) for k, c in enumerate(corners)]
-        size = (x0 + atlas_size[0], max(self.quads_size[1], atlas_size[1]))
+        self.quads_size = (((w1 + 1) // 2 + 1) // 2, ((h1 + 1) // 2 + 1) // 2)
+        # One RGBA32F texture: the quads in level 3's rectangle of the atlas, levels >= 4 in
+        # .x of theirs: the test then reads levels 2.. with one fetch of one texture.
+        size = (max(self.quads_size[0], atlas_size[0]), max(self.quads_size[1], atlas_size[1]))
         self.quads = self.atlas = ctx.texture(size, 4, dtype="f4")
         self.quads.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.quads_fbo = self.atlas_fbo = ctx.framebuffer(color_attachments=[self.quads])
@@ -241,7 +242,7 @@ class DepthPyramid:
 
     def build(self, depth_texture) -> None:
         """Reduce ``depth_texture`` (moderngl depth or R32F texture of :attr:`resolution`) into the
-        levels 1..: one full-viewport triangle per level (levels 1 and 2 together), with a
+        levels 2..: one full-viewport triangle per level (levels 2 and 3 together), with a
         texture barrier between the atlas levels (the next one reads what this one wrote),
         until the level read has at most :data:`TOP_SOURCE_TEXELS` texels: the levels above
         it are then written at once, each texel the max of its block of that level.
@@ -255,27 +256,23 @@ class DepthPyramid:
             raise ValueError(
                 f"depth texture is {depth_texture.size}, the pyramid {self.resolution}"
             )
-        if len(self.sizes) == 1:
-            self.depth = depth_texture
-            return
         if depth_texture.depth:  # an R32F texture has no compare mode
             depth_texture.compare_func = ""
         depth_texture.repeat_x = depth_texture.repeat_y = False  # textureGather clamps
         depth_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.depth = depth_texture
+        if len(self.sizes) == 1:
+            return
         self.glctx.ctx.enable_only(moderngl.NOTHING)
         depth_prog, quad_prog, level_prog, top_prog = self.programs
         depth_vao, quad_vao, level_vao, top_vao = self.vaos
 
         fbo = self.quads_fbo
-        fbo.viewport = fbo.scissor = (0, 0, *self.quads_size)  # levels 1 and 2
+        fbo.viewport = fbo.scissor = (0, 0, *self.quads_size)  # levels 2 and 3
         fbo.use()
         self.bind(depth_prog)
         depth_vao.render(moderngl.TRIANGLES, vertices=3)
-        if len(self.sizes) <= 3:
-            fbo.scissor = None
-            return
-        for k in range(3, len(self.sizes)):
+        for k in range(4, len(self.sizes)):
             self.glctx.raw.glTextureBarrier()  # level k-1 was rendered, now it is read
             w, h = self.sizes[k - 1]
             if k > 4 and w * h <= TOP_SOURCE_TEXELS:  # the rest at once from level k-1
@@ -288,8 +285,8 @@ class DepthPyramid:
                 fbo.viewport = fbo.scissor = (x, y, self.sizes[k][0], self.atlas.size[1] - y)
                 top_vao.render(moderngl.TRIANGLES, vertices=3)
                 break
-            prog, vao = (quad_prog, quad_vao) if k == 3 else (level_prog, level_vao)
-            if k > 3:
+            prog, vao = (quad_prog, quad_vao) if k == 4 else (level_prog, level_vao)
+            if k > 4:
                 prog["src_offset"].value = self.corners[k - 1]
             prog["src_size"].value = self.sizes[k - 1]
             self.bind(prog)
@@ -299,16 +296,19 @@ class DepthPyramid:
         fbo.scissor = None
 
     def level(self, k: int) -> np.ndarray:
-        """(H_k, W_k) float32 copy of level ``k`` (level 0: the depth texture); for tests."""
+        """(H_k, W_k) float32 copy of level ``k`` (level 0: the depth texture; level 1, not
+        stored: computed from it with numpy); for tests."""
         w, h = self.sizes[k]
         if k == 0:
             return np.frombuffer(self.depth.read(), np.float32).reshape(h, w).copy()
+        if k == 1:  # not stored: the test reads it with a textureGather of level 0
+            return reference_pyramid(self.level(0))[1]
         tw, th = self.quads.size
         texels = np.frombuffer(self.quads.read(), np.float32).reshape(th, tw, 4)
-        if k <= 2:
+        if k <= 3:
             qw, qh = self.quads_size
             q = texels[:qh, :qw].reshape(qh, qw, 2, 2)  # y, x, j, i
-            if k == 2:
+            if k == 3:
                 return q.max(axis=(2, 3))[:h, :w].copy()
             return q.transpose(0, 2, 1, 3).reshape(2 * qh, 2 * qw)[:h, :w].copy()
         x, y = self.corners[k]

@@ -5,8 +5,8 @@
 // the box's nearest corner depth. The uniforms are set by soc.culling.hiz_gpu.set_test_uniforms.
 
 uniform sampler2D depth;    // level 0: the occluder depth buffer (compare mode off)
-uniform sampler2D quads;    // levels 1 and 2: texel d holds level-1 texels 2d + (0,0), (1,0),
-                            // (0,1), (1,1) in .xyzw, level-2 texel d is their max; levels >= 3
+uniform sampler2D quads;    // levels 2 and 3: texel e holds level-2 texels 2e + (0,0), (1,0),
+                            // (0,1), (1,1) in .xyzw, level-3 texel e is their max; levels >= 4
                             // in .x, each a rectangle (the atlas) right of those
 uniform vec4 planes[6];     // inward frustum planes (a, b, c, d), unit normals
 uniform float plane_slack;  // relative slack of the plane test (soc.constants.FRUSTUM_SLACK)
@@ -64,13 +64,18 @@ int node_frustum(vec3 lo, vec3 hi) {
     return inside ? NODE_INSIDE : NODE_CROSSING;
 }
 
-// Texel (x, y) of level k. Levels >= 1 share one fetch of `quads` (llvmpipe runs every side of
-// a branch, so a fetch per level would cost one each).
+// Texel (x, y) of level k: levels 0 and 1 with one textureGather of the depth (its wrap clamps
+// to the edge: a level-1 texel past an odd last row/column stands alone), levels >= 2 with one
+// fetch of `quads` (llvmpipe runs every side of a branch, so a fetch per level would cost one
+// each).
 float texel(int k, int x, int y) {
-    if (k == 0) return texelFetch(depth, ivec2(x, y), 0).r;
     ivec2 p = ivec2(x, y);
-    vec4 q = texelFetch(quads, k == 1 ? p >> 1 : (k == 2 ? p : level_info[k].xy + p), 0);
-    return k == 1 ? q[(x & 1) + 2 * (y & 1)] : (k == 2 ? max(max(q.x, q.y), max(q.z, q.w)) : q.x);
+    // gather corner: between texels p and p + 1 (texel p is .w), or the four of level-1 texel p
+    vec4 g = textureGather(depth, vec2(k == 1 ? 2 * p + 1 : p + 1) / vec2(size));
+    vec4 q = texelFetch(quads, k == 2 ? p >> 1 : level_info[k].xy + p, 0);
+    float fine = k == 1 ? max(max(g.x, g.y), max(g.z, g.w)) : g.w;
+    float coarse = k == 2 ? q[(x & 1) + 2 * (y & 1)] : (k == 3 ? max(max(q.x, q.y), max(q.z, q.w)) : q.x);
+    return k <= 1 ? fine : coarse;
 }
 
 // Does any texel of level `leaf` holding a level-0 texel of [p0, p1] reach `nearest` (max

@@ -101,6 +101,8 @@ def _texels_as_the_test_reads_them(pyramid: DepthPyramid) -> list[np.ndarray]:
         try:
             pyramid.bind(prog)
             prog["level_info"].write(pyramid.level_info)
+            if "size" in prog:  # read by texel() where it gathers level 0
+                prog["size"].value = pyramid.resolution
             for level, (w, h) in enumerate(pyramid.sizes):
                 prog["k"].value = level
                 prog["k_size"].value = (w, h)
