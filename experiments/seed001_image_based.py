@@ -233,7 +233,7 @@ def age_sweep(world: World, params: Params, gl, pics: dict, bar) -> list[dict]:
     return rows
 
 
-def overview(scene, like) -> tuple[Any, Any]:
+def top_view(scene, like) -> tuple[Any, Any]:
     """Two cameras of ``like``'s resolution and field of view that see every object of
     ``scene`` (from above at a slant, the whole ground in the frame), the second a step to the
     side of the first: a model wholly in view, as a 12 M-polygon model shown at 800×600 is,
@@ -300,7 +300,7 @@ def timing(world: World, params: Params, gl, bar) -> list[dict]:
     frame), repeated and interleaved; medians in ms, their ratios, the engines' agreement —
     on the market (``scene`` "market", every view) and on it tiled to
     ``params.timing_triangles`` (``scene`` "lecture size", ``timing_views`` of the views
-    spread over the flight; and "lecture size, in view": seen whole, :func:`overview`, with
+    spread over the flight; and "lecture size, in view": seen whole, :func:`top_view`, with
     the first of those views' object transforms), each row with its triangles and the
     percentage of them in the view frustum."""
     from soc.rendering.warping import FrameRenderer
@@ -329,7 +329,7 @@ def timing(world: World, params: Params, gl, bar) -> list[dict]:
             bar.update(1)
         i = views[round(float(pick[0]))]
         row = _time_view(source, engines, world, i, min(i + 1, params.flight_frames - 1),
-                         params.repeats, pad, cameras=overview(big, world.cameras[i]))  # fmt: skip
+                         params.repeats, pad, cameras=top_view(big, world.cameras[i]))  # fmt: skip
         rows.append({"scene": "lecture size, in view", "triangles": int(big.triangle_counts.sum()),
                      **row, "engines_agree_pct": np.nan})  # fmt: skip
         bar.update(1)

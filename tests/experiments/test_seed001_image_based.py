@@ -112,8 +112,8 @@ def test_tiled_scene_reaches_the_triangles_and_keeps_the_original_ids():
     assert exp.tiled(m, n) is m
 
 
-def test_overview_sees_the_whole_tiled_scene_and_the_flight_does_not():
-    """The lecture-size timing seen whole: every object's box inside the overview's frustum,
+def test_top_view_sees_the_whole_tiled_scene_and_the_flight_does_not():
+    """The lecture-size timing seen whole: every object's box inside the whole view's frustum,
     the second camera a small step aside; a flight camera inside the town sees the middle
     only."""
     import soc
@@ -121,7 +121,7 @@ def test_overview_sees_the_whole_tiled_scene_and_the_flight_does_not():
     m = soc.scenes.market(seed=0, occludees=200)
     big = exp.tiled(m, 3 * int(m.triangle_counts.sum()))
     flight = soc.scenes.paths.flight(m, frames=30, width=160, height=120)
-    cam, nxt = exp.overview(big, flight[5])
+    cam, nxt = exp.top_view(big, flight[5])
     assert exp.in_view_pct(big, cam) == 100.0 == exp.in_view_pct(big, nxt)
     assert cam.resolution == flight[5].resolution and cam.fov_y == flight[5].fov_y
     assert 0 < np.linalg.norm(np.subtract(nxt.eye, cam.eye)) < 0.01 * cam.far
