@@ -165,22 +165,31 @@ def object_lod_targets(quick: bool,
         params = dataclasses.replace(params, resolution=RESOLUTION,
                                      thresholds=OBJECT_LOD_THRESHOLDS, repeats=1)  # fmt: skip
     frames = compute(params, progress=False, shading=shading)
-    ratios = pd.concat([equal_flip_ratios(frames, v) for v in VIEWS], ignore_index=True)
+    ratios = pd.concat([equal_flip_ratios(frames, v, occlusion=occ) for occ in (False, True)
+                        for v in VIEWS], ignore_index=True)  # fmt: skip
     ratios["shading"] = shading
     named = "" if shading == "flat" else f", {shading} shading"
     rows = []
-    for view in VIEWS:
-        r = ratios[ratios.view == view]
-        one = r[r.threshold == 1.0].iloc[0]
-        span = view in SPAN_VIEWS
-        rest = ", ".join(f"{t:g} px {x:.2f}" for t, x in zip(r.threshold, r.ratio, strict=True))
-        rows.append(_row(
-            f"object LOD (Funkhouser-Sequin) / DAG triangles at the same FLIP, {view}"
-            + named + ("" if span else " (not a near-to-far view)"), ">= 3" if span else "–",
-            one.ratio,
-            one.ratio >= 3 if span else None,
-            f"DAG {one.dag_triangles:,} triangles at FLIP {one.flip:.4f} (1 px); by threshold: "
-            f"{rest}; {params.resolution[0]}x{params.resolution[1]}"))  # fmt: skip
+    # Frustum culling only, then both with occlusion culling: the cut after two-phase HiZ,
+    # object LOD's instances with a pixel in its own image (a perfect culler of whole
+    # instances: the most favourable to object LOD).
+    for occ, culled in ((False, ""), (True, ", both occlusion-culled")):
+        for view in VIEWS:
+            r = ratios[(ratios.view == view) & (ratios.occlusion == occ)]
+            one = r[r.threshold == 1.0].iloc[0]
+            span = view in SPAN_VIEWS
+            rest = ", ".join(f"{t:g} px {x:.2f}" for t, x in zip(r.threshold, r.ratio,
+                                                                 strict=True))  # fmt: skip
+            target = f"object LOD (Funkhouser-Sequin) / DAG triangles at the same FLIP, {view}"
+            target += named + culled + ("" if span else " (not a near-to-far view)")
+            detail = (
+                f"DAG {one.dag_triangles:,} triangles at FLIP {one.flip:.4f} (1 px); by "
+                f"threshold: {rest}; {params.resolution[0]}x{params.resolution[1]}"
+            )
+            if occ:
+                detail += "; object LOD: the instances with a pixel in its own image"
+            rows.append(_row(target, ">= 3" if span else "–", one.ratio,
+                             one.ratio >= 3 if span else None, detail))  # fmt: skip
     return rows, ratios
 
 

@@ -381,9 +381,13 @@ def _measure(params: Params, view: str, scene, cam, bar, shading: str = "flat"):
         sub, keep = _object_lod_scene(scene, chains, levels)
         rgb, ids, z = render(sub, keep, chain_normals)
         ids = _remap(ids, keep) if shading == "flat" else ids  # render_meshes': keep's already
+        # With a perfect occlusion culler per instance: only the instances with a pixel in
+        # this very image are drawn (the most any culling of whole instances can leave out).
+        seen = np.unique(ids[ids != 0xFFFFFFFF]).astype(np.int64)
         obj_rows.append({
             "method": method, "budget": budget, "threshold": t,
             "triangles": int(tris[scene.mesh[keep], levels[keep]].sum()),
+            "visible_triangles": int(tris[scene.mesh[seen], levels[seen]].sum()),
             **image_errors(ref, (rgb, ids, z), near, far),
         })  # fmt: skip
         bar.update()
@@ -403,19 +407,24 @@ def _view(frame: pd.DataFrame, view: str) -> pd.DataFrame:
     return frame[frame.view == view] if "view" in frame else frame
 
 
-def equal_flip_ratios(frames, view: str = "field",
-                      method: str = "funkhouser-sequin") -> pd.DataFrame:  # fmt: skip
+def equal_flip_ratios(frames, view: str = "field", method: str = "funkhouser-sequin",
+                      occlusion: bool = False) -> pd.DataFrame:  # fmt: skip
     """Per threshold of the DAG's cut (frustum culling) in ``view``: its triangles and FLIP,
     object LOD's triangles at that FLIP (interpolated on the log-log curve, between the two
     budgets of its sweep whose FLIPs bracket it, FLIPs floored at :data:`FLIP_FLOOR`; nan when
     the sweep does not reach it) and their ratio (object LOD's over the DAG's: above 1 the cut
-    draws fewer at the same image error)."""
+    draws fewer at the same image error). ``occlusion``: both with occlusion culling — the
+    cut's triangles after two-phase HiZ, object LOD's of the instances with a pixel in its own
+    image (a perfect culler of whole instances, the most favourable to object LOD)."""
     d = _view(frames["dag"], view)
-    d = d[~d.occlusion.astype(bool)].sort_values("threshold")
+    d = d[d.occlusion.astype(bool) == occlusion].sort_values("threshold")
     o = _view(frames["objects"], view)
-    o = o[o.method == method].sort_values("triangles")
+    column = "visible_triangles" if occlusion else "triangles"
+    if column not in o:
+        raise ValueError(f"dag-lod frames from before {column!r} was recorded: rerun dag-lod")
+    o = o[o.method == method].sort_values(column)
     f = np.log(np.maximum(o.flip.to_numpy(float), FLIP_FLOOR))
-    t = np.log(o.triangles.to_numpy(float))
+    t = np.log(o[column].to_numpy(float).clip(min=1.0))
     rows = []
     for row in d.itertuples():
         obj = float("nan")
@@ -425,8 +434,8 @@ def equal_flip_ratios(frames, view: str = "field",
                 w = 0.0 if f[k] == f[k + 1] else (f[k] - x) / (f[k] - f[k + 1])
                 obj = float(np.exp(t[k] + w * (t[k + 1] - t[k])))
                 break
-        rows.append({"view": view, "threshold": row.threshold, "dag_triangles": row.triangles,
-                     "flip": row.flip, "object_triangles": obj,
+        rows.append({"view": view, "threshold": row.threshold, "occlusion": occlusion,
+                     "dag_triangles": row.triangles, "flip": row.flip, "object_triangles": obj,
                      "ratio": obj / row.triangles})  # fmt: skip
     return pd.DataFrame(rows)
 
@@ -565,8 +574,16 @@ def _ratio_text(q, view):
     one = r[r.threshold == 1.0].iloc[0]
     rest = ", ".join(f"{t:g} px {x:.2f}" for t, x in zip(r.threshold, r.ratio, strict=True))
     w, h = q.params.resolution  # thresholds are pixels of this resolution
-    return (f"{one.ratio:.2f}× the triangles ({one.dag_triangles:,} DAG triangles at FLIP "
+    text = (f"{one.ratio:.2f}× the triangles ({one.dag_triangles:,} DAG triangles at FLIP "
             f"{one.flip:.4f}, {w}×{h}); by threshold {rest}")  # fmt: skip
+    if "visible_triangles" not in _view(q.frames["objects"], view):
+        return text
+    o = equal_flip_ratios(q.frames, view, occlusion=True)
+    occ = o[o.threshold == 1.0].iloc[0]
+    return text + (
+        f"; with occlusion culling (the DAG's two-phase HiZ, {occ.dag_triangles:,} triangles; "
+        f"object LOD's instances with a pixel in its own image): {occ.ratio:.2f}×"
+    )
 
 
 CLAIMS = (

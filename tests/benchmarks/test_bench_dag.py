@@ -73,6 +73,28 @@ def test_equal_flip_ratio_interpolates_object_lods_curve_on_log_scales():
     assert np.isnan(r.ratio.iloc[2])  # worse than object LOD's coarsest budget: not reached
 
 
+def test_equal_flip_ratio_with_occlusion_reads_the_culled_counts():
+    """With occlusion culling the cut's triangles are its two-phase rows' and object LOD's the
+    triangles of its instances seen in its own image, on the same FLIP curve; frames without
+    that column say to rerun."""
+    from experiments.dag_lod import equal_flip_ratios
+
+    objects = pd.DataFrame({"view": "v", "method": "funkhouser-sequin",
+                            "triangles": [100, 1000, 10000], "visible_triangles": [10, 100, 1000],
+                            "flip": [1e-1, 1e-3, 0.0]})  # fmt: skip
+    dag = pd.DataFrame({"view": "v", "occlusion": [False, True], "threshold": 1.0,
+                        "triangles": [50, 5], "flip": [1e-2, 1e-2]})  # fmt: skip
+    frames = {"dag": dag, "objects": objects}
+    plain = equal_flip_ratios(frames, "v")
+    culled = equal_flip_ratios(frames, "v", occlusion=True)
+    assert plain.dag_triangles.iloc[0] == 50 and culled.dag_triangles.iloc[0] == 5
+    assert culled.object_triangles.iloc[0] == pytest.approx(np.sqrt(1e3))
+    assert culled.ratio.iloc[0] == pytest.approx(np.sqrt(1e3) / 5)
+    with pytest.raises(ValueError, match="rerun dag-lod"):
+        equal_flip_ratios({"dag": dag, "objects": objects.drop(columns="visible_triangles")},
+                          "v", occlusion=True)  # fmt: skip
+
+
 def test_facing_away_counts_the_triangles_whose_front_turns_from_the_eye():
     """Per drawn (instance, cluster) pair: a triangle faces away when its counter-clockwise
     normal points from the eye, after the instance's rotation, scale and translation. A closed
