@@ -1010,10 +1010,23 @@ def _growth(frames: dict[str, pd.DataFrame], params: Params):
         mean = by.mean().sort_index()
         noise = float(by.std(ddof=1).dropna().max()) if (by.size() >= 2).any() else None
         qs, h = mean.index.to_numpy(float), mean.to_numpy(float)
-        slopes = np.diff(h) / np.diff(qs)
+        early, last = early_and_last_gain(qs, h)
         yield {"sc": sc, "mean": mean, "drop": float(max((-np.diff(h)).max(), 0.0)),
-               "h_noise": noise, "first": float(slopes[0]), "last": float(slopes[-1]),
+               "h_noise": noise, "first": early, "last": last,
                "content": content, "other": other}  # fmt: skip
+
+
+def early_and_last_gain(q: np.ndarray, hidden: np.ndarray) -> tuple[float, float]:
+    """Gain per query (hidden elements over queries added) at small and at large ``q``: the
+    largest over the steps between consecutive counts of the first half (rounded up) of the
+    steps, and the last step's. «Faster at small q, then stops» reads as the first above the
+    second: the paper's own Table 2 (0 at 10 nodes, then 10,513 at 20, …, 48,782 at 10,000)
+    holds under it, where its first step alone (0 → 10 nodes: nothing hidden) would not."""
+    q, hidden = np.asarray(q, float), np.asarray(hidden, float)
+    if len(q) < 3:
+        raise ValueError(f"early_and_last_gain needs 3 query counts or more, got {len(q)}")
+    slopes = np.diff(hidden) / np.diff(q)
+    return float(slopes[: (len(slopes) + 1) // 2].max()), float(slopes[-1])
 
 
 def _content_why(c) -> str:
@@ -1258,7 +1271,8 @@ CLAIMS = (
         "Figs. 3-5, {sc}: invisible vertices grow monotonically and saturate", DOC_LOG,
         lambda q: "hidden triangles per query count: " + ", ".join(
             f"q={int(k)}: {v:,.0f}" for k, v in q.mean.items())
-        + f"; gain per query {q.first:,.1f} over the first step, {q.last:,.1f} over the last"
+        + f"; gain per query {q.first:,.1f} at most over the first half of the steps, "
+        f"{q.last:,.1f} over the last"
         + (" (the paper's choice of queried nodes: top-down from the root, subtree boxes); ours "
            "before (own boxes, most objects first): " + ", ".join(
                f"q={int(k)}: {v:,.0f}" for k, v in q.other.items())
@@ -1273,11 +1287,13 @@ CLAIMS = (
                      alter("regression", "hidden_triangles", expr="1e3 * log(1 + q)")))),
         basis="at the scene's last frame, the triangles the queries hide never fall from one "
         "query count to the next by more than the spread of repeated frames at one count, and "
-        "each query hides fewer over the last step than over the first",
+        "each query hides fewer over the last step between counts than over the best step of "
+        "the first half (the paper's Table 2 holds under this reading, not under its first "
+        "step alone, which hides nothing there either)",
         why=lambda q: ("they fall by " + f"{q.drop:,.0f} between two counts"
-                       if q.drop > (q.h_noise or 0) else "the first step hides nothing (its "
-                       "queries are the octree's top levels, top-down)" if q.first <= 0
-                       else "they grow as fast at large q")
+                       if q.drop > (q.h_noise or 0) else "the first half of the steps hides "
+                       "nothing (its queries are the octree's top levels, top-down)"
+                       if q.first <= 0 else "they grow as fast at large q")
         + _content_why(q.content),
     ),)),
     Each(_shapes, (

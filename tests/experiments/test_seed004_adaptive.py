@@ -175,3 +175,24 @@ def test_window_means_and_criterion_against_brute_force():
 def test_bad_parameters_are_refused(kwargs, match):
     with pytest.raises(UsageError, match=match):
         EXP.make_params(**kwargs).check()
+
+
+def test_saturation_reading_holds_on_the_papers_table_2_and_fails_on_straight_growth():
+    """The «faster at small q, then stops» measure: the paper's own Table 2 (nothing at 10
+    nodes, then fast growth, then slow) gains more per query early than over its last step;
+    straight or accelerating growth does not."""
+    from experiments.seed004_adaptive import early_and_last_gain
+    from experiments.seed004_octree import DOC_ESTIMATE, DOC_NODES_CHECKED
+
+    q = np.array((0, *DOC_NODES_CHECKED), float)
+    hidden = np.array((0, *DOC_ESTIMATE), float)
+    early, last = early_and_last_gain(q, hidden)
+    assert early == pytest.approx(10513 / 10) and last == pytest.approx(2943 / 8000)
+    assert early > last
+    assert np.diff(hidden)[0] / np.diff(q)[0] == 0.0  # its first step alone hides nothing
+    e, lst = early_and_last_gain(q, 3.0 * q)
+    assert e == pytest.approx(lst)  # straight growth: no saturation
+    e, lst = early_and_last_gain(q, q**2)
+    assert e < lst
+    with pytest.raises(ValueError, match="3 query counts"):
+        early_and_last_gain(q[:2], hidden[:2])
