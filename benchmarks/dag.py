@@ -279,19 +279,15 @@ def markdown(frames: dict[str, pd.DataFrame], command: str, quick: bool = False)
     ]
     ratios = frames.get("equal_flip")
     if ratios is not None and len(ratios):
+        keys = [k for k in ("view", "occlusion", "shading") if k in ratios]
+        wide = ratios.pivot_table(index=keys, columns="threshold", values="ratio", sort=False)
+        wide.columns = [f"{t:g} px" for t in wide.columns]
         parts += [
-            "Object LOD's triangles over the cut's at the cut's FLIP, per view and threshold "
-            "(nan: object LOD's budget sweep does not reach that FLIP):",
-            markdown_table(
-                ratios,
-                {
-                    "threshold": "g",
-                    "dag_triangles": ",",
-                    "flip": ".5f",
-                    "object_triangles": ",.0f",
-                    "ratio": ".2f",
-                },
-            ),
+            "Object LOD's triangles over the cut's at the cut's FLIP, per view, culling "
+            "(occlusion: both occlusion-culled) and threshold (nan: object LOD's budget sweep "
+            "does not reach that FLIP; each triangle count and FLIP in "
+            "`results/dag-equal_flip.csv`):",
+            markdown_table(wide.reset_index(), {c: ".2f" for c in wide.columns}),
         ]
     return "\n\n".join(parts)
 
