@@ -34,8 +34,9 @@ from soc.culling.dag_select import (
     Instances,
     _defines,
     _instance_rows,
-    _set,
     _source,
+    camera_uniforms,
+    id_picture,
 )
 from soc.gl.context import uses_gl
 
@@ -388,9 +389,7 @@ class DagRenderer:
             self.indirect.write(cmd.astype(np.uint32))
             self.pairs_buffer.write(pairs.astype(np.uint32))
         prog = self.program
-        prog["view_proj"].write(camera.gl_bytes(camera.view_proj))
-        _set(prog, "eye", tuple(float(x) for x in camera.eye))
-        _set(prog, "light_dir", (0.4, 0.8, 0.45))
+        camera_uniforms(prog, camera)
         prog["id_kind"].value = int(id_kind)
         prog["color_kind"].value = int(color_kind)
         self.walk.buffers[0].bind_to_storage_buffer(DAG_INSTANCES_BINDING)
@@ -471,8 +470,6 @@ def render_meshes(scene, camera, color_ids=None, glctx=None, *, shading: str = "
     depth : (H, W) float32
         Window depth. Row 0 at the bottom.
     """
-    import moderngl
-
     from soc.gl.context import default_context
 
     _check_shading(shading)
@@ -489,8 +486,7 @@ def render_meshes(scene, camera, color_ids=None, glctx=None, *, shading: str = "
     if shading != "flat":
         if normals is None:
             normals = [vertex_normals(v, f) for v, f in zip(verts, faces, strict=True)]
-        nrm = normals
-        nrm = np.concatenate([np.asarray(x, np.float32).reshape(-1, 3) for x in nrm])
+        nrm = np.concatenate([np.asarray(x, np.float32).reshape(-1, 3) for x in normals])
         if len(nrm) != first_vertex[-1]:
             raise ValueError(f"normals hold {len(nrm)} vertices, the meshes {first_vertex[-1]}")
     mesh = np.asarray(scene.mesh, np.int64)
@@ -513,16 +509,9 @@ def render_meshes(scene, camera, color_ids=None, glctx=None, *, shading: str = "
         buffers.append(ctx.buffer(nrm))
     vao = ctx.vertex_array(program, [(vbo, "3f", "in_position"), (slots, "u/i", "in_slot")],
                            index_buffer=ibo, index_element_size=4)  # fmt: skip
-    w, h = camera.resolution
-    depth = ctx.depth_texture((w, h))
-    glctx.raw.float_depth(depth)
-    fbo = ctx.framebuffer(color_attachments=[ctx.renderbuffer((w, h), components=4),
-                                             ctx.renderbuffer((w, h), components=1, dtype="u4")],
-                          depth_attachment=depth)  # fmt: skip
-    try:
-        program["view_proj"].write(camera.gl_bytes(camera.view_proj))
-        _set(program, "eye", tuple(float(x) for x in camera.eye))
-        _set(program, "light_dir", (0.4, 0.8, 0.45))
+
+    def draw():
+        camera_uniforms(program, camera)
         program["id_kind"].value = 0
         program["color_kind"].value = 0
         inst.bind_to_storage_buffer(DAG_INSTANCES_BINDING)
@@ -531,20 +520,12 @@ def render_meshes(scene, camera, color_ids=None, glctx=None, *, shading: str = "
         if shading != "flat":
             buffers[-1].bind_to_storage_buffer(DAG_NORMALS_BINDING)
             program["normal_stride"].value = 0
-        fbo.use()
-        ctx.enable_only(moderngl.DEPTH_TEST)
-        ctx.depth_func = "<"
-        fbo.clear(0.06, 0.07, 0.09, 1.0, depth=1.0)
-        glctx.raw.clear_uint_color(0xFFFFFFFF, draw_buffer=1)
         if n:
             vao.render_indirect(indirect, count=n)
-        rgb = np.frombuffer(fbo.read(components=3, attachment=0), np.uint8).reshape(h, w, 3)
-        out = np.frombuffer(fbo.read(components=1, attachment=1, dtype="u4"), np.uint32)
-        z = np.frombuffer(depth.read(), np.float32)
-        glctx.check("render_meshes")
-        return rgb.copy(), out.reshape(h, w).copy(), z.reshape(h, w).copy()
+
+    try:
+        return id_picture(glctx, camera, draw, "render_meshes")
     finally:
-        glctx.release_framebuffer(fbo, *fbo.color_attachments, depth)
         vao.release()
         program.release()
         for b in buffers:

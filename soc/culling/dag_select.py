@@ -907,14 +907,10 @@ def render_instances(
     depth : (H, W) float32
         Window depth. Row 0 at the bottom, as :meth:`soc.dag_renderer.DagRenderer.read`.
     """
-    import moderngl
-
     from soc.gl.context import default_context
     from soc.gl.geometry import InstancedGeometry
 
     glctx = glctx or default_context()
-    ctx = glctx.ctx
-    w, h = camera.resolution
     geometry = InstancedGeometry(glctx, scene)
     if color_ids is not None:
         from soc.gl.geometry import object_colors
@@ -923,6 +919,32 @@ def render_instances(
         n = int(color_ids.max()) + 1
         geometry.colors.write(object_colors(n, np.zeros(n, bool))[color_ids])
     program = glctx.program("instanced.vert", "dag_draw.frag")
+    try:
+        camera_uniforms(program, camera)
+        everything = np.arange(len(scene))
+        return id_picture(
+            glctx, camera, lambda: geometry.draw_objects(program, everything), "render_instances"
+        )
+    finally:
+        geometry.release()
+
+
+def camera_uniforms(program, camera) -> None:
+    """The camera and light uniforms of ``dag_draw``'s shaders (the pictures' light)."""
+    program["view_proj"].write(camera.gl_bytes(camera.view_proj))
+    _set(program, "eye", tuple(float(x) for x in camera.eye))
+    _set(program, "light_dir", (0.4, 0.8, 0.45))
+
+
+def id_picture(glctx, camera, draw, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Run ``draw()`` into a fresh colour + instance-id + depth target of ``camera``'s size
+    (cleared to the pictures' background, ids to 0xFFFFFFFF, depth test "<") and read it back:
+    (rgb (H, W, 3) uint8, ids (H, W) uint32, depth (H, W) float32), row 0 at the bottom. The
+    target is released whatever happens; ``where`` names the caller in a GL error."""
+    import moderngl
+
+    ctx = glctx.ctx
+    w, h = camera.resolution
     depth = ctx.depth_texture((w, h))
     glctx.raw.float_depth(depth)
     fbo = ctx.framebuffer(
@@ -938,15 +960,11 @@ def render_instances(
         ctx.depth_func = "<"
         fbo.clear(0.06, 0.07, 0.09, 1.0, depth=1.0)
         glctx.raw.clear_uint_color(0xFFFFFFFF, draw_buffer=1)
-        program["view_proj"].write(camera.gl_bytes(camera.view_proj))
-        _set(program, "eye", tuple(float(x) for x in camera.eye))
-        _set(program, "light_dir", (0.4, 0.8, 0.45))
-        geometry.draw_objects(program, np.arange(len(scene)))
+        draw()
         rgb = np.frombuffer(fbo.read(components=3, attachment=0), np.uint8).reshape(h, w, 3)
         ids = np.frombuffer(fbo.read(components=1, attachment=1, dtype="u4"), np.uint32)
         z = np.frombuffer(depth.read(), np.float32)
-        glctx.check("render_instances")
+        glctx.check(where)
         return rgb.copy(), ids.reshape(h, w).copy(), z.reshape(h, w).copy()
     finally:
         glctx.release_framebuffer(fbo, *fbo.color_attachments, depth)
-        geometry.release()
