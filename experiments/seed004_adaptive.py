@@ -3,7 +3,11 @@ octree nodes and the adaptive method, which "последовательно пр
 рендеринга" (applies the three modes in turn as objects are added), over the three growing
 dynamic scenes (:mod:`soc.scenes.dynamic`, objects ×1/4, triangles ×1/20 of the paper's).
 
-``frustum`` and ``queries`` are ``adaptive`` forced to mode 1, and to mode 3 querying every
+``frustum`` is the paper's «Frustum culling» baseline (``adaptive`` forced to mode 1 with the
+octree's nodes frustum-culled and their objects recorded every frame: «Объекты видимых узлов
+дерева добавляются в командный буфер при иерархическом обходе дерева сверху вниз»), beside it
+``frustum-objects`` (mode 1 as the paper's adaptive method has it: every object's box, no
+octree; ours as a baseline), and ``queries`` is ``adaptive`` forced to mode 3 querying every
 node in the frustum ``LATENCY`` frames late; ``adaptive`` is the paper's method (its rule:
 mode 1 while (5) holds, else 2 while (6) holds, else 3, every frame) and ``adaptive-cost`` our
 variant beside it (the least predicted time, a margin, a dwell). Commands are recorded one at
@@ -33,12 +37,13 @@ from experiments.common import UsageError, require, res_str
 from experiments.seed004_model import DOC_MEASURED_MS, DOC_OBJECTS
 from soc.culling.oracle import Oracle
 
-METHODS = ("frustum", "queries", "adaptive", "adaptive-cost")
+METHODS = ("frustum", "frustum-objects", "queries", "adaptive", "adaptive-cost")
 FIXED = ("frustum", "queries")  # the paper's two baselines
+MODE1 = "frustum-objects"  # mode 1 alone (per-object frustum culling): T_buf(S) of (5)
 # The adaptive methods and the suffix of their columns in the criterion and repeats frames.
 ADAPTIVE = {"adaptive": "", "adaptive-cost": "_cost"}
-COLORS = {"frustum": "tab:blue", "queries": "tab:orange", "adaptive": "tab:green",
-          "adaptive-cost": "tab:purple"}  # fmt: skip
+COLORS = {"frustum": "tab:blue", "frustum-objects": "tab:brown", "queries": "tab:orange",
+          "adaptive": "tab:green", "adaptive-cost": "tab:purple"}  # fmt: skip
 MODE_COLORS = {1: "#e8f0fb", 2: "#fdf1d8", 3: "#e3f4e1"}
 MODE_NAMES = {
     1: "mode 1: rebuild + per-object frustum culling",
@@ -53,7 +58,8 @@ SPIKE_QUANTILE = 0.95  # adaptive's frames above this quantile of its frame time
 MISS = 0.10  # a fitted curve "misses" a point off by more than this fraction of the points'
 # spread (at least 1: the series are counts)
 METHOD_OPTIONS = {
-    "frustum": {"mode": 1},
+    "frustum": {"mode": 1, "frustum_level": "nodes"},
+    MODE1: {"mode": 1},
     "queries": {"mode": 3, "queries": "all"},
     "adaptive": {"rule": "paper"},
     "adaptive-cost": {"rule": "cost"},
@@ -645,7 +651,7 @@ def plot_stages(frames: dict[str, pd.DataFrame], params: Params):
         for k, m in enumerate(methods):
             ax.text(k, s.loc[m, "ms"], f"{s.loc[m, 'ms']:.1f}", ha="center", va="bottom",
                     fontsize=7)  # fmt: skip
-        r = rec[(rec.scene == sc) & rec.method.isin(FIXED)]
+        r = rec[(rec.scene == sc) & rec.method.isin((MODE1, "queries"))]
         ns = ", ".join(f"mode {int(x.mode)} {x.ns_per_command:.0f}" for x in r.itertuples())
         ax.set_title(f"{sc}: mean ms per frame by stage\nns per recorded command: {ns} "
                      f"(paper ≤ {PAPER_NS_PER_OBJECT:.0f} per object)", fontsize=8)  # fmt: skip
@@ -798,6 +804,7 @@ def _scenes(frames: dict[str, pd.DataFrame], params: Params):
         node = ad[ad["mode"] >= 2]
         reps = plays[plays.scene == sc]
         fr, qu = by.loc[(sc, "frustum")], by.loc[(sc, "queries")]
+        fo = by.loc[(sc, MODE1)] if (sc, MODE1) in by.index else None
         gap = (reps.mean_ms_frustum - reps.mean_ms_queries) if len(reps) else pd.Series(
             [fr.mean_ms - qu.mean_ms])  # fmt: skip
         ratios = reps.mean_ratio if len(reps) else pd.Series([c.mean_ratio])
@@ -811,7 +818,8 @@ def _scenes(frames: dict[str, pd.DataFrame], params: Params):
                     "off": _disagreements(co), "best": c.best_other_cost}  # fmt: skip
         book = ad[[k for k in ("ms_decide", "ms_fit") if k in ad]].sum(axis=1)
         case = {
-            "sc": sc, "c": c, "fr": fr, "qu": qu, "want": sc == "scene3", "ad": ad, "reps": reps,
+            "sc": sc, "c": c, "fr": fr, "fo": fo, "qu": qu, "want": sc == "scene3", "ad": ad,
+            "reps": reps,
             "ratio": qu.mean_ms / fr.mean_ms, "gap": gap.mean(), "gaps": gap, "ratios": ratios,
             "windows": windows, "visited": visited, "node": node, "cost": cost,
             "book": float(book.mean()), "book_share": float(book.mean() / ad.ms.mean()),
@@ -1043,18 +1051,25 @@ def _content_why(c) -> str:
     )
 
 
+def _mode1(f: pd.DataFrame) -> str:
+    """The run of mode 1 alone: :data:`MODE1`, or ``frustum`` in frames stored before the
+    paper's «Frustum culling» baseline ran beside it (``frustum`` was mode 1 then)."""
+    return MODE1 if (f.method == MODE1).any() else "frustum"
+
+
 def _recording(frames: dict[str, pd.DataFrame], params: Params):
     """The one case, when the recorder's cost was measured: ns per command per mode and
-    scene, and per scene T_buf(S) (``frustum``, mode 1: the frustum's objects every frame)
+    scene, and per scene T_buf(S) (``frustum-objects``, mode 1: the frustum's objects every frame)
     against T_buf(H) (``queries``: the changed nodes), medians over the frames."""
     if "recording" not in frames or not len(frames["recording"]):
         return
     rec = frames["recording"]
     f = frames["frames"]
-    fixed = rec[rec.method.isin(FIXED)]
+    one_name = _mode1(f)
+    fixed = rec[rec.method.isin((one_name, "queries"))]
     premise = []
     for sc in dict.fromkeys(f.scene):
-        one = f[(f.scene == sc) & (f.method == "frustum")]
+        one = f[(f.scene == sc) & (f.method == one_name)]
         three = f[(f.scene == sc) & (f.method == "queries")]
         premise.append(
             (
@@ -1065,7 +1080,7 @@ def _recording(frames: dict[str, pd.DataFrame], params: Params):
                 float(three.ms_record.median()),
             )
         )
-    commands = [(sc, float(f[(f.scene == sc) & (f.method == "frustum")].recorded.median()),
+    commands = [(sc, float(f[(f.scene == sc) & (f.method == one_name)].recorded.median()),
                  float(f[(f.scene == sc) & (f.method == "queries")].recorded.median()),
                  float(f[(f.scene == sc) & (f.method == "queries")].recorded_nodes.median()))
                 for sc, *_ in premise]  # fmt: skip
@@ -1119,7 +1134,9 @@ CLAIMS = (
             "Figs. 3-5, {sc}: queries on all leaves vs frustum",
             lambda q: DOC_QUERIES_3 if q.want else DOC_QUERIES_12,
             lambda q: f"mean ms frustum {q.fr.mean_ms:.1f}, queries {q.qu.mean_ms:.1f} (ratio "
-            f"{q.ratio:.2f}); frustum − queries {q.gap:+.1f} ms" + _plays(q.gaps, "+.1f"),
+            f"{q.ratio:.2f}); frustum − queries {q.gap:+.1f} ms" + _plays(q.gaps, "+.1f")
+            + ("" if q.fo is None else f"; beside them mode 1 alone (per-object frustum culling, "
+               f"no octree) {q.fo.mean_ms:.1f}"),
             TREND,
             Rule(lambda q: _beyond(q, (1 if q.want else -1) * q.gap, "gap_noise"), ">", 0, "ms",
                  noise=lambda q: q.gap_noise,

@@ -243,8 +243,8 @@ class AdaptiveOptions(MethodOptions):
         switch (:func:`soc.models.adaptive.choose_mode`).
     mode : {None, 1, 2, 3}
         None (default): adaptive, starting in mode 1. 1, 2 or 3: that mode only (seed 004's
-        baselines: 1 = per-object frustum culling, 3 with ``queries="all"`` = queries on all
-        leaves).
+        baselines: 1 with ``frustum_level="nodes"`` = its «Frustum culling», 3 with
+        ``queries="all"`` = queries on all leaves).
     queries : "auto", "all" or int
         Node queries per frame in mode 3: fitted by formulas (7)-(11) (default), every node
         in the frustum, or at most this many.
@@ -252,6 +252,14 @@ class AdaptiveOptions(MethodOptions):
         Which nodes get mode 3's ``q`` queries (module docstring, mode 3): ``"top-down"``
         (default, the paper's: subtree boxes, level by level from the root, the biggest
         subtrees first) or ``"objects"`` (own boxes, the most own objects first).
+    frustum_level : {"objects", "nodes"}
+        Mode 1's frustum test: ``"objects"`` (default, the paper's mode 1: every alive
+        object's box) or ``"nodes"`` (with ``mode=1`` only: the «Frustum culling» baseline of
+        the paper's tests:
+        «Отсечение узлов дерева, не попадающих в камеру. Объекты видимых узлов дерева
+        добавляются в командный буфер при иерархическом обходе дерева сверху вниз» — the
+        octree kept up to date every frame, its nodes frustum-culled, the objects of the nodes
+        in view recorded into one command buffer every frame and drawn by one multi-draw).
     temporal : bool
         Mode 3 reads query results ``LATENCY`` frames late (default True, the paper's; not
         conservative) or waits for them in the same frame (False; conservative, used by the
@@ -266,6 +274,7 @@ class AdaptiveOptions(MethodOptions):
     mode: Literal[1, 2, 3] | None = None
     queries: Literal["auto", "all"] | int = option("auto", low=0)
     query_order: Literal["top-down", "objects"] = "top-down"
+    frustum_level: Literal["objects", "nodes"] = "objects"
     temporal: bool = True
     leaf_capacity: int = option(DEFAULT_LEAF_CAPACITY, low=1)
 
@@ -298,6 +307,17 @@ class AdaptiveCulling(CullMethod):
         self.latency = LATENCY
         self.queries = queries
         self.query_order = opts.query_order
+        if opts.frustum_level not in ("objects", "nodes"):
+            raise ValueError(
+                f"frustum_level must be 'objects' or 'nodes', got {opts.frustum_level!r}"
+            )
+        if opts.frustum_level == "nodes" and mode != 1:
+            # The adaptive rule predicts mode 1 as the paper's per-object mode.
+            raise ValueError(
+                "frustum_level='nodes' is seed 004's «Frustum culling» baseline, a fixed "
+                f"method: use it with mode=1 (got mode={mode!r})"
+            )
+        self.frustum_level = opts.frustum_level
         # The cost rule's margin and dwell; the paper's rule has neither.
         self.margin = DEFAULT_MARGIN if rule == "cost" else 0.0
         self.dwell = DWELL if rule == "cost" else 1
@@ -325,8 +345,9 @@ class AdaptiveCulling(CullMethod):
     # -- lifetime ------------------------------------------------------------------------------
 
     def _build_octree(self) -> None:
-        """The octree of the alive objects (none for mode 1 alone: the baseline pays nothing
-        for one); node membership only, the commands are recorded by ``NodeCommands``."""
+        """The octree of the alive objects (none for mode 1 alone culling objects: that
+        baseline pays nothing for one); node membership only, the commands are recorded by
+        ``NodeCommands``."""
         if self._nodes is not None:
             self._nodes.release()
             self._nodes = None
@@ -334,7 +355,7 @@ class AdaptiveCulling(CullMethod):
             self._estimator.release()
             self._estimator = None
         self.octree = None
-        if self.forced == 1:
+        if self.forced == 1 and self.frustum_level == "objects":
             return
         from soc.culling.octree import Octree
 
@@ -351,7 +372,7 @@ class AdaptiveCulling(CullMethod):
         frame pays for a one-time setup (the paper's renderer builds its pipelines at load)."""
         if self.forced in (None, 1):
             self._flat_buffer()
-        if self.octree is None:
+        if self.octree is None or self.forced == 1:
             return
         self._node_buffers()
         if self.forced in (None, 3) and self.config.depth_test:
@@ -469,8 +490,9 @@ class AdaptiveCulling(CullMethod):
         (written into the colour buffer: a colour moves no command). Returns the time taken,
         ms (also ``last_apply_ms``); part of the frame's time in seed 004's Figs. 3-5.
 
-        In modes 2 and 3 the octree is updated at once; in mode 1, which does not draw from
-        it, the events of several frames are applied together at the next decision
+        In modes 2 and 3 (and mode 1 culling nodes) the octree is updated at once; in mode 1
+        culling objects, which does not draw from it, the events of several frames are applied
+        together at the next decision
         (:meth:`sync_octree`): one vectorized update instead of one per frame.
 
         Raises ``ValueError`` when an event contradicts the alive set (adding an alive object,
@@ -491,8 +513,8 @@ class AdaptiveCulling(CullMethod):
         self.alive[gone] = False
         self.alive[new] = True
         self._frames_unsynced += 1
-        if self.octree is not None and self.mode != 1:
-            self.sync_octree()  # modes 2/3 draw from the octree: keep it current every frame
+        if self.octree is not None and (self.mode != 1 or self.frustum_level == "nodes"):
+            self.sync_octree()  # drawn from the octree: keep it current every frame
         if len(state.recoloured):
             from soc.scenes.dynamic import upload_colors
 
@@ -568,8 +590,17 @@ class AdaptiveCulling(CullMethod):
                 self._collect()
 
         if mode == 1:
+            by_nodes = self.frustum_level == "nodes"
+            if by_nodes:
+                with stage(timings, "octree"):  # the octree's upkeep, as in modes 2/3
+                    octree = self.sync_octree()
+                    octree.rebuild_dirty()
             with stage(timings, "fc"):
-                if self.config.frustum:
+                if by_nodes:
+                    nonempty = np.flatnonzero(octree.own_counts > 0)
+                    in_nodes = octree.visible_nodes(camera) if self.config.frustum else nonempty
+                    kept = octree.objects_in(in_nodes)
+                elif self.config.frustum:
                     kept = alive_ids[aabbs_in_frustum(self.scene.aabbs[alive_ids], camera.planes)]
                 else:
                     kept = alive_ids
@@ -583,7 +614,8 @@ class AdaptiveCulling(CullMethod):
             visible[kept] = True
             calls = int(len(kept) > 0)
             commands, triangles = len(kept), int(self._tri[kept].sum())
-            self.costs.fc.observe(timings["fc"], boxes=len(alive_ids))
+            boxes = len(nonempty) if by_nodes else len(alive_ids)
+            self.costs.fc.observe(timings["fc"], boxes=boxes)
             self.costs.buf.observe(timings["buf"], commands=recorded, nodes=0)
             counts["in_frustum"], counts["kept_tris"] = len(kept), triangles
         else:

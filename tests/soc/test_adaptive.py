@@ -39,12 +39,13 @@ def _costs(**kw) -> ModeCosts:
 
 @pytest.mark.parametrize(
     "options",
-    [{"mode": 1}, {"mode": 2}, {"mode": 3, "temporal": False, "queries": "all"},
+    [{"mode": 1}, {"mode": 1, "frustum_level": "nodes"}, {"mode": 2},
+     {"mode": 3, "temporal": False, "queries": "all"},
      {"mode": 3, "temporal": False, "queries": 3}, {"mode": 3, "temporal": False, "queries": 12},
      {"mode": 3, "temporal": False, "queries": 3, "query_order": "objects"},
      {"temporal": False}, {"temporal": False, "rule": "cost"}],
-    ids=["mode1", "mode2", "mode3-wait-all", "mode3-wait-3", "mode3-wait-12", "mode3-objects-3",
-         "adaptive-wait", "cost-wait"],
+    ids=["mode1", "frustum-baseline", "mode2", "mode3-wait-all", "mode3-wait-3", "mode3-wait-12",
+         "mode3-objects-3", "adaptive-wait", "cost-wait"],
 )  # fmt: skip
 def test_conservative_on_random_cameras(clutter_scenes, options):
     """2 clutter scenes × 40 random cameras (some inside boxes) in each forced mode."""
@@ -69,7 +70,8 @@ def test_conservative_flag_follows_the_options():
 def test_bad_options_raise():
     scene = soc.scenes.clutter(0)
     for bad in ({"mode": 4}, {"rule": "fastest"}, {"queries": "some"}, {"queries": -1},
-                {"leaf_capacity": 0}, {"temporal": 1}):  # fmt: skip
+                {"leaf_capacity": 0}, {"temporal": 1}, {"frustum_level": "cells"},
+                {"frustum_level": "nodes"}, {"frustum_level": "nodes", "mode": 2}):  # fmt: skip
         with pytest.raises(ValueError, match=next(iter(bad))):
             soc.Culler(scene, method="adaptive", resolution=RES, **bad)
     for gone in ("margin", "dwell", "estimate_every", "initial_mode", "latency", "alive"):
@@ -92,6 +94,30 @@ def test_node_culling_keeps_a_superset_of_the_object_frustum_test(clutter_scenes
             v1, v2 = one.cull(cam).visible, two.cull(cam).visible
             assert not (v1 & ~v2).any()
             assert two.method.last.mode == 2 and one.method.last.mode == 1
+
+
+def test_frustum_baseline_draws_the_objects_of_the_nodes_in_view(clutter_scenes):
+    """The paper's «Frustum culling» (mode 1, ``frustum_level="nodes"``) keeps exactly the
+    objects of mode 2's nodes in view, records them into one buffer every frame and draws them
+    with one call; mode 1 culling objects keeps a subset of them."""
+    scene = clutter_scenes[2]
+    cams = random_cameras(scene, 30, seed=9, width=RES[0], height=RES[1])
+    culled = 0
+    with (
+        soc.Culler(scene, method="adaptive", resolution=RES, mode=1) as one,
+        soc.Culler(
+            scene, method="adaptive", resolution=RES, mode=1, frustum_level="nodes", leaf_capacity=4
+        ) as base,
+        soc.Culler(scene, method="adaptive", resolution=RES, mode=2, leaf_capacity=4) as two,
+    ):
+        for cam in cams:
+            v1, vb, v2 = (c.cull(cam).visible for c in (one, base, two))
+            assert (vb == v2).all() and not (v1 & ~vb).any()
+            f = base.method.last
+            assert f.mode == 1 and f.recorded == f.commands == vb.sum()
+            assert f.calls == int(vb.any()) and "octree" in f.timings_ms
+            culled += int((~vb).sum())
+    assert culled > 0  # node culling really culls on these cameras
 
 
 # -- conditions (5) and (6), and the choice of mode --------------------------------------------
