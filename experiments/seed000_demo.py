@@ -785,6 +785,24 @@ def _column_why(q) -> str:
     return text
 
 
+def _up_to_display(q) -> list[float]:
+    """Our % triangles culled per depth resolution, coarse to fine, up to the display's."""
+    return [p for r, p in zip(q.res, q.pct, strict=True) if not _beyond(r, q.d)]
+
+
+def _never_rises(pct) -> float:
+    """The smallest fall from one value to the next (negative: it rises somewhere), pp."""
+    return min((a - b for a, b in itertools.pairwise(pct)), default=0.0)
+
+
+# The document's table up to its display, coarse to fine (Abb. 8 right's reading holds on it).
+_DOC_DOWN = " → ".join(
+    f"{res_str(c)} {doc.ABB8[c]['triangles_culled_pct']:.2f} %"
+    for c in doc.ABB8
+    if not _beyond(c, doc.DISPLAY)
+)
+
+
 def _rise_why(q) -> str:
     """Why our curve rises from a coarser to a finer buffer somewhere."""
     rises = [b for (_, a), (b, c) in itertools.pairwise(zip(q.res, q.pct, strict=True)) if c > a]
@@ -803,9 +821,29 @@ def _linear_why(q) -> str:
     at = next(r for r in lin if doc.document_column(r, q.d) == (2432, 1440))
     more = [r for r, v in lin.items() if r != at and v >= lin[at]]
     cut = "; " + WINDOW_CUT if all(_beyond(r, q.d) for r in more) else ": cause not measured"
+    theirs = _thesis_linearity(q)
+    if theirs:
+        top = max(theirs, key=theirs.get)
+        cut += (f"; on the thesis' own Evaluation 4 runs the same fit gives 2432x1440 R² "
+                f"{theirs[(2432, 1440)]:.3f} and {res_str(top)} R² {theirs[top]:.3f}"
+                + (" (the document's own curves do not single 2432x1440 out either)"
+                   if top != (2432, 1440) else ""))  # fmt: skip
     return (f"at 2432x1440 our curve is straight after frame 60 (R² {lin[at]:.3f}) but "
             + ", ".join(f"{res_str(r)}'s (R² {lin[r]:.3f})" for r in more)
             + " is at least as straight" + cut)  # fmt: skip
+
+
+def _thesis_linearity(q) -> dict:
+    """:func:`_linearity` on the thesis' own Evaluation 4 runs (its frames from 60 on), per
+    resolution; empty where the runs are not there."""
+    out = {}
+    for r in seed000_thesis.RESOLUTIONS:
+        x = seed000_thesis.select(q.th, 4, depth_resolution=res_str(r))
+        if not len(x):
+            continue
+        x = x[x.frame >= LINEAR_FROM]
+        out[r] = _line_r2(x.frame, x.triangles_culled_pct)
+    return out if (2432, 1440) in out else {}
 
 
 def _switch_why(q) -> str:
@@ -933,14 +971,18 @@ def _linearity(q) -> dict:
     for r in q.res:
         x = _rows(q.df, QUERY, r)
         x = x[_tf(x) >= LINEAR_FROM]
-        y = x.triangles_culled_pct.to_numpy(float)
-        t = _tf(x).astype(float)
-        if len(y) < 3 or np.ptp(y) == 0:
-            out[tuple(r)] = 0.0
-            continue
-        fit = np.polyval(np.polyfit(t, y, 1), t)
-        out[tuple(r)] = float(1 - ((y - fit) ** 2).sum() / ((y - y.mean()) ** 2).sum())
+        out[tuple(r)] = _line_r2(_tf(x), x.triangles_culled_pct)
     return out
+
+
+def _line_r2(t, y) -> float:
+    """R² of the least-squares straight line through (t, y); 0 for fewer than 3 points or a
+    flat y."""
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    if len(y) < 3 or np.ptp(y) == 0:
+        return 0.0
+    fit = np.polyval(np.polyfit(t, y, 1), t)
+    return float(1 - ((y - fit) ** 2).sum() / ((y - y.mean()) ** 2).sum())
 
 
 def _linear_lead(q) -> float:
@@ -1046,14 +1088,18 @@ CLAIMS = (
             "mit fallender Auflösung steigt die Anzahl der Dreiecke, die weggeworfen werden",
             lambda q: ", ".join(f"{res_str(r)} {p:.1f}" for r, p in zip(q.res, q.pct, strict=True)),
             TREND,
-            (Rule(lambda q: min((a - b for a, b in itertools.pairwise(q.pct)), default=0.0), ">=",
-                  0, "pp", name="never rises", noise=_EXACT, flips=(
+            (Rule(lambda q: _never_rises(_up_to_display(q)), ">=", 0, "pp",
+                  name="never rises up to the display", noise=_EXACT, flips=(
                       alter("summary", "triangles_culled_pct", shuffle=True, where=_QUERIES),)),
-             Rule(lambda q: q.pct[0] - q.pct[-1], ">", 0, "pp", name="coarsest over finest",
-                  noise=_EXACT,
+             Rule(lambda q: _up_to_display(q)[0] - _up_to_display(q)[-1], ">", 0, "pp",
+                  name="coarsest over the display's", noise=_EXACT,
                   flips=(alter("summary", "triangles_culled_pct", to=75.0, where=_QUERIES),))),
-            basis="ours never rises from a coarser to a finer buffer and the coarsest culls more "
-            "than the finest (counts: deterministic)",
+            basis="up to the display resolution (a buffer that samples the screen more coarsely), "
+            "ours never rises from a coarser to a finer buffer and the coarsest culls more than "
+            "the display's (counts: deterministic) — the reading the document's own table "
+            "passes (" + _DOC_DOWN + "); across all six it fails there too (it rises beyond the "
+            "display, where the text turns to «Interessant ist das Ergebnis für die Auflösung "
+            "2432x1440»; the results are «größtenteils» as expected)",
             why=lambda q: f"our level is the same at every resolution (spread "
             f"{max(q.pct) - min(q.pct):.1f} pp)" if max(q.pct) == min(q.pct) else _rise_why(q),
         ),
