@@ -58,7 +58,7 @@ SPIKE_QUANTILE = 0.95  # adaptive's frames above this quantile of its frame time
 MISS = 0.10  # a fitted curve "misses" a point off by more than this fraction of the points'
 # spread (at least 1: the series are counts)
 METHOD_OPTIONS = {
-    "frustum": {"mode": 1, "frustum_level": "nodes"},
+    "frustum": {"mode": "frustum"},
     MODE1: {"mode": 1},
     "queries": {"mode": 3, "queries": "all"},
     "adaptive": {"rule": "paper"},

@@ -47,13 +47,15 @@ frame ``FIRST_DECISION`` and every ``DECIDE_EVERY`` frames with ``rule="cost"``)
 brought up to date (mode 1 applies the events since the last decision in one batch), the terms
 of (5) and (6) are predicted and the next mode chosen by the rule. (6) outside mode 3 rests on
 the invisible-object estimate (``estimate``, inside ``decide``), which runs in modes 1 and 2
-when (6) is needed (with ``rule="paper"``: only where (5) fails) and due: the paper estimates
-every frame, at 0.03-0.26 ms on its GPU (Table 2); on llvmpipe an estimate costs far more of
-a frame, so it runs every ``ESTIMATE_EVERY`` frames at first, the interval doubling while
-estimates do not lead to mode 3, and takes at most ``ESTIMATE_SHARE`` of the frame time (our
-addition, for both rules). In mode 3 with ``queries="auto"`` the query count is re-fitted
-every ``REFIT_EVERY`` frames (``fit``, formulas (7)-(11)). Every stage is part of the frame's
-time; ``decide`` (with ``estimate``) and ``fit`` are the method's own bookkeeping.
+when (6) is needed and due. With ``rule="paper"`` it runs every frame where (5) fails, as the
+paper's mode 2 does («Каждый кадр происходит оценка количества невидимых объектов»; 0.03-0.26
+ms on its GPU, Table 2; an estimate costs far more of a frame on llvmpipe, and the paper's
+method pays it, in its bookkeeping bar). With ``rule="cost"`` (ours) it runs every
+``ESTIMATE_EVERY`` frames at first, the interval doubling while estimates do not lead to mode
+3, and takes at most ``ESTIMATE_SHARE`` of the frame time. In mode 3 with ``queries="auto"``
+the query count is re-fitted every ``REFIT_EVERY`` frames (``fit``, formulas (7)-(11)). Every
+stage is part of the frame's time; ``decide`` (with ``estimate``) and ``fit`` are the method's
+own bookkeeping.
 
 Dynamic scenes: build the method over the pool scene with ``alive`` (the objects alive
 before the first frame, usually none) and call :meth:`AdaptiveCulling.apply` with each
@@ -100,10 +102,11 @@ COUNT_SMOOTHING = 0.3  # weight of a new decision step in the running per-frame 
 DECIDE_EVERY = 10
 FIRST_DECISION = 2
 DWELL = 10
-ESTIMATE_EVERY = 10  # frames between invisible-object estimates at first (modes 1 and 2)
-# Largest share of the frame time the invisible-object estimate may take on average (our
-# addition: on llvmpipe an estimate costs a few ms, not the paper's 0.03-0.26 ms on a GPU, so
-# it runs every ``ESTIMATE_EVERY`` frames or less often).
+# rule="cost" only (the paper's rule estimates every frame that needs (6)): frames between
+# invisible-object estimates at first (modes 1 and 2), and the largest share of the frame time
+# the estimate may take on average (on llvmpipe an estimate costs a few ms, not the paper's
+# 0.03-0.26 ms on a GPU).
+ESTIMATE_EVERY = 10
 ESTIMATE_SHARE = 0.02
 # An estimate that does not lead to mode 3 doubles the interval to the next one, up to this
 # many frames; one also runs (out of turn) when the alive objects grew by ESTIMATE_GROWTH.
@@ -238,13 +241,20 @@ class AdaptiveOptions(MethodOptions):
     rule : {"paper", "cost"}
         How the mode is chosen. ``"paper"`` (default): seed 004's conditions in its order —
         mode 1 while (5) holds, else mode 2 while (6) holds, else mode 3 — every frame
-        (:func:`soc.models.adaptive.paper_mode`). ``"cost"``: our variant, the least predicted
-        frame time with a 10 % margin, a 10-frame dwell, decisions every 10 frames and any
-        switch (:func:`soc.models.adaptive.choose_mode`).
-    mode : {None, 1, 2, 3}
-        None (default): adaptive, starting in mode 1. 1, 2 or 3: that mode only (seed 004's
-        baselines: 1 with ``frustum_level="nodes"`` = its «Frustum culling», 3 with
-        ``queries="all"`` = queries on all leaves).
+        (:func:`soc.models.adaptive.paper_mode`), the invisible-object estimate every frame
+        that needs (6). ``"cost"``: our variant, the least predicted frame time with a 10 %
+        margin, a 10-frame dwell, decisions every 10 frames and any switch
+        (:func:`soc.models.adaptive.choose_mode`), the estimate on a schedule that keeps its
+        share of the frame time small.
+    mode : {None, 1, 2, 3, "frustum"}
+        None (default): adaptive, starting in mode 1. 1, 2 or 3: that mode only (3 with
+        ``queries="all"`` = seed 004's baseline «Occlusion queries» on all leaves).
+        ``"frustum"``: the paper's baseline «Frustum culling» — «Отсечение узлов дерева, не
+        попадающих в камеру. Объекты видимых узлов дерева добавляются в командный буфер при
+        иерархическом обходе дерева сверху вниз»: mode 1 with the octree kept up to date
+        every frame, its nodes frustum-culled, the objects of the nodes in view recorded
+        into one command buffer every frame and drawn by one multi-draw (mode 1 itself tests
+        every object's box and keeps no octree).
     queries : "auto", "all" or int
         Node queries per frame in mode 3: fitted by formulas (7)-(11) (default), every node
         in the frustum, or at most this many.
@@ -252,14 +262,6 @@ class AdaptiveOptions(MethodOptions):
         Which nodes get mode 3's ``q`` queries (module docstring, mode 3): ``"top-down"``
         (default, the paper's: subtree boxes, level by level from the root, the biggest
         subtrees first) or ``"objects"`` (own boxes, the most own objects first).
-    frustum_level : {"objects", "nodes"}
-        Mode 1's frustum test: ``"objects"`` (default, the paper's mode 1: every alive
-        object's box) or ``"nodes"`` (with ``mode=1`` only: the «Frustum culling» baseline of
-        the paper's tests:
-        «Отсечение узлов дерева, не попадающих в камеру. Объекты видимых узлов дерева
-        добавляются в командный буфер при иерархическом обходе дерева сверху вниз» — the
-        octree kept up to date every frame, its nodes frustum-culled, the objects of the nodes
-        in view recorded into one command buffer every frame and drawn by one multi-draw).
     temporal : bool
         Mode 3 reads query results ``LATENCY`` frames late (default True, the paper's; not
         conservative) or waits for them in the same frame (False; conservative, used by the
@@ -271,10 +273,9 @@ class AdaptiveOptions(MethodOptions):
     """
 
     rule: Literal["paper", "cost"] = "paper"
-    mode: Literal[1, 2, 3] | None = None
+    mode: Literal[1, 2, 3, "frustum"] | None = None
     queries: Literal["auto", "all"] | int = option("auto", low=0)
     query_order: Literal["top-down", "objects"] = "top-down"
-    frustum_level: Literal["objects", "nodes"] = "objects"
     temporal: bool = True
     leaf_capacity: int = option(DEFAULT_LEAF_CAPACITY, low=1)
 
@@ -301,23 +302,15 @@ class AdaptiveCulling(CullMethod):
             raise ValueError(f"rule must be one of {RULES}, got {rule!r}")
         self.leaf_capacity = opts.leaf_capacity
         self.rule = rule
+        # The paper's «Frustum culling» is mode 1 culling octree nodes, not objects.
+        self.by_nodes = mode == "frustum"
+        mode = 1 if self.by_nodes else mode
         self.forced = mode
         self.temporal = bool(temporal)
         self.conservative = not self.temporal or mode in (1, 2)
         self.latency = LATENCY
         self.queries = queries
         self.query_order = opts.query_order
-        if opts.frustum_level not in ("objects", "nodes"):
-            raise ValueError(
-                f"frustum_level must be 'objects' or 'nodes', got {opts.frustum_level!r}"
-            )
-        if opts.frustum_level == "nodes" and mode != 1:
-            # The adaptive rule predicts mode 1 as the paper's per-object mode.
-            raise ValueError(
-                "frustum_level='nodes' is seed 004's «Frustum culling» baseline, a fixed "
-                f"method: use it with mode=1 (got mode={mode!r})"
-            )
-        self.frustum_level = opts.frustum_level
         # The cost rule's margin and dwell; the paper's rule has neither.
         self.margin = DEFAULT_MARGIN if rule == "cost" else 0.0
         self.dwell = DWELL if rule == "cost" else 1
@@ -355,7 +348,7 @@ class AdaptiveCulling(CullMethod):
             self._estimator.release()
             self._estimator = None
         self.octree = None
-        if self.forced == 1 and self.frustum_level == "objects":
+        if self.forced == 1 and not self.by_nodes:
             return
         from soc.culling.octree import Octree
 
@@ -490,8 +483,8 @@ class AdaptiveCulling(CullMethod):
         (written into the colour buffer: a colour moves no command). Returns the time taken,
         ms (also ``last_apply_ms``); part of the frame's time in seed 004's Figs. 3-5.
 
-        In modes 2 and 3 (and mode 1 culling nodes) the octree is updated at once; in mode 1
-        culling objects, which does not draw from it, the events of several frames are applied
+        In modes 2 and 3 (and the «Frustum culling» baseline) the octree is updated at once; in
+        mode 1, which does not draw from it, the events of several frames are applied
         together at the next decision
         (:meth:`sync_octree`): one vectorized update instead of one per frame.
 
@@ -513,7 +506,7 @@ class AdaptiveCulling(CullMethod):
         self.alive[gone] = False
         self.alive[new] = True
         self._frames_unsynced += 1
-        if self.octree is not None and (self.mode != 1 or self.frustum_level == "nodes"):
+        if self.octree is not None and (self.mode != 1 or self.by_nodes):
             self.sync_octree()  # drawn from the octree: keep it current every frame
         if len(state.recoloured):
             from soc.scenes.dynamic import upload_colors
@@ -590,7 +583,7 @@ class AdaptiveCulling(CullMethod):
                 self._collect()
 
         if mode == 1:
-            by_nodes = self.frustum_level == "nodes"
+            by_nodes = self.by_nodes
             if by_nodes:
                 with stage(timings, "octree"):  # the octree's upkeep, as in modes 2/3
                     octree = self.sync_octree()
@@ -897,7 +890,10 @@ class AdaptiveCulling(CullMethod):
         # The paper's rule needs (6), and so the estimate, only where (5) fails.
         need6 = self.rule == "cost" or not condition5(buf_s, fc_s, buf_h, fc_h)
         grown = len(alive_ids) >= (1 + ESTIMATE_GROWTH) * self._estimated_alive
-        due = need6 and (self.frame >= self._next_estimate or grown)
+        if self.rule == "paper":
+            due = need6  # «Каждый кадр происходит оценка количества невидимых объектов»
+        else:
+            due = need6 and (self.frame >= self._next_estimate or grown)
         estimate = None
         if due and mode in (1, 2) and self.config.depth_test and len(alive_ids):
             with stage(timings, "estimate", self.glctx.finish):
@@ -924,14 +920,10 @@ class AdaptiveCulling(CullMethod):
             ),
             vis_h=c.query.predict(queries=q),
         )
-        if estimate is not None:
+        if estimate is not None and self.rule == "cost":
             # Back off while estimates do not pay (mode 3 not chosen) and keep their share of
             # the frame time bounded (ESTIMATE_SHARE).
-            if self.rule == "paper":
-                futile = paper_mode(costs) != 3
-            else:
-                futile = costs.time(3) >= (1.0 - self.margin) * costs.time(mode)
-            if futile:
+            if costs.time(3) >= (1.0 - self.margin) * costs.time(mode):
                 self._estimate_interval = min(2 * self._estimate_interval, MAX_ESTIMATE_INTERVAL)
             share = timings["estimate"] / max(ESTIMATE_SHARE * self._frame_ms, 1e-9)
             wait = max(self._estimate_interval, int(np.ceil(share)))

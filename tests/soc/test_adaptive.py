@@ -39,7 +39,7 @@ def _costs(**kw) -> ModeCosts:
 
 @pytest.mark.parametrize(
     "options",
-    [{"mode": 1}, {"mode": 1, "frustum_level": "nodes"}, {"mode": 2},
+    [{"mode": 1}, {"mode": "frustum"}, {"mode": 2},
      {"mode": 3, "temporal": False, "queries": "all"},
      {"mode": 3, "temporal": False, "queries": 3}, {"mode": 3, "temporal": False, "queries": 12},
      {"mode": 3, "temporal": False, "queries": 3, "query_order": "objects"},
@@ -70,8 +70,7 @@ def test_conservative_flag_follows_the_options():
 def test_bad_options_raise():
     scene = soc.scenes.clutter(0)
     for bad in ({"mode": 4}, {"rule": "fastest"}, {"queries": "some"}, {"queries": -1},
-                {"leaf_capacity": 0}, {"temporal": 1}, {"frustum_level": "cells"},
-                {"frustum_level": "nodes"}, {"frustum_level": "nodes", "mode": 2}):  # fmt: skip
+                {"leaf_capacity": 0}, {"temporal": 1}, {"mode": "objects"}):  # fmt: skip
         with pytest.raises(ValueError, match=next(iter(bad))):
             soc.Culler(scene, method="adaptive", resolution=RES, **bad)
     for gone in ("margin", "dwell", "estimate_every", "initial_mode", "latency", "alive"):
@@ -97,7 +96,7 @@ def test_node_culling_keeps_a_superset_of_the_object_frustum_test(clutter_scenes
 
 
 def test_frustum_baseline_draws_the_objects_of_the_nodes_in_view(clutter_scenes):
-    """The paper's «Frustum culling» (mode 1, ``frustum_level="nodes"``) keeps exactly the
+    """The paper's «Frustum culling» (``mode="frustum"``) keeps exactly the
     objects of mode 2's nodes in view, records them into one buffer every frame and draws them
     with one call; mode 1 culling objects keeps a subset of them."""
     scene = clutter_scenes[2]
@@ -106,7 +105,7 @@ def test_frustum_baseline_draws_the_objects_of_the_nodes_in_view(clutter_scenes)
     with (
         soc.Culler(scene, method="adaptive", resolution=RES, mode=1) as one,
         soc.Culler(
-            scene, method="adaptive", resolution=RES, mode=1, frustum_level="nodes", leaf_capacity=4
+            scene, method="adaptive", resolution=RES, mode="frustum", leaf_capacity=4
         ) as base,
         soc.Culler(scene, method="adaptive", resolution=RES, mode=2, leaf_capacity=4) as two,
     ):
@@ -497,3 +496,25 @@ def test_mode3_savings_count_only_hidden_nodes_in_the_frustum(clutter_scenes):
         m._hidden_version = o.version[m._hidden].copy()
         got = m._hidden_units(3, in_nodes)
     assert got["calls"] == 1 and got["commands"] == o.own_counts[in_nodes[0]]
+
+
+def test_paper_rule_estimates_every_frame_that_needs_condition6(clutter_scenes):
+    """The paper's mode 2 «каждый кадр» estimates the invisible objects: with its rule every
+    frame in modes 1-2 where (5) fails runs the estimate; our cost rule runs it on a
+    schedule, in fewer frames."""
+    scene = clutter_scenes[2]
+    cams = random_cameras(scene, 24, seed=3, width=RES[0], height=RES[1])
+    ran = {}
+    for rule in ("paper", "cost"):
+        with soc.Culler(scene, method="adaptive", resolution=RES, rule=rule, leaf_capacity=4) as c:
+            frames = []
+            for cam in cams:
+                c.cull(cam)
+                frames.append(c.method.last)
+        if rule == "paper":
+            need = [f for f in frames if f.mode in (1, 2) and f.costs is not None
+                    and not condition5(f.costs.buf_s, f.costs.fc_s, f.costs.buf_h,
+                                       f.costs.fc_h)]  # fmt: skip
+            assert need and all(f.estimate is not None for f in need)
+        ran[rule] = sum(f.estimate is not None for f in frames)
+    assert ran["cost"] < ran["paper"]
