@@ -137,18 +137,24 @@ class InvisibleEstimator(ReleasedOnExit):
         nodes_checked: int | None = None,
         min_objects: int | None = None,
         prepass: bool = True,
+        target=None,
     ) -> InvisibleEstimate:
         """Estimate the objects invisible from ``camera`` (module docstring, stages 1–4).
 
         ``prepass=False`` reuses the depth already in the target (several budgets from one
-        camera); the caller must have rendered it for this camera.
+        camera); the caller must have rendered it for this camera. ``target``: test against
+        another depth instead (anything with an ``fbo`` holding depth, e.g. the frame a
+        renderer just drew from ``camera``, as a renderer's queries test its own depth buffer);
+        no prepass is rendered then. Conservative as long as that depth holds only surfaces of
+        the scene seen from ``camera``.
         """
         budget = self.nodes_checked if nodes_checked is None else int(nodes_checked)
         if budget < 0:
             raise ValueError(f"nodes_checked must be >= 0, got {nodes_checked}")
         k = min_objects if min_objects is not None else self.min_objects
         octree = self.octree  # dirty nodes need no re-recording: bounds are grown on insertion
-        ms_prepass = self.render_depth(camera) if prepass else 0.0
+        ms_prepass = self.render_depth(camera) if prepass and target is None else 0.0
+        depth = self.target if target is None else target
 
         t0 = time.perf_counter()
         k = octree.default_min_objects() if k is None else int(k)
@@ -163,7 +169,7 @@ class InvisibleEstimator(ReleasedOnExit):
             frontier = frontier[np.argsort(-counts[frontier], kind="stable")][: budget - checked]
             if len(frontier) == 0:
                 break
-            batch = self.queries.issue(self.target, camera, boxes[frontier])
+            batch = self.queries.issue(depth, camera, boxes[frontier])
             issued += batch.issued
             visible = batch.results()
             checked += len(frontier)

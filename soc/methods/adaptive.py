@@ -46,8 +46,10 @@ the frame's depth) → ``decide``. Every frame's timings update the unit costs
 frame ``FIRST_DECISION`` and every ``DECIDE_EVERY`` frames with ``rule="cost"``): the octree is
 brought up to date (mode 1 applies the events since the last decision in one batch), the terms
 of (5) and (6) are predicted and the next mode chosen by the rule. (6) outside mode 3 rests on
-the invisible-object estimate (``estimate``, inside ``decide``), which runs in modes 1 and 2
-when (6) is needed and due. With ``rule="paper"`` it runs every frame where (5) fails, as the
+the invisible-object estimate (``estimate``, inside ``decide``; its node queries test the depth
+of the frame just drawn, every object in the frustum, as the paper's queries test the GPU's
+depth buffer: no depth of its own is rendered), which runs in modes 1 and 2 when (6) is needed
+and due. With ``rule="paper"`` it runs every frame where (5) fails, as the
 paper's mode 2 does («Каждый кадр происходит оценка количества невидимых объектов»; 0.03-0.26
 ms on its GPU, Table 2; an estimate costs far more of a frame on llvmpipe, and the paper's
 method pays it, in its bookkeeping bar). With ``rule="cost"`` (ours) it runs every
@@ -568,6 +570,7 @@ class AdaptiveCulling(CullMethod):
         return self._node_tris
 
     def _frame(self, camera, canvas) -> AdaptiveFrame:
+        self._canvas = canvas  # the frame's depth, which the invisible estimate tests
         t_start = time.perf_counter()
         timings: dict[str, float] = {}
         finish = self.glctx.finish
@@ -952,7 +955,12 @@ class AdaptiveCulling(CullMethod):
     def _run_estimate(self, camera) -> int:
         """Seed 004 section 3's estimate; keeps what it hides in draw units."""
         octree = self.octree
-        est = self._invisible_estimator().estimate(camera)
+        canvas = self._canvas  # drawn this frame: every object in the frustum (modes 1, 2)
+        canvas.mask_color(False)
+        try:
+            est = self._invisible_estimator().estimate(camera, target=canvas)
+        finally:
+            canvas.mask_color(True)
         hidden = octree.objects_in(est.occluded_nodes, subtree=True)
         hidden = hidden[self.alive[hidden]]
         self._estimate = {

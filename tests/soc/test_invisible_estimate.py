@@ -148,3 +148,35 @@ def test_a_node_is_judged_by_its_whole_subtree_not_its_own_objects():
     hidden = tree.objects_in(e.occluded_nodes, subtree=True)
     assert not truth[hidden].any()
     assert e.invisible <= (~truth).sum()
+
+
+def test_estimate_against_a_frame_drawn_by_its_caller(city):
+    """``target=``: the queries test the caller's depth (here every alive object drawn, as the
+    adaptive method's frame holds), no prepass: still never more than the oracle's invisible
+    objects, and at least what the occluders' own depth finds."""
+    from soc.culling.depth_prepass import DepthTarget, render_occluders
+    from soc.gl.context import default_context
+
+    d, frame, static = city
+    pool = d.scene
+    alive = np.flatnonzero(d.alive(frame))
+    tree = Octree.for_scene(pool, max_depth=8, leaf_capacity=6)
+    tree.insert(alive, pool.aabbs[alive])
+    glctx = default_context()
+    geom = glctx.geometry(pool)
+    cams = random_cameras(static, 10, seed=4, width=RES[0], height=RES[1])
+    found = {"frame": 0, "occluders": 0}
+    drawn = DepthTarget(glctx, RES)
+    with soc.Oracle(static) as oracle, InvisibleEstimator(tree, geom, RES) as est:
+        for i, cam in enumerate(cams):
+            truth = np.zeros(len(pool), bool)
+            truth[alive] = oracle.visible(cam)
+            render_occluders(geom, drawn, cam, alive)
+            e = est.estimate(cam, nodes_checked=1000, target=drawn)
+            assert e.ms_prepass == 0.0
+            hidden = tree.objects_in(e.occluded_nodes, subtree=True)
+            assert not truth[hidden].any(), f"camera {i}: counted visible objects"
+            found["frame"] += e.invisible
+            found["occluders"] += est.estimate(cam, nodes_checked=1000).invisible
+    drawn.release()
+    assert found["frame"] >= found["occluders"] and found["frame"] > 0
