@@ -94,6 +94,12 @@ def test_builtin_conservative_methods_pass_the_hard_cases(method):
         assert report.culled_views > 10  # the cases exercise culling
 
 
+def test_seed004_frustum_baseline_passes_the_hard_cases():
+    """The paper's «Frustum culling» (adaptive, ``mode="frustum"``: octree nodes culled)."""
+    report = soc.testing.assert_conservative("adaptive", mode="frustum", leaf_capacity=4)
+    assert report.conservative and report.culled_views > 10
+
+
 def test_a_wrong_method_is_caught_with_case_camera_and_ids():
     with pytest.raises(AssertionError) as err:
         soc.testing.assert_conservative(OddCull)
